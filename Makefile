@@ -1,0 +1,28 @@
+# Two entry points: `make demo` and `make test`. Both create .venv from scratch when it is missing
+# or older than pyproject.toml.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test test-fast venv clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	MPLBACKEND=Agg $(PY) examples/demo.py --out demo-output
+
+test: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q
+
+test-fast: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q -m "not slow"
+
+clean:
+	rm -rf $(VENV) demo-output .pytest_cache .hypothesis

@@ -1,0 +1,27 @@
+"""geomech: computational geometric mechanics.
+
+Describe a system once (:mod:`geomech.systems`), move it between representations
+(:mod:`geomech.reduction`, :mod:`geomech.lie`), simulate it, and analyse and show the result.
+"""
+
+from . import errors, lie
+from ._symbolic import M_SYMBOLS
+from .errors import GeomechError
+from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
+from .systems import CanonicalSystem, LeftInvariantSystem, RigidBody, as_left_invariant
+
+from ._version import __version__
+
+__all__ = [
+    "CanonicalSystem",
+    "GeneralizedSerretAndoyer",
+    "GeomechError",
+    "LeftInvariantSystem",
+    "M_SYMBOLS",
+    "RigidBody",
+    "SerretAndoyerChart",
+    "as_left_invariant",
+    "errors",
+    "lie",
+    "__version__",
+]

@@ -1,0 +1,103 @@
+"""Symbolic helpers: canonical symbols, binding user formulas, compiling formulas to numpy kernels."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .errors import SymbolicError
+
+#: Body angular momentum components, the variables of a left-invariant Hamiltonian H(m).
+M_SYMBOLS: tuple[sp.Symbol, sp.Symbol, sp.Symbol] = sp.symbols("m1 m2 m3", real=True)
+
+
+def bind_expression(
+    expression: Any,
+    parameters: Mapping[str, float] | None,
+    variables: Sequence[sp.Symbol],
+    argname: str,
+) -> tuple[sp.Expr, dict[str, float]]:
+    """Parse a user formula, rename its variables to the canonical ``variables`` (matched by name),
+    make every other symbol a real parameter, and check that each parameter has a finite value.
+
+    Returns the expression (with parameters still symbolic) and the parameter values by name.
+    """
+    if isinstance(expression, str):
+        try:
+            expression = sp.sympify(expression)
+        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            raise SymbolicError(f"Could not parse `{argname}` {expression!r}: {exc}.") from exc
+    if not isinstance(expression, sp.Basic):
+        raise SymbolicError(
+            f"Expected `{argname}` to be a sympy expression or a string, got {type(expression).__name__}."
+        )
+    expr = sp.sympify(expression)
+    names = {str(v): v for v in variables}
+    rename = {}
+    params_in_expr = set()
+    for s in expr.free_symbols:
+        if str(s) in names:
+            rename[s] = names[str(s)]
+        else:
+            params_in_expr.add(str(s))
+            rename[s] = sp.Symbol(str(s), real=True)
+    expr = expr.xreplace(rename)
+    given = dict(parameters or {})
+    missing = sorted(params_in_expr - set(given))
+    if missing:
+        raise SymbolicError(
+            f"`{argname}` has symbols {missing} that are neither variables {sorted(names)} nor given in "
+            f"`parameters`; pass parameters={{{', '.join(repr(m) + ': ...' for m in missing)}}}."
+        )
+    unused = sorted(set(given) - params_in_expr)
+    values: dict[str, float] = {}
+    for k in sorted(params_in_expr):
+        try:
+            v = float(given[k])
+        except (TypeError, ValueError) as exc:
+            raise SymbolicError(f"Expected parameter `{k}` to be a number, got {given[k]!r}.") from exc
+        if not np.isfinite(v):
+            raise SymbolicError(f"Expected parameter `{k}` to be finite, got {v}.")
+        values[k] = v
+    if unused:
+        raise SymbolicError(f"`parameters` names {unused}, which do not appear in `{argname}`.")
+    if expr.has(sp.I) or expr.has(sp.zoo, sp.oo, sp.nan):
+        raise SymbolicError(f"`{argname}` must be a finite real expression, got {expr}.")
+    return expr, values
+
+
+def _lambdify(exprs: Any, variables: Sequence[sp.Symbol]):
+    return sp.lambdify(list(variables), exprs, modules="numpy", cse=True)
+
+
+def compile_scalar(expr: sp.Expr, variables: Sequence[sp.Symbol]):
+    """Compile ``expr`` to ``f(x)`` with ``x`` of shape ``(..., n)``, returning shape ``(...)``."""
+    f = _lambdify(expr, variables)
+
+    def scalar(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        out = f(*np.moveaxis(x, -1, 0))
+        return np.broadcast_to(np.asarray(out, dtype=float), x.shape[:-1]).copy()
+
+    return scalar
+
+
+def compile_vector(exprs: Any, variables: Sequence[sp.Symbol]):
+    """Compile a (nested) list of expressions to ``f(x)`` with ``x`` of shape ``(..., n)``, returning
+    an array of shape ``(..., *shape)``; constant entries are broadcast."""
+    arr = np.array(exprs, dtype=object)
+    shape = arr.shape
+    flat = list(arr.ravel())
+    f = _lambdify(flat, variables)
+
+    def vector(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        batch = x.shape[:-1]
+        vals = f(*np.moveaxis(x, -1, 0))
+        out = np.stack([np.broadcast_to(np.asarray(v, dtype=float), batch) for v in vals], -1)
+        return out.reshape(batch + shape)
+
+    return vector

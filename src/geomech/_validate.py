@@ -1,0 +1,78 @@
+"""Validation of arguments at the public boundary: one place for the wording of input errors."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError, ShapeError
+
+
+def _show(value: Any) -> str:
+    arr = np.asarray(value)
+    if arr.size <= 12:
+        return np.array2string(arr, separator=", ", precision=6) if arr.ndim else repr(arr.item())
+    return f"an array of shape {arr.shape}"
+
+
+def as_float_array(value: Any, name: str) -> np.ndarray:
+    """Return ``value`` as a float64 array, or raise :class:`InputError` naming ``name``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"Expected `{name}` to be numeric, got {value!r}.") from exc
+    return arr
+
+
+def finite(value: Any, name: str) -> np.ndarray:
+    """Return ``value`` as a float array after checking that every entry is finite."""
+    arr = as_float_array(value, name)
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"Expected `{name}` to be finite, got {_show(arr)}.")
+    return arr
+
+
+def trailing_shape(value: Any, name: str, shape: tuple[int, ...], *, check_finite: bool = True) -> np.ndarray:
+    """Return ``value`` as an array of shape ``(..., *shape)``; raise :class:`ShapeError` otherwise."""
+    arr = finite(value, name) if check_finite else as_float_array(value, name)
+    k = len(shape)
+    if arr.ndim < k or arr.shape[arr.ndim - k :] != shape:
+        want = "(..., " + ", ".join(str(s) for s in shape) + ")"
+        raise ShapeError(f"Expected `{name}` to have shape {want}, got {arr.shape}.")
+    return arr
+
+
+def exact_shape(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """Return ``value`` as a finite float array of exactly ``shape``."""
+    arr = finite(value, name)
+    if arr.shape != shape:
+        raise ShapeError(f"Expected `{name}` to have shape {shape}, got {arr.shape}.")
+    return arr
+
+
+def positive(value: Any, name: str) -> np.ndarray:
+    """Return ``value`` as a finite float array whose entries are all > 0."""
+    arr = finite(value, name)
+    if not np.all(arr > 0):
+        raise InputError(f"Expected `{name}` to be positive, got {_show(arr)}.")
+    return arr
+
+
+def positive_scalar(value: Any, name: str) -> float:
+    arr = positive(value, name)
+    if arr.ndim != 0:
+        raise ShapeError(f"Expected `{name}` to be a scalar, got shape {arr.shape}.")
+    return float(arr)
+
+
+def rotation_matrix(value: Any, name: str, *, atol: float = 1e-9) -> np.ndarray:
+    """Return ``value`` as an array of rotation matrices ``(..., 3, 3)`` (orthogonal, det +1)."""
+    arr = trailing_shape(value, name, (3, 3))
+    err = np.abs(np.swapaxes(arr, -1, -2) @ arr - np.eye(3)).max(initial=0.0)
+    if err > atol or np.any(np.linalg.det(arr) <= 0):
+        raise InputError(
+            f"Expected `{name}` to be a rotation matrix (R^T R = I, det R = +1), "
+            f"got one off by {err:.3g}; re-orthonormalise it (e.g. geomech.lie.so3.project)."
+        )
+    return arr

@@ -1,0 +1,60 @@
+"""Argument handling shared by the commands: vector options and one-line errors."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import click
+
+#: Options that take a vector of numbers, written either as separate words (--inertia 3 2 1) or
+#: comma-separated (--inertia 3,2,1).
+VECTOR_OPTIONS = ("--inertia", "--momentum", "--attitude")
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def gather_vectors(argv: Sequence[str]) -> list[str]:
+    """Join the numbers that follow a vector option into one comma-separated word, so that a wrong
+    count is reported by the option's own check rather than as a stray argument."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        tok = argv[i]
+        out.append(tok)
+        i += 1
+        if tok in VECTOR_OPTIONS:
+            vals = []
+            while i < len(argv) and _is_number(argv[i]):
+                vals.append(argv[i])
+                i += 1
+            if vals:
+                out.append(",".join(vals))
+    return out
+
+
+class FloatVector(click.ParamType):
+    """A comma-separated vector of floats with one of the allowed lengths."""
+
+    name = "floats"
+
+    def __init__(self, *lengths: int):
+        self.lengths = lengths
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = [p for p in str(value).split(",") if p.strip() != ""]
+        try:
+            vals = tuple(float(p) for p in parts)
+        except ValueError:
+            self.fail(f"expected numbers, got {value!r}", param, ctx)
+        if len(vals) not in self.lengths:
+            want = " or ".join(str(n) for n in self.lengths)
+            self.fail(f"expected {want} numbers, got {len(vals)} ({', '.join(parts) or 'none'})", param, ctx)
+        return vals

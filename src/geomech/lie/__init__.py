@@ -1,0 +1,14 @@
+"""Numeric Lie-group primitives, vectorised over leading batch axes.
+
+One module per group with the same small API (``hat, vee, exp, log, inverse, compose, act, Ad, ad, coad,
+identity, random, left_jacobian, right_jacobian`` and their inverses, ``DIM, MATRIX_SIZE``):
+:mod:`~geomech.lie.so3`, :mod:`~geomech.lie.se2`, :mod:`~geomech.lie.se3`. Rotation parametrisations:
+:mod:`~geomech.lie.quaternion` (unit quaternions) and :mod:`~geomech.lie.euler` (all 12 Euler-angle
+sequences, intrinsic and extrinsic, with gimbal lock detected).
+"""
+
+from __future__ import annotations
+
+from . import euler, quaternion, se2, se3, so3
+
+__all__ = ["euler", "quaternion", "se2", "se3", "so3"]

@@ -1,0 +1,31 @@
+"""Maps between representations: Euler-angle coordinates, Serret-Andoyer charts, reduction."""
+
+from .classical import (
+    ClassicalSerretAndoyer,
+    LPeriod,
+    momentum_l,
+    period_of_l,
+    period_of_l_from_momentum,
+    reduced_hamiltonian,
+    reduced_hamiltonian_expression,
+    reduced_vector_field,
+)
+from .euler_coordinates import EulerCoordinates, body_angular_velocity
+from .serret_andoyer import GeneralizedSerretAndoyer, ReducedTrajectory, SerretAndoyerChart, spatial_frame
+
+__all__ = [
+    "ClassicalSerretAndoyer",
+    "EulerCoordinates",
+    "GeneralizedSerretAndoyer",
+    "LPeriod",
+    "ReducedTrajectory",
+    "SerretAndoyerChart",
+    "body_angular_velocity",
+    "momentum_l",
+    "period_of_l",
+    "period_of_l_from_momentum",
+    "reduced_hamiltonian",
+    "reduced_hamiltonian_expression",
+    "reduced_vector_field",
+    "spatial_frame",
+]

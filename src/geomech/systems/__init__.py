@@ -1,0 +1,7 @@
+"""Immutable descriptions of mechanical systems."""
+
+from .canonical import CanonicalSystem
+from .left_invariant import LeftInvariantSystem, as_left_invariant
+from .rigid_body import RigidBody
+
+__all__ = ["CanonicalSystem", "LeftInvariantSystem", "RigidBody", "as_left_invariant"]

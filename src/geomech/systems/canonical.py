@@ -1,0 +1,93 @@
+"""Canonical Hamiltonian systems :math:`H(q, p)` on :math:`\\mathbb R^{2n}` (or a cylinder).
+
+The reduced Serret-Andoyer system (l, L) and the Euler-angle coordinates of T*SO(3) are of this form;
+integrators for canonical systems take a :class:`CanonicalSystem`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .. import _validate as V
+from .._symbolic import compile_scalar, compile_vector
+
+__all__ = ["CanonicalSystem"]
+
+
+@dataclass(frozen=True, eq=False)
+class CanonicalSystem:
+    """A Hamiltonian system in canonical coordinates, :math:`\\dot q = \\partial H/\\partial p`,
+    :math:`\\dot p = -\\partial H/\\partial q`.
+
+    The state is ``y = (q, p)`` of shape ``(..., 2 n)``. ``expression`` (sympy, in the symbols
+    ``q_symbols`` and ``p_symbols`` with every parameter substituted) is present when the system came
+    from a formula; the numeric callables are always present.
+    """
+
+    n: int
+    name: str
+    _hamiltonian: Callable[[np.ndarray], np.ndarray] = field(repr=False)
+    _gradient: Callable[[np.ndarray], np.ndarray] = field(repr=False)
+    _hessian: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    expression: sp.Expr | None = None
+    q_symbols: tuple[sp.Symbol, ...] = ()
+    p_symbols: tuple[sp.Symbol, ...] = ()
+    angle_coordinates: tuple[int, ...] = ()
+    """Indices of the q that are angles (defined modulo 2 pi)."""
+
+    @classmethod
+    def from_expression(
+        cls,
+        expression: sp.Expr,
+        q_symbols: Sequence[sp.Symbol],
+        p_symbols: Sequence[sp.Symbol],
+        *,
+        name: str = "H(q, p)",
+        angle_coordinates: Sequence[int] = (),
+        substitutions: Mapping[sp.Symbol, Any] | None = None,
+    ) -> CanonicalSystem:
+        """Build from a sympy Hamiltonian; gradient and Hessian are exact (differentiated symbolically)."""
+        expr = sp.sympify(expression).subs(dict(substitutions or {}))
+        y = list(q_symbols) + list(p_symbols)
+        grad = [sp.diff(expr, s) for s in y]
+        hess = [[sp.diff(g, s) for s in y] for g in grad]
+        return cls(
+            n=len(q_symbols),
+            name=name,
+            _hamiltonian=compile_scalar(expr, y),
+            _gradient=compile_vector(grad, y),
+            _hessian=compile_vector(hess, y),
+            expression=expr,
+            q_symbols=tuple(q_symbols),
+            p_symbols=tuple(p_symbols),
+            angle_coordinates=tuple(angle_coordinates),
+        )
+
+    def _y(self, y: Any) -> np.ndarray:
+        return V.trailing_shape(y, "y", (2 * self.n,))
+
+    def hamiltonian(self, y: Any) -> np.ndarray:
+        """:math:`H(q, p)`, shape ``(...)``."""
+        return np.asarray(self._hamiltonian(self._y(y)), dtype=float)
+
+    def gradient(self, y: Any) -> np.ndarray:
+        """:math:`(\\partial H/\\partial q, \\partial H/\\partial p)`, shape ``(..., 2n)``."""
+        return np.asarray(self._gradient(self._y(y)), dtype=float)
+
+    def hessian(self, y: Any) -> np.ndarray:
+        """Second derivatives of H, shape ``(..., 2n, 2n)``."""
+        if self._hessian is None:
+            from ..errors import SymbolicError
+
+            raise SymbolicError(f"{self.name} has no Hessian: build it from a formula or pass one.")
+        return np.asarray(self._hessian(self._y(y)), dtype=float)
+
+    def vector_field(self, y: Any) -> np.ndarray:
+        """Hamilton's equations :math:`(\\dot q, \\dot p) = (\\partial_p H, -\\partial_q H)`."""
+        g = self.gradient(y)
+        return np.concatenate([g[..., self.n :], -g[..., : self.n]], axis=-1)

@@ -1,0 +1,86 @@
+"""The command line: JSON output a script can read, and one-line errors with exit status 2."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from geomech.cli.main import main
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_help(capsys):
+    code, out, _ = run(capsys, "--help")
+    assert code == 0 and "rigid-body" in out and "reduce" in out
+
+
+def test_rigid_body_json_summary(capsys):
+    code, out, err = run(capsys, "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2",
+                         "--t-final", "50", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    np.testing.assert_allclose(s["m_final"]["reduced"], s["m_final"]["exact"], atol=1e-9)
+    assert s["drift"]["energy_relative"] < 1e-10
+    assert s["drift"]["casimir_relative"] < 1e-13
+    assert s["period"]["relative_difference"] < 1e-9
+    assert s["family"] == "major"
+    np.testing.assert_allclose(np.linalg.norm(s["m_final"]["exact"]), np.linalg.norm([1, 0.3, 0.2]))
+
+
+def test_rigid_body_tensor_and_out_dir(capsys, tmp_path):
+    code, out, err = run(capsys, "rigid-body", "--inertia", "3,0.1,0,0.1,2.5,0,0,0,1.5", "--momentum", "1,0.3,0.2",
+                         "--t-final", "5", "--samples", "51", "--out", str(tmp_path))
+    assert code == 0, err
+    assert "eq. (11)" in out
+    assert json.loads((tmp_path / "rigid_body.json").read_text())["t_final"] == 5.0
+    assert (tmp_path / "rigid_body_momentum.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--inertia", "3", "-2", "1", "--momentum", "1", "0.3", "0.2"], "positive"),
+        (["--inertia", "5", "2", "1", "--momentum", "1", "0.3", "0.2"], "triangle inequality"),
+        (["--inertia", "3", "2", "1", "--momentum", "0", "0", "0"], "nonzero"),
+        (["--inertia", "3", "2", "nan", "--momentum", "1", "0.3", "0.2"], "finite"),
+        (["--inertia", "3", "2", "1", "--momentum", "1", "inf", "0.2"], "finite"),
+        (["--inertia", "3", "2", "--momentum", "1", "0.3", "0.2"], "expected 3 or 9 numbers, got 2"),
+        (["--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2", "0.1"], "expected 3 numbers, got 4"),
+        (["--inertia", "3", "2", "1"], "Missing option '--momentum'"),
+        (["--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2", "--t-final", "-1"], "positive"),
+    ],
+)
+def test_bad_input_is_one_line_and_status_2(capsys, args, needle):
+    code, out, err = run(capsys, "rigid-body", *args)
+    assert code == 2
+    assert needle in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_reduce_prints_the_reduced_hamiltonian(capsys):
+    code, out, err = run(capsys, "reduce", "--hamiltonian", "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)",
+                         "--param", "I1=3", "--param", "I2=2", "--param", "I3=1", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["hyperregular"] == "yes"
+    import sympy as sp
+
+    l, L, G = sp.symbols("l L G")
+    h = sp.sympify(s["reduced_hamiltonian"], locals={"l": l, "L": L, "G": G})
+    eq10 = (sp.sin(l) ** 2 / 3 + sp.cos(l) ** 2 / 2) * (G**2 - L**2) / 2 + L**2 / 2
+    assert sp.simplify(h - eq10) == 0
+    code, _, err = run(capsys, "reduce", "--hamiltonian", "m1**2 + a*m2")
+    assert code == 2 and "'a'" in err and err.count("\n") == 1
+
+
+def test_console_script_exit_status():
+    proc = subprocess.run([sys.executable, "-m", "geomech", "rigid-body", "--inertia", "1", "1",
+                           "--momentum", "1", "0", "0"], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.startswith("geomech: error:") and "Traceback" not in proc.stderr
