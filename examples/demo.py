@@ -58,8 +58,8 @@ def main(out: Path) -> None:
     momentum_sphere(traj.m, ax=ax1, title="free rigid body I = (3, 2, 1)",
                     energy_curves=gm.RigidBody([3.0, 2.0, 1.0]).energy)
     ax2 = fig.add_subplot(1, 2, 2, projection="3d")
-    momentum_sphere(red.m, ax=ax2, title="gyrostat-like body: crosses every chart's poles",
-                    energy_curves=system.hamiltonian, color="C0")
+    momentum_sphere(red.m, ax=ax2, title=f"gyrostat-like body: {len(red.switches)} chart switches",
+                    energy_curves=system.hamiltonian, chart=red.axis)
     fig.tight_layout()
     fig.savefig(out / "momentum_spheres.png", dpi=120)
     ax = reduced_phase_portrait(sa, red.G, axis=2, trajectory=red)

@@ -307,6 +307,21 @@ def test_separatrix(order, signs):
     assert np.all(np.isfinite(s.momentum([-1e6 / s.rate, 1e6 / s.rate])))
 
 
+def test_separatrix_recognised_within_rounding():
+    # Separatrix points built in floating point miss 2 E I_mid = |m|^2 by a rounding error; they are still
+    # classified "separatrix", while 1e-13 off is an elliptic orbit of the right family.
+    rng = np.random.default_rng(7)
+    for _ in range(30):
+        inertia = random_body(rng)[list(ORDERS[rng.integers(6)])]
+        m0 = separatrix_point(inertia, x=rng.uniform(0.1, 2), y=rng.uniform(-2, 2), signs=rng.choice([-1, 1], 2))
+        assert EulerTopSolution.from_initial(inertia, m0).family == "separatrix"
+        i_max = int(np.argmax(inertia))
+        for eps, family in ((1e-13, "major"), (-1e-13, "minor")):
+            m1 = m0.copy()
+            m1[i_max] *= 1 + eps
+            assert EulerTopSolution.from_initial(inertia, m1).family == family
+
+
 def test_separatrix_rate_is_the_linearised_instability():
     # Linearising Euler's equations about the spin mu e_2 of I = (1, 2, 3) gives the growth rate
     # mu sqrt((1/I1 - 1/I2)(1/I2 - 1/I3)) = mu sqrt(1/2 * 1/6).

@@ -10,16 +10,37 @@ from .. import _validate as V
 from ..errors import ShapeError
 
 
+def _sphere_level_curves(H: Any, G: float, n_levels: int) -> list[np.ndarray]:
+    """Level curves of ``H`` on the sphere ``|m| = G`` as 3-D polylines (contours in longitude and
+    colatitude, mapped to the sphere)."""
+    import contourpy
+
+    lon = np.linspace(-np.pi, np.pi, 241)
+    col = np.linspace(0.0, np.pi, 121)
+    LON, COL = np.meshgrid(lon, col)
+    pts = G * np.stack([np.cos(LON) * np.sin(COL), np.sin(LON) * np.sin(COL), np.cos(COL)], -1)
+    E = np.asarray(H(pts), dtype=float)
+    gen = contourpy.contour_generator(lon, col, E)
+    lines = []
+    for level in np.linspace(E.min(), E.max(), n_levels + 2)[1:-1]:
+        for seg in gen.lines(level):
+            a, c = seg[:, 0], seg[:, 1]
+            lines.append(G * np.stack([np.cos(a) * np.sin(c), np.sin(a) * np.sin(c), np.cos(c)], -1))
+    return lines
+
+
 def momentum_sphere(m: Any, *, ax: Any = None, title: str | None = None, energy_curves: Any = None,
-                    color: str = "C3") -> Any:
-    """Draw body momenta ``m`` (shape ``(n, 3)``) on the sphere ``|m| = G`` (3-D axes).
+                    chart: Any = None, color: str = "C3", n_levels: int = 16) -> Any:
+    """Draw body momenta ``m`` (shape ``(n, 3)``) on the momentum sphere ``|m| = G`` (3-D axes).
 
     Parameters
     ----------
     m : (n, 3) a trajectory of the body angular momentum.
     ax : a 3-D matplotlib axes, or None for a new figure.
-    energy_curves : optional callable ``H(m)`` (vectorised); its level sets on the sphere are drawn
-        faintly, which shows the phase portrait of Euler's equations on the momentum sphere.
+    energy_curves : optional vectorised callable ``H(m)``; its level curves on the sphere, which are
+        the trajectories of Euler's equation, are drawn in grey.
+    chart : optional (n,) ints, the Serret-Andoyer chart (body axis) in use at each point; the
+        trajectory is then coloured by chart.
     """
     import matplotlib.pyplot as plt
 
@@ -30,21 +51,28 @@ def momentum_sphere(m: Any, *, ax: Any = None, title: str | None = None, energy_
     if ax is None:
         fig = plt.figure(figsize=(5.5, 5.5))
         ax = fig.add_subplot(projection="3d")
-    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 73), np.linspace(0, np.pi, 37))
-    xs, ys, zs = G * np.cos(u) * np.sin(v), G * np.sin(u) * np.sin(v), G * np.cos(v)
-    ax.plot_wireframe(xs, ys, zs, color="0.85", linewidth=0.4)
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
+    ax.plot_wireframe(G * np.cos(u) * np.sin(v), G * np.sin(u) * np.sin(v), G * np.cos(v), color="0.9",
+                      linewidth=0.4)
     if energy_curves is not None:
-        pts = np.stack([xs, ys, zs], -1)
-        E = energy_curves(pts)
-        for level in np.linspace(E.min(), E.max(), 14)[1:-1]:
-            mask = np.abs(E - level) < 0.004 * (E.max() - E.min())
-            ax.scatter(xs[mask], ys[mask], zs[mask], s=0.5, color="0.5")
-    ax.plot(m[:, 0], m[:, 1], m[:, 2], color=color, linewidth=1.6)
-    ax.scatter(*m[0], color=color, s=20)
-    ax.set_xlabel("$m_1$")
-    ax.set_ylabel("$m_2$")
-    ax.set_zlabel("$m_3$")
-    ax.set_box_aspect((1, 1, 1))
+        for line in _sphere_level_curves(energy_curves, G, n_levels):
+            ax.plot(line[:, 0], line[:, 1], line[:, 2], color="0.55", linewidth=0.6)
+    if chart is None:
+        ax.plot(m[:, 0], m[:, 1], m[:, 2], color=color, linewidth=1.8)
+    else:
+        chart = np.asarray(chart)
+        for k in range(3):
+            seg = np.where(chart == k, 1.0, np.nan)[:, None] * m
+            ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color=f"C{k}", linewidth=1.8, label=f"chart about axis {k + 1}")
+        ax.legend(loc="upper left", fontsize=8)
+    ax.scatter(*m[0], color="k", s=18)
+    for k, lab in enumerate(("$m_1$", "$m_2$", "$m_3$")):
+        end = np.zeros(3)
+        end[k] = 1.25 * G
+        ax.plot(*np.stack([-end, end], 1), color="0.3", linewidth=0.7)
+        ax.text(*(1.32 * end), lab)
+    ax.set_axis_off()
+    ax.set_box_aspect((1, 1, 1), zoom=1.35)
     if title:
         ax.set_title(title)
     return ax
@@ -74,8 +102,10 @@ def reduced_phase_portrait(sa: Any, G: float, *, axis: int = 2, ax: Any = None, 
     if trajectory is not None:
         sel = trajectory.axis == axis
         lw = np.angle(np.exp(1j * trajectory.l[sel]))
-        ax.plot(lw, trajectory.L[sel], ".", color="C3", markersize=2, label="trajectory")
+        ax.plot(lw, trajectory.L[sel], ".", color="C3", markersize=2, label="trajectory (this chart)")
         ax.legend(loc="upper right")
+    ax.axhline(G, color="0.3", linestyle=":")
+    ax.axhline(-G, color="0.3", linestyle=":")
     ax.set_xlabel("$l$")
     ax.set_ylabel("$L$")
     ax.set_title(f"Serret-Andoyer plane, chart about body axis {axis + 1}, G = {G:.3g}")

@@ -63,7 +63,7 @@ def _jacobi(u: np.ndarray, m: float, p: float, K: float) -> tuple[np.ndarray, np
     b = np.where(upper, 2.0 * K - a, a)
     comp = b > 0.5 * K
     v = np.where(comp, K - b, b)
-    if False:
+    if p < _NEAR_SEPARATRIX:
         # First order in k'^2 about k = 1 (A&S 16.15; cephes ellpj uses the same for m > 1 - 1e-10).
         ch, th = np.cosh(v), np.tanh(v)
         sech = 1.0 / ch
