@@ -124,6 +124,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = gather_vectors(list(sys.argv[1:] if argv is None else argv))
     try:
         cli.main(args=args, prog_name="geomech", standalone_mode=False)
+    except click.exceptions.NoArgsIsHelpError as exc:
+        click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
+        return 0
     except click.exceptions.Exit as exc:
         return int(exc.exit_code or 0)
     except click.exceptions.Abort:

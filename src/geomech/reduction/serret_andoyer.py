@@ -265,6 +265,57 @@ class GeneralizedSerretAndoyer:
         C = np.stack([_PERMUTATIONS[int(a)] for a in np.ravel(np.broadcast_to(axis, phi.shape))]).reshape(phi.shape + (3, 3))
         return S @ E @ np.swapaxes(C, -1, -2)
 
+    def reconstruct(
+        self,
+        t: Any,
+        lL: Any,
+        G: float,
+        *,
+        axis: int = 2,
+        R0: Any | None = None,
+        p: Any | None = None,
+    ) -> np.ndarray:
+        """Attitudes :math:`R(t)` from a reduced solution :math:`(l(t), L(t))` in one chart (Theorem 3).
+
+        :math:`\\theta = \\arccos(L/G)` pointwise, and :math:`\\varphi = \\int \\partial H/\\partial\\Phi|_{M_p} dt`
+        by quadrature of :meth:`phi_rate` along the samples (the integral of a cubic spline through them:
+        fourth order in the sampling step). Use it for reduced solutions computed elsewhere, e.g. by a
+        symplectic integrator of :meth:`reduced_system`.
+
+        Parameters
+        ----------
+        t : (n,) increasing sample times.
+        lL : (n, 2) the reduced solution at those times, in the chart about ``axis``.
+        R0 : (3, 3) the attitude at ``t[0]``; it fixes the spatial momentum ``p = R0 m(t0)`` and the initial
+            angle phi. Without it, ``p`` (default ``G e3``) fixes the spatial frame and phi starts at 0.
+
+        Returns
+        -------
+        (n, 3, 3) attitudes, body to space.
+        """
+        from scipy.interpolate import CubicSpline
+
+        axis = _axis(axis)
+        t = V.finite(t, "t")
+        lL = V.trailing_shape(lL, "lL", (2,))
+        if t.ndim != 1 or lL.shape != (t.size, 2) or t.size < 4 or np.any(np.diff(t) <= 0):
+            raise InputError(
+                f"Expected `t` strictly increasing with at least 4 samples and `lL` of shape (len(t), 2), "
+                f"got {t.shape} and {lL.shape}."
+            )
+        G = V.positive_scalar(G, "G")
+        m0 = self.charts[axis].inverse(lL[0], G)
+        if R0 is not None:
+            R0 = V.rotation_matrix(R0, "R0")
+            S = spatial_frame(R0 @ m0)
+            phi0 = self._start(S, R0, m0, G, axis)[2]
+        else:
+            S = spatial_frame(np.array([0.0, 0.0, G]) if p is None else V.exact_shape(p, "p", (3,)))
+            phi0 = 0.0
+        rate = self.phi_rate(lL, G, axis)
+        phi = phi0 + CubicSpline(t, rate).antiderivative()(t)
+        return self.attitude(S, phi, lL[:, 1], lL[:, 0], G, axis)
+
     def _start(self, S: np.ndarray, R: np.ndarray, m: np.ndarray, G: float, axis: int) -> np.ndarray:
         lL = self.charts[axis].forward(m)
         E = S.T @ R @ self.charts[axis].permutation

@@ -1,0 +1,22 @@
+"""The README's tour runs as written, and its first two commands are the make targets."""
+
+import re
+from pathlib import Path
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_readme_starts_with_the_two_commands():
+    text = README.read_text()
+    first_block = re.search(r"```\n(.*?)```", text, re.S).group(1)
+    assert first_block.splitlines()[0].startswith("make demo")
+    assert first_block.splitlines()[1].startswith("make test")
+
+
+def test_readme_tour_runs():
+    code = re.search(r"```python\n(.*?)```", README.read_text(), re.S).group(1)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    exact = namespace["exact"]
+    assert exact.family == "major" and abs(exact.period - 19.135304560260906) < 1e-9
+    assert len(namespace["traj"].switches) > 0
