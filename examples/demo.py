@@ -10,7 +10,6 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 from scipy.integrate import solve_ivp
 
 import geomech as gm

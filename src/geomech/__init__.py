@@ -6,11 +6,10 @@ Describe a system once (:mod:`geomech.systems`), move it between representations
 
 from . import errors, lie
 from ._symbolic import M_SYMBOLS
+from ._version import __version__
 from .errors import GeomechError
 from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
 from .systems import CanonicalSystem, LeftInvariantSystem, RigidBody, as_left_invariant
-
-from ._version import __version__
 
 __all__ = [
     "CanonicalSystem",

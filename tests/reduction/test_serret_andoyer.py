@@ -31,8 +31,9 @@ def direct(sys, m0, R0, t):
         dR, dm = sys.vector_field(R, m)
         return np.concatenate([dR.ravel(), dm])
 
-    sol = solve_ivp(rhs, (t[0], t[-1]), np.concatenate([R0.ravel(), m0]), method="DOP853",
-                    rtol=1e-13, atol=1e-13, t_eval=t)
+    sol = solve_ivp(
+        rhs, (t[0], t[-1]), np.concatenate([R0.ravel(), m0]), method="DOP853", rtol=1e-13, atol=1e-13, t_eval=t
+    )
     return sol.y[:9].T.reshape(-1, 3, 3), sol.y[9:].T
 
 
@@ -149,7 +150,9 @@ def test_chart_switches_keep_the_momentum_and_attitude_continuous(rng):
     np.testing.assert_allclose(traj.m, m_ref, atol=1e-9)
     np.testing.assert_allclose(traj.R, R_ref, atol=1e-8)
     # the spatial momentum stays where it was, through every switch
-    np.testing.assert_allclose(np.einsum("nij,nj->ni", traj.R, traj.m), np.broadcast_to(R0 @ m0, (t.size, 3)), atol=1e-9)
+    np.testing.assert_allclose(
+        np.einsum("nij,nj->ni", traj.R, traj.m), np.broadcast_to(R0 @ m0, (t.size, 3)), atol=1e-9
+    )
 
 
 def test_reconstructed_attitude_of_the_free_body_matches_direct_integration():
@@ -175,8 +178,11 @@ def test_phi_rate_of_the_free_body_is_the_classical_one(rng):
 
 @pytest.mark.parametrize(
     "m0, axis, family",
-    [(np.array([0.4, 1.0, 0.3]), 1, "minor"), (np.array([0.1, 0.45, 0.88]), 2, "minor"),
-     (np.array([0.85, 0.45, 0.1]), 0, "major")],
+    [
+        (np.array([0.4, 1.0, 0.3]), 1, "minor"),
+        (np.array([0.1, 0.45, 0.88]), 2, "minor"),
+        (np.array([0.85, 0.45, 0.1]), 0, "major"),
+    ],
 )
 def test_free_body_through_a_chart_switch_matches_the_exact_solution(m0, axis, family):
     body = RigidBody([3.0, 2.0, 1.0])
@@ -207,7 +213,11 @@ def test_reconstruction_by_quadrature_of_a_reduced_solution_from_elsewhere():
     errs = []
     for n in (101, 201):
         tc = t[:: (len(t) - 1) // (n - 1)]
-        errs.append(np.abs(sa.reconstruct(tc, sol.y.T[:: (len(t) - 1) // (n - 1)], G, R0=R0) - R_ref[:: (len(t) - 1) // (n - 1)]).max())
+        errs.append(
+            np.abs(
+                sa.reconstruct(tc, sol.y.T[:: (len(t) - 1) // (n - 1)], G, R0=R0) - R_ref[:: (len(t) - 1) // (n - 1)]
+            ).max()
+        )
     assert 10 < errs[0] / errs[1] < 25
     with pytest.raises(InputError, match="increasing"):
         sa.reconstruct(t[::-1], sol.y.T, G)

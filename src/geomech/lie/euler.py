@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from . import _common as c
-from . import so3
 from .._validate import trailing_shape
 from ..errors import InputError, SingularityError
+from . import _common as c
+from . import so3
 from .quaternion import _from_matrix as _quat_from_matrix
 
 __all__ = [

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from . import _common as c
 from ..errors import InputError
+from . import _common as c
 
 __all__ = [
     "from_matrix",

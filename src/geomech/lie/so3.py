@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from . import _common as c
 from .._validate import finite
+from . import _common as c
 
 __all__ = [
     "DIM",

@@ -110,7 +110,9 @@ class SerretAndoyerChart:
         l, L = lL[..., 0], lL[..., 1]
         s = np.sqrt(np.clip(G**2 - L**2, 0.0, None))
         if np.any(np.abs(L) > G * (1 + 1e-12)):
-            raise InputError(f"Expected |L| <= G in the Serret-Andoyer chart, got max |L|/G = {np.max(np.abs(L) / G):.6g}.")
+            raise InputError(
+                f"Expected |L| <= G in the Serret-Andoyer chart, got max |L|/G = {np.max(np.abs(L) / G):.6g}."
+            )
         mp = np.stack(np.broadcast_arrays(s * np.sin(l), s * np.cos(l), L), -1)
         return mp @ self.permutation.T
 
@@ -129,7 +131,9 @@ class SerretAndoyerChart:
     def symbolic(self) -> sp.Matrix:
         """:math:`m = C\\,U_p(l, L)` as a sympy column in the symbols ``l, L, G``."""
         s = sp.sqrt(G_SYM**2 - L_SYM**2)
-        return sp.Matrix(self.permutation.astype(int).tolist()) * sp.Matrix([s * sp.sin(l_SYM), s * sp.cos(l_SYM), L_SYM])
+        return sp.Matrix(self.permutation.astype(int).tolist()) * sp.Matrix(
+            [s * sp.sin(l_SYM), s * sp.cos(l_SYM), L_SYM]
+        )
 
 
 def spatial_frame(p: Any) -> np.ndarray:
@@ -242,8 +246,12 @@ class GeneralizedSerretAndoyer:
         axis = _axis(axis)
         if self.system.expression is not None:
             return CanonicalSystem.from_expression(
-                self.reduced_expression(axis), (l_SYM,), (L_SYM,), name=f"h_p (axis {axis + 1})",
-                angle_coordinates=(0,), substitutions={G_SYM: G},
+                self.reduced_expression(axis),
+                (l_SYM,),
+                (L_SYM,),
+                name=f"h_p (axis {axis + 1})",
+                angle_coordinates=(0,),
+                substitutions={G_SYM: G},
             )
 
         def ham(y: np.ndarray) -> np.ndarray:
@@ -253,7 +261,9 @@ class GeneralizedSerretAndoyer:
             f = self.reduced_vector_field(y, G, axis)
             return np.stack([-f[..., 1], f[..., 0]], -1)
 
-        return CanonicalSystem(n=1, name=f"h_p (axis {axis + 1})", _hamiltonian=ham, _gradient=grad, angle_coordinates=(0,))
+        return CanonicalSystem(
+            n=1, name=f"h_p (axis {axis + 1})", _hamiltonian=ham, _gradient=grad, angle_coordinates=(0,)
+        )
 
     # -- reconstruction ------------------------------------------------------------------------------
     @staticmethod
@@ -262,7 +272,9 @@ class GeneralizedSerretAndoyer:
         phi, L, l = np.broadcast_arrays(np.asarray(phi, float), np.asarray(L, float), np.asarray(l, float))
         theta = np.arccos(np.clip(L / G, -1.0, 1.0))
         E = _euler.as_matrix(np.stack([phi, theta, l], -1), seq="ZXZ")
-        C = np.stack([_PERMUTATIONS[int(a)] for a in np.ravel(np.broadcast_to(axis, phi.shape))]).reshape(phi.shape + (3, 3))
+        C = np.stack([_PERMUTATIONS[int(a)] for a in np.ravel(np.broadcast_to(axis, phi.shape))]).reshape(
+            phi.shape + (3, 3)
+        )
         return S @ E @ np.swapaxes(C, -1, -2)
 
     def reconstruct(
@@ -371,6 +383,7 @@ class GeneralizedSerretAndoyer:
         switches: list[tuple[float, int, int]] = []
         nfev, status, message = 0, 0, "success"
         while True:
+
             def rhs(_t: float, z: np.ndarray, axis: int = axis) -> np.ndarray:
                 f = self.reduced_vector_field(z[:2], G, axis)
                 return np.array([f[0], f[1], self.phi_rate(z[:2], G, axis)])
@@ -381,10 +394,15 @@ class GeneralizedSerretAndoyer:
             leave.terminal = True
             leave.direction = 1
             if t_end > t0:
-                sol = solve_ivp(rhs, (t0, t_end), y, method="DOP853", rtol=rtol, atol=atol * G, dense_output=True, events=leave)
+                sol = solve_ivp(
+                    rhs, (t0, t_end), y, method="DOP853", rtol=rtol, atol=atol * G, dense_output=True, events=leave
+                )
                 nfev += sol.nfev
                 if sol.status < 0:
-                    status, message = -1, f"integration failed at t = {sol.t[-1]:.6g} in the chart about axis {axis + 1}: {sol.message}"
+                    status, message = (
+                        -1,
+                        f"integration failed at t = {sol.t[-1]:.6g} in the chart about axis {axis + 1}: {sol.message}",
+                    )
                     segments.append((t0, float(sol.t[-1]), axis, sol.sol))
                     break
                 t1 = float(sol.t[-1])

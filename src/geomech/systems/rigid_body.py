@@ -154,6 +154,7 @@ class RigidBody:
         return f"RigidBody(inertia={self.tensor.tolist()})"
 
     def to_json(self) -> dict[str, Any]:
+        """A JSON-ready description: the tensor, the principal moments and the principal axes."""
         return {
             "kind": "RigidBody",
             "tensor": self.tensor.tolist(),
