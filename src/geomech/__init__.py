@@ -4,12 +4,19 @@ Describe a system once (:mod:`geomech.systems`), move it between representations
 (:mod:`geomech.reduction`, :mod:`geomech.lie`), simulate it, and analyse and show the result.
 """
 
-from . import errors, lie
+from . import analysis, errors, lie
 from ._symbolic import M_SYMBOLS
 from ._version import __version__
 from .errors import GeomechError
 from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
-from .systems import CanonicalSystem, LeftInvariantSystem, RigidBody, as_left_invariant
+from .systems import (
+    CanonicalSystem,
+    LeftInvariantSystem,
+    RigidBody,
+    RotorBody,
+    StructurePreservingControl,
+    as_left_invariant,
+)
 
 __all__ = [
     "CanonicalSystem",
@@ -18,8 +25,11 @@ __all__ = [
     "LeftInvariantSystem",
     "M_SYMBOLS",
     "RigidBody",
+    "RotorBody",
+    "StructurePreservingControl",
     "SerretAndoyerChart",
     "as_left_invariant",
+    "analysis",
     "errors",
     "lie",
     "__version__",

@@ -8,7 +8,7 @@ import click
 
 #: Options that take a vector of numbers, written either as separate words (--inertia 3 2 1) or
 #: comma-separated (--inertia 3,2,1).
-VECTOR_OPTIONS = ("--inertia", "--momentum", "--attitude")
+VECTOR_OPTIONS = ("--inertia", "--momentum", "--attitude", "--lambda", "--p", "--near")
 
 
 def _is_number(token: str) -> bool:
@@ -58,3 +58,17 @@ class FloatVector(click.ParamType):
             want = " or ".join(str(n) for n in self.lengths)
             self.fail(f"expected {want} numbers, got {len(vals)} ({', '.join(parts) or 'none'})", param, ctx)
         return vals
+
+
+def parse_params(items: Sequence[str], option: str = "--param") -> dict[str, float]:
+    """Parse repeated ``NAME=VALUE`` options into a dict of floats, with one-line errors."""
+    values: dict[str, float] = {}
+    for item in items:
+        name, sep, val = item.partition("=")
+        if not sep or not name.strip():
+            raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint=f"'{option}'")
+        try:
+            values[name.strip()] = float(val)
+        except ValueError:
+            raise click.BadParameter(f"{name.strip()} = {val!r} is not a number", param_hint=f"'{option}'") from None
+    return values

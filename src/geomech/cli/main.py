@@ -15,7 +15,8 @@ import click
 
 from .._version import __version__
 from ..errors import GeomechError
-from ._args import FloatVector, gather_vectors
+from ._args import FloatVector, gather_vectors, parse_params
+from .stability import stability_cmd, stability_map_cmd
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -84,15 +85,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
     from ..reduction.serret_andoyer import L_SYM, l_SYM
     from ..systems import LeftInvariantSystem
 
-    values = {}
-    for item in params:
-        name, sep, val = item.partition("=")
-        if not sep or not name.strip():
-            raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="'--param'")
-        try:
-            values[name.strip()] = float(val)
-        except ValueError:
-            raise click.BadParameter(f"{name.strip()} = {val!r} is not a number", param_hint="'--param'") from None
+    values = parse_params(params)
     system = LeftInvariantSystem.from_expression(hamiltonian, values)
     sa = GeneralizedSerretAndoyer(system)
     h = sa.reduced_expression(axis - 1)
@@ -116,6 +109,10 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
         click.echo(f"H(m)       = {summary['hamiltonian']}\nchart      : about body axis {axis}\n"
                    f"h_p(l, L)  = {h}\nl'         = {ldot}\nL'         = {Ldot}\n"
                    f"hyperregular: {summary['hyperregular']}")
+
+
+cli.add_command(stability_cmd)
+cli.add_command(stability_map_cmd)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

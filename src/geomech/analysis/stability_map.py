@@ -1,0 +1,177 @@
+"""Stability maps: the verdicts on a continued relative equilibrium over a grid of two parameters.
+
+The result is an :class:`xarray.Dataset` (write it with ``ds.to_netcdf(path)``): one dimension per
+parameter, the verdict codes of :data:`~geomech.analysis.stability.VERDICT_CODES` with CF
+``flag_values``/``flag_meanings``, the equilibrium's momentum, the eigenvalues of the Hessian of
+:math:`h_p`, the growth rate of the linearisation and the (normalised) determinant of the energy-Casimir
+second variation, whose zero level is the stability boundary. xarray is imported when a map is made.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as V
+from .._version import __version__
+from ..errors import ConvergenceError, InputError
+from .equilibria import continue_equilibria, find_equilibria
+from .stability import VERDICT_CODES, _ec_determinant, assess
+
+__all__ = ["stability_map", "theorem5_margin"]
+
+
+def _axis_values(spec: Any, argname: str) -> tuple[str, np.ndarray]:
+    try:
+        name, values = spec
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"Expected `{argname}` to be a pair (parameter name, values), got {spec!r}.") from exc
+    values = V.finite(values, f"{argname} values")
+    if values.ndim != 1 or values.size < 2 or np.any(np.diff(values) <= 0):
+        raise InputError(f"Expected the values of `{argname}` to be at least 2 increasing numbers, got {values}.")
+    return str(name), values
+
+
+def stability_map(
+    family: Callable[..., Any],
+    x: tuple[str, Sequence[float]],
+    y: tuple[str, Sequence[float]],
+    *,
+    G: float = 1.0,
+    near: Any = None,
+    fixed: Mapping[str, float] | None = None,
+    closed_form: Callable[[Mapping[str, float]], float] | None = None,
+    description: str = "",
+    n_points: int = 600,
+):
+    """The three verdicts on the relative equilibrium near ``near`` over a grid of two parameters.
+
+    Parameters
+    ----------
+    family : ``family(**parameters) -> LeftInvariantSystem``, e.g. ``control.family()``.
+    x, y : ``(name, values)`` of the two parameters swept.
+    near : (3,) the reference, default :math:`(0, G, 0)` (spin about the intermediate axis, the seed's
+        :math:`(l, L) = (0, 0)`). At each grid point the equilibrium assessed is the one nearest to ``near``
+        among all relative equilibria, which are continued from grid point to grid point (serpentine
+        order) and searched afresh (:func:`~geomech.analysis.find_equilibria`) wherever the continued set
+        fails the Poincare-Hopf check.
+    fixed : values of the other parameters.
+    closed_form : optional ``f(values) -> float`` whose zero level is a predicted boundary (e.g.
+        :func:`theorem5_margin`); stored as ``closed_form_margin``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables ``verdict``, ``lagrange_dirichlet``, ``energy_casimir``, ``linearisation`` (int8 codes),
+        ``m`` (the equilibrium assessed), ``branch_jump`` (1 where it is not the continuation of the previous
+        grid point's, i.e. the nearest equilibrium changed identity; the first point counts as a jump),
+        ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``, ``growth_rate`` (largest real
+        part of the linearisation eigenvalues), ``ec_determinant`` and optionally ``closed_form_margin``.
+    """
+    import xarray as xr
+
+    xname, xs = _axis_values(x, "x")
+    yname, ys = _axis_values(y, "y")
+    if xname == yname:
+        raise InputError(f"Expected two different parameters for `x` and `y`, got {xname!r} twice.")
+    G = V.positive_scalar(G, "G")
+    near = np.array([0.0, G, 0.0]) if near is None else V.exact_shape(near, "near", (3,))
+    fixed = dict(fixed or {})
+    ny, nx = ys.size, xs.size
+    codes = {k: np.full((ny, nx), VERDICT_CODES["none"], dtype=np.int8)
+             for k in ("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")}
+    m_all = np.full((ny, nx, 3), np.nan)
+    hev = np.full((ny, nx, 2), np.nan)
+    growth = np.full((ny, nx), np.nan)
+    ecdet = np.full((ny, nx), np.nan)
+    margin = np.full((ny, nx), np.nan) if closed_form is not None else None
+    jumped = np.zeros((ny, nx), dtype=np.int8)
+    complete = np.zeros((ny, nx), dtype=np.int8)
+    prev = None
+    last: np.ndarray | None = None
+    for j in range(ny):
+        order = range(nx) if j % 2 == 0 else range(nx - 1, -1, -1)
+        for i in order:
+            values = {**fixed, xname: float(xs[i]), yname: float(ys[j])}
+            if margin is not None:
+                margin[j, i] = float(closed_form(values))
+            system = family(**values)
+            # All equilibria, continued from the previous grid point's (a full search when that is not
+            # complete by Poincare-Hopf); the one assessed is the nearest to `near`: a definition that does
+            # not depend on the path through the grid, and that a fold or a pole cannot capture.
+            try:
+                eqs = (find_equilibria(system, G, n_points=n_points) if prev is None
+                       else continue_equilibria(system, prev, n_points=n_points))
+            except (ConvergenceError, InputError, FloatingPointError):
+                prev = None
+                continue
+            if len(eqs) == 0:
+                prev = None
+                continue
+            eq = eqs.nearest(near)
+            # A step to a far point means the nearest equilibrium changed identity (its branch ended in a
+            # fold, or another came nearer): flagged, since the verdict then belongs to another branch.
+            jumped[j, i] = last is None or np.linalg.norm(eq.m - last) > 0.25 * G
+            prev, last = eqs, eq.m
+            complete[j, i] = eqs.complete
+            rep = assess(system, eq)
+            codes["verdict"][j, i] = VERDICT_CODES[rep.verdict]
+            codes["lagrange_dirichlet"][j, i] = VERDICT_CODES[rep.lagrange_dirichlet.verdict]
+            codes["energy_casimir"][j, i] = VERDICT_CODES[rep.energy_casimir.verdict]
+            codes["linearisation"][j, i] = VERDICT_CODES[rep.linearisation.verdict]
+            m_all[j, i] = eq.m
+            hev[j, i] = np.linalg.eigvalsh(eq.hessian)
+            growth[j, i] = float(np.max(np.real(rep.linearisation.eigenvalues)))
+            ecdet[j, i] = _ec_determinant(system, eq.m)
+    flags = {"flag_values": np.array(sorted(VERDICT_CODES.values()), dtype=np.int8),
+             "flag_meanings": " ".join(k for k, _ in sorted(VERDICT_CODES.items(), key=lambda kv: kv[1]))}
+    dims = (yname, xname)
+    data = {
+        "verdict": (dims, codes["verdict"], {**flags, "long_name": "combined verdict (stable if Lagrange-Dirichlet "
+                                             "or energy-Casimir proves it, unstable if the linearisation does)"}),
+        "lagrange_dirichlet": (dims, codes["lagrange_dirichlet"], {**flags, "long_name": "Lagrange-Dirichlet on h_p"}),
+        "energy_casimir": (dims, codes["energy_casimir"], {**flags, "long_name": "energy-Casimir on so(3)*"}),
+        "linearisation": (dims, codes["linearisation"], {**flags, "long_name": "linearisation eigenvalues"}),
+        "m": (dims + ("component",), m_all, {"long_name": "body momentum of the continued equilibrium"}),
+        "hessian_eigenvalues": (dims + ("eigenvalue",), hev, {"long_name": "eigenvalues of the Hessian of h_p "
+                                                                        "(Serret-Andoyer chart)"}),
+        "branch_jump": (dims, jumped, {"long_name": "1 where the continuation left the followed branch (or started "
+                                                    "afresh from `near`), 0 where it followed it"}),
+        "complete": (dims, complete, {"long_name": "1 where the equilibria found pass the Poincare-Hopf check"}),
+        "growth_rate": (dims, growth, {"long_name": "largest real part of the linearisation eigenvalues"}),
+        "ec_determinant": (dims, ecdet, {"long_name": "normalised determinant of the energy-Casimir second "
+                                                      "variation; its zero level is the stability boundary"}),
+    }
+    if margin is not None:
+        data["closed_form_margin"] = (dims, margin, {"long_name": "closed-form prediction; zero on the predicted "
+                                                                  "boundary"})
+    return xr.Dataset(
+        data,
+        coords={xname: xs, yname: ys, "component": ["m1", "m2", "m3"], "eigenvalue": [0, 1]},
+        attrs={"title": "stability map of a relative equilibrium", "description": description,
+               "G": G, "near": near.tolist(), "fixed_parameters": str(fixed), "x": xname, "y": yname,
+               "source": f"geomech {__version__}"},
+    )
+
+
+def theorem5_margin(control: Any) -> Callable[[Mapping[str, float]], float]:
+    """Theorem 5's closed form for one rotor on axis 3: ``f(values) = phi'(0) - (1 - I3/lambda2)``.
+
+    Zero on the boundary of stability of the spin about the intermediate axis, positive on the stable side,
+    valid where :math:`\\varphi(0) + p = 0` (the equilibrium is then :math:`(l, L) = (0, 0)`); NaN elsewhere.
+    """
+    if getattr(control, "kind", None) != "one-rotor":
+        raise InputError("Theorem 5 is the seed's result for one rotor on axis 3; `control` is not one.")
+    origin = np.zeros((1, 3))
+
+    def margin(values: Mapping[str, float]) -> float:
+        vals = {**control.parameters, **{k: float(x) for k, x in values.items() if k in control.parameters}}
+        phi0 = float(control.phi(origin, vals)[0, 0])
+        if abs(phi0 + vals["p"]) > 1e-12 * max(1.0, abs(phi0)):
+            return float("nan")
+        dphi0 = float(control.phi_jacobian(origin, vals)[0, 0] @ control.body.axes[0])
+        return dphi0 - (1.0 - vals["I3"] / vals["lambda2"])
+
+    return margin

@@ -1,0 +1,228 @@
+"""``geomech stability`` and ``geomech stability-map``: structure-preserving rotor controls, their
+closed-loop Hamiltonian, relative equilibria and stability verdicts (sections 6-7 of the Serret-Andoyer
+paper). The lead registers them with ``cli.add_command(stability_cmd)`` and
+``cli.add_command(stability_map_cmd)``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ._args import FloatVector, parse_params
+
+__all__ = ["stability_cmd", "stability_map_cmd"]
+
+def _control(lambdas: tuple[float, ...], I3: float | None, phis: tuple[str, ...], params: dict[str, float],
+             p: tuple[float, ...] | None, G: float) -> Any:
+    from ..systems.control import StructurePreservingControl
+    from ..systems.rotors import RotorBody
+
+    if not np.isfinite(G) or G <= 0:
+        raise click.BadParameter(f"expected a positive momentum magnitude, got {G}", param_hint="'--G'")
+    if len(lambdas) == 2:
+        if I3 is None:
+            raise click.BadParameter("one rotor (two --lambda values) needs --I3, the body's own moment about "
+                                     "the rotor axis", param_hint="'--I3'")
+        body = RotorBody.one_rotor(lambdas[0], lambdas[1], I3)
+        if lambdas[0] <= lambdas[1]:
+            raise click.BadParameter(
+                f"expected lambda1 > lambda2 (axis 1 the major and axis 2 the intermediate axis of the locked body, "
+                f"as in section 6.3), got {lambdas[0]:g} <= {lambdas[1]:g}; relabel the axes",
+                param_hint="'--lambda'")
+        if len(phis) != 1:
+            raise click.BadParameter(f"one rotor takes one --phi (a function of v = m3), got {len(phis)}",
+                                     param_hint="'--phi'")
+        if p is not None and len(p) != 1:
+            raise click.BadParameter(f"one rotor takes one --p value, got {len(p)}", param_hint="'--p'")
+        return StructurePreservingControl.one_rotor(body, phis[0], p=0.0 if p is None else p[0], parameters=params,
+                                                    probe_radius=G)
+    if I3 is not None:
+        raise click.BadParameter("--I3 is for one rotor (two --lambda values); with three rotors --lambda gives "
+                                 "lambda1 lambda2 lambda3", param_hint="'--I3'")
+    body = RotorBody.three_rotors(lambdas)
+    if len(phis) != 3:
+        raise click.BadParameter(f"three rotors take three --phi (each in v, Corollary 2, or each in m1, m2, m3, "
+                                 f"Proposition 5), got {len(phis)}", param_hint="'--phi'")
+    pv = (0.0, 0.0, 0.0) if p is None else p
+    if len(pv) != 3:
+        raise click.BadParameter(f"three rotors take three --p values, got {len(pv)}", param_hint="'--p'")
+    import re
+
+    # Proposition 5 (phi of m1, m2, m3) or Corollary 2 (each phi_i of v); the parser reports bad formulas.
+    uses_m = any(re.search(r"\bm[123]\b", f) for f in phis)
+    if uses_m:
+        return StructurePreservingControl.three_rotors(body, list(phis), p=pv, parameters=params, probe_radius=G)
+    return StructurePreservingControl.diagonal(body, list(phis), p=pv, parameters=params, probe_radius=G)
+
+
+def _model_json(control: Any, G: float) -> dict[str, Any]:
+    hyp = control.hyperregularity()
+    lemma = control.lemma4_check()
+    return {
+        "model": {"rotors": control.n_rotors, "kind": control.kind, "G": G,
+                  "inertia_without_rotor_axial_moments": np.diag(control.body.inertia).tolist(),
+                  "phi": [str(e) for e in (control.phi_of_v or control.phi_expression)],
+                  "parameters": dict(control.parameters)},
+        "closed_loop_hamiltonian": str(control.hamiltonian_expression),
+        "closed_loop_hamiltonian_closed_form": control.hamiltonian_is_closed_form,
+        "existence_condition": {"holds": control.condition.holds, "method": control.condition.method,
+                                "detail": control.condition.detail},
+        "lemma4": {"max_relative_error": lemma.max_relative_error, "points": lemma.n_points,
+                   "gradient_route": lemma.gradient_route},
+        "hyperregularity": hyp.to_json(),
+    }
+
+
+def _model_options(f):
+    opts = [
+        click.option("--lambda", "lambdas", type=FloatVector(2, 3), required=True,
+                     help="lambda1 lambda2 (one rotor on axis 3: the locked inertias about axes 1, 2) or lambda1 "
+                          "lambda2 lambda3 (three rotors: Lambda without the rotors' axial moments)."),
+        click.option("--I3", "I3", type=float, default=None,
+                     help="One rotor: the body's own moment of inertia about the rotor axis."),
+        click.option("--phi", "phis", multiple=True, required=True,
+                     help="phi(v) for one rotor (v = m3); three times for three rotors: each phi_i(v) "
+                          "(Corollary 2) or each a function of m1, m2, m3 (Proposition 5)."),
+        click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
+                     help="A parameter of phi (repeatable)."),
+        click.option("--p", "p", type=FloatVector(1, 3), default=None,
+                     help="The conserved p = Gamma - phi(m) (default 0)."),
+        click.option("--G", "G", type=float, default=1.0, show_default=True,
+                     help="Magnitude of the angular momentum |m|."),
+    ]
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
+@click.command("stability")
+@_model_options
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.")
+def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
+    """Relative equilibria of a rotor control's closed loop and three stability verdicts on each.
+
+    Builds the structure-preserving control (eq. 29a; Proposition 5 / Corollary 2), its closed-loop
+    Hamiltonian H_c (eqs. 29b, 41), finds every equilibrium of h_p = H_c o U_p on |m| = G, and reports
+    for each its location, the Hessian of h_p and its eigenvalues, the linearisation eigenvalues, and
+    the verdicts of Lagrange-Dirichlet, energy-Casimir and linearisation (stable, unstable, inconclusive).
+    """
+    from ..analysis import analyse_stability
+
+    control = _control(lambdas, I3, phis, parse_params(params), p, G)
+    system = control.closed_loop()
+    analysis = analyse_stability(system, G)
+    summary = {**_model_json(control, G), **analysis.to_json()}
+    if out is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from ..plot.stability import equilibria_phase_portrait
+
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "stability.json").write_text(json.dumps(summary, indent=2) + "\n")
+        ax = equilibria_phase_portrait(system, G, analysis)
+        ax.figure.savefig(out / "stability_phase_portrait.png", dpi=120)
+        plt.close(ax.figure)
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    lines = [f"closed loop H_c(m) = {summary['closed_loop_hamiltonian']}",
+             f"hyperregular: {summary['hyperregularity']['status']} ({summary['hyperregularity']['where'] or 'ok'})",
+             f"equilibria on |m| = {G:g}: {analysis.equilibria.message}"]
+    for r in analysis:
+        e = r.equilibrium
+        ev = r.linearisation.eigenvalues
+        tiny = 1e-12 * max(np.abs(ev).max(), 1e-300)
+        ev = ", ".join(f"{(z.real if abs(z.real) > tiny else 0.0):+.4g}{(z.imag if abs(z.imag) > tiny else 0.0):+.4g}i"
+                       for z in ev)
+        lines.append(f"  m = {(np.round(e.m, 6) + 0.0).tolist()}  (l, L) = ({e.lL[0]:.6g}, {e.lL[1]:.6g}) in the "
+                     f"chart about axis {e.axis + 1}")
+        lines.append(f"    Hessian eigenvalues {(np.round(np.linalg.eigvalsh(e.hessian), 8) + 0.0).tolist()}; "
+                     f"linearisation {ev}")
+        lines.append(f"    Lagrange-Dirichlet: {r.lagrange_dirichlet.verdict}; energy-Casimir: "
+                     f"{r.energy_casimir.verdict}; linearisation: {r.linearisation.verdict}  => {r.verdict}")
+    click.echo("\n".join(lines))
+
+
+def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
+    name, sep, rng = spec.partition("=")
+    parts = rng.split(":")
+    try:
+        if not sep or not name.strip() or len(parts) != 3:
+            raise ValueError
+        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise click.BadParameter(f"expected NAME=START:STOP:N (e.g. k=0:1:41), got {spec!r}", param_hint=hint) \
+            from None
+    if not (np.isfinite(a) and np.isfinite(b) and b > a and 2 <= n <= 1000):
+        raise click.BadParameter(f"expected START < STOP and 2 <= N <= 1000, got {spec!r}", param_hint=hint)
+    return name.strip(), np.linspace(a, b, n)
+
+
+@click.command("stability-map")
+@_model_options
+@click.option("--x", "xspec", required=True, metavar="NAME=START:STOP:N",
+              help="First swept parameter: a parameter of phi or of the model (lambda1, lambda2, I3, p, ...).")
+@click.option("--y", "yspec", required=True, metavar="NAME=START:STOP:N", help="Second swept parameter.")
+@click.option("--near", type=FloatVector(3), default=None,
+              help="Reference body momentum: the equilibrium nearest to it is assessed; default (0, G, 0), the "
+                   "intermediate-axis spin.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Directory for stability_map.png, stability_map.nc and stability_map.json.")
+@click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
+def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, as_json) -> None:
+    """Stability verdicts over a grid of two parameters, on the relative equilibrium nearest to --near.
+
+    At each grid point all relative equilibria are found (continued from the neighbouring point, searched
+    afresh where the Poincare-Hopf check fails) and the one nearest to --near is assessed. Writes the map
+    as a figure (computed boundary in black; Theorem 5's closed form dashed where it applies) and as a
+    netCDF data file with the verdict codes (1 stable, 0 inconclusive, -1 unstable, -9 no equilibrium),
+    the equilibrium and the eigenvalues at every grid point.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..analysis import stability_map, theorem5_margin
+    from ..plot.stability import stability_map_plot
+
+    control = _control(lambdas, I3, phis, parse_params(params), p, G)
+    xname, xs = _range(xspec, "'--x'")
+    yname, ys = _range(yspec, "'--y'")
+    known = set(control.parameters)
+    for name, hint in ((xname, "'--x'"), (yname, "'--y'")):
+        if name not in known:
+            raise click.BadParameter(f"{name!r} is not a parameter of this model; choose one of {sorted(known)}",
+                                     param_hint=hint)
+    if xname == yname:
+        raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
+    closed = theorem5_margin(control) if control.kind == "one-rotor" else None
+    desc = f"phi = {', '.join(str(e) for e in control.phi_expression)}" if control.phi_expression is not None else ""
+    ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
+                       description=desc)
+    out.mkdir(parents=True, exist_ok=True)
+    ds.to_netcdf(out / "stability_map.nc")
+    ax = stability_map_plot(ds)
+    ax.figure.savefig(out / "stability_map.png", dpi=120)
+    plt.close(ax.figure)
+    counts = {k: int((ds["verdict"].values == v).sum()) for k, v in
+              (("stable", 1), ("inconclusive", 0), ("unstable", -1), ("none", -9))}
+    summary = {**_model_json(control, G), "x": {"name": xname, "values": xs.tolist()},
+               "y": {"name": yname, "values": ys.tolist()}, "counts": counts,
+               "files": {"figure": str(out / "stability_map.png"), "data": str(out / "stability_map.nc")}}
+    (out / "stability_map.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+    else:
+        click.echo(f"stability map over {xname} x {yname} ({xs.size} x {ys.size}): {counts}\n"
+                   f"written {out / 'stability_map.png'} and {out / 'stability_map.nc'}")

@@ -1,0 +1,89 @@
+"""Hyperregularity of a closed-loop Hamiltonian H_c: where phi'(v) = 1, or det(I - A Dphi(m)) = 0."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from scipy.optimize import brentq
+
+from .._symbolic import M_SYMBOLS
+from ._symbolic_tools import SympyTimeout, time_limit
+from .control import V_SYMBOL, HyperregularityReport
+
+
+def hyperregularity_report(c: Any, R: float) -> HyperregularityReport:
+    """The report of :meth:`StructurePreservingControl.hyperregularity` on |m| <= R."""
+    if c._separable:
+        fails, unknown, pts = [], [], []
+        for i in range(c.n_rotors):
+            status, where, roots = _scalar(c, i, R)
+            label = "phi'(v)" if c.n_rotors == 1 else f"phi_{i + 1}'(v)"
+            if status == "no":
+                fails.append(f"{label} = 1 {where}")
+                pts.extend(roots)
+            elif status == "unknown":
+                unknown.append(f"{label}: {where}")
+        if fails:
+            return HyperregularityReport("no", "; ".join(fails), tuple(pts))
+        if unknown:
+            return HyperregularityReport("unknown", "; ".join(unknown), ())
+        return HyperregularityReport("yes", "phi'(v) != 1 for every real v (sympy)" if c.n_rotors == 1
+                                     else "phi_i'(v) != 1 for every real v and every i (sympy)", ())
+    return _scan_determinant(c, R)
+
+
+def _scalar(c: Any, i: int, R: float) -> tuple[str, str, list[float]]:
+    if c._phi_1d_exprs is not None:
+        th = dict(zip(c._psyms, c.theta()))
+        d = sp.diff(c._phi_1d_exprs[i], V_SYMBOL).subs(th)
+        try:
+            with time_limit(c._integrate_timeout):
+                sol = sp.solveset(sp.Eq(d, 1), V_SYMBOL, domain=sp.S.Reals)
+        except (SympyTimeout, NotImplementedError, ValueError, TypeError):
+            sol = None
+        if sol is not None:
+            if sol is sp.S.EmptySet:
+                return "yes", "", []
+            if sol == sp.S.Reals:
+                return "no", "for every v", []
+            if isinstance(sol, sp.FiniteSet) and all(x.is_real for x in sol):
+                roots = sorted(float(x) for x in sol)
+                return "no", f"at v = {', '.join(f'{r:.6g}' for r in roots)}", roots
+    v = np.linspace(-R, R, 4001)
+    th = c.theta()
+    with np.errstate(all="ignore"):
+        f = c._dphi(np.outer(v, c.body.axes[i]), th)[..., i, :] @ c.body.axes[i] - 1.0
+    ok = np.isfinite(f)
+    f, v = f[ok], v[ok]
+    roots = []
+    for k in np.nonzero((f[:-1] == 0) | (f[:-1] * f[1:] < 0))[0][:8]:
+        roots.append(float(v[k]) if f[k] == 0 else float(brentq(
+            lambda x: float(c._dphi(x * c.body.axes[i][None], th)[0, i] @ c.body.axes[i]) - 1.0,
+            v[k], v[k + 1], xtol=1e-14)))
+    if roots:
+        return "no", f"at v = {', '.join(f'{r:.6g}' for r in roots)} (numeric scan and root refinement)", roots
+    return "unknown", f"no v with phi'(v) = 1 found on [-{R:g}, {R:g}] (numeric scan; nothing proved)", []
+
+
+def _scan_determinant(c: Any, R: float) -> HyperregularityReport:
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(4000, 3))
+    pts = R * rng.uniform(0, 1, (4000, 1)) ** (1 / 3) * x / np.linalg.norm(x, axis=1, keepdims=True)
+    with np.errstate(all="ignore"):
+        det = np.linalg.det(np.eye(3) - c.body.A @ c._dphi(pts, c.theta()))
+    ok = np.isfinite(det)
+    det, pts = det[ok], pts[ok]
+    if det.size and (det.min() <= 0 <= det.max()):
+        k = int(np.argmin(np.abs(det)))
+        return HyperregularityReport("no", f"det(I - A Dphi) changes sign on |m| <= {R:g}; smallest |det| "
+                                     f"{abs(det[k]):.3g} at m = {np.round(pts[k], 6).tolist()}",
+                                     tuple(pts[k].tolist()))
+    if c.phi_expression is not None:
+        D = (sp.eye(3) - c._A_sym * c.phi_expression.jacobian(sp.Matrix(M_SYMBOLS))).det()
+        D = sp.simplify(D.subs(dict(zip(c._psyms, c.theta()))))
+        if D.is_number and D != 0:
+            return HyperregularityReport("yes", f"det(I - A Dphi) = {D} is a nonzero constant", ())
+    return HyperregularityReport("unknown", f"det(I - A Dphi) keeps one sign on 4000 samples of |m| <= {R:g} "
+                                 "(numeric scan; nothing proved)", ())

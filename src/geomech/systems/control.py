@@ -1,0 +1,795 @@
+"""Structure-preserving feedback for rigid bodies with rotors (sections 6.1 and 7 of the Serret-Andoyer paper).
+
+A feedback torque on the rotors of a :class:`~geomech.systems.rotors.RotorBody` *preserves the rigid-body
+structure* (Definition 2) when the closed-loop motion of the main body is that of a left-invariant
+Hamiltonian :math:`H_c(m)` on :math:`T^*SO(3)`: :math:`\\dot R = R\\,\\widehat{\\nabla H_c}`,
+:math:`\\dot m = m\\times\\nabla H_c` (eq. 27). For a map :math:`\\varphi: \\mathbb R^3\\to\\mathbb R^N`,
+the control of Proposition 5,
+
+.. math::
+
+    u = D\\varphi(m)\\,\\dot m, \\qquad \\dot m = m\\times D_1H_f(m, \\Gamma),
+
+keeps :math:`p = \\Gamma - \\varphi(m)` constant (Lemma 4 (i)), so along the closed loop
+:math:`\\Gamma = \\varphi(m) + p` and the body's angular velocity is
+
+.. math::
+
+    F(m) = D_1H_f(m, \\varphi(m) + p) = \\Lambda^{-1}\\bigl(m - A(\\varphi(m) + p)\\bigr).
+
+**The exact existence condition.** Eq. (27a) asks :math:`\\nabla H_c = F` exactly (Lemma 4 (ii)), and
+on a star-shaped domain :math:`F` is a gradient if and only if its Jacobian
+:math:`DF = \\Lambda^{-1}(I - A\\,D\\varphi)` is symmetric, i.e. iff
+
+.. math::
+
+    \\Lambda^{-1} A\\, D\\varphi(m) \\ \\text{is symmetric for every } m
+
+(for three rotors on the principal axes: :math:`\\partial_j\\varphi_i/\\lambda_i = \\partial_i\\varphi_j/\\lambda_j`).
+The condition printed in Proposition 5, :math:`D\\varphi` symmetric, is neither necessary nor
+sufficient unless the :math:`\\lambda_i` involved are equal: :math:`\\varphi = (a m_2, a m_1, 0)` has a
+symmetric :math:`D\\varphi` and no :math:`H_c` when :math:`\\lambda_1 \\ne \\lambda_2`, while
+:math:`\\varphi = (\\lambda_1 c\\, m_2, \\lambda_2 c\\, m_1, 0)` has an :math:`H_c` and a non-symmetric
+:math:`D\\varphi`. A :math:`\\varphi` that fails the condition is rejected with the reason.
+
+Then :math:`H_c(m) = \\tfrac12 m\\cdot\\Lambda^{-1}m - (Ap)\\cdot\\Lambda^{-1}m - \\psi(m)` with
+:math:`\\nabla\\psi = \\Lambda^{-1}A\\varphi` and :math:`\\psi(0) = 0`: the constant of integration is fixed
+by integrating from 0. For one rotor on axis 3 this is eq. (29b), for the diagonal controls of
+Corollary 2 eq. (41). :math:`\\psi` is computed by sympy where it finds an antiderivative (checked by
+differentiation at random points) and by Gauss-Legendre quadrature otherwise.
+
+**One rotor, eq. (29a).** With :math:`\\varphi(m) = \\varphi(m_3)` the control is
+:math:`u = \\varphi'(m_3)\\,\\dot m_3` and Euler's equation (30c) gives
+:math:`\\dot m_3 = (1/\\lambda_2 - 1/\\lambda_1) m_1 m_2`, so
+
+.. math::
+
+    u = \\varphi'(m_3) \\Bigl(\\frac{1}{\\lambda_2} - \\frac{1}{\\lambda_1}\\Bigr) m_1 m_2 .
+
+Eq. (29a) as printed has :math:`(1/\\lambda_1 - 1/\\lambda_2)`, the opposite sign, with which
+:math:`\\Gamma - \\varphi(m_3)` is not conserved (:meth:`StructurePreservingControl.eq29a_torque`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .. import _validate as V
+from .._symbolic import M_SYMBOLS, compile_scalar, compile_vector
+from ..errors import InputError, SymbolicError
+from ._symbolic_tools import SympyTimeout, integral_from_zero, quadrature_from_zero, ray_quadrature, time_limit
+from .left_invariant import LeftInvariantSystem
+from .rotors import RotorBody
+
+__all__ = [
+    "V_SYMBOL",
+    "ClosedLoopCondition",
+    "ClosedLoopFamily",
+    "HyperregularityReport",
+    "Lemma4Check",
+    "StructurePreservingControl",
+]
+
+#: The variable of a scalar phi(v) (v = m3 for the rotor on axis 3; v = m_i for phi_i of Corollary 2).
+V_SYMBOL = sp.Symbol("v", real=True)
+
+HYPERREGULARITY_COST = (
+    "Where H_c is not hyperregular, its fibre derivative m -> omega = grad H_c(m) is not invertible, so the "
+    "Lagrangian side is lost there: the closed-loop Lagrangian, the inverse Legendre transform omega -> m "
+    "(Lemma 1, eq. 14) and the 3-1-3 Euler-angle velocities. The Hamiltonian side uses grad H_c only and is "
+    "unaffected: Euler's equation m' = m x grad H_c, the attitude equation, the Serret-Andoyer reduction "
+    "h_p = H_c o U_p with its reconstruction, and the stability analysis."
+)
+
+
+@dataclass(frozen=True)
+class ClosedLoopCondition:
+    """Whether :math:`\\Lambda^{-1}A\\,D\\varphi` is symmetric, i.e. whether a closed-loop Hamiltonian exists.
+
+    ``method`` is ``"symbolic"`` (sympy simplified the asymmetry to 0 for these parameter values),
+    ``"numeric"`` (checked at random points, to ``tolerance`` relative) or ``"structural"`` (one rotor on
+    a principal axis: a 1x1 block). ``detail`` says what was checked and, when it fails, where.
+    """
+
+    holds: bool
+    method: str
+    detail: str
+    max_asymmetry: float
+
+
+@dataclass(frozen=True)
+class HyperregularityReport:
+    """Hyperregularity of :math:`H_c` (:math:`\\varphi'(v)\\ne 1`; :math:`\\det(I - A D\\varphi)\\ne 0`).
+
+    ``status`` is ``"yes"`` (proved), ``"no"`` (a point where it fails is known: ``where``, ``points``)
+    or ``"unknown"`` (no failure found on the probed region, nothing proved). ``cost`` says what is lost
+    where it fails and what still works.
+    """
+
+    status: str
+    where: str
+    points: tuple[float, ...]
+    cost: str = HYPERREGULARITY_COST
+
+    def to_json(self) -> dict[str, Any]:
+        return {"status": self.status, "where": self.where, "points": list(self.points), "cost": self.cost}
+
+
+@dataclass(frozen=True)
+class Lemma4Check:
+    """Lemma 4 (ii), :math:`\\nabla H_c(m) = D_1H_f(m, \\Gamma(m))`, at random states.
+
+    ``gradient_route`` says how :math:`\\nabla H_c` was obtained independently of :math:`F`: by sympy
+    differentiation of the closed-form :math:`H_c`, or by 4th-order central differences of the
+    quadrature :math:`H_c`.
+    """
+
+    max_error: float
+    max_relative_error: float
+    n_points: int
+    gradient_route: str
+
+    def passed(self, rtol: float = 1e-8) -> bool:
+        return self.max_relative_error <= rtol
+
+
+def _real(expr: sp.Expr) -> sp.Expr:
+    return expr.xreplace({s: sp.Symbol(str(s), real=True) for s in expr.free_symbols})
+
+
+def _parse(expressions: Sequence[Any], variables: Sequence[str], argname: str, reserved: set[str]) -> list[sp.Expr]:
+    out = []
+    for k, e in enumerate(expressions):
+        name = argname if len(expressions) == 1 else f"{argname}[{k}]"
+        if isinstance(e, str):
+            try:
+                e = sp.sympify(e)
+            except (sp.SympifyError, SyntaxError, TypeError, AttributeError, ValueError, NameError) as exc:
+                raise SymbolicError(f"Could not parse `{name}` {e!r}: {exc}.") from exc
+        if isinstance(e, (int, float)):
+            e = sp.Float(e) if isinstance(e, float) else sp.Integer(e)
+        if not isinstance(e, sp.Basic):
+            raise SymbolicError(f"Expected `{name}` to be a sympy expression or a string, got {type(e).__name__}.")
+        e = _real(sp.sympify(e))
+        if e.has(sp.I) or e.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+            raise SymbolicError(f"`{name}` must be a finite real expression, got {e}.")
+        names = {str(s) for s in e.free_symbols}
+        wrong_vars = sorted(names & ({"v", "m1", "m2", "m3"} - set(variables)))
+        if wrong_vars:
+            want = "v alone (v = m3 for the rotor on axis 3, v = m_i for phi_i)" if variables == ("v",) else \
+                "the body momentum m1, m2, m3"
+            raise SymbolicError(f"Expected `{name}` to be a function of {want}, got {e}, which involves "
+                                f"{wrong_vars}.")
+        clash = sorted(names & reserved)
+        if clash:
+            raise SymbolicError(f"`{name}` uses {clash}, which name the model's own parameters {sorted(reserved)}; "
+                                "rename them.")
+        out.append(e)
+    return out
+
+
+class StructurePreservingControl:
+    """A structure-preserving feedback :math:`u = D\\varphi(m)\\,\\dot m` for a :class:`RotorBody`.
+
+    Build it with :meth:`one_rotor` (eq. 29a), :meth:`three_rotors` (Proposition 5), :meth:`diagonal`
+    (Corollary 2) or :meth:`general` (any rotor layout, same construction). Construction checks the
+    exact existence condition of a closed-loop Hamiltonian and raises :class:`~geomech.errors.InputError`
+    with the reason when it fails.
+
+    Attributes
+    ----------
+    body : the :class:`RotorBody`.
+    kind : ``"one-rotor"``, ``"three-rotors"``, ``"diagonal"`` or ``"general"``.
+    phi_expression : sympy Matrix (N x 1) in ``m1, m2, m3`` and the parameters, or None for a callable phi.
+    parameters : the values of every parameter symbol: the model's (``lambda1, lambda2, I3, p`` for one
+        rotor, ``lambda1..3, p1..3`` for three, ``p1..pN`` otherwise) and phi's.
+    condition : the :class:`ClosedLoopCondition` that was verified.
+    hamiltonian_expression : :math:`H_c` as sympy (with an unevaluated ``Integral`` where sympy found no
+        antiderivative; then :attr:`hamiltonian_is_closed_form` is False and quadrature is used).
+    """
+
+    def __init__(self, body: RotorBody, kind: str, *, phi_exprs: list[sp.Expr] | None, variables: str,
+                 phi_params: Mapping[str, float], phi_callables: tuple[Any, ...] | None, p: Any,
+                 probe_radius: float, integrate_timeout: float | None):
+        if not isinstance(body, RotorBody):
+            raise InputError(f"Expected `body` to be a RotorBody, got {type(body).__name__}.")
+        self.body = body
+        self.kind = kind
+        n = body.n_rotors
+        self.n_rotors = n
+        self.probe_radius = V.positive_scalar(probe_radius, "probe_radius")
+        self._integrate_timeout = integrate_timeout
+        p_arr = V.finite(p, "p")
+        p_arr = np.broadcast_to(p_arr, (n,)).astype(float) if p_arr.ndim == 0 else p_arr
+        if p_arr.shape != (n,):
+            raise InputError(f"Expected `p` to have one entry per rotor ({n}), got shape {p_arr.shape}.")
+        lam_syms, _ = body.symbols()
+        self._lam_syms = None if lam_syms is None else tuple(sp.Symbol(str(s), real=True) for s in lam_syms)
+        self._p_syms = (sp.Symbol("p", real=True),) if n == 1 else sp.symbols(f"p1:{n + 1}", real=True)
+        model = {str(s): float(v) for s, v in zip(self._p_syms, p_arr)}
+        if self._lam_syms is not None:
+            model.update({str(s): float(v) for s, v in zip(self._lam_syms, np.diag(body.inertia))})
+        self._separable = variables == "v"
+        self._A_sym = (sp.Matrix(np.rint(body.A).astype(int).tolist()) if body.is_principal
+                       else sp.Matrix(body.A.tolist()))
+        self._lam_inv_sym = (sp.diag(*[1 / s for s in self._lam_syms]) if self._lam_syms is not None
+                             else sp.Matrix(np.linalg.inv(body.inertia).tolist()))
+        self.parameters: dict[str, float] = {**model, **{k: float(v) for k, v in phi_params.items()}}
+        self._names = tuple(sorted(self.parameters))
+        self._lam_idx = (None if self._lam_syms is None
+                         else np.array([self._names.index(str(x)) for x in self._lam_syms]))
+        self._p_idx = np.array([self._names.index(str(x)) for x in self._p_syms])
+        self._model_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._psyms = tuple(sp.Symbol(k, real=True) for k in self._names)
+        if phi_exprs is not None:
+            v_of_m = [sum(int(c) * s if body.is_principal else float(c) * s for c, s in zip(a, M_SYMBOLS))
+                      for a in (np.rint(body.axes) if body.is_principal else body.axes)]
+            comps = [e.xreplace({V_SYMBOL: v_of_m[i]}) for i, e in enumerate(phi_exprs)] if self._separable \
+                else phi_exprs
+            self.phi_expression: sp.Matrix | None = sp.Matrix(comps)
+            self._phi_1d_exprs = phi_exprs if self._separable else None
+            variables_all = [*M_SYMBOLS, *self._psyms]
+            jac = self.phi_expression.jacobian(sp.Matrix(M_SYMBOLS))
+            phi_f = compile_vector(list(self.phi_expression), variables_all)
+            jac_f = compile_vector(jac.tolist(), variables_all)
+            self._phi = lambda m, th: phi_f(self._cat(m, th))
+            self._dphi = lambda m, th: jac_f(self._cat(m, th))
+            if self._separable:
+                fs = [compile_vector([e], [V_SYMBOL, *self._psyms]) for e in phi_exprs]
+                self._phi_1d = [lambda x, th, f=f: f(np.concatenate(
+                    [np.asarray(x, float)[..., None], np.broadcast_to(th, np.shape(x) + th.shape)], -1))[..., 0]
+                    for f in fs]
+        else:
+            self.phi_expression = None
+            self._phi_1d_exprs = None
+            self._phi, self._dphi, self._phi_1d = self._wrap_callables(phi_callables)
+            self._check_derivative()
+        self.condition = self._check_condition()
+        if not self.condition.holds:
+            raise InputError(
+                f"This phi has no closed-loop Hamiltonian: {self.condition.detail} A control u = Dphi(m) m' "
+                "preserves the rigid-body structure (Definition 2, eq. 27) only if the closed-loop angular "
+                "velocity F(m) = Lambda^-1 (m - A (phi(m) + p)) is a gradient, i.e. only if Lambda^-1 A Dphi(m) "
+                "is symmetric (the symmetry of Dphi printed in Proposition 5 is not the condition unless the "
+                "lambda_i involved are equal). Fix: take phi = A^+ Lambda grad(psi) for a potential psi, e.g. "
+                "diagonal phi_i(m_i) (Corollary 2)."
+            )
+        self._build_hamiltonian()
+
+    # -- constructors -----------------------------------------------------------------------------
+    @classmethod
+    def one_rotor(cls, body: RotorBody, phi: Any, *, p: float = 0.0, parameters: Mapping[str, float] | None = None,
+                  dphi: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
+                  integrate_timeout: float | None = 10.0) -> StructurePreservingControl:
+        """The control of eq. (29a) for one rotor: :math:`u = \\varphi'(v)\\,\\dot v`, :math:`v = a\\cdot m`
+        (:math:`m_3` for the seed's rotor on axis 3), which keeps :math:`p = \\Gamma - \\varphi(v)` constant.
+
+        Parameters
+        ----------
+        body : a :class:`RotorBody` with one rotor (:meth:`RotorBody.one_rotor`).
+        phi : a sympy expression or string in ``v`` (other symbols are parameters), or a vectorised
+            callable ``phi(v)``, then with ``dphi`` its derivative.
+        p : the conserved :math:`p = \\Gamma - \\varphi(m_3)`.
+        parameters : values of the parameters of ``phi``.
+        probe_radius : radius of the ball of momenta where numeric checks sample (use about |m|).
+        integrate_timeout : seconds allowed to sympy's integration before falling back to quadrature.
+        """
+        if body.n_rotors != 1:
+            raise InputError(f"Expected a body with one rotor for `one_rotor`, got {body.n_rotors}; use "
+                             "`three_rotors`, `diagonal` or `general`.")
+        return cls._build(body, "one-rotor", [phi], "v", parameters, None if dphi is None else [dphi], p,
+                          probe_radius, integrate_timeout, "dphi")
+
+    @classmethod
+    def diagonal(cls, body: RotorBody, phis: Sequence[Any], *, p: Any = 0.0,
+                 parameters: Mapping[str, float] | None = None, derivatives: Sequence[Any] | None = None,
+                 probe_radius: float = 1.0, integrate_timeout: float | None = 10.0) -> StructurePreservingControl:
+        """Corollary 2: :math:`u_i = \\varphi_i'(v_i)\\,\\dot v_i`, :math:`v_i = a_i\\cdot m` (:math:`m_i` for
+        rotors on the principal axes); ``phis`` are expressions in ``v`` or callables with ``derivatives``."""
+        phis = list(phis)
+        if len(phis) != body.n_rotors:
+            raise InputError(f"Expected one phi_i per rotor ({body.n_rotors}), got {len(phis)}.")
+        return cls._build(body, "diagonal", phis, "v", parameters, derivatives, p, probe_radius,
+                          integrate_timeout, "derivatives")
+
+    @classmethod
+    def three_rotors(cls, body: RotorBody, phi: Any, *, p: Any = 0.0, parameters: Mapping[str, float] | None = None,
+                     jacobian: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
+                     integrate_timeout: float | None = 10.0) -> StructurePreservingControl:
+        """Proposition 5 for three rotors on the principal axes: :math:`u = D\\varphi(m)\\,\\dot m`.
+
+        ``phi`` is three expressions in ``m1, m2, m3`` (with parameters), or a callable
+        ``phi(m) -> (..., 3)`` with ``jacobian(m) -> (..., 3, 3)``.
+        """
+        if body.n_rotors != 3:
+            raise InputError(f"Expected a body with three rotors for `three_rotors`, got {body.n_rotors}.")
+        return cls.general(body, phi, p=p, parameters=parameters, jacobian=jacobian, probe_radius=probe_radius,
+                           integrate_timeout=integrate_timeout, _kind="three-rotors")
+
+    @classmethod
+    def general(cls, body: RotorBody, phi: Any, *, p: Any = 0.0, parameters: Mapping[str, float] | None = None,
+                jacobian: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
+                integrate_timeout: float | None = 10.0, _kind: str = "general") -> StructurePreservingControl:
+        """:math:`u = D\\varphi(m)\\,\\dot m` for any rotor layout, :math:`\\varphi: \\mathbb R^3 \\to \\mathbb R^N`
+        (N expressions in ``m1, m2, m3``, or a callable with ``jacobian(m) -> (..., N, 3)``)."""
+        if callable(phi) and not isinstance(phi, (str, sp.Basic)):
+            return cls._build(body, _kind, [phi], "m", parameters, None if jacobian is None else [jacobian], p,
+                              probe_radius, integrate_timeout, "jacobian")
+        if isinstance(phi, (str, sp.Basic)) and not isinstance(phi, sp.MatrixBase):
+            phi = [phi]
+        phi = list(phi)
+        if len(phi) != body.n_rotors:
+            raise InputError(f"Expected `phi` to have one component per rotor ({body.n_rotors}), got {len(phi)}.")
+        return cls._build(body, _kind, phi, "m", parameters, None, p, probe_radius, integrate_timeout, "jacobian")
+
+    @classmethod
+    def _build(cls, body, kind, phis, variables, parameters, derivs, p, probe_radius, timeout, dname):
+        if all(callable(f) and not isinstance(f, (str, sp.Basic)) for f in phis):
+            if derivs is None or len(list(derivs)) != len(phis) or not all(callable(d) for d in derivs):
+                raise InputError(f"A callable phi needs its derivative: pass `{dname}` "
+                                 f"({'phi_i' if variables == 'v' else 'Dphi'} as callables).")
+            if parameters:
+                raise InputError("`parameters` applies to a symbolic phi; a callable carries its own.")
+            return cls(body, kind, phi_exprs=None, variables=variables, phi_params={},
+                       phi_callables=(tuple(phis), tuple(derivs)), p=p, probe_radius=probe_radius,
+                       integrate_timeout=timeout)
+        if any(callable(f) and not isinstance(f, (str, sp.Basic)) for f in phis):
+            raise InputError("Expected every phi component to be symbolic, or every one a callable, not a mix.")
+        n = body.n_rotors
+        lam_syms, _ = body.symbols()
+        reserved = {"p"} if n == 1 else {f"p{i + 1}" for i in range(n)}
+        reserved |= set() if lam_syms is None else {str(s) for s in lam_syms}
+        names_ok = ("v",) if variables == "v" else ("m1", "m2", "m3")
+        exprs = _parse(phis, names_ok, "phi", reserved)
+        given = {str(k): v for k, v in dict(parameters or {}).items()}
+        used = sorted({str(s) for e in exprs for s in e.free_symbols} - set(names_ok))
+        missing = sorted(set(used) - set(given))
+        if missing:
+            raise SymbolicError(
+                f"`phi` has symbols {missing} that are neither its variable(s) {list(names_ok)} nor given in "
+                f"`parameters`; pass parameters={{{', '.join(repr(x) + ': ...' for x in missing)}}}."
+            )
+        unused = sorted(set(given) - set(used))
+        if unused:
+            raise SymbolicError(f"`parameters` names {unused}, which do not appear in `phi`.")
+        values = {}
+        for k in used:
+            try:
+                values[k] = float(given[k])
+            except (TypeError, ValueError) as exc:
+                raise SymbolicError(f"Expected parameter `{k}` to be a number, got {given[k]!r}.") from exc
+            if not np.isfinite(values[k]):
+                raise SymbolicError(f"Expected parameter `{k}` to be finite, got {values[k]}.")
+        return cls(body, kind, phi_exprs=exprs, variables=variables, phi_params=values, phi_callables=None, p=p,
+                   probe_radius=probe_radius, integrate_timeout=timeout)
+
+    @property
+    def phi_of_v(self) -> tuple[sp.Expr, ...] | None:
+        """The scalar :math:`\\varphi_i(v)` as given, for one rotor and Corollary 2 (None for a callable or a
+        general :math:`\\varphi(m)`)."""
+        return None if self._phi_1d_exprs is None else tuple(self._phi_1d_exprs)
+
+    # -- numeric plumbing -------------------------------------------------------------------------------
+    def _cat(self, m: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        m = np.asarray(m, dtype=float)
+        return np.concatenate([m, np.broadcast_to(theta, m.shape[:-1] + theta.shape)], -1)
+
+    def _wrap_callables(self, callables):
+        phis, derivs = callables
+        axes = self.body.axes
+        if self._separable:
+            def phi(m, th):
+                v = np.asarray(m, float) @ axes.T
+                return np.stack([np.asarray(f(v[..., i]), float) for i, f in enumerate(phis)], -1)
+
+            def dphi(m, th):
+                v = np.asarray(m, float) @ axes.T
+                d = np.stack([np.asarray(f(v[..., i]), float) for i, f in enumerate(derivs)], -1)
+                return d[..., :, None] * axes
+
+            phi_1d = [lambda x, th, f=f: np.asarray(f(x), float) for f in phis]
+            return phi, dphi, phi_1d
+        f, jac = phis[0], derivs[0]
+        n = self.n_rotors
+
+        def phi(m, th):
+            out = np.asarray(f(np.asarray(m, float)), float)
+            if out.shape != np.shape(m)[:-1] + (n,):
+                raise InputError(f"Expected `phi` to return shape (..., {n}), got {out.shape} for m of shape "
+                                 f"{np.shape(m)}.")
+            return out
+
+        def dphi(m, th):
+            out = np.asarray(jac(np.asarray(m, float)), float)
+            if out.shape != np.shape(m)[:-1] + (n, 3):
+                raise InputError(f"Expected `jacobian` to return shape (..., {n}, 3), got {out.shape}.")
+            return out
+
+        return phi, dphi, None
+
+    def _check_derivative(self) -> None:
+        """A callable phi comes with its derivative: check it against central differences of phi."""
+        m = self._sample(16, seed=13)
+        th = self.theta()
+        h = 1e-6 * self.probe_radius
+        with np.errstate(all="ignore"):
+            D = self._dphi(m, th)
+            fd = np.stack([(self._phi(m + h * e, th) - self._phi(m - h * e, th)) / (2 * h) for e in np.eye(3)], -1)
+        ok = np.all(np.isfinite(D), axis=(-1, -2)) & np.all(np.isfinite(fd), axis=(-1, -2))
+        if not np.any(ok):
+            raise InputError(f"phi or its derivative is not finite at any of 16 momenta with |m| <= "
+                             f"{self.probe_radius:g}; set `probe_radius` to the size of the momenta of interest.")
+        err = np.abs(D[ok] - fd[ok]).max() / max(1.0, np.abs(fd[ok]).max())
+        if err > 1e-5:
+            k = int(np.argmax(np.abs(D - fd).max(axis=(-1, -2)) * ok))
+            raise InputError(f"The derivative passed with phi does not match it: relative difference {err:.3g} "
+                             f"from central differences at m = {np.round(m[k], 6).tolist()}; pass the derivative "
+                             "of this phi.")
+
+    def theta(self, values: Mapping[str, float] | None = None) -> np.ndarray:
+        """The parameter vector (sorted by name), with ``values`` overriding the control's own."""
+        vals = dict(self.parameters)
+        for k, v in dict(values or {}).items():
+            if k not in vals:
+                raise InputError(f"Unknown parameter {k!r}; this control's parameters are {list(self._names)}.")
+            vals[k] = float(V.finite(v, k))
+        return np.array([vals[k] for k in self._names], dtype=float)
+
+    def _model(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`\\Lambda^{-1}` and :math:`p` for the parameter vector ``theta``."""
+        key = theta.tobytes()
+        cached = self._model_cache.get(key)
+        if cached is not None:
+            return cached
+        if self._lam_idx is not None:
+            lam = theta[self._lam_idx]
+            if np.any(lam <= 0):
+                raise InputError(f"Expected the inertias {[str(s) for s in self._lam_syms]} to be positive, got "
+                                 f"{lam.tolist()}.")
+            lam_inv = np.diag(1.0 / lam)
+        else:
+            lam_inv = np.linalg.inv(self.body.inertia)
+        out = (lam_inv, theta[self._p_idx])
+        if len(self._model_cache) > 64:
+            self._model_cache.clear()
+        self._model_cache[key] = out
+        return out
+
+    def _sample(self, n: int, seed: int = 7) -> np.ndarray:
+        rng = np.random.default_rng(seed)
+        x = rng.normal(size=(n, 3))
+        r = self.probe_radius * rng.uniform(0.05, 1.0, size=(n, 1)) ** (1 / 3)
+        return r * x / np.linalg.norm(x, axis=1, keepdims=True)
+
+    # -- the existence condition --------------------------------------------------------------------
+    def _asymmetry(self, m: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        lam_inv, _ = self._model(theta)
+        with np.errstate(all="ignore"):
+            M = lam_inv @ self.body.A @ self._dphi(m, theta)
+        scale = np.maximum(np.abs(M).max(axis=(-1, -2)), np.abs(lam_inv).max())
+        rel = np.abs(M - np.swapaxes(M, -1, -2)).max(axis=(-1, -2)) / scale
+        return np.where(np.isfinite(rel), rel, 0.0)
+
+    def _check_condition(self, theta: np.ndarray | None = None) -> ClosedLoopCondition:
+        theta = self.theta() if theta is None else theta
+        if self.n_rotors == 1 and self._separable:
+            # One scalar phi(a.m): Lambda^-1 A Dphi = phi' (Lambda^-1 a) a^T, symmetric iff a is a principal axis.
+            a = self.body.axes[0]
+            w = self._model(theta)[0] @ a
+            if np.linalg.norm(np.cross(w, a)) <= 1e-12 * np.linalg.norm(w):
+                return ClosedLoopCondition(True, "structural", "Lambda^-1 A Dphi = phi'(v) (Lambda^-1 a) a^T is "
+                                           "symmetric: the rotor axis a is a principal axis of Lambda.", 0.0)
+        pts = self._sample(64)
+        asym = self._asymmetry(pts, theta)
+        worst = float(asym.max())
+        tol = 1e-9
+        if self.phi_expression is not None:
+            M = self._lam_inv_sym * self._A_sym * self.phi_expression.jacobian(sp.Matrix(M_SYMBOLS))
+            # Exact rationals (the binary values of the floats), so that an asymmetry that cancels for these
+            # values simplifies to exactly 0 rather than to a round-off residue.
+            subs = {s: sp.Rational(float(x)) for s, x in zip(self._psyms, theta)}
+            entries = []
+            for i in range(3):
+                for j in range(i + 1, 3):
+                    d = M[i, j] - M[j, i]
+                    try:
+                        with time_limit(self._integrate_timeout):
+                            zero = sp.simplify(d.subs(subs)) == 0
+                    except SympyTimeout:
+                        zero = False
+                    entries.append((i, j, d, zero))
+            if all(z for *_, z in entries):
+                return ClosedLoopCondition(True, "symbolic", "Lambda^-1 A Dphi is symmetric (sympy, for these "
+                                           "parameter values).", worst)
+            if worst <= tol:
+                return ClosedLoopCondition(True, "numeric", f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random "
+                                           "momenta (sympy could not simplify the asymmetry to 0).", worst)
+            k = int(np.argmax(asym))
+            bad = [f"({i + 1},{j + 1}): {sp.simplify(d)}" for i, j, d, z in entries if not z]
+            return ClosedLoopCondition(False, "numeric",
+                                       f"Lambda^-1 A Dphi is not symmetric; asymmetry M_ij - M_ji at {', '.join(bad)}, "
+                                       f"e.g. relative asymmetry {worst:.3g} at m = {np.round(pts[k], 6).tolist()}.",
+                                       worst)
+        if worst <= tol:
+            return ClosedLoopCondition(True, "numeric", f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random momenta "
+                                       f"with |m| <= {self.probe_radius:g}.", worst)
+        k = int(np.argmax(asym))
+        return ClosedLoopCondition(False, "numeric", f"Lambda^-1 A Dphi is not symmetric: relative asymmetry "
+                                   f"{worst:.3g} at m = {np.round(pts[k], 6).tolist()}.", worst)
+
+    # -- the closed-loop Hamiltonian (eqs. 29b, 41) --------------------------------------------------------
+    def _build_hamiltonian(self) -> None:
+        m = sp.Matrix(M_SYMBOLS)
+        p = sp.Matrix(self._p_syms)
+        quad = (m.T * self._lam_inv_sym * m)[0, 0] / 2 - ((self._A_sym * p).T * self._lam_inv_sym * m)[0, 0]
+        psi = None
+        if self.phi_expression is not None:
+            psi = self._symbolic_potential()
+        self.potential_expression: sp.Expr | None = psi
+        self.hamiltonian_is_closed_form = psi is not None
+        if psi is not None:
+            self.hamiltonian_expression = quad - psi
+        else:
+            self.hamiltonian_expression = quad - self._potential_integral()
+        self._psi_f = None if psi is None else compile_scalar(psi, [*M_SYMBOLS, *self._psyms])
+
+    def _potential_integral(self) -> sp.Expr:
+        """:math:`\\psi` as an unevaluated integral, for display when sympy has no antiderivative."""
+        s = sp.Dummy("s", real=True)
+        if self._separable and self.body.is_principal:
+            terms = []
+            for i, a in enumerate(np.rint(self.body.axes).astype(int)):
+                j = int(np.argmax(np.abs(a)))
+                coeff = (sp.Matrix(a.tolist()).T * self._lam_inv_sym * sp.Matrix(a.tolist()))[0, 0]
+                f = self._phi_1d_exprs[i] if self._phi_1d_exprs is not None else sp.Function(f"phi{i + 1}")(V_SYMBOL)
+                terms.append(coeff * sp.Integral(f.xreplace({V_SYMBOL: s}), (s, 0, int(a[j]) * M_SYMBOLS[j])))
+            return sp.Add(*terms)
+        t = sp.Dummy("t", real=True)
+        g = self._lam_inv_sym * self._A_sym * (self.phi_expression if self.phi_expression is not None
+                                                else sp.Matrix([sp.Function(f"phi{i + 1}")(*M_SYMBOLS)
+                                                                for i in range(self.n_rotors)]))
+        gm = g.xreplace({x: t * x for x in M_SYMBOLS})
+        return sp.Integral((gm.T * sp.Matrix(M_SYMBOLS))[0, 0], (t, 0, 1))
+
+    def _symbolic_potential(self) -> sp.Expr | None:
+        g = self._lam_inv_sym * self._A_sym * self.phi_expression
+        m1, m2, m3 = M_SYMBOLS
+        # The path 0 -> (m1,0,0) -> (m1,m2,0) -> m: three one-dimensional integrals, each easier for sympy
+        # than the ray integral, and exact for a curl-free g.
+        pieces = [(g[0].xreplace({m2: 0, m3: 0}), m1), (g[1].xreplace({m3: 0}), m2), (g[2], m3)]
+        psi = sp.Integer(0)
+        for integrand, var in pieces:
+            if integrand == 0:
+                continue
+            val = integral_from_zero(integrand, var, var, self._integrate_timeout)
+            if val is None:
+                return None
+            psi += val
+        if not self._verify_potential(psi, g):
+            return None
+        return psi
+
+    def _verify_potential(self, psi: sp.Expr, g: sp.Matrix) -> bool:
+        variables = [*M_SYMBOLS, *self._psyms]
+        try:
+            grad = compile_vector([sp.diff(psi, s) for s in M_SYMBOLS], variables)
+            gf = compile_vector(list(g), variables)
+            val = compile_scalar(psi, variables)
+        except Exception:  # noqa: BLE001 - lambdify cannot print some special functions; quadrature then
+            return False
+        x = self._cat(self._sample(12, seed=11), self.theta())
+        with np.errstate(all="ignore"):
+            a, b, v0 = grad(x), gf(x), val(self._cat(np.zeros((1, 3)), self.theta()))
+        ok = np.all(np.isfinite(b), axis=-1)
+        if not np.any(ok) or not np.all(np.isfinite(a[ok])) or not np.all(np.isfinite(v0)):
+            return False
+        return bool(np.abs(a[ok] - b[ok]).max() <= 1e-9 * max(1.0, np.abs(b[ok]).max()) and abs(v0[0]) < 1e-12)
+
+    def potential(self, m: Any, theta: np.ndarray | None = None) -> np.ndarray:
+        """:math:`\\psi(m)` with :math:`\\nabla\\psi = \\Lambda^{-1}A\\varphi(m)`, :math:`\\psi(0) = 0`."""
+        theta = self.theta() if theta is None else theta
+        m = V.trailing_shape(m, "m", (3,))
+        if self._psi_f is not None:
+            return self._psi_f(self._cat(m, theta))
+        lam_inv, _ = self._model(theta)
+        if self._separable and self.body.is_principal:
+            total = np.zeros(m.shape[:-1])
+            for i, a in enumerate(self.body.axes):
+                coeff = a @ lam_inv @ a
+                total = total + coeff * quadrature_from_zero(lambda x, i=i: self._phi_1d[i](x, theta), m @ a,
+                                                             what=f"the integral of phi_{i + 1} from 0")
+            return total
+        A = self.body.A
+        return ray_quadrature(lambda x: self._phi(x, theta) @ (lam_inv @ A).T, m,
+                              what="the closed-loop potential along the ray from 0")
+
+    # -- numeric closed loop ---------------------------------------------------------------------------
+    def phi(self, m: Any, values: Mapping[str, float] | None = None) -> np.ndarray:
+        """:math:`\\varphi(m)`, shape ``(..., N)`` (``values`` overrides parameters)."""
+        return self._phi(V.trailing_shape(m, "m", (3,)), self.theta(values))
+
+    def phi_jacobian(self, m: Any, values: Mapping[str, float] | None = None) -> np.ndarray:
+        """:math:`D\\varphi(m)`, shape ``(..., N, 3)`` (``values`` overrides parameters)."""
+        return self._dphi(V.trailing_shape(m, "m", (3,)), self.theta(values))
+
+    def conserved_p(self, m: Any, Gamma: Any) -> np.ndarray:
+        """:math:`p = \\Gamma - \\varphi(m)`, constant along the controlled motion."""
+        Gamma = V.trailing_shape(Gamma, "Gamma", (self.n_rotors,))
+        return Gamma - self.phi(m)
+
+    def rotor_momentum(self, m: Any) -> np.ndarray:
+        """:math:`\\Gamma(m) = \\varphi(m) + p` on the closed loop (use it as the initial rotor momentum)."""
+        _, p = self._model(self.theta())
+        return self.phi(m) + p
+
+    def feedback(self, m: Any, Gamma: Any) -> np.ndarray:
+        """The torque :math:`u = D\\varphi(m)\\,(m \\times D_1H_f(m, \\Gamma))` from the measured state."""
+        m = V.trailing_shape(m, "m", (3,))
+        mdot = np.cross(m, self.body.angular_velocity(m, Gamma))
+        return np.einsum("...ij,...j->...i", self.phi_jacobian(m), mdot)
+
+    def eq29a_torque(self, m: Any, *, as_printed: bool = False) -> np.ndarray:
+        """Eq. (29a) written out for the rotor on axis 3: :math:`u = \\varphi'(m_3)(1/\\lambda_2 - 1/\\lambda_1)
+        m_1 m_2`; with ``as_printed=True`` the printed sign :math:`(1/\\lambda_1 - 1/\\lambda_2)`, which does
+        not keep :math:`\\Gamma - \\varphi(m_3)` constant given eq. (30c). Shape ``(..., 1)``."""
+        if self.kind != "one-rotor" or not self.body.is_principal or abs(self.body.axes[0, 2]) != 1.0:
+            raise InputError("eq29a_torque is the seed's formula for one rotor on body axis 3.")
+        m = V.trailing_shape(m, "m", (3,))
+        lam1, lam2 = self.parameters["lambda1"], self.parameters["lambda2"]
+        sign = -1.0 if as_printed else 1.0
+        dphi = self.phi_jacobian(m)[..., 0, 2] * self.body.axes[0, 2]
+        return (sign * dphi * (1 / lam2 - 1 / lam1) * m[..., 0] * m[..., 1])[..., None]
+
+    def closed_loop_gradient(self, m: Any, theta: np.ndarray | None = None) -> np.ndarray:
+        """:math:`F(m) = D_1H_f(m, \\varphi(m) + p) = \\Lambda^{-1}(m - A(\\varphi(m) + p))` (eq. 28)."""
+        theta = self.theta() if theta is None else theta
+        m = V.trailing_shape(m, "m", (3,))
+        lam_inv, p = self._model(theta)
+        return (m - (self._phi(m, theta) + p) @ self.body.axes) @ lam_inv.T
+
+    def closed_loop_hessian(self, m: Any, theta: np.ndarray | None = None) -> np.ndarray:
+        """:math:`DF(m) = \\Lambda^{-1}(I - A\\,D\\varphi(m))`, symmetric when :attr:`condition` holds."""
+        theta = self.theta() if theta is None else theta
+        m = V.trailing_shape(m, "m", (3,))
+        lam_inv, _ = self._model(theta)
+        H = lam_inv @ (np.eye(3) - self.body.A @ self._dphi(m, theta))
+        return 0.5 * (H + np.swapaxes(H, -1, -2))
+
+    def closed_loop_hamiltonian(self, m: Any, theta: np.ndarray | None = None) -> np.ndarray:
+        """:math:`H_c(m)` (eqs. 29b, 41), :math:`H_c(0) = 0`."""
+        theta = self.theta() if theta is None else theta
+        m = V.trailing_shape(m, "m", (3,))
+        lam_inv, p = self._model(theta)
+        lin = lam_inv @ (self.body.A @ p)
+        return 0.5 * np.einsum("...i,ij,...j->...", m, lam_inv, m) - m @ lin - self.potential(m, theta)
+
+    def closed_loop(self) -> LeftInvariantSystem:
+        """The closed loop as a :class:`LeftInvariantSystem` with Hamiltonian :math:`H_c`.
+
+        From the formula when :math:`H_c` has one (every symbolic feature of the rigid-body core applies:
+        ``GeneralizedSerretAndoyer(...).reduced_expression()`` is :math:`h_p = H_c\\circ U_p`); otherwise
+        from callables: :math:`H_c` by quadrature, its gradient :math:`F` and Hessian :math:`DF` exact.
+        """
+        if self.hamiltonian_is_closed_form:
+            expr = self.hamiltonian_expression
+            names = {str(s) for s in expr.free_symbols} - {str(s) for s in M_SYMBOLS}
+            params = {k: v for k, v in self.parameters.items() if k in names}
+            return LeftInvariantSystem.from_expression(expr, params, name="closed loop H_c")
+        return self.family()()
+
+    def family(self) -> ClosedLoopFamily:
+        """The closed loop as a function of the parameters (for sweeps: nothing symbolic per call)."""
+        return ClosedLoopFamily(self)
+
+    # -- checks --------------------------------------------------------------------------------------------
+    def lemma4_check(self, n: int = 32, seed: int = 3) -> Lemma4Check:
+        """Check Lemma 4 (ii), :math:`\\nabla H_c(m) = D_1H_f(m, \\Gamma(m))`, at ``n`` random momenta.
+
+        :math:`D_1H_f` comes from the body's free Hamiltonian (eq. 24 / 37) at :math:`\\Gamma = \\varphi(m)+p`;
+        :math:`\\nabla H_c` from sympy's derivative of the closed-form :math:`H_c` or, for a quadrature
+        :math:`H_c`, from 4th-order central differences of it.
+        """
+        m = self._sample(int(n), seed=seed)
+        with np.errstate(all="ignore"):
+            ok = np.all(np.isfinite(self.phi(m)), axis=-1)
+        m = m[ok]
+        d1 = self.body.angular_velocity(m, self.rotor_momentum(m))
+        if self.hamiltonian_is_closed_form:
+            variables = [*M_SYMBOLS, *self._psyms]
+            grad = compile_vector([sp.diff(self.hamiltonian_expression, s) for s in M_SYMBOLS], variables)
+            g = grad(self._cat(m, self.theta()))
+            route = "sympy derivative of the closed-form H_c"
+        else:
+            h = 1e-3 * max(self.probe_radius, 1e-3)
+            cols = []
+            for j in range(3):
+                e = np.zeros(3)
+                e[j] = h
+                H = [self.closed_loop_hamiltonian(m + c * e) for c in (-2, -1, 1, 2)]
+                cols.append((H[0] - 8 * H[1] + 8 * H[2] - H[3]) / (12 * h))
+            g = np.stack(cols, -1)
+            route = "4th-order central differences of the quadrature H_c"
+        err = np.abs(g - d1).max(axis=-1)
+        rel = err / np.maximum(np.abs(d1).max(axis=-1), 1e-300)
+        return Lemma4Check(float(err.max()), float(rel.max()), int(m.shape[0]), route)
+
+    def hyperregularity(self, *, scan_radius: float | None = None) -> HyperregularityReport:
+        """Whether :math:`H_c` is hyperregular: :math:`\\varphi'(v) \\ne 1` (one rotor, Theorem 4),
+        :math:`\\varphi_i'(v)\\ne 1` (Corollary 2), :math:`\\det(I - A D\\varphi(m))\\ne 0` in general.
+
+        A symbolic scalar condition is solved by sympy over the reals; otherwise the condition is scanned
+        numerically on :math:`|m| \\le` ``scan_radius`` (default 3 x :attr:`probe_radius`), which can show
+        failure but not prove success. The Hamiltonian side is never refused on this account.
+        """
+        from ._hyperregularity import hyperregularity_report
+
+        R = 3.0 * self.probe_radius if scan_radius is None else V.positive_scalar(scan_radius, "scan_radius")
+        return hyperregularity_report(self, R)
+
+    def reduced_expression(self, axis: int = 2) -> sp.Expr:
+        """:math:`h_p(l, L) = H_c(U_p(l, L))` (Theorems 4 and 6) from the generic Serret-Andoyer machinery."""
+        from ..reduction import GeneralizedSerretAndoyer
+
+        if not self.hamiltonian_is_closed_form:
+            raise SymbolicError("The symbolic reduced Hamiltonian needs a closed-form H_c; sympy found no "
+                                "antiderivative of phi, so H_c is computed by quadrature. Use "
+                                "GeneralizedSerretAndoyer(control.closed_loop()).reduced_system(G) numerically.")
+        return GeneralizedSerretAndoyer(self.closed_loop()).reduced_expression(axis)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "body": self.body.to_json(),
+            "phi": None if self.phi_expression is None else [str(e) for e in self.phi_expression],
+            "parameters": dict(self.parameters),
+            "closed_loop_hamiltonian": str(self.hamiltonian_expression),
+            "closed_loop_hamiltonian_closed_form": self.hamiltonian_is_closed_form,
+            "condition": {"holds": self.condition.holds, "method": self.condition.method,
+                          "detail": self.condition.detail},
+        }
+
+    def __repr__(self) -> str:
+        phi = "callable" if self.phi_expression is None else [str(e) for e in self.phi_expression]
+        return f"StructurePreservingControl({self.kind}, phi={phi}, parameters={self.parameters})"
+
+
+class ClosedLoopFamily:
+    """The closed loop :math:`H_c` as a function of the control's parameters.
+
+    ``family(k=0.6, lambda2=2.1)`` returns a :class:`LeftInvariantSystem` built from compiled callables
+    (:math:`H_c`, the exact gradient :math:`F` and Hessian :math:`DF`); the existence condition is
+    re-checked numerically for the new values, since it can depend on them.
+    """
+
+    def __init__(self, control: StructurePreservingControl):
+        self.control = control
+        self.names = control._names
+
+    def __call__(self, **values: float) -> LeftInvariantSystem:
+        c = self.control
+        theta = c.theta(values)
+        if values:
+            cond = c._check_condition(theta)
+            if not cond.holds:
+                raise InputError(f"For {values} this phi has no closed-loop Hamiltonian: {cond.detail}")
+        label = ", ".join(f"{k}={v:g}" for k, v in zip(c._names, theta))
+        lam_inv, p = c._model(theta)
+        Ap, A, axes = p @ c.body.axes, c.body.A, c.body.axes
+        eye = np.eye(3)
+
+        # Unchecked closures (LeftInvariantSystem validates its arguments): these run in Newton's inner loops.
+        def gradient(m: np.ndarray) -> np.ndarray:
+            return (m - Ap - c._phi(m, theta) @ axes) @ lam_inv.T
+
+        def hessian(m: np.ndarray) -> np.ndarray:
+            H = lam_inv @ (eye - A @ c._dphi(m, theta))
+            return 0.5 * (H + np.swapaxes(H, -1, -2))
+
+        return LeftInvariantSystem.from_callable(
+            lambda m: c.closed_loop_hamiltonian(m, theta), gradient, hessian, name=f"closed loop H_c ({label})"
+        )

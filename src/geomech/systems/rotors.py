@@ -1,0 +1,446 @@
+"""Rigid bodies carrying symmetric rotors (momentum wheels): sections 6 and 7 of the Serret-Andoyer paper.
+
+A main body carries :math:`N` symmetric rotors; rotor :math:`i` spins about the body-fixed unit axis
+:math:`a_i` with axial moment of inertia :math:`J_i` and angle :math:`\\gamma_i` relative to the body.
+With :math:`\\Lambda` the inertia tensor of body and rotors *with each rotor's own axial moment left
+out* (the seed's :math:`\\operatorname{diag}(\\lambda_1, \\lambda_2, I_3)` of section 6 and
+:math:`\\Lambda = \\operatorname{diag}(\\lambda_i)` of section 7) and :math:`A = [a_1 \\cdots a_N]`, the
+Lagrangian (eq. 22, eq. 35 with its rotor term squared) is
+
+.. math::
+
+    L_f(\\omega, \\dot\\gamma) = \\tfrac12\\, \\omega\\cdot\\Lambda\\,\\omega
+        + \\sum_i \\tfrac{J_i}{2} (a_i\\cdot\\omega + \\dot\\gamma_i)^2 .
+
+Its Legendre transform (eqs. 23, 36) gives the total body angular momentum and the rotors' axial momenta
+
+.. math::
+
+    m = \\Lambda\\omega + A\\Gamma, \\qquad \\Gamma_i = J_i (a_i\\cdot\\omega + \\dot\\gamma_i),
+
+and the free Hamiltonian (eqs. 24, 37), left-invariant on :math:`T^*(SO(3)\\times T^N)`:
+
+.. math::
+
+    H_f(m, \\Gamma) = \\tfrac12 (m - A\\Gamma)\\cdot\\Lambda^{-1}(m - A\\Gamma)
+        + \\sum_i \\frac{\\Gamma_i^2}{2 J_i}.
+
+With a torque :math:`u_i` applied to rotor :math:`i` by a motor on the body, the open-loop controlled
+equations (eqs. 26, 38) are
+
+.. math::
+
+    \\dot R = R\\,\\widehat{D_1 H_f}, \\quad \\dot m = m\\times D_1 H_f, \\quad
+    \\dot\\gamma = D_2 H_f, \\quad \\dot\\Gamma = u,
+
+with :math:`D_1 H_f = \\omega = \\Lambda^{-1}(m - A\\Gamma)` and
+:math:`D_2 H_f = \\dot\\gamma = \\Gamma/J - A^T\\omega`. Internal torques leave the total spatial
+angular momentum :math:`\\pi = R m` constant; the energy changes at the rate
+:math:`\\dot H_f = u\\cdot\\dot\\gamma` (the motors' power), so it is conserved when :math:`u = 0`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from .. import _validate as V
+from .._symbolic import M_SYMBOLS
+from ..errors import InputError, NumericalError
+
+__all__ = ["RotorBody", "RotorTrajectory"]
+
+#: Elevation of the wheel axes above the base plane that makes the four-wheel pyramid isotropic,
+#: A A^T = (4/3) I: 2 cos^2(beta) = 4 sin^2(beta), i.e. tan(beta) = 1/sqrt(2) (35.26 degrees).
+ISOTROPIC_PYRAMID_ELEVATION = float(np.arctan(1.0 / np.sqrt(2.0)))
+
+
+def _hat(w: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class RotorBody:
+    """A rigid body with :math:`N` symmetric rotors on body-fixed unit axes.
+
+    Parameters
+    ----------
+    inertia : (3, 3) or (3,)
+        :math:`\\Lambda`, the inertia of body and rotors in the body frame with each rotor's axial moment
+        left out (symmetric positive definite; three numbers mean a diagonal tensor).
+    axes : (N, 3)
+        The rotor axes :math:`a_i` in the body frame (normalised here; each must be nonzero).
+    rotor_inertia : (N,) or None
+        The rotors' axial moments :math:`J_i > 0`. ``None`` leaves them unspecified: the closed-loop
+        analysis of a structure-preserving control does not depend on them (the closed-loop Hamiltonian
+        involves :math:`\\Lambda` only), while the free Hamiltonian, the rotor rates and open-loop
+        simulation need them and say so.
+    name : str
+        A label.
+
+    Use :meth:`one_rotor` (section 6), :meth:`three_rotors` (section 7) or :meth:`pyramid` (the usual
+    four-wheel spacecraft layout) for the common layouts. The locked inertia (rotors not spinning
+    relative to the body) is :attr:`locked_inertia` :math:`= \\Lambda + \\sum_i J_i a_i a_i^T`.
+    """
+
+    inertia: np.ndarray
+    axes: np.ndarray
+    rotor_inertia: np.ndarray | None = None
+    name: str = "rigid body with rotors"
+
+    def __post_init__(self) -> None:
+        lam = V.finite(self.inertia, "inertia")
+        if lam.shape == (3,):
+            lam = np.diag(V.positive(lam, "inertia"))
+        elif lam.shape != (3, 3):
+            raise InputError(f"Expected `inertia` to have shape (3,) or (3, 3), got {lam.shape}.")
+        if not np.allclose(lam, lam.T, rtol=1e-12, atol=1e-14 * np.abs(lam).max()):
+            raise InputError(f"Expected `inertia` to be symmetric, got max |Lambda - Lambda^T| = "
+                             f"{np.abs(lam - lam.T).max():.3g}.")
+        lam = 0.5 * (lam + lam.T)
+        eig = np.linalg.eigvalsh(lam)
+        if eig[0] <= 0:
+            raise InputError(f"Expected `inertia` to be positive definite, got eigenvalues {eig.tolist()}.")
+        axes = V.finite(self.axes, "axes")
+        if axes.ndim == 1:
+            axes = axes[None, :]
+        if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] == 0:
+            raise InputError(f"Expected `axes` to have shape (N, 3) with N >= 1, got {np.shape(self.axes)}.")
+        norms = np.linalg.norm(axes, axis=1)
+        if np.any(norms < 1e-12):
+            raise InputError(f"Expected every rotor axis to be nonzero, got norms {norms.tolist()}.")
+        axes = axes / norms[:, None]
+        J = None
+        if self.rotor_inertia is not None:
+            J = np.atleast_1d(V.positive(self.rotor_inertia, "rotor_inertia")).astype(float)
+            if J.shape != (axes.shape[0],):
+                raise InputError(f"Expected `rotor_inertia` to have one entry per rotor ({axes.shape[0]}), "
+                                 f"got shape {J.shape}.")
+            J.setflags(write=False)
+        for arr in (lam, axes):
+            arr.setflags(write=False)
+        object.__setattr__(self, "inertia", lam)
+        object.__setattr__(self, "axes", axes)
+        object.__setattr__(self, "rotor_inertia", J)
+
+    # -- the seed's layouts ------------------------------------------------------------------------
+    @classmethod
+    def one_rotor(cls, lambda1: float, lambda2: float, I3: float, J3: float | None = None) -> RotorBody:
+        """One symmetric rotor on principal axis 3 (section 6, Figure 4).
+
+        ``lambda1``, ``lambda2`` are :math:`\\lambda_i = I_i + J_i` (body plus rotor transverse moments),
+        ``I3`` the body's own moment about axis 3 and ``J3`` the rotor's axial moment; the locked
+        inertia is :math:`(\\lambda_1, \\lambda_2, I_3 + J_3)`.
+        """
+        lam = V.positive(np.array([lambda1, lambda2, I3], dtype=float), "(lambda1, lambda2, I3)")
+        J = None if J3 is None else [V.positive_scalar(J3, "J3")]
+        return cls(np.diag(lam), np.array([[0.0, 0.0, 1.0]]), J, name="rigid body with one rotor on axis 3")
+
+    @classmethod
+    def three_rotors(cls, lambdas: Any, J: Any = None) -> RotorBody:
+        """Three symmetric rotors on the principal axes (section 7): :math:`\\Lambda = \\operatorname{diag}
+        (\\lambda_i)` without the rotors' axial moments :math:`J_i`; the locked inertia is
+        :math:`\\Lambda + \\operatorname{diag}(J)`."""
+        lam = V.positive(lambdas, "lambdas")
+        if lam.shape != (3,):
+            raise InputError(f"Expected `lambdas` to have shape (3,), got {lam.shape}.")
+        return cls(np.diag(lam), np.eye(3), J, name="rigid body with three rotors on the principal axes")
+
+    @classmethod
+    def pyramid(cls, inertia: Any, J: Any, *, elevation: float = ISOTROPIC_PYRAMID_ELEVATION,
+                azimuth: float = 0.0) -> RotorBody:
+        """Four wheels in a pyramid: :math:`a_k = (\\cos\\beta\\cos\\alpha_k, \\cos\\beta\\sin\\alpha_k,
+        \\sin\\beta)`, :math:`\\alpha_k = \\alpha_0 + k\\pi/2`.
+
+        ``elevation`` :math:`\\beta` defaults to :math:`\\arctan(1/\\sqrt 2)`, for which
+        :math:`A A^T = \\tfrac43 I` (equal momentum capacity about every body axis); any three of the
+        four axes are linearly independent for :math:`0 < \\beta < \\pi/2`, so one wheel can fail.
+        ``J`` is one axial moment for all wheels or four.
+        """
+        beta = float(V.finite(elevation, "elevation"))
+        if not (0.0 < beta < np.pi / 2):
+            raise InputError(f"Expected `elevation` in (0, pi/2) radians, got {beta}.")
+        alpha = float(V.finite(azimuth, "azimuth")) + np.arange(4) * np.pi / 2
+        axes = np.stack([np.cos(beta) * np.cos(alpha), np.cos(beta) * np.sin(alpha), np.full(4, np.sin(beta))], 1)
+        J = np.broadcast_to(V.positive(J, "J"), (4,)).copy()
+        return cls(inertia, axes, J, name="rigid body with a four-wheel pyramid")
+
+    # -- structure -------------------------------------------------------------------------------
+    @property
+    def n_rotors(self) -> int:
+        return int(self.axes.shape[0])
+
+    @property
+    def A(self) -> np.ndarray:
+        """The (3, N) matrix whose columns are the rotor axes."""
+        return self.axes.T
+
+    @property
+    def is_principal(self) -> bool:
+        """Whether :math:`\\Lambda` is diagonal and every rotor axis is a body axis (the seed's layouts)."""
+        lam = self.inertia
+        diag = np.all(lam == np.diag(np.diag(lam)))
+        return bool(diag and np.all(np.isclose(np.abs(self.axes).max(axis=1), 1.0, rtol=0, atol=1e-15)))
+
+    def require_rotor_inertia(self, feature: str) -> np.ndarray:
+        """The rotors' axial moments, or an :class:`InputError` saying ``feature`` needs them."""
+        if self.rotor_inertia is None:
+            raise InputError(f"{feature} needs the rotors' axial moments of inertia; build the body with "
+                             "`rotor_inertia` (J3=... for RotorBody.one_rotor).")
+        return self.rotor_inertia
+
+    @property
+    def locked_inertia(self) -> np.ndarray:
+        """:math:`\\Lambda + \\sum_i J_i a_i a_i^T`, the inertia with every rotor locked to the body."""
+        J = self.require_rotor_inertia("The locked inertia")
+        return self.inertia + (self.A * J) @ self.A.T
+
+    # -- Legendre transform and Hamiltonian (eqs. 23-24, 36-37) ------------------------------------
+    def _mg(self, m: Any, Gamma: Any) -> tuple[np.ndarray, np.ndarray]:
+        m = V.trailing_shape(m, "m", (3,))
+        Gamma = V.finite(Gamma, "Gamma")
+        Gamma = V.trailing_shape(Gamma[None] if Gamma.ndim == 0 else Gamma, "Gamma", (self.n_rotors,))
+        return m, Gamma
+
+    def angular_velocity(self, m: Any, Gamma: Any) -> np.ndarray:
+        """:math:`\\omega = D_1 H_f(m, \\Gamma) = \\Lambda^{-1}(m - A\\Gamma)`, shape ``(..., 3)``."""
+        m, Gamma = self._mg(m, Gamma)
+        return np.linalg.solve(self.inertia, (m - Gamma @ self.axes)[..., None])[..., 0]
+
+    def rotor_rates(self, m: Any, Gamma: Any) -> np.ndarray:
+        """:math:`\\dot\\gamma = D_2 H_f(m, \\Gamma) = \\Gamma/J - A^T\\omega`, shape ``(..., N)``."""
+        J = self.require_rotor_inertia("The rotor rates")
+        m, Gamma = self._mg(m, Gamma)
+        return Gamma / J - self.angular_velocity(m, Gamma) @ self.A
+
+    def hamiltonian(self, m: Any, Gamma: Any) -> np.ndarray:
+        """The free Hamiltonian :math:`H_f(m, \\Gamma)` (eq. 24 for one rotor, eq. 37 for three)."""
+        J = self.require_rotor_inertia("The free Hamiltonian")
+        m, Gamma = self._mg(m, Gamma)
+        w = self.angular_velocity(m, Gamma)
+        return 0.5 * np.einsum("...i,...i->...", m - Gamma @ self.axes, w) + 0.5 * np.sum(Gamma**2 / J, -1)
+
+    def legendre(self, omega: Any, gamma_dot: Any) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`(\\omega, \\dot\\gamma) \\mapsto (m, \\Gamma)` (eqs. 23, 36)."""
+        J = self.require_rotor_inertia("The Legendre transform")
+        omega = V.trailing_shape(omega, "omega", (3,))
+        gamma_dot = V.trailing_shape(gamma_dot, "gamma_dot", (self.n_rotors,))
+        Gamma = J * (omega @ self.A + gamma_dot)
+        return omega @ self.inertia.T + Gamma @ self.axes, Gamma
+
+    def lagrangian(self, omega: Any, gamma_dot: Any) -> np.ndarray:
+        """:math:`L_f(\\omega, \\dot\\gamma)` (eq. 22; eq. 35 with the rotor term squared)."""
+        J = self.require_rotor_inertia("The Lagrangian")
+        omega = V.trailing_shape(omega, "omega", (3,))
+        gamma_dot = V.trailing_shape(gamma_dot, "gamma_dot", (self.n_rotors,))
+        rel = omega @ self.A + gamma_dot
+        return 0.5 * np.einsum("...i,ij,...j->...", omega, self.inertia, omega) + 0.5 * np.sum(J * rel**2, -1)
+
+    def wheel_momentum(self, Gamma: Any) -> np.ndarray:
+        """The rotors' share of the body momentum, :math:`A\\Gamma` (body frame); :math:`m - A\\Gamma =
+        \\Lambda\\omega` is the rest. Wheel saturation is a bound on the :math:`\\Gamma_i`."""
+        Gamma = V.trailing_shape(Gamma, "Gamma", (self.n_rotors,))
+        return Gamma @ self.axes
+
+    def hamiltonian_expression(self) -> tuple[sp.Expr, tuple[sp.Symbol, ...]]:
+        """:math:`H_f` as sympy, in ``m1, m2, m3`` and the returned ``Gamma1 .. GammaN`` symbols.
+
+        For the seed's layouts the inertias are the symbols ``lambda1, lambda2, I3, J3`` (one rotor) or
+        ``lambda1..3, J1..3`` (three rotors); otherwise numbers.
+        """
+        J = self.require_rotor_inertia("The free Hamiltonian")
+        n = self.n_rotors
+        Gam = sp.symbols(f"Gamma1:{n + 1}", real=True)
+        lam_syms, J_syms = self.symbols()
+        m = sp.Matrix(M_SYMBOLS)
+        A = sp.Matrix(self.A.tolist()) if not self.is_principal else sp.Matrix(np.rint(self.A).astype(int).tolist())
+        if lam_syms is not None:
+            lam_inv = sp.diag(*[1 / s for s in lam_syms])
+            Js = J_syms
+        else:
+            lam_inv = sp.Matrix(np.linalg.inv(self.inertia).tolist())
+            Js = [sp.Float(x) for x in J]
+        rel = m - A * sp.Matrix(Gam)
+        expr = (rel.T * lam_inv * rel)[0, 0] / 2 + sum(g**2 / (2 * j) for g, j in zip(Gam, Js))
+        return sp.expand(expr), Gam
+
+    def symbols(self) -> tuple[tuple[sp.Symbol, ...] | None, tuple[sp.Symbol, ...]]:
+        """The inertia symbols of the seed's layouts: ``(lambda1, lambda2, I3)`` and ``(J3,)`` for one
+        rotor on axis 3, ``(lambda1, lambda2, lambda3)`` and ``(J1, J2, J3)`` for three on the principal
+        axes; ``(None, ...)`` for other layouts (numbers are used)."""
+        if self.is_principal and self.n_rotors == 1 and abs(self.axes[0, 2]) == 1.0:
+            return sp.symbols("lambda1 lambda2 I3", positive=True), (sp.Symbol("J3", positive=True),)
+        if self.is_principal and self.n_rotors == 3 and np.array_equal(np.abs(self.axes), np.eye(3)):
+            return sp.symbols("lambda1:4", positive=True), sp.symbols("J1:4", positive=True)
+        return None, sp.symbols(f"J1:{self.n_rotors + 1}", positive=True)
+
+    def parameter_values(self) -> dict[str, float]:
+        """Values of the symbols of :meth:`symbols` by name (the rotors' only when they are known)."""
+        lam_syms, J_syms = self.symbols()
+        out: dict[str, float] = {}
+        if lam_syms is not None:
+            out.update({str(s): float(v) for s, v in zip(lam_syms, np.diag(self.inertia))})
+        if self.rotor_inertia is not None:
+            out.update({str(s): float(v) for s, v in zip(J_syms, self.rotor_inertia)})
+        return out
+
+    # -- open-loop equations (eqs. 26, 38) -----------------------------------------------------------
+    def vector_field(self, R: np.ndarray, m: np.ndarray, Gamma: np.ndarray, u: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:math:`(\\dot R, \\dot m, \\dot\\gamma, \\dot\\Gamma)` of eqs. (26), (38) for one state and torque ``u``."""
+        w = self.angular_velocity(m, Gamma)
+        return R @ _hat(w), np.cross(m, w), self.rotor_rates(m, Gamma), np.asarray(u, dtype=float)
+
+    def simulate(
+        self,
+        t_eval: Any,
+        *,
+        m0: Any,
+        Gamma0: Any,
+        R0: Any | None = None,
+        gamma0: Any | None = None,
+        torque: Any = None,
+        rtol: float = 1e-12,
+        atol: float = 1e-12,
+        raise_on_failure: bool = True,
+    ) -> RotorTrajectory:
+        """Integrate the open-loop equations (26) / (38) directly in :math:`(R, m, \\gamma, \\Gamma)`.
+
+        Parameters
+        ----------
+        t_eval : (n,) increasing output times, starting at the initial time.
+        m0 : (3,) total body angular momentum; Gamma0 : (N,) rotor axial momenta (use :meth:`legendre`
+            to start from :math:`\\omega, \\dot\\gamma`).
+        R0 : (3, 3) initial attitude (default identity); gamma0 : (N,) rotor angles (default 0).
+        torque : None (free system), a callable ``u(t, R, m, gamma, Gamma) -> (N,)``, or a feedback law
+            with a method ``feedback(m, Gamma) -> (N,)`` such as a
+            :class:`~geomech.systems.control.StructurePreservingControl`.
+        rtol, atol : tolerances of scipy's DOP853 (8th order).
+
+        Returns
+        -------
+        RotorTrajectory
+            ``status`` 0 on success; on failure a :class:`~geomech.errors.NumericalError` says when and why
+            (or, with ``raise_on_failure=False``, ``status`` is -1 and ``message`` says it).
+        """
+        self.require_rotor_inertia("Open-loop simulation")
+        n = self.n_rotors
+        t_eval = V.finite(t_eval, "t_eval")
+        if t_eval.ndim != 1 or t_eval.size == 0 or np.any(np.diff(t_eval) < 0):
+            raise InputError("Expected `t_eval` to be a non-empty increasing 1-D array of times.")
+        m0 = V.exact_shape(m0, "m0", (3,))
+        Gamma0 = V.exact_shape(np.atleast_1d(np.asarray(Gamma0, dtype=float)), "Gamma0", (n,))
+        R0 = np.eye(3) if R0 is None else V.rotation_matrix(R0, "R0")
+        gamma0 = np.zeros(n) if gamma0 is None else V.exact_shape(np.atleast_1d(gamma0), "gamma0", (n,))
+        u_fn = _torque_function(torque, n)
+
+        def rhs(t: float, y: np.ndarray) -> np.ndarray:
+            R, m, gam, Gam = y[:9].reshape(3, 3), y[9:12], y[12 : 12 + n], y[12 + n :]
+            with np.errstate(all="ignore"):
+                u = u_fn(t, R, m, gam, Gam)
+                dR, dm, dgam, dGam = self.vector_field(R, m, Gam, u)
+                out = np.concatenate([dR.ravel(), dm, dgam, dGam])
+            if not np.all(np.isfinite(out)):
+                raise NumericalError(
+                    f"Open-loop simulation of {self.name}: the right-hand side is not finite at t = {t:.6g} "
+                    f"(m = {m.tolist()}, Gamma = {Gam.tolist()}, torque = {np.asarray(u).tolist()}); is the torque "
+                    "defined along the trajectory?"
+                )
+            return out
+
+        y0 = np.concatenate([R0.ravel(), m0, gamma0, Gamma0])
+        scale = max(1.0, float(np.abs(y0).max()))
+        status, message = 0, "success"
+        if t_eval[-1] > t_eval[0]:
+            sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0, method="DOP853", t_eval=t_eval, rtol=rtol,
+                            atol=atol * scale)
+            Y, nfev = sol.y.T, sol.nfev
+            if sol.status < 0 or Y.shape[0] != t_eval.size:
+                status, message = -1, f"integration failed at t = {sol.t[-1]:.6g}: {sol.message}"
+                if raise_on_failure:
+                    raise NumericalError(f"Open-loop simulation of {self.name}: {message}")
+                pad = np.full((t_eval.size - Y.shape[0], Y.shape[1]), np.nan)
+                Y = np.concatenate([Y, pad])
+        else:
+            Y, nfev = np.broadcast_to(y0, (t_eval.size, y0.size)).copy(), 0
+        R, m, gam, Gam = Y[:, :9].reshape(-1, 3, 3), Y[:, 9:12], Y[:, 12 : 12 + n], Y[:, 12 + n :]
+        u = np.array([u_fn(t, R[i], m[i], gam[i], Gam[i]) if np.all(np.isfinite(Y[i])) else np.full(n, np.nan)
+                      for i, t in enumerate(t_eval)]).reshape(-1, n)
+        return RotorTrajectory(t_eval, R, m, gam, Gam, u, self, status, message, nfev)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "kind": "RotorBody",
+            "name": self.name,
+            "inertia_without_rotor_axial_moments": self.inertia.tolist(),
+            "axes": self.axes.tolist(),
+            "rotor_inertia": None if self.rotor_inertia is None else self.rotor_inertia.tolist(),
+        }
+
+    def __repr__(self) -> str:
+        J = None if self.rotor_inertia is None else self.rotor_inertia.tolist()
+        return f"RotorBody(inertia={self.inertia.tolist()}, axes={self.axes.tolist()}, rotor_inertia={J})"
+
+
+def _torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
+    if torque is None:
+        zero = np.zeros(n)
+        return lambda t, R, m, gam, Gam: zero
+    if hasattr(torque, "feedback"):
+        return lambda t, R, m, gam, Gam: np.asarray(torque.feedback(m, Gam), dtype=float).reshape(n)
+    if callable(torque):
+        def u(t, R, m, gam, Gam):
+            val = np.asarray(torque(t, R, m, gam, Gam), dtype=float)
+            if val.size != n:
+                raise InputError(f"Expected `torque` to return {n} torque(s), one per rotor, got shape {val.shape}.")
+            return val.reshape(n)
+
+        return u
+    raise InputError(f"Expected `torque` to be None, a callable u(t, R, m, gamma, Gamma) or a feedback law "
+                     f"with .feedback(m, Gamma), got {type(torque).__name__}.")
+
+
+@dataclass(frozen=True, eq=False)
+class RotorTrajectory:
+    """A solution of the open-loop equations (26) / (38).
+
+    Attributes
+    ----------
+    t : (n,); R : (n, 3, 3) attitude (body to space); m : (n, 3) total body angular momentum;
+    gamma, Gamma : (n, N) rotor angles and axial momenta; u : (n, N) the torques applied;
+    body : the :class:`RotorBody`; status, message, nfev : as for scipy's ``solve_ivp``.
+    """
+
+    t: np.ndarray
+    R: np.ndarray
+    m: np.ndarray
+    gamma: np.ndarray
+    Gamma: np.ndarray
+    u: np.ndarray
+    body: RotorBody
+    status: int
+    message: str
+    nfev: int
+
+    def spatial_momentum(self) -> np.ndarray:
+        """:math:`\\pi = R m`, the total angular momentum in space (constant: internal torques only)."""
+        return np.einsum("nij,nj->ni", self.R, self.m)
+
+    def energy(self) -> np.ndarray:
+        """:math:`H_f(m, \\Gamma)`; constant when no torque acts."""
+        return self.body.hamiltonian(self.m, self.Gamma)
+
+    def angular_velocity(self) -> np.ndarray:
+        return self.body.angular_velocity(self.m, self.Gamma)
+
+    def rotor_rates(self) -> np.ndarray:
+        return self.body.rotor_rates(self.m, self.Gamma)
+
+    def motor_power(self) -> np.ndarray:
+        """:math:`u\\cdot\\dot\\gamma = \\dot H_f`, the power the motors put in."""
+        return np.sum(self.u * self.rotor_rates(), -1)
