@@ -230,12 +230,17 @@ class GeneralizedSerretAndoyer:
             raise SingularityError(f"phi' is unbounded at the poles L = +-G of the chart about axis {axis + 1}.")
         return G * (w[..., 0] * np.sin(l) + w[..., 1] * np.cos(l)) / s
 
-    def reduced_expression(self, axis: int = 2) -> sp.Expr:
-        """:math:`h_p(l, L)` as a sympy expression in ``l, L, G`` (needs a formula for H)."""
+    def reduced_expression(self, axis: int = 2, *, simplify: bool = True) -> sp.Expr:
+        """:math:`h_p(l, L)` as a sympy expression in ``l, L, G`` (needs a formula for H).
+
+        ``simplify=False`` skips sympy's simplification, which is slow and, with float parameters,
+        works in floating point; numerical use needs no simplified form.
+        """
         expr = self.system.require_expression("The symbolic reduced Hamiltonian")
         subs = {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}
         m = self.charts[_axis(axis)].symbolic()
-        return sp.simplify(expr.subs(subs).xreplace(dict(zip(M_SYMBOLS, m))))
+        h = expr.subs(subs).xreplace(dict(zip(M_SYMBOLS, m)))
+        return sp.simplify(h) if simplify else h
 
     def reduced_system(self, G: float, axis: int = 2) -> CanonicalSystem:
         """The reduced system as a 1-degree-of-freedom :class:`CanonicalSystem` ``y = (l, L)``.
@@ -246,7 +251,7 @@ class GeneralizedSerretAndoyer:
         axis = _axis(axis)
         if self.system.expression is not None:
             return CanonicalSystem.from_expression(
-                self.reduced_expression(axis),
+                self.reduced_expression(axis, simplify=False),
                 (l_SYM,),
                 (L_SYM,),
                 name=f"h_p (axis {axis + 1})",

@@ -1,0 +1,855 @@
+"""Exact propagation of one-degree-of-freedom Hamiltonian systems by quadrature.
+
+A canonical system :math:`H(q, p)` with one degree of freedom is integrable by quadrature: its orbits are
+the level curves :math:`H = E`, and the time of flight along a curve is
+
+.. math::
+
+    t = \\int \\frac{dq}{\\dot q} = \\int \\frac{dq}{\\partial H/\\partial p}
+      = -\\int \\frac{dp}{\\partial H/\\partial q}.
+
+For the reduced Serret-Andoyer system :math:`h_p(l, L)` (eq. 21 of the Serret-Andoyer paper) this is
+eq. (11) there; :class:`QuadraturePropagator` does it for any :class:`~geomech.systems.CanonicalSystem`
+with ``n = 1`` and :class:`SerretAndoyerPropagator` adds the reconstruction of the attitude (Theorem 3).
+
+Method
+------
+1. The level curve through ``y0`` is traced by predictor-corrector continuation (tangent predictor, Newton
+   corrector along :math:`\\nabla H`, steps limited by the turn of the tangent and the change of
+   :math:`|\\nabla H|`) until it closes (a libration, or a rotation once round the angle), reaches a saddle at
+   the level :math:`E` (a separatrix) or leaves the domain.
+2. The curve is cut into arcs that are graphs :math:`p = P(q)` where :math:`|\\partial H/\\partial p|`
+   dominates and :math:`q = Q(p)` where :math:`|\\partial H/\\partial q|` does. On each arc :math:`dt/du` is
+   smooth and bounded: the turning points (:math:`\\partial H/\\partial p = 0`) lie inside arcs over ``p``
+   and leave no singularity. Graph points come from Newton's method on :math:`H = E` at fixed ``u``; the
+   graph and :math:`dt/du` are adaptive piecewise Chebyshev interpolants, whose antiderivative
+   (Clenshaw-Curtis) gives the time of flight and the period, the last coefficients the error estimate.
+3. The time of flight is inverted at Chebyshev nodes in ``t`` and the state over one period is stored as a
+   piecewise Chebyshev interpolant in ``t``: :meth:`QuadraturePropagator.state` reduces ``t`` modulo the
+   period and evaluates it, at a cost independent of ``t`` and with no evaluation of ``H``.
+4. Any function along the orbit is integrated in time the same way (:meth:`QuadraturePropagator.integral`):
+   an increment per period plus a periodic part; the reconstruction angle :math:`\\varphi` is one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from numpy.polynomial import chebyshev as _cheb
+
+from .. import _validate as V
+from ..errors import ConvergenceError, InputError, NumericalError, SingularityError, SymbolicError
+from ..systems.canonical import CanonicalSystem
+
+__all__ = ["CriticalPoint", "OrbitIntegral", "QuadraturePropagator", "SerretAndoyerPropagator"]
+
+_EPS = float(np.finfo(float).eps)
+_AUTO: Any = object()
+#: Predictor-corrector acceptance: the tangent may turn by at most this angle (rad) per step and
+#: |grad H| may change by at most this factor; both keep the chords within a few percent of the curve.
+_MAX_TURN = 0.15
+_MAX_RATIO = 1.0 / 0.7
+_MAX_STEPS = 20_000
+_CHUNK = 8192
+
+
+# -- piecewise Chebyshev interpolation -------------------------------------------------------------
+def _norm(g: np.ndarray) -> np.ndarray:
+    return np.hypot(g[..., 0], g[..., 1])
+
+
+def _cheb_points(n: int) -> np.ndarray:
+    return np.cos(np.pi * np.arange(n) / (n - 1))
+
+
+def _cheb_coefficients(values: np.ndarray) -> np.ndarray:
+    """Chebyshev coefficients from values at :func:`_cheb_points` (a DCT-I through the FFT)."""
+    n = values.shape[0]
+    ext = np.concatenate([values, values[-2:0:-1]], axis=0)
+    c = np.fft.rfft(ext, axis=0).real / (n - 1)
+    c[0] /= 2
+    c[-1] /= 2
+    return c
+
+
+def _chebeval(coeffs: np.ndarray, idx: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Evaluate piece ``idx[i]`` of ``coeffs`` (K, D, m) at ``x[i]`` in [-1, 1]; returns (N, m)."""
+    return np.einsum("nd,ndm->nm", _cheb.chebvander(x, coeffs.shape[1] - 1), coeffs[idx])
+
+
+class _Piecewise:
+    """A piecewise Chebyshev interpolant of an ``m``-vector function on ``[edges[0], edges[-1]]``.
+
+    ``root[j]`` is the index of the initial interval that piece ``j`` was cut from.
+    """
+
+    __slots__ = ("edges", "coeffs", "root", "noise")
+
+    def __init__(self, edges: np.ndarray, coeffs: np.ndarray, root: np.ndarray):
+        self.edges, self.coeffs, self.root, self.noise = edges, coeffs, root, 0.0
+
+    @classmethod
+    def fit(
+        cls,
+        fun: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        edges: np.ndarray,
+        floor: np.ndarray,
+        ctol: float,
+        what: str,
+        ladder: tuple[int, ...] = (17, 33, 65),
+    ) -> _Piecewise:
+        """Adapt to ``fun(s, root) -> (values, noise)``, both ``(N, m)``: a piece is accepted when the last
+        three Chebyshev coefficients of every component are below ``ctol`` times its size (at least
+        ``floor``) or below the rounding noise of the values, and is halved when the finest rung of
+        ``ladder`` does not reach that. The largest accepted tail relative to the size is kept in ``noise``.
+        """
+        pending = [(float(a), float(b), j) for j, (a, b) in enumerate(zip(edges[:-1], edges[1:])) if b > a]
+        min_width = 1e-13 * (edges[-1] - edges[0])
+        done: list[tuple[float, float, int, np.ndarray]] = []
+        worst = 0.0
+        while pending:
+            for n in ladder:
+                if not pending:
+                    break
+                x = _cheb_points(n)
+                s = np.concatenate([a + (x + 1) / 2 * (b - a) for a, b, _ in pending])
+                roots = np.repeat([j for _, _, j in pending], n)
+                vals, noise = fun(s, roots)
+                vals = np.asarray(vals, dtype=float).reshape(len(pending), n, -1)
+                noise = np.broadcast_to(noise, (len(pending) * n, vals.shape[2])).reshape(vals.shape)
+                still = []
+                for (a, b, j), v, e in zip(pending, vals, noise):
+                    c = _cheb_coefficients(v)
+                    size = np.maximum(np.abs(v).max(axis=0), floor)
+                    tail = np.abs(c[-3:]).max(axis=0)
+                    # the median, not the maximum: one noisy node must not excuse an unresolved piece
+                    if np.all(tail <= np.maximum(ctol * size, np.median(e, axis=0))):
+                        done.append((a, b, j, c))
+                        worst = max(worst, float(np.max(tail / size)))
+                    else:
+                        still.append((a, b, j))
+                pending = still
+            split = []
+            for a, b, j in pending:
+                if b - a < min_width or len(done) + len(pending) > 5000:
+                    raise ConvergenceError(
+                        f"The {what} could not be resolved near {a:.15g}: the Chebyshev coefficients do not "
+                        "decay on ever smaller intervals. Is the level curve at a critical point of H?"
+                    )
+                mid = 0.5 * (a + b)
+                split += [(a, mid, j), (mid, b, j)]
+            pending = split
+        done.sort(key=lambda d: d[0])
+        D, m = max(d[3].shape[0] for d in done), done[0][3].shape[1]
+        coeffs = np.zeros((len(done), D, m))
+        for k, d in enumerate(done):
+            coeffs[k, : d[3].shape[0]] = d[3]
+        out = cls(np.array([d[0] for d in done] + [done[-1][1]]), coeffs, np.array([d[2] for d in done]))
+        out.noise = worst
+        return out
+
+    def locate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        idx = np.clip(np.searchsorted(self.edges, s, side="right") - 1, 0, len(self.edges) - 2)
+        a, b = self.edges[idx], self.edges[idx + 1]
+        return idx, (2 * s - a - b) / (b - a)
+
+    def __call__(self, s: np.ndarray) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        flat = s.ravel()
+        out = np.empty((flat.size, self.coeffs.shape[2]))
+        for k in range(0, flat.size, _CHUNK):
+            idx, x = self.locate(flat[k : k + _CHUNK])
+            out[k : k + _CHUNK] = _chebeval(self.coeffs, idx, x)
+        return out.reshape(s.shape + (self.coeffs.shape[2],))
+
+    def antiderivative(self) -> tuple[_Piecewise, np.ndarray]:
+        """The antiderivative from ``edges[0]`` and its values at the edges ``(K + 1, m)`` (compensated sums
+        of the pieces' Clenshaw-Curtis integrals)."""
+        C = _cheb.chebint(self.coeffs, lbnd=-1, axis=1) * (np.diff(self.edges) / 2)[:, None, None]
+        increments = C.sum(axis=1)  # the values at x = 1
+        at_edges = np.array([[math.fsum(col[:j]) for col in increments.T] for j in range(len(C) + 1)])
+        C[:, 0] += at_edges[:-1]
+        return _Piecewise(self.edges, C, self.root), at_edges
+
+
+# -- results -----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CriticalPoint:
+    """A critical point of :math:`H`: an equilibrium of the flow.
+
+    Attributes
+    ----------
+    y : (2,) its location ``(q, p)`` (``q`` lifted as traced, not reduced modulo the period).
+    energy : :math:`H(y)`.
+    kind : ``"center"`` (:math:`\\det D^2H > 0`), ``"saddle"`` (:math:`< 0`) or ``"degenerate"``.
+    rate : :math:`\\sqrt{|\\det D^2H|}`: the angular frequency of the linearised oscillation about a centre
+        (small librations have period :math:`2\\pi/\\text{rate}`), the growth rate of the linearised flow
+        at a saddle (a separatrix approaches it like :math:`e^{-\\text{rate}\\, t}`).
+    """
+
+    y: np.ndarray
+    energy: float
+    kind: str
+    rate: float
+
+
+class OrbitIntegral:
+    """:math:`F(t) = \\int_0^t f(y(s))\\,ds` along a periodic orbit: ``n * per_period + F(t - n T)``.
+
+    Attributes
+    ----------
+    per_period : float or (k,), the increment over one period; mean_rate : ``per_period / period``.
+    """
+
+    def __init__(self, period: float, per_period: np.ndarray, table: _Piecewise | None, rate: np.ndarray):
+        self.period, self._table, self._vector = period, table, per_period.size > 1
+        self.per_period = per_period if self._vector else float(per_period[0])
+        self.mean_rate = rate if self._vector else float(rate[0])
+
+    def __call__(self, t: Any) -> np.ndarray:
+        """:math:`\\int_0^t f(y(s))\\,ds`, shape ``t.shape`` (or ``t.shape + (k,)`` for vector ``f``)."""
+        t = V.finite(t, "t")
+        if self._table is None:  # an equilibrium: f is constant along the (constant) solution
+            out = t[..., None] * np.atleast_1d(self.mean_rate)
+        else:
+            n = np.floor(t / self.period)
+            out = n[..., None] * np.atleast_1d(self.per_period) + self._table(t - n * self.period)
+        return out if self._vector else out[..., 0]
+
+
+# -- the propagator -----------------------------------------------------------------------------------
+class QuadraturePropagator:
+    """Exact motion of a one-degree-of-freedom Hamiltonian system by quadrature along its level curve.
+
+    .. math::
+
+        T = \\oint \\frac{dq}{\\partial H/\\partial p}, \\qquad
+        t(y) = \\int_{y_0}^{y} \\frac{dq}{\\partial H/\\partial p}, \\qquad y(t + T) = y(t) + (w P, 0),
+
+    eq. (11) of the Serret-Andoyer paper for any :math:`H(q, p)`; ``w`` is the winding in the angle
+    ``q`` (0 for a libration, +-1 for a rotation) and ``P`` its period.
+
+    Parameters
+    ----------
+    system : CanonicalSystem with ``n = 1``, ``y = (q, p)``; e.g. the reduced Serret-Andoyer system
+        ``GeneralizedSerretAndoyer(H).reduced_system(G)`` with ``(q, p) = (l, L)``.
+    y0 : (2,) the initial state; its energy :math:`E = H(y_0)` fixes the orbit.
+    L_bounds : (p_min, p_max), optional, the open interval of ``p`` where ``H`` is defined (``(-G, G)`` for a
+        Serret-Andoyer chart). A level curve that reaches it raises :class:`SingularityError`.
+    angle_period : float or None; the period of ``q``. Default ``2 pi`` if ``q`` is one of
+        ``system.angle_coordinates``, else ``None`` (``q`` not periodic: no rotations).
+    tol : relative accuracy of the period and of the state (default 1e-12); the Chebyshev interpolants are
+        resolved to ``tol / 100`` (at least ``16 eps``) of their size.
+    scale : (s_q, s_p), optional, the size of the orbit in each coordinate, used to measure distances
+        and steps. Default: ``angle_period / (2 pi)`` (1 rad) and half the width of ``L_bounds``, else 1.
+    energy_tol : float, optional. Two energies closer than this are equal: a saddle on the level curve
+        makes it a separatrix, and ``y0`` is an equilibrium when a critical point is closer than the
+        energy can resolve. Default ``16 eps`` times the energy scale (``|E|``, ``|grad H|``, ``|D^2 H|``
+        at ``y0``, in the scaled coordinates).
+
+    Attributes
+    ----------
+    kind : ``"libration"``, ``"rotation"``, ``"separatrix"`` or ``"equilibrium"``.
+    energy, period (``inf`` for a separatrix or an equilibrium), period_error (an estimate),
+    frequency (``2 pi / period``), winding, turning_points ``(k, 2)`` where ``dH/dp = 0`` (the extremes of
+    ``q``) with their times turning_times in ``[0, T)``, L_range (min and max of ``p`` on the orbit),
+    saddles (for a separatrix: the critical points it leaves and reaches, :class:`CriticalPoint`),
+    equilibrium (for an equilibrium: the :class:`CriticalPoint`), nfev (points at which ``H`` or its
+    gradient were evaluated while building; evaluation at any ``t`` adds none).
+
+    Notes
+    -----
+    On a separatrix the motion takes infinite time and :meth:`state` raises
+    :class:`~geomech.errors.SingularityError`; use an integrator there. H in double precision fixes the level
+    curve only to about :math:`\\epsilon |E| / |\\nabla H|`, which is coarse near a centre or a saddle:
+    when that limits the period to worse than ``100 tol``, a :class:`~geomech.errors.ConvergenceError` says
+    how far (pass a larger ``tol`` to accept it). The state at time ``t`` inherits the period's relative
+    error times ``t``: a last-bit error of ``T`` moves the state by about ``eps t |y'|``.
+    """
+
+    def __init__(
+        self,
+        system: CanonicalSystem,
+        y0: Any,
+        *,
+        L_bounds: Any = None,
+        angle_period: Any = _AUTO,
+        tol: float = 1e-12,
+        scale: Any = None,
+        energy_tol: float | None = None,
+    ):
+        if not isinstance(system, CanonicalSystem) or system.n != 1:
+            got = f"n = {system.n}" if isinstance(system, CanonicalSystem) else type(system).__name__
+            raise InputError(
+                f"Expected `system` to be a CanonicalSystem with one degree of freedom (n = 1), got {got}; "
+                "quadrature applies to 1-degree-of-freedom systems such as GeneralizedSerretAndoyer.reduced_system(G)."
+            )
+        self.system = system
+        self.y0 = y0 = V.exact_shape(y0, "y0", (2,))
+        tol = V.positive_scalar(tol, "tol")
+        if not (1e-15 <= tol <= 1e-3):
+            raise InputError(f"Expected `tol` in [1e-15, 1e-3], got {tol}.")
+        self.tol = tol
+        self._ctol = max(tol / 100, 16 * _EPS)
+        if angle_period is _AUTO:
+            angle_period = 2 * np.pi if 0 in system.angle_coordinates else None
+        if angle_period is not None:
+            angle_period = V.positive_scalar(angle_period, "angle_period")
+        self.angle_period = angle_period
+        bounds = np.array([-np.inf, np.inf]) if L_bounds is None else V.as_float_array(L_bounds, "L_bounds")
+        if bounds.shape != (2,) or not bounds[0] < bounds[1]:
+            raise InputError(f"Expected `L_bounds` to be an increasing pair (p_min, p_max), got {L_bounds!r}.")
+        lo, hi = bounds
+        if not lo < y0[1] < hi:
+            raise InputError(f"Expected the initial p = y0[1] = {y0[1]:.17g} inside `L_bounds` ({lo:g}, {hi:g}).")
+        if scale is None:
+            scale = (angle_period / (2 * np.pi) if angle_period else 1.0, (hi - lo) / 2 if hi - lo < np.inf else 1.0)
+        self._s = V.positive(scale, "scale")
+        if self._s.shape != (2,):
+            raise InputError(f"Expected `scale` to be a pair (s_q, s_p), got {scale!r}.")
+        self._lo, self._hi = lo / self._s[1], hi / self._s[1]
+        self._P = angle_period / self._s[0] if angle_period else None
+        self.nfev = 0
+        z0 = y0 / self._s
+        E = self._H(z0[None])[0]
+        g0 = self._grad(z0[None])[0]
+        if not (np.isfinite(E) and np.all(np.isfinite(g0))):
+            raise InputError(f"Expected H and its gradient to be finite at `y0` = {y0.tolist()}, got H = {E}.")
+        self.energy = E = float(E)
+        hess0 = self._hess(z0)
+        self._hnorm = float(np.linalg.norm(hess0, 2))
+        self._escale = max(abs(E), float(np.linalg.norm(g0)), self._hnorm, 1e-300)
+        self.energy_tol = 16 * _EPS * self._escale
+        if energy_tol is not None:
+            self.energy_tol = V.positive_scalar(energy_tol, "energy_tol")
+        self._z0 = z0
+        self._hmax = 0.25 * max(1.0, float(np.max(np.abs(z0))))
+        self.winding, self.saddles, self.equilibrium = 0, (), None
+        self.period = self.period_error = math.inf
+        self.turning_points, self.turning_times = np.empty((0, 2)), np.empty(0)
+        self.L_range = (float(y0[1]), float(y0[1]))
+        if self._is_equilibrium(z0, g0, hess0):
+            self.kind = "equilibrium"
+            return
+        pts, status, info = self._trace(z0, +1)
+        if status == "saddle":
+            back, status_b, info_b = self._trace(z0, -1)
+            self.kind, self.saddles = "separatrix", (info_b, info) if status_b == "saddle" else (info,)
+            both = np.concatenate([back[::-1], pts[1:]]) * self._s
+            self.L_range = (float(both[:, 1].min()), float(both[:, 1].max()))
+            return
+        self.winding = int(info)
+        self.kind = "rotation" if self.winding else "libration"
+        self._build(np.asarray(pts))
+
+    # -- evaluation of H in scaled coordinates z = y / s -------------------------------------------------
+    def _H(self, z: np.ndarray) -> np.ndarray:
+        self.nfev += len(z)
+        with np.errstate(all="ignore"):
+            return np.asarray(self.system.hamiltonian(z * self._s), dtype=float)
+
+    def _grad(self, z: np.ndarray) -> np.ndarray:
+        self.nfev += len(z)
+        with np.errstate(all="ignore"):
+            return np.asarray(self.system.gradient(z * self._s), dtype=float) * self._s
+
+    def _hess(self, z: np.ndarray) -> np.ndarray:
+        try:
+            with np.errstate(all="ignore"):
+                return np.asarray(self.system.hessian(z * self._s), dtype=float) * np.outer(self._s, self._s)
+        except SymbolicError:  # no Hessian (a callable system): central differences of the exact gradient
+            h = np.cbrt(_EPS) * max(1.0, float(np.max(np.abs(z))))
+            cols = [(self._grad((z + h * e)[None])[0] - self._grad((z - h * e)[None])[0]) / (2 * h) for e in np.eye(2)]
+            hs = np.stack(cols, -1)
+            return 0.5 * (hs + hs.T)
+
+    def _inside(self, z: np.ndarray) -> bool:
+        return bool(self._lo < z[1] < self._hi)
+
+    # -- critical points ----------------------------------------------------------------------------------
+    def _critical_point(self, z: np.ndarray) -> CriticalPoint | None:
+        """Newton's method on grad H = 0 from ``z``; None when it does not converge nearby."""
+        z = z.copy()
+        for _ in range(40):
+            hs = self._hess(z)
+            try:
+                dz = np.linalg.solve(hs, self._grad(z[None])[0])
+            except np.linalg.LinAlgError:
+                return None
+            if not np.all(np.isfinite(dz)) or np.linalg.norm(dz) > 1.0:
+                return None
+            z -= dz
+            if not self._inside(z):
+                return None
+            if np.linalg.norm(dz) <= 1e-14 * (1 + np.linalg.norm(z)):
+                break
+        else:
+            return None
+        hs = self._hess(z)
+        det = float(np.linalg.det(hs))
+        tiny = 1e-12 * float(np.linalg.norm(hs, 2)) ** 2
+        kind = "saddle" if det < -tiny else "center" if det > tiny else "degenerate"
+        rate = math.sqrt(abs(det)) / (self._s[0] * self._s[1])
+        return CriticalPoint(z * self._s, float(self._H(z[None])[0]), kind, rate)
+
+    def _is_equilibrium(self, z0: np.ndarray, g0: np.ndarray, hess0: np.ndarray) -> bool:
+        norm_h = float(np.linalg.norm(hess0, 2))
+        if np.linalg.norm(g0) > 1e-3 * norm_h and np.any(g0 != 0):
+            return False
+        cp = self._critical_point(z0)
+        if cp is None:
+            if np.any(g0 != 0):
+                return False
+            cp = CriticalPoint(self.y0.copy(), self.energy, "degenerate", 0.0)
+        # y0 is at the critical point to working precision when no direction separates their energies
+        r = np.linalg.norm(cp.y / self._s - z0)
+        if np.any(g0 != 0) and 0.5 * norm_h * r**2 > self.energy_tol:
+            return False
+        self.equilibrium = cp
+        return True
+
+    # -- tracing the level curve ----------------------------------------------------------------------
+    def _correct(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Newton's method on H = E along the gradient (the nearest point of the curve)."""
+        for _ in range(16):
+            if not self._inside(z):
+                return None
+            f = self._H(z[None])[0] - self.energy
+            g = self._grad(z[None])[0]
+            gg = g @ g
+            if not (np.isfinite(f) and np.isfinite(gg)) or gg == 0:
+                return None
+            dz = f * g / gg
+            z = z - dz
+            if np.linalg.norm(dz) <= 1e-14 * (1 + np.linalg.norm(z)):
+                break
+        else:
+            if np.linalg.norm(dz) > 1e-10:
+                return None
+        g = self._grad(z[None])[0]
+        return (z, g) if self._inside(z) and np.all(np.isfinite(g)) else None
+
+    def _trace(self, z0: np.ndarray, direction: int) -> tuple[list[np.ndarray], str, Any]:
+        """Follow H = E from ``z0`` along (``+1``) or against (``-1``) the flow.
+
+        Returns the vertices and ``("closed", winding)`` or ``("saddle", CriticalPoint)``.
+        """
+        z, g = z0, self._grad(z0[None])[0]
+        tangent = direction * np.array([g[1], -g[0]]) / np.linalg.norm(g)
+        t0 = tangent
+        rho = np.linalg.norm(g) / max(np.linalg.norm(self._hess(z0), 2), 1e-300)
+        h = min(self._hmax, 0.1 * rho)
+        pts = [z0]
+        last_try = math.inf
+        shifts = [0.0] if self._P is None else [0.0, self._P, -self._P]
+        out_of_domain = False
+        for _ in range(_MAX_STEPS):
+            pred = z + h * tangent
+            res = self._correct(pred) if self._inside(pred) else None
+            ok = res is not None
+            if ok:
+                zc, gc = res
+                tn = direction * np.array([gc[1], -gc[0]]) / np.linalg.norm(gc)
+                turn = math.acos(min(1.0, float(tangent @ tn)))
+                ratio = np.linalg.norm(gc) / np.linalg.norm(g)
+                disp = np.linalg.norm(zc - pred)
+                ok = turn <= _MAX_TURN and 1 / _MAX_RATIO <= ratio <= _MAX_RATIO and disp <= 0.1 * h
+            if not ok:
+                out_of_domain = res is None
+                h *= 0.5
+                if h < 1e-13:
+                    where = f"near y = {(z * self._s).tolist()}"
+                    # a chart's pole is a boundary where H is not smooth (grad H ~ 1/sqrt(G^2 - L^2)): the
+                    # steps shrink before any of them leaves the domain
+                    if out_of_domain or min(z[1] - self._lo, self._hi - z[1]) < 1e-6:
+                        raise SingularityError(
+                            f"The level curve H = {self.energy:.17g} through y0 = {self.y0.tolist()} leaves the "
+                            f"domain L_bounds {where} (for a Serret-Andoyer chart: the orbit passes through a "
+                            "pole L = +-G; use the chart about another body axis)."
+                        )
+                    raise ConvergenceError(
+                        f"The level curve H = {self.energy:.17g} could not be followed {where}: a degenerate "
+                        "critical point of H?"
+                    )
+                continue
+            chord = zc - z
+            for w in shifts:
+                if w == 0.0 and len(pts) < 2:
+                    continue
+                target = z0 + np.array([w, 0.0])
+                d = target - z
+                s = float(d @ chord) / float(chord @ chord)
+                if -1e-12 <= s <= 1 + 1e-12 and np.linalg.norm(d - s * chord) <= 0.1 * h and tangent @ t0 > 0.5:
+                    pts.append(target)
+                    return pts, "closed", round(w / self._P) if w else 0
+            pts.append(zc)
+            z, g, tangent = zc, gc, tn
+            rho = np.linalg.norm(g) / max(np.linalg.norm(self._hess(z), 2), 1e-300)
+            if rho < 1e-2 and rho < 0.3 * last_try:
+                last_try = rho
+                cp = self._critical_point(z)
+                if cp is not None and cp.kind == "saddle" and abs(cp.energy - self.energy) <= self.energy_tol:
+                    pts.append(cp.y / self._s)
+                    return pts, "saddle", cp
+            elif rho > 0.05:
+                last_try = math.inf
+            if turn < _MAX_TURN / 3 and 0.85 < ratio < 1 / 0.85 and disp < 0.02 * h:
+                h = min(self._hmax, 1.5 * h)
+        raise ConvergenceError(
+            f"The level curve H = {self.energy:.17g} through y0 = {self.y0.tolist()} did not close after "
+            f"{_MAX_STEPS} steps: is the orbit unbounded (pass `angle_period` if q is an angle)?"
+        )
+
+    # -- arcs, time of flight, state table ------------------------------------------------------------
+    def _solve_graph(self, kind: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Solve H = E for the coordinate ``v`` at fixed ``u`` (``kind`` 0: u = q; 1: u = p) by Newton."""
+        other = 1 - kind
+        rows = np.arange(u.size)
+        for it in range(50):
+            z = np.empty((u.size, 2))
+            z[rows, kind], z[rows, other] = u, v
+            f = self._H(z) - self.energy
+            g = self._grad(z)
+            dv = f / g[rows, other]
+            if not np.all(np.isfinite(dv)):
+                bad = int(np.argmax(~np.isfinite(dv)))
+                raise NumericalError(f"H or its gradient is not finite near y = {(z[bad] * self._s).tolist()}.")
+            v = v - dv
+            # converged to round-off, or (after a few steps) to the rounding noise of H over |grad H|
+            slack = 8 * _EPS * (1 + np.abs(v)) + (it > 5) * 2 * self._position_noise(g)
+            if np.all(np.abs(dv) <= slack):
+                break
+        else:
+            bad = int(np.argmax(np.abs(dv)))
+            raise ConvergenceError(f"Newton's method on H = E did not converge near y = {(z[bad] * self._s).tolist()}.")
+        z = np.empty((u.size, 2))
+        z[rows, kind], z[rows, other] = u, v
+        return z, self._grad(z)
+
+    def _build(self, pts: np.ndarray) -> None:
+        s01 = self._s[0] * self._s[1]
+        gv = self._grad(pts)
+        dominant = (np.abs(gv[:, 0]) > np.abs(gv[:, 1])).astype(int)  # 0: graph over q, 1: graph over p
+        chords = np.diff(pts, axis=0)
+        keep = np.any(chords != 0, axis=1)
+        steeper = (np.abs(chords[:, 1]) > np.abs(chords[:, 0])).astype(int)
+        kinds = np.where(dominant[:-1] == dominant[1:], dominant[:-1], steeper)
+        runs: list[list[int]] = []  # [kind, first vertex, last vertex]
+        for i in np.flatnonzero(keep):
+            k = int(kinds[i])
+            sign = np.sign(chords[i, k])
+            if runs and runs[-1][0] == k and runs[-1][2] == i and np.sign(pts[i, k] - pts[runs[-1][1], k]) == sign:
+                runs[-1][2] = i + 1
+            else:
+                runs.append([k, int(i), int(i + 1)])
+        self._run_kind = np.array([r[0] for r in runs])
+        self._run_u = np.array([[pts[r[1], r[0]], pts[r[2], r[0]]] for r in runs])
+        guides = [(pts[r[1] : r[2] + 1, r[0]], pts[r[1] : r[2] + 1, 1 - r[0]]) for r in runs]
+
+        def arcs(sig: np.ndarray, root: np.ndarray) -> np.ndarray:
+            kind = self._run_kind[root]
+            u0, u1 = self._run_u[root, 0], self._run_u[root, 1]
+            u = u0 + (sig - root) * (u1 - u0)
+            v = np.empty_like(u)
+            for j in np.unique(root):
+                U, W = guides[j]
+                sel = root == j
+                order = np.argsort(U)
+                v[sel] = np.interp(u[sel], U[order], W[order])
+            z, g = self._solve_graph(kind, u, v)
+            rows = np.arange(u.size)
+            zdot = np.stack([g[:, 1], -g[:, 0]], -1) / s01
+            dtds = (u1 - u0) / zdot[rows, kind]
+            if np.any(dtds <= 0):
+                raise ConvergenceError("Internal error: an arc of the level curve is not a graph over its parameter.")
+            dz = self._position_noise(g)
+            return np.stack([z[rows, 1 - kind], dtds], -1), np.stack([dz, dtds * self._hnorm * dz / _norm(g)], -1)
+
+        floor = np.array([1.0, 0.0])
+        self._arcs = _Piecewise.fit(arcs, np.arange(len(runs) + 1.0), floor, self._ctol, "time of flight")
+        self._tau, self._tau_edges = self._arcs.antiderivative()
+        self._tau.coeffs, self._tau_edges = self._tau.coeffs[:, :, 1:], self._tau_edges[:, 1]
+        T = float(self._tau_edges[-1])
+        tails = np.abs(self._arcs.coeffs[:, -3:, 1]).max(axis=1) * np.diff(self._arcs.edges)
+        self.period, self.period_error = T, float(np.sum(tails))
+        if self.period_error > 100 * self.tol * T:
+            g = _norm(self._grad(pts)).min()
+            raise ConvergenceError(
+                f"The period of the orbit through y0 = {self.y0.tolist()} is resolved only to a relative "
+                f"{self.period_error / T:.1e} (asked: tol = {self.tol:g}): the level curve comes within "
+                f"|grad H| = {g:.2e} of a critical point, where H in double precision fixes it only to about "
+                f"{4 * _EPS * self._escale / g:.1e} (scaled). Pass a larger `tol` to accept that accuracy, or a "
+                "larger `energy_tol` to treat the orbit as the nearby separatrix or equilibrium."
+            )
+        run_edges = self._tau_edges[np.searchsorted(self._arcs.edges, np.arange(len(runs) + 1.0))]
+
+        def states(t: np.ndarray, _root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            z, g = self._invert(t)
+            return z, self._position_noise(g)[:, None]
+
+        self._table = _Piecewise.fit(states, run_edges, np.ones(2), self._ctol, "state", ladder=(17, 33))
+        self._turning_and_range()
+
+    def _position_noise(self, g: np.ndarray) -> np.ndarray:
+        """How far a computed point of the level curve may be from it: the rounding of H over |grad H|."""
+        return 4 * _EPS * self._escale / _norm(g)
+
+    def _invert(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The scaled state at times ``r`` in [0, T] (and grad H there) by inverting the time of flight."""
+        idx = np.clip(np.searchsorted(self._tau_edges, r, side="right") - 1, 0, len(self._tau_edges) - 2)
+        t_a, t_b = self._tau_edges[idx], self._tau_edges[idx + 1]
+        half = np.diff(self._arcs.edges)[idx] / 2
+        x = np.clip(-1 + 2 * (r - t_a) / (t_b - t_a), -1.0, 1.0)
+        lo, hi = -np.ones_like(x), np.ones_like(x)
+        for it in range(100):
+            F = _chebeval(self._tau.coeffs, idx, x)[:, 0] - r
+            dF = _chebeval(self._arcs.coeffs[:, :, 1:], idx, x)[:, 0] * half
+            lo, hi = np.where(F < 0, x, lo), np.where(F > 0, x, hi)
+            xn = x - F / dF
+            xn = np.where((xn <= lo) | (xn >= hi) | (it > 30), 0.5 * (lo + hi), xn)  # Newton, else bisection
+            # the time of flight is known to a few ulps of t: x is resolved when F is at that level
+            done = (np.abs(xn - x) <= 4 * _EPS) | (np.abs(F) <= 4 * _EPS * t_b) | (hi - lo <= 8 * _EPS)
+            x = xn
+            if np.all(done):
+                break
+        else:
+            raise ConvergenceError("Inverting the time of flight did not converge (internal error).")
+        root = self._arcs.root[idx]
+        sig = self._arcs.edges[idx] + (x + 1) * half
+        kind = self._run_kind[root]
+        u = self._run_u[root, 0] + (sig - root) * (self._run_u[root, 1] - self._run_u[root, 0])
+        v = _chebeval(self._arcs.coeffs[:, :, :1], idx, x)[:, 0]
+        return self._solve_graph(kind, u, v)
+
+    def _extremes(self, kind: int) -> np.ndarray:
+        """Parameters ``sigma`` on arcs of ``kind`` where the graph ``v`` has a stationary point."""
+        found = []
+        for j in np.flatnonzero(self._run_kind[self._arcs.root] == kind):
+            c = np.trim_zeros(self._arcs.coeffs[j, :, 0], "b")
+            if c.size < 3:
+                continue
+            dc = _cheb.chebder(c)
+            for x in _cheb.chebroots(dc):
+                if abs(x.imag) < 1e-8 and -1 - 1e-9 <= x.real <= 1 + 1e-9:
+                    x = float(np.clip(x.real, -1, 1))
+                    for _ in range(5):  # roots of the companion matrix, refined by Newton on v'
+                        d2 = _cheb.chebval(x, _cheb.chebder(dc))
+                        if d2 == 0:
+                            break
+                        x = float(np.clip(x - _cheb.chebval(x, dc) / d2, -1, 1))
+                    a, b = self._arcs.edges[j], self._arcs.edges[j + 1]
+                    found.append(a + (x + 1) * (b - a) / 2)
+        return np.array(found)
+
+    def _turning_and_range(self) -> None:
+        T = self.period
+        sig = self._extremes(1)
+        if sig.size:
+            z = np.array([self._polish_turning(zi) for zi in self._invert(self._tau(sig)[:, 0].clip(0, T))[0]])
+            # the time from the polished p on its arc (a graph over p): exact where the derivative root is not
+            idx, _ = self._arcs.locate(sig)
+            root = self._arcs.root[idx]
+            u0, u1 = self._run_u[root, 0], self._run_u[root, 1]
+            times = np.mod(self._tau(root + (z[:, 1] - u0) / (u1 - u0))[:, 0], T)
+            order = np.argsort(times)
+            z, times = z[order], times[order]
+            # one turning point may be found on two neighbouring arcs (at both ends of [0, T] too)
+            keep = [i for i in range(len(z)) if not any(np.linalg.norm(z[i] - z[k]) < 1e-8 for k in range(i))]
+            self.turning_times, self.turning_points = times[keep], z[keep] * self._s
+        sig = np.concatenate([self._extremes(0), self._arcs.edges])
+        p = self._invert(self._tau(sig)[:, 0].clip(0, T))[0][:, 1] * self._s[1]
+        self.L_range = (float(p.min()), float(p.max()))
+
+    def _polish_turning(self, z: np.ndarray) -> np.ndarray:
+        """Newton's method on (H - E, dH/dp) = 0; the Jacobian is regular where d^2H/dp^2 != 0."""
+        for _ in range(4):
+            g = self._grad(z[None])[0]
+            F = np.array([self._H(z[None])[0] - self.energy, g[1]])
+            with np.errstate(all="ignore"):
+                dz = np.linalg.lstsq(np.array([g, self._hess(z)[1]]), F, rcond=None)[0]
+            if not np.all(np.isfinite(dz)) or np.linalg.norm(dz) > 1e-6:
+                break
+            z = z - dz
+        return z
+
+    # -- public ---------------------------------------------------------------------------------------
+    @property
+    def frequency(self) -> float:
+        """:math:`2\\pi / T` (0 for an infinite period)."""
+        return 2 * np.pi / self.period
+
+    def _require_periodic(self, what: str) -> None:
+        if self.kind == "separatrix":
+            at = ", ".join(str(np.round(s.y, 12).tolist()) for s in self.saddles)
+            raise SingularityError(
+                f"{what}: the orbit through y0 = {self.y0.tolist()} is a separatrix (it reaches the saddle(s) "
+                f"{at} in infinite time); quadrature gives no periodic motion there, use an integrator."
+            )
+
+    def state(self, t: Any) -> np.ndarray:
+        """The state :math:`y(t) = (q, p)` with :math:`y(0) = y_0`, shape ``t.shape + (2,)``.
+
+        ``q`` is the continuous lift (a rotation advances it by ``winding * angle_period`` per period);
+        reduce it modulo the angle period if needed. ``t`` may be negative.
+        """
+        self._require_periodic("state")
+        t = V.finite(t, "t")
+        if self.kind == "equilibrium":
+            return np.broadcast_to(self.y0, t.shape + (2,)).copy()
+        if np.any(np.abs(t) > self.period / _EPS):
+            raise InputError(
+                f"Expected |t| below period / eps = {self.period / _EPS:.3g}, got {np.max(np.abs(t)):.3g}: beyond "
+                "it not one digit of the phase t mod T is known in double precision."
+            )
+        n = np.floor(t / self.period)
+        z = self._table(t - n * self.period)
+        if self.winding:
+            z[..., 0] += n * (self.winding * self._P)
+        return z * self._s
+
+    def integral(self, f: Callable[[np.ndarray], Any]) -> OrbitIntegral:
+        """:math:`\\int_0^t f(y(s))\\,ds` along the orbit, for ``f`` mapping states ``(N, 2)`` to ``(N,)`` or
+        ``(N, k)``: its increment per period and its periodic part, each by adaptive Chebyshev quadrature."""
+        self._require_periodic("integral")
+        if not callable(f):
+            raise InputError(f"Expected `f` to be callable on states of shape (N, 2), got {type(f).__name__}.")
+
+        def values(t: np.ndarray) -> np.ndarray:
+            y = self.state(t)
+            with np.errstate(all="ignore"):
+                out = np.asarray(f(y), dtype=float).reshape(t.size, -1)
+            if not np.all(np.isfinite(out)):
+                bad = int(np.argmax(~np.all(np.isfinite(out), axis=1)))
+                raise NumericalError(f"`f` is not finite on the orbit at y = {y[bad].tolist()} (t = {t[bad]:.6g}).")
+            return out
+
+        if self.kind == "equilibrium":
+            rate = values(np.zeros(1))[0]
+            return OrbitIntegral(math.inf, rate * 0, None, rate)
+        m = values(np.zeros(1)).shape[1]
+
+        def sampled(t: np.ndarray, _root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            out = values(t)
+            # f inherits the rounding noise of the states it is evaluated at
+            return out, 10 * self._table.noise * np.abs(out).max(axis=0)
+
+        table, at_edges = _Piecewise.fit(
+            sampled, self._table.edges, np.zeros(m), self._ctol, "integral"
+        ).antiderivative()
+        return OrbitIntegral(self.period, at_edges[-1], table, at_edges[-1] / self.period)
+
+    def __repr__(self) -> str:
+        return (
+            f"QuadraturePropagator(kind={self.kind!r}, energy={self.energy:.17g}, period={self.period:.17g}, "
+            f"winding={self.winding})"
+        )
+
+
+class SerretAndoyerPropagator:
+    """Exact motion of a left-invariant system :math:`H(m)` on :math:`T^*SO(3)`: :math:`(l, L)(t)` by
+    quadrature (eq. 11) and the attitude by the reconstruction of Theorem 3,
+
+    .. math::
+
+        R = S\\,R_z(\\varphi)R_x(\\theta)R_z(l)\\,C^T,\\quad \\cos\\theta = L/G,\\quad
+        \\varphi(t) = \\varphi_0 + \\int_0^t \\dot\\varphi\\,ds,
+
+    :math:`\\dot\\varphi` (:meth:`GeneralizedSerretAndoyer.phi_rate`) integrated by the same quadrature: a
+    fixed advance per period of :math:`(l, L)` plus a periodic part.
+
+    Parameters
+    ----------
+    reduction : GeneralizedSerretAndoyer, or a system it accepts (LeftInvariantSystem, RigidBody).
+    m0 : (3,) the initial body momentum, ``G = |m0|``. R0 : (3, 3) the initial attitude (default I).
+    axis : the chart's body axis (0-based; 2 is the paper's). Default: axis 3 if the orbit keeps
+        ``|L|/G <= reduction.switch_at`` there, else the chart where it stays farthest from the poles.
+    tol : as in :class:`QuadraturePropagator`.
+
+    Attributes
+    ----------
+    orbit (the :class:`QuadraturePropagator` of :math:`h_p`), kind, energy, period, G, axis, p (spatial
+    momentum), S (spatial frame, ``S e3 = p/G``), phi0, pole_ratio (max ``|L|/G`` on the orbit: near 1 the
+    chart and :math:`\\dot\\varphi` are near their singularity).
+    """
+
+    def __init__(self, reduction: Any, m0: Any, *, R0: Any = None, axis: int | None = None, tol: float = 1e-12):
+        from ..lie import euler
+        from ..reduction.serret_andoyer import GeneralizedSerretAndoyer, spatial_frame
+
+        sa = reduction if isinstance(reduction, GeneralizedSerretAndoyer) else GeneralizedSerretAndoyer(reduction)
+        self.reduction, self.m0 = sa, V.exact_shape(m0, "m0", (3,))
+        self.G = G = float(np.linalg.norm(self.m0))
+        if G == 0:
+            raise InputError("Expected `m0` to be nonzero: the momentum sphere |m| = G needs G > 0.")
+        R0 = np.eye(3) if R0 is None else V.rotation_matrix(R0, "R0")
+        if axis is not None and (isinstance(axis, bool) or axis not in (0, 1, 2)):
+            raise InputError(f"Expected `axis` to be a body axis index 0, 1 or 2 or None, got {axis!r}.")
+        best, failures = None, []
+        for k in [axis] if axis is not None else [2, 0, 1]:
+            try:
+                y0 = sa.charts[k].forward(self.m0)
+                orbit = QuadraturePropagator(sa.reduced_system(G, k), y0, L_bounds=(-G, G), tol=tol)
+            except SingularityError as exc:
+                if axis is not None:
+                    raise
+                failures.append(f"axis {k + 1}: {exc}")
+                continue
+            ratio = max(abs(orbit.L_range[0]), abs(orbit.L_range[1])) / G
+            if best is None or ratio < best[1]:
+                best = (k, ratio, orbit)
+            if ratio <= sa.switch_at:
+                break
+        if best is None:
+            raise SingularityError("No Serret-Andoyer chart covers the orbit: " + " | ".join(failures))
+        self.axis, self.pole_ratio, self.orbit = best
+        self.p = R0 @ self.m0
+        self.S = spatial_frame(self.p)
+        self.phi0 = float(euler.from_matrix(self.S.T @ R0 @ sa.charts[self.axis].permutation, seq="ZXZ")[0])
+        self._phi = None
+        if self.orbit.kind != "separatrix":
+            self._phi = self.orbit.integral(lambda y: sa.phi_rate(y, G, self.axis))
+
+    @classmethod
+    def from_reduced(cls, reduction: Any, lL0: Any, G: float, *, axis: int = 2, tol: float = 1e-12):
+        """Start from ``(l0, L0)`` in the chart about ``axis``, with ``phi0 = 0`` and ``p = G e3`` (``S = I``)."""
+        from ..reduction.serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart
+
+        lL0, G = V.exact_shape(lL0, "lL0", (2,)), V.positive_scalar(G, "G")
+        R0 = GeneralizedSerretAndoyer.attitude(np.eye(3), 0.0, lL0[1], lL0[0], G, axis)
+        return cls(reduction, SerretAndoyerChart(axis).inverse(lL0, G), R0=R0, axis=axis, tol=tol)
+
+    kind = property(lambda self: self.orbit.kind)
+    energy = property(lambda self: self.orbit.energy)
+    period = property(lambda self: self.orbit.period)
+
+    def state(self, t: Any) -> np.ndarray:
+        """:math:`(l, L)(t)` in the chart about :attr:`axis` (``l`` lifted), shape ``t.shape + (2,)``."""
+        return self.orbit.state(t)
+
+    def phi(self, t: Any) -> np.ndarray:
+        """The reconstruction angle :math:`\\varphi(t)` (continuous, not reduced modulo 2 pi)."""
+        self.orbit._require_periodic("phi")
+        return self.phi0 + self._phi(t)
+
+    @property
+    def phi_per_period(self) -> float:
+        """The advance of :math:`\\varphi` over one period of :math:`(l, L)`: R(t + T) = exp(that * p/G) R(t)."""
+        self.orbit._require_periodic("phi_per_period")
+        return self._phi.per_period
+
+    def momentum(self, t: Any) -> np.ndarray:
+        """Body momentum :math:`m(t)`, shape ``t.shape + (3,)``."""
+        return self.reduction.charts[self.axis].inverse(self.state(t), self.G)
+
+    def attitude(self, t: Any) -> np.ndarray:
+        """Attitude :math:`R(t)` (body to space), shape ``t.shape + (3, 3)``."""
+        y, phi = self.state(t), self.phi(t)
+        return self.reduction.attitude(self.S, phi, y[..., 1], y[..., 0], self.G, self.axis)
+
+    def __repr__(self) -> str:
+        return f"SerretAndoyerPropagator(axis={self.axis + 1}, G={self.G:.17g}, {self.orbit!r})"
