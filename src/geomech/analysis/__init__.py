@@ -1,5 +1,5 @@
 """Analysis of mechanical systems: relative equilibria and their stability (Lagrange-Dirichlet,
-energy-Casimir, linearisation), stability boundaries and stability maps."""
+energy-Casimir, linearisation), stability boundaries and maps; geometric and dynamic phases."""
 
 from .equilibria import (
     Equilibrium,
@@ -9,6 +9,20 @@ from .equilibria import (
     find_equilibria,
     refine_equilibrium,
 )
+from .phases import (
+    GroupPath,
+    PhaseSplit,
+    Reconstruction,
+    ShapeLoop,
+    bind_loop,
+    curvature_integral,
+    decompose_displacement,
+    geometric_phase,
+    integrate_on_group,
+    phases,
+    reconstruct,
+)
+from .rigid_body_phase import RigidBodyPhase, rigid_body_phase, spherical_polygon_area
 from .stability import (
     VERDICT_CODES,
     PerturbationGrowth,
@@ -27,6 +41,20 @@ from .stability import (
 from .stability_map import stability_map, theorem5_margin
 
 __all__ = [
+    "GroupPath",
+    "PhaseSplit",
+    "Reconstruction",
+    "RigidBodyPhase",
+    "ShapeLoop",
+    "bind_loop",
+    "curvature_integral",
+    "decompose_displacement",
+    "geometric_phase",
+    "integrate_on_group",
+    "phases",
+    "reconstruct",
+    "rigid_body_phase",
+    "spherical_polygon_area",
     "VERDICT_CODES",
     "Equilibrium",
     "EquilibriumSet",

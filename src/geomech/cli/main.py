@@ -16,6 +16,7 @@ import click
 from .._version import __version__
 from ..errors import GeomechError
 from ._args import FloatVector, gather_vectors, parse_params
+from .phase import phase
 from .stability import stability_cmd, stability_map_cmd
 
 
@@ -111,6 +112,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
                    f"hyperregular: {summary['hyperregular']}")
 
 
+cli.add_command(phase)
 cli.add_command(stability_cmd)
 cli.add_command(stability_map_cmd)
 
@@ -119,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: run the command line, turning input errors into one line on stderr and status 2."""
     args = gather_vectors(list(sys.argv[1:] if argv is None else argv))
     try:
-        cli.main(args=args, prog_name="geomech", standalone_mode=False)
+        cli.main(args=args, prog_name="geomech", standalone_mode=False, obj={"argv": list(args)})
     except click.exceptions.NoArgsIsHelpError as exc:
         click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
         return 0

@@ -2,6 +2,17 @@
 calls ``plt.show()``. matplotlib is imported lazily."""
 
 from .momentum import momentum_sphere, reduced_phase_portrait
+from .phases import connection_field, curvature_map, group_path, momentum_solid_angle, winding_numbers
 from .stability import equilibria_phase_portrait, stability_map_plot
 
-__all__ = ["equilibria_phase_portrait", "momentum_sphere", "reduced_phase_portrait", "stability_map_plot"]
+__all__ = [
+    "connection_field",
+    "curvature_map",
+    "equilibria_phase_portrait",
+    "group_path",
+    "momentum_solid_angle",
+    "momentum_sphere",
+    "reduced_phase_portrait",
+    "stability_map_plot",
+    "winding_numbers",
+]

@@ -10,6 +10,7 @@ from .classical import (
     reduced_hamiltonian_expression,
     reduced_vector_field,
 )
+from .connections import MechanicalConnection
 from .euler_coordinates import EulerCoordinates, body_angular_velocity
 from .serret_andoyer import GeneralizedSerretAndoyer, ReducedTrajectory, SerretAndoyerChart, spatial_frame
 
@@ -18,6 +19,7 @@ __all__ = [
     "EulerCoordinates",
     "GeneralizedSerretAndoyer",
     "LPeriod",
+    "MechanicalConnection",
     "ReducedTrajectory",
     "SerretAndoyerChart",
     "body_angular_velocity",

@@ -4,6 +4,14 @@ from . import rotor_closed_forms
 from ._euler_top import EulerTopSolution
 from .canonical import CanonicalSystem
 from .control import ClosedLoopFamily, HyperregularityReport, StructurePreservingControl
+from .holonomic import HolonomicSystem, SymmetryGroup, symmetry_group
+from .holonomic_examples import (
+    planar_point_masses,
+    planar_point_positions,
+    spacecraft_with_rotors,
+    three_link_chain,
+    two_pinned_bodies,
+)
 from .left_invariant import LeftInvariantSystem, as_left_invariant
 from .rigid_body import RigidBody
 from .rotors import RotorBody, RotorTrajectory
@@ -12,12 +20,20 @@ __all__ = [
     "CanonicalSystem",
     "ClosedLoopFamily",
     "EulerTopSolution",
+    "HolonomicSystem",
     "HyperregularityReport",
     "LeftInvariantSystem",
     "RigidBody",
     "RotorBody",
     "RotorTrajectory",
     "StructurePreservingControl",
+    "SymmetryGroup",
     "as_left_invariant",
+    "planar_point_masses",
+    "planar_point_positions",
+    "spacecraft_with_rotors",
+    "symmetry_group",
+    "three_link_chain",
+    "two_pinned_bodies",
     "rotor_closed_forms",
 ]

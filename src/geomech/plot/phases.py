@@ -1,0 +1,222 @@
+"""Pictures of connections, curvature, gaits and phases (section 2 of the nonholonomic paper).
+
+Each function takes ``ax=None`` (a new figure is made), draws, and returns the axes; none calls
+``plt.show()``. matplotlib is imported lazily.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import InputError, ShapeError
+from ..lie._common import wrap_angle
+
+__all__ = ["connection_field", "curvature_map", "group_path", "momentum_solid_angle", "winding_numbers"]
+
+
+def winding_numbers(loop_points: Any, points: Any) -> np.ndarray:
+    """Winding number of the closed polygon ``loop_points`` ``(m, 2)`` around each of ``points`` ``(..., 2)``."""
+    P = V.trailing_shape(loop_points, "loop_points", (2,))
+    X = V.trailing_shape(points, "points", (2,))
+    d = P[None, :, :] - X.reshape(-1, 1, 2)
+    ang = np.arctan2(d[..., 1], d[..., 0])
+    dang = np.diff(np.concatenate([ang, ang[:, :1]], 1), axis=1)
+    w = np.round(wrap_angle(dang).sum(1) / (2 * np.pi))
+    return w.reshape(X.shape[:-1]).astype(int)
+
+
+def _component(system: Any, component: Any) -> int:
+    names = system.group.algebra_names
+    coords = system.group.coordinate_names
+    if component is None:
+        return system.group.angle_component if system.group.angle_component is not None else 0
+    if isinstance(component, str):
+        for seq in (names, coords):
+            if component in seq:
+                return seq.index(component)
+        raise InputError(f"Expected `component` to be one of {list(names)} or {list(coords)}, got {component!r}.")
+    c = int(component)
+    if not 0 <= c < system.group.dim:
+        raise InputError(f"Expected `component` in 0..{system.group.dim - 1}, got {c}.")
+    return c
+
+
+def _grid(system: Any, bounds: Any, loop: Any, n: int) -> tuple[np.ndarray, np.ndarray, tuple]:
+    if system.shape_dim != 2:
+        raise ShapeError(f"Expected a 2-D shape space to draw, {system.name} has {system.shape_dim} coordinates.")
+    if bounds is None:
+        if loop is not None:
+            pts = loop.r(np.linspace(0.0, loop.period, 200))
+            lo, hi = pts.min(0), pts.max(0)
+            pad = 0.35 * np.maximum(hi - lo, 1e-3)
+            bounds = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
+        else:
+            bounds = (-np.pi, np.pi, -np.pi, np.pi) if system.angle_shapes else (-1.0, 1.0, -1.0, 1.0)
+    b = V.exact_shape(bounds, "bounds", (4,))
+    x, y = np.linspace(b[0], b[1], n), np.linspace(b[2], b[3], n)
+    X, Y = np.meshgrid(x, y)
+    return X, Y, tuple(b)
+
+
+def _labels(ax: Any, system: Any) -> None:
+    s = system.shape_coordinates
+    ax.set_xlabel(f"${_tex(s[0])}$")
+    ax.set_ylabel(f"${_tex(s[1])}$")
+    ax.set_aspect("equal", adjustable="box")
+
+
+def _tex(sym: Any) -> str:
+    import sympy as sp
+
+    return sp.latex(sym)
+
+
+def _draw_loop(ax: Any, loop: Any, color: str = "k") -> np.ndarray:
+    t = np.linspace(0.0, loop.period, 400)
+    pts = loop.r(t)
+    ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.6)
+    for frac in (0.0, 0.25, 0.5, 0.75):
+        i = int(frac * (len(t) - 1))
+        d = pts[i + 1] - pts[i]
+        ax.annotate("", xy=pts[i] + d, xytext=pts[i], arrowprops=dict(arrowstyle="-|>", color=color, lw=1.4))
+    ax.plot(*pts[0], "o", color=color, markersize=4)
+    return pts
+
+
+def connection_field(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21,
+                     ax: Any = None) -> Any:
+    """The row ``component`` of :math:`-A_{loc}(r)` as a vector field on a 2-D shape space.
+
+    Following the convention of gait design, the arrows are the body velocity (in that component) a
+    unit shape velocity along each axis would produce, so a loop that runs along the arrows gains
+    :math:`-\\oint A` in it. ``component`` is an index or a name (``"theta"``, ``"x"``, ``"omega"``...);
+    default the rotation. ``loop`` (a :class:`~geomech.analysis.phases.ShapeLoop`) is drawn on top.
+    """
+    import matplotlib.pyplot as plt
+
+    from ..reduction.connections import MechanicalConnection
+
+    c = _component(system, component)
+    X, Y, _ = _grid(system, bounds, loop, n)
+    A = MechanicalConnection(system).connection(np.stack([X, Y], -1))[..., c, :]
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.2, 4.8))
+    mag = np.hypot(A[..., 0], A[..., 1])
+    q = ax.quiver(X, Y, -A[..., 0], -A[..., 1], mag, cmap="viridis", pivot="mid")
+    ax.figure.colorbar(q, ax=ax, label=f"$|A^{{{system.group.algebra_names[c]}}}|$".replace("_", ""))
+    if loop is not None:
+        _draw_loop(ax, loop)
+    _labels(ax, system)
+    ax.set_title(f"{system.name}: $-A_{{loc}}$, {system.group.algebra_names[c]} component")
+    return ax
+
+
+def curvature_map(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 121,
+                  ax: Any = None, shade: bool = True) -> Any:
+    """The curvature :math:`B_{12}` (component ``component``) as a heat map on a 2-D shape space, with
+    the gait ``loop`` drawn and the region it encloses shaded by its signed winding number (red
+    counterclockwise, blue clockwise), annotated with :math:`-\\iint B` (the geometric phase for the
+    abelian components)."""
+    import matplotlib.pyplot as plt
+
+    from ..reduction.connections import MechanicalConnection
+
+    c = _component(system, component)
+    X, Y, b = _grid(system, bounds, loop, n)
+    B = MechanicalConnection(system).curvature_2d(np.stack([X, Y], -1))[..., c]
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.6, 4.8))
+    vmax = float(np.abs(B).max()) or 1.0
+    im = ax.pcolormesh(X, Y, B, cmap="RdBu_r", vmin=-vmax, vmax=vmax, shading="auto")
+    ax.figure.colorbar(im, ax=ax, label=f"$B_{{12}}$ ({system.group.algebra_names[c]})".replace("_{12}", "_{12}"))
+    if loop is not None:
+        pts = _draw_loop(ax, loop)
+        if shade:
+            w = winding_numbers(pts, np.stack([X, Y], -1))
+            levels = np.arange(w.min() - 0.5, w.max() + 1.5)
+            if np.any(w != 0):
+                ax.contourf(X, Y, np.where(w == 0, np.nan, w), levels=levels, cmap="bwr", vmin=-2, vmax=2,
+                            alpha=0.25, hatches=["//"])
+                dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
+                ax.text(0.02, 0.02, f"$-\\iint w B \\approx$ {-float((w * B).sum() * dA):.4g}",
+                        transform=ax.transAxes, fontsize=9, bbox=dict(facecolor="white", alpha=0.8, lw=0))
+    _labels(ax, system)
+    ax.set_title(f"{system.name}: curvature, {system.group.algebra_names[c]} component")
+    return ax
+
+
+def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
+    """The reconstructed path in the group: for SE(2) the position with the heading drawn along it,
+    for S^1 the unwrapped angle against time, for SO(3) the 3-1-3 Euler angles against time."""
+    import matplotlib.pyplot as plt
+
+    path = getattr(reconstruction, "path", reconstruction)
+    G = path.group
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.6, 4.4))
+    xy = path.coordinates[:, :2]
+    if G.name == "SE2" and float(np.ptp(xy, axis=0).max()) <= 1e-9 * max(1.0, float(np.abs(xy).max())):
+        # the position does not move (centre-of-mass frame, zero linear momentum): show the rotation
+        ax.plot(path.t, path.coordinates[:, 2], color="C0")
+        ax.set_xlabel("$t$")
+        ax.set_ylabel(r"$\theta$ (unwrapped)")
+        ax.set_title(f"SE(2), position fixed at ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}): net rotation "
+                     f"{path.coordinates[-1, 2] - path.coordinates[0, 2]:.4g} rad")
+    elif G.name == "SE2":
+        th = path.coordinates[:, 2]
+        ax.plot(xy[:, 0], xy[:, 1], color="C0", linewidth=1.6)
+        idx = np.linspace(0, len(th) - 1, max(arrows, 2)).astype(int)
+        span = float(np.ptp(xy, axis=0).max()) or 1.0
+        ax.quiver(xy[idx, 0], xy[idx, 1], np.cos(th[idx]), np.sin(th[idx]), color="C3", angles="xy",
+                  scale_units="xy", scale=8.0 / span, width=0.004)
+        ax.plot(*xy[0], "ko", markersize=4)
+        ax.set_xlabel("$x$")
+        ax.set_ylabel("$y$")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"path in SE(2): net rotation {th[-1] - th[0]:.4g} rad (unwrapped)")
+    elif G.name == "S1":
+        ax.plot(path.t, path.coordinates[:, 0], color="C0")
+        ax.set_xlabel("$t$")
+        ax.set_ylabel(r"$\theta$ (unwrapped)")
+        ax.set_title(f"path in $S^1$: net {path.coordinates[-1, 0] - path.coordinates[0, 0]:.4g} rad")
+    else:
+        for i, lab in enumerate((r"$\varphi$", r"$\theta$", r"$\psi$")):
+            ax.plot(path.t, path.coordinates[:, i], label=lab)
+        ax.legend(loc="best")
+        ax.set_xlabel("$t$")
+        ax.set_ylabel("3-1-3 Euler angles (wrapped)")
+        ax.set_title("path in SO(3)")
+    return ax
+
+
+def momentum_solid_angle(phase: Any, *, ax: Any = None, n: int = 400) -> Any:
+    """The free rigid body's momentum curve on its sphere with the enclosed cap shaded, from a
+    :class:`~geomech.analysis.RigidBodyPhase`; the title gives the solid angle and the phases."""
+    import matplotlib.pyplot as plt
+
+    from .momentum import momentum_sphere
+
+    m = phase.momentum_curve(n)
+    G = phase.momentum
+    if ax is None:
+        fig = plt.figure(figsize=(5.8, 5.8))
+        ax = fig.add_subplot(projection="3d")
+    momentum_sphere(m, ax=ax)
+    body = phase.body
+    Q = body.principal_axes
+    pole = phase.pole_sign * Q[:, phase.axis]
+    # the cap: straight lines in the tangent direction from the pole to each curve point, on the sphere
+    u = m / np.linalg.norm(m, axis=1, keepdims=True)
+    s = np.linspace(0.0, 1.0, 24)[:, None, None]
+    ang = np.arccos(np.clip(u @ pole, -1.0, 1.0))[None, :, None]
+    perp = u - (u @ pole)[:, None] * pole
+    perp = perp / np.maximum(np.linalg.norm(perp, axis=1, keepdims=True), 1e-300)
+    pts = G * (np.cos(s * ang) * pole + np.sin(s * ang) * perp[None])
+    color = "tab:red" if phase.solid_angle > 0 else "tab:blue"
+    ax.plot_surface(pts[..., 0], pts[..., 1], pts[..., 2], color=color, alpha=0.35, linewidth=0, shade=False)
+    ax.set_title(f"$\\Lambda$ = {phase.solid_angle:.6g} sr, geometric {phase.geometric:.6g}, dynamic "
+                 f"{phase.dynamic:.6g}\ntotal {phase.total_wrapped:.6g} (wrapped to (-$\\pi$, $\\pi$])", fontsize=9)
+    return ax

@@ -1,0 +1,83 @@
+"""``geomech phase``: the two subcommands of issue 6 and the holonomic loop command; one-line errors."""
+
+import json
+import math
+
+import pytest
+
+from geomech.cli.main import main
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_two_bodies_json_is_the_closed_form(capsys):
+    code, out, err = run(capsys, "phase", "two-bodies", "--I1", "1", "--I2", "3", "--mu", "-2.5", "--period", "5.5",
+                         "--turns", "-1", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    want = -2 * math.pi * (-1) * 3 / 4 + (-2.5) * 5.5 / 4  # from (I1 + I2) theta' + I2 psi' = mu
+    assert abs(s["total_phase"] - want) < 1e-10
+    assert abs(s["geometric_phase"] - 3 * math.pi / 2) < 1e-12
+    assert abs(s["dynamic_phase"] - (-2.5 * 5.5 / 4)) < 1e-12
+    assert abs(s["reconstructed"] - want) < 1e-9
+    assert s["angles_wrapped"] is False
+
+
+def test_two_bodies_default_turns_and_text(capsys):
+    code, out, err = run(capsys, "phase", "two-bodies", "--I1", "2", "--I2", "2")
+    assert code == 0, err
+    assert "geometric phase" in out and f"{-math.pi:.12g}" in out
+
+
+def test_rigid_body_json(capsys):
+    code, out, err = run(capsys, "phase", "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2",
+                         "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert abs(s["difference"]) < 1e-8
+    assert abs(s["total"] - (s["geometric"] + s["dynamic"])) < 1e-14
+    assert abs(s["period"] - 19.1353045602) < 1e-8
+    assert s["angles_wrapped"]["direct_wrapped"] is True and s["angles_wrapped"]["total"] is False
+    assert -math.pi < s["direct_wrapped"] <= math.pi
+
+
+def test_rigid_body_out_dir(capsys, tmp_path):
+    code, out, err = run(capsys, "phase", "rigid-body", "--inertia", "3,2,1", "--momentum", "0.2,0.3,1",
+                         "--attitude", "0.1", "0.2", "0.3", "--out", str(tmp_path))
+    assert code == 0, err
+    assert (tmp_path / "rigid_body_phase.json").exists() and (tmp_path / "rigid_body_solid_angle.png").exists()
+    assert "wrapped to (-pi, pi]" in out
+
+
+def test_loop_command(capsys, tmp_path):
+    code, out, err = run(capsys, "phase", "loop", "three-link-middle", "--shape", "alpha1=0.4+0.9*cos(2*pi*t/T)",
+                         "--shape", "alpha2=-0.2+0.6*sin(2*pi*t/T)", "--period", "2", "--json", "--out", str(tmp_path))
+    assert code == 0, err
+    s = json.loads(out)
+    assert abs(s["phase"]["geometric"] + s["curvature_integral"][2]) < 1e-10
+    assert abs(s["net_motion_coordinates"]["theta"] - s["phase"]["total"]) < 1e-9
+    for f in ("loop.json", "connection.png", "curvature.png", "path.png"):
+        assert (tmp_path / f).exists()
+
+
+@pytest.mark.parametrize("args, match", [
+    (("phase", "two-bodies", "--I1", "0", "--I2", "0"), "singular"),
+    (("phase", "two-bodies", "--period", "-1"), "--period"),
+    (("phase", "rigid-body", "--inertia", "3", "2", "1", "--momentum", "0", "1", "0"), "periodic"),
+    (("phase", "rigid-body", "--inertia", "3", "2", "--momentum", "1", "0", "0"), "inertia"),
+    (("phase", "loop", "three-link-middle", "--shape", "alpha1=t", "--shape", "alpha2=sin(2*pi*t)"), "closed"),
+    (("phase", "loop", "three-link-middle", "--shape", "alpha1=sin(2*pi*t)"), "one `--shape` for each"),
+    (("phase", "loop", "three-link-middle", "--shape", "alpha1=sin(2*pi*t)", "--shape", "beta=0"), "not a shape"),
+    (("phase", "loop", "planar-3-body", "--shape", "rho=0.3*sin(2*pi*t)", "--shape", "a2=0.3*sin(2*pi*t)",
+      "--shape", "b2=0.3*sin(2*pi*t)"), "singular"),
+    (("phase", "loop", "three-link-middle", "--shape", "alpha1=cos(2*pi*t)", "--shape", "alpha2=sin(2*pi*t)",
+      "--mu", "1"), "3 component"),
+])
+def test_bad_input_is_one_line_and_status_2(capsys, args, match):
+    code, out, err = run(capsys, *args)
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("geomech: error:") and match in err

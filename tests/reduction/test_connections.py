@@ -1,0 +1,145 @@
+"""The mechanical connection: Theorem 2.1 read off vs the direct construction, curvature, holonomy."""
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from geomech.analysis import ShapeLoop, reconstruct
+from geomech.errors import InputError, SingularityError
+from geomech.lie import se2, so3
+from geomech.reduction.connections import MechanicalConnection
+from geomech.systems import (
+    planar_point_masses,
+    spacecraft_with_rotors,
+    three_link_chain,
+    two_pinned_bodies,
+)
+
+
+@pytest.fixture(scope="module")
+def systems():
+    return {
+        "pinned": two_pinned_bodies(1.0, 3.0),
+        "chain": three_link_chain(origin="middle"),
+        "spacecraft": spacecraft_with_rotors(),
+        "bodies": planar_point_masses([1.0, 2.0, 1.5]),
+    }
+
+
+@pytest.mark.parametrize("name", ["pinned", "chain", "spacecraft", "bodies"])
+def test_theorem_2_1_read_off_equals_direct_construction(systems, name):
+    # Locked inertia and I A from the momentum map and the infinitesimal generators (section 2.1)
+    # must be the blocks of the reduced mass matrix (Theorem 2.1).
+    c = MechanicalConnection(systems[name])
+    I, IA = c.local_forms_direct()
+    assert (I - c.locked_inertia_expression).applyfunc(sp.simplify) == sp.zeros(*I.shape)
+    assert (IA - c.momentum_coupling_expression).applyfunc(sp.simplify) == sp.zeros(*IA.shape)
+
+
+@pytest.mark.parametrize("name", ["pinned", "bodies", "spacecraft"])
+def test_murray_splitting_equals_reduced_lagrangian_symbolically(systems, name):
+    s = systems[name]
+    c = MechanicalConnection(s)
+    assert sp.simplify(c.murray_lagrangian() - s.reduced_lagrangian()) == 0
+
+
+def test_murray_splitting_equals_full_lagrangian_numerically(systems, rng):
+    # Murray's form in xi = B(alpha) alpha_dot must equal L(q, qdot) itself at random states.
+    s = systems["chain"]
+    c = MechanicalConnection(s)
+    syms = s.body_velocity_symbols + s.shape_coordinates + s.shape_velocities
+    murray = sp.lambdify(syms, c.murray_lagrangian().subs(s._substitutions))
+    full = sp.lambdify(s.coordinates + s.velocities, s.lagrangian.subs(s._substitutions))
+    B = s.body_velocity_matrix_function()
+    for _ in range(5):
+        q, qd = rng.uniform(-1, 1, 5), rng.normal(size=5)
+        xi = B(q[:3]) @ qd[:3]
+        np.testing.assert_allclose(murray(*xi, *q[3:], *qd[3:]), full(*q, *qd), rtol=1e-12)
+
+
+def test_pinned_bodies_connection_is_the_seeds():
+    c = MechanicalConnection(two_pinned_bodies(1.0, 3.0))
+    I1, I2 = sp.symbols("I1 I2", real=True)
+    assert sp.simplify(c.connection_expression()[0, 0] - I2 / (I1 + I2)) == 0
+    np.testing.assert_allclose(c.connection(np.array([[0.1], [2.0]])), np.full((2, 1, 1), 0.75))
+    np.testing.assert_allclose(c.curvature(np.array([0.3])), 0.0)
+
+
+def test_horizontal_space_is_metric_orthogonal_to_the_orbits(systems, rng):
+    # xi = -A rdot is horizontal: zero momentum, and (B^-1 xi, rdot) is M-orthogonal to every generator.
+    for name in ("chain", "bodies", "spacecraft"):
+        s = systems[name]
+        c = MechanicalConnection(s)
+        Xi = s.compile(c.generators_expression, s.coordinates)
+        Mq = s.compile(s.mass_matrix, s.coordinates)
+        B = s.body_velocity_matrix_function()
+        for _ in range(3):
+            alpha = rng.uniform(-1, 1, 3)
+            alpha[1] = abs(alpha[1]) + 0.3 if s.group.name == "SO3" else alpha[1]
+            r = rng.uniform(0.5, 1.2, s.shape_dim)
+            rd = rng.normal(size=s.shape_dim)
+            ad = np.linalg.solve(B(alpha), -c.connection(r) @ rd)
+            q = np.concatenate([alpha, r])
+            v = np.concatenate([ad, rd])
+            np.testing.assert_allclose(Xi(q).T @ Mq(q) @ v, 0.0, atol=1e-11)
+            np.testing.assert_allclose(c.momentum_map(alpha, r, ad, rd), 0.0, atol=1e-11)
+
+
+def test_connection_symbolic_matches_numeric(systems, rng):
+    s = systems["chain"]
+    c = MechanicalConnection(s)
+    f = sp.lambdify(s.shape_coordinates, c.connection_expression().subs(s._substitutions))
+    for r in rng.uniform(-1.5, 1.5, (4, 2)):
+        np.testing.assert_allclose(np.asarray(f(*r), float), c.connection(r), atol=1e-12)
+
+
+def test_curvature_symbolic_matches_numeric_and_bracket_term(systems, rng):
+    s = systems["spacecraft"]
+    c = MechanicalConnection(s)
+    B = np.asarray(c.curvature_expression(numeric=True), float).ravel()
+    A = c.connection(np.zeros(2))
+    # A is constant: dA = 0 and the curvature is the bracket term alone, -A_1 x A_2 for so(3)
+    np.testing.assert_allclose(B, -np.cross(A[:, 0], A[:, 1]), atol=1e-15)
+    np.testing.assert_allclose(c.curvature_2d(rng.normal(size=(3, 2))), np.tile(B, (3, 1)), atol=1e-15)
+    assert np.linalg.norm(B) > 1e-3
+
+
+def _holonomy_about(system, r0, eps):
+    """Holonomy of a circle of radius eps about r0, moved back to r0 along the radius (gauge covariant)."""
+    G = system.group
+    loop = ShapeLoop.ellipse(r0, [eps, eps], 1.0)
+
+    class Segment:
+        def r(self, t):
+            return r0 + t * np.array([eps, 0.0])
+
+        def rdot(self, t):
+            return np.array([eps, 0.0])
+
+    seg = reconstruct(system, Segment(), 0.0, t_eval=np.array([0.0, 1.0])).path.displacement()
+    h = reconstruct(system, loop, 0.0, t_eval=np.array([0.0, 1.0])).path.displacement()
+    h0 = G.compose(G.compose(seg, h), G.inverse(seg))
+    return (so3.log(h0) if G.name == "SO3" else se2.log(h0)) / (np.pi * eps**2)
+
+
+@pytest.mark.parametrize("name", ["chain", "spacecraft"])
+def test_small_loop_holonomy_is_minus_the_curvature(systems, name):
+    # The sign convention and the bracket term: hol = exp(-area B12) + O(eps^3) for a non-abelian G.
+    s = systems[name]
+    r0 = np.array([0.3, -0.4])
+    B = MechanicalConnection(s).curvature_2d(r0)
+    errs = []
+    for eps in (4e-2, 2e-2):
+        errs.append(np.abs(_holonomy_about(s, r0, eps) + B).max())
+    assert errs[1] < 0.3 * errs[0] + 1e-9  # second order in eps
+    assert errs[1] < 1e-3 * np.abs(B).max() + 1e-9
+
+
+def test_curvature_rejects_non_2d_and_singular(systems):
+    c = MechanicalConnection(systems["bodies"])
+    with pytest.raises(InputError, match="2-D"):
+        c.curvature_2d(np.ones(3))
+    with pytest.raises(SingularityError, match="singular"):
+        c.connection(np.zeros(3))
+    with pytest.raises(InputError, match="HolonomicSystem"):
+        MechanicalConnection("not a system")

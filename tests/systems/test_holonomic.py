@@ -1,0 +1,171 @@
+"""Holonomic systems on Q = G x S: groups, Lagrangians, reduced mass matrices, full simulation."""
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from geomech.errors import InputError, ShapeError, SingularityError, SymbolicError
+from geomech.lie import so3
+from geomech.systems import (
+    HolonomicSystem,
+    planar_point_masses,
+    planar_point_positions,
+    spacecraft_with_rotors,
+    symmetry_group,
+    three_link_chain,
+    two_pinned_bodies,
+)
+
+
+@pytest.fixture(scope="module")
+def three_bodies():
+    return planar_point_masses([1.0, 2.0, 1.5])
+
+
+@pytest.mark.parametrize("name", ["S1", "SE2", "SO3"])
+def test_body_velocity_matrix_against_finite_differences(name, rng):
+    # xi = B(alpha) alpha_dot must equal (g^-1 dg/dt)^vee computed from the numeric group elements.
+    G = symmetry_group(name)
+    alpha = sp.symbols("a0:%d" % G.dim, real=True)
+    B = sp.lambdify(alpha, G.body_velocity_matrix(alpha))
+    for _ in range(5):
+        a = rng.uniform(-1, 1, G.dim)
+        if name == "SO3":
+            a[1] = rng.uniform(0.3, 2.8)
+        ad = rng.normal(size=G.dim)
+        h = 1e-6
+        gp, gm = G.from_coordinates(a + h * ad), G.from_coordinates(a - h * ad)
+        g = G.from_coordinates(a)
+        if name == "S1":
+            xi = (gp - gm) / (2 * h)
+        else:
+            dg = (gp - gm) / (2 * h)
+            X = np.linalg.solve(g, dg)
+            xi = np.array([X[0, 2], X[1, 2], X[1, 0]]) if name == "SE2" else so3.vee(0.5 * (X - X.T))
+        np.testing.assert_allclose(np.asarray(B(*a), float) @ ad, xi, atol=1e-8)
+
+
+def test_so3_body_velocity_is_the_textbook_313_formula():
+    phi, th, psi = sp.symbols("phi theta psi", real=True)
+    B = symmetry_group("SO3").body_velocity_matrix((phi, th, psi))
+    want = sp.Matrix([[sp.sin(th) * sp.sin(psi), sp.cos(psi), 0],
+                      [sp.sin(th) * sp.cos(psi), -sp.sin(psi), 0],
+                      [sp.cos(th), 0, 1]])
+    assert sp.simplify(B - want) == sp.zeros(3, 3)
+
+
+def test_group_names_and_errors():
+    assert symmetry_group("so(2)").name == "S1"
+    assert symmetry_group("se(2)").name == "SE2"
+    with pytest.raises(InputError, match="one of"):
+        symmetry_group("SE3")
+
+
+def test_two_pinned_bodies_reduced_mass_matrix():
+    s = two_pinned_bodies(1.0, 3.0)
+    I1, I2 = sp.symbols("I1 I2", real=True)
+    assert sp.simplify(s.reduced_mass_matrix - sp.Matrix([[I1 + I2, I2], [I2, I2]])) == sp.zeros(2, 2)
+    np.testing.assert_allclose(s.reduced_mass_function(np.array([0.3])), [[4.0, 3.0], [3.0, 3.0]])
+    assert s.angle_shapes == (0,)
+
+
+def test_planar_masses_kinetic_energy_from_positions(three_bodies, rng):
+    # T from the inertial positions (differentiated numerically) must equal 1/2 qdot^T M qdot.
+    s = three_bodies
+    Mf = s.compile(s.mass_matrix, s.coordinates)
+    m = np.array([1.0, 2.0, 1.5])
+    for _ in range(4):
+        q = np.concatenate([rng.normal(size=3), [rng.uniform(0.5, 2)], rng.normal(size=2)])
+        qd = rng.normal(size=6)
+        h = 1e-6
+        v = (planar_point_positions(s, q + h * qd) - planar_point_positions(s, q - h * qd)) / (2 * h)
+        T_pos = 0.5 * np.sum(m[:, None] * v**2)
+        np.testing.assert_allclose(0.5 * qd @ Mf(q) @ qd, T_pos, rtol=1e-8)
+        X = planar_point_positions(s, q)
+        np.testing.assert_allclose(m @ X / m.sum(), q[:2], atol=1e-12)  # (x, y) is the centre of mass
+        d = X[1] - X[0]
+        assert abs(np.arctan2(d[1], d[0]) - q[2]) < 1e-12 or abs(abs(np.arctan2(d[1], d[0]) - q[2]) - 2 * np.pi) < 1e-9
+
+
+def test_planar_masses_locked_inertia_closed_form(three_bodies, rng):
+    s = three_bodies
+    m1, m2, m3 = 1.0, 2.0, 1.5
+    mu1, mu2 = m1 * m2 / (m1 + m2), m3 * (m1 + m2) / (m1 + m2 + m3)
+    for _ in range(3):
+        r = np.array([rng.uniform(0.5, 2), *rng.normal(size=2)])
+        I, IA, _ = s.shape_matrix(r)
+        I_th = mu1 * r[0] ** 2 + mu2 * (r[1] ** 2 + r[2] ** 2)
+        np.testing.assert_allclose(I, np.diag([4.5, 4.5, I_th]), atol=1e-12)
+        # A_theta = sum mu_j (s_j x ds_j) / I_theta with s_1 = (rho, 0), s_2 = (a, b)
+        np.testing.assert_allclose(IA[2], [0.0, -mu2 * r[2], mu2 * r[1]], atol=1e-12)
+        np.testing.assert_allclose(IA[:2], 0.0, atol=1e-12)
+
+
+def test_three_link_chain_straight_is_a_rod():
+    # A straight chain of three unit rods is one rod of length 3 and mass 3: I = M L^2 / 12 = 9/4.
+    s = three_link_chain(origin="middle")
+    I, IA, _ = s.shape_matrix(np.zeros(2))
+    np.testing.assert_allclose(I, np.diag([3.0, 3.0, 2.25]), atol=1e-12)
+    # With the middle link held, alpha1' = 1 turns link 1 (centre at (-1, 0)) at -1 rad/s: its centre moves
+    # at (0, 1/2), momentum (0, 1/2), angular momentum -1/2 - J1 = -7/12; alpha2' = 1 mirrors it.
+    np.testing.assert_allclose(IA, [[0.0, 0.0], [0.5, 0.5], [-7 / 12, 7 / 12]], atol=1e-12)
+
+
+def test_spacecraft_reduced_mass_matrix():
+    s = spacecraft_with_rotors([3.0, 2.0, 1.0], axes=[[1, 0, 0], [0, 1, 0]], rotor_inertias=[0.2, 0.3])
+    M = s.reduced_mass_function(np.zeros(2))
+    want = np.array([[3, 0, 0, 0.2, 0], [0, 2, 0, 0, 0.3], [0, 0, 1, 0, 0], [0.2, 0, 0, 0.2, 0], [0, 0.3, 0, 0, 0.3]])
+    np.testing.assert_allclose(M, want, atol=1e-14)
+
+
+def test_from_lagrangian_rejects_what_is_not_invariant_or_not_simple():
+    with pytest.raises(SymbolicError, match="not invariant"):
+        HolonomicSystem.from_lagrangian("theta_dot**2/2 + psi_dot**2/2 + cos(theta)", "S1", ["psi"])
+    with pytest.raises(SymbolicError, match="not invariant under the left action"):
+        HolonomicSystem.from_lagrangian("(x_dot**2 + y_dot**2)/2 + x**2*theta_dot**2/2 + r_dot**2/2", "SE2", ["r"])
+    with pytest.raises(SymbolicError, match="linear in the velocities"):
+        HolonomicSystem.from_lagrangian("theta_dot**2/2 + psi_dot**2/2 + psi*theta_dot", "S1", ["psi"])
+    with pytest.raises(SymbolicError, match="quadratic"):
+        HolonomicSystem.from_lagrangian("theta_dot**4/2 + psi_dot**2/2", "S1", ["psi"])
+    with pytest.raises(SymbolicError, match="parameters"):
+        HolonomicSystem.from_lagrangian("J*theta_dot**2/2 + psi_dot**2/2", "S1", ["psi"])
+    with pytest.raises(ShapeError, match="group_coordinates"):
+        HolonomicSystem.from_lagrangian("theta_dot**2/2", "SE2", ["psi"], group_coordinates=["theta"])
+    with pytest.raises(ShapeError, match="rigid body"):
+        HolonomicSystem.from_lagrangian("theta_dot**2/2", "S1", [])
+
+
+def test_invariant_user_lagrangian_with_positions_through_g():
+    # A point mass on a rotating arm written in inertial coordinates: SE(2)-invariant after all.
+    L = ("(x_dot**2 + y_dot**2)/2 + (x_dot - r_dot*sin(theta) - r*cos(theta)*theta_dot)**2/2"
+         " + (y_dot + r_dot*cos(theta) - r*sin(theta)*theta_dot)**2/2 + theta_dot**2/2")
+    s = HolonomicSystem.from_lagrangian(L, "SE2", ["r"])
+    assert not any(s.reduced_mass_matrix.has(a) for a in s.group_coordinates)
+
+
+def test_pinned_bodies_input_errors():
+    with pytest.raises(SingularityError, match="singular"):
+        two_pinned_bodies(0.0, 0.0)
+    with pytest.raises(InputError, match=">= 0"):
+        two_pinned_bodies(-1.0, 2.0)
+
+
+def test_locked_inertia_singular_when_all_masses_coincide(three_bodies):
+    with pytest.raises(SingularityError, match="singular"):
+        three_bodies.check_locked_inertia(np.zeros(3))
+
+
+def test_free_simulation_conserves_energy_and_momentum():
+    # Euler-Lagrange equations of the free chain: energy and the SE(2) momentum map are conserved.
+    from geomech.reduction.connections import MechanicalConnection
+
+    s = three_link_chain(origin="middle")
+    q0 = np.array([0.3, -0.2, 0.5, 0.4, -0.7])
+    qd0 = np.array([0.2, -0.1, 0.3, 1.1, -0.8])
+    sol = s.simulate(q0, qd0, np.linspace(0.0, 3.0, 31))
+    Mf = s.compile(s.mass_matrix, s.coordinates)
+    E = np.array([0.5 * v @ Mf(q) @ v for q, v in zip(sol.q, sol.qdot)])
+    J = MechanicalConnection(s).momentum_map(sol.q[:, :3], sol.q[:, 3:], sol.qdot[:, :3], sol.qdot[:, 3:])
+    assert np.abs(E - E[0]).max() < 1e-10 * E[0]
+    assert np.abs(J - J[0]).max() < 1e-10
+    assert np.abs(sol.q[-1, 3:] - q0[3:]).max() > 0.1  # the shape did move
