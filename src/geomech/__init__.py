@@ -4,10 +4,11 @@ Describe a system once (:mod:`geomech.systems`), move it between representations
 (:mod:`geomech.reduction`, :mod:`geomech.lie`), simulate it, and analyse and show the result.
 """
 
-from . import analysis, errors, lie
+from . import analysis, errors, integrators, lie
 from ._symbolic import M_SYMBOLS
 from ._version import __version__
 from .errors import GeomechError
+from .integrators import Solution, solve
 from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
 from .systems import (
     CanonicalSystem,
@@ -28,9 +29,12 @@ __all__ = [
     "RotorBody",
     "StructurePreservingControl",
     "SerretAndoyerChart",
+    "Solution",
     "as_left_invariant",
     "analysis",
     "errors",
+    "integrators",
     "lie",
+    "solve",
     "__version__",
 ]

@@ -63,7 +63,11 @@ def counting(system):
 def mp_free_body_period(inertia, G, E):
     """T = oint dl / |l'| with |l'| = G sqrt((A - a(l))(b - a(l))) (eq. 11a), in 40-digit arithmetic, with the
     turning-point singularities of a libration removed by l = c + w sin u."""
-    mp.mp.dps = 40
+    with mp.workdps(40):
+        return float(_mp_free_body_period(inertia, G, E))
+
+
+def _mp_free_body_period(inertia, G, E):
     I1, I2, I3 = (mp.mpf(i) for i in inertia)
     G, E = mp.mpf(G), mp.mpf(E)
     A, b = 2 * E / G**2, 1 / I3
@@ -184,9 +188,9 @@ def test_pendulum_in_the_plane_and_on_the_cylinder():
     np.testing.assert_allclose(sorted(lib.turning_points[:, 0]), [-1.0, 1.0], atol=1e-13)
     rot = QuadraturePropagator(H, [0.0, 2.5], angle_period=2 * np.pi)
     assert rot.kind == "rotation" and rot.winding == 1
-    mp.mp.dps = 30
-    E = mp.mpf(2.5) ** 2 / 2 - 1
-    ref = mp.quad(lambda q: 1 / mp.sqrt(2 * (E + mp.cos(q))), [0, mp.pi, 2 * mp.pi])
+    with mp.workdps(30):
+        E = mp.mpf(2.5) ** 2 / 2 - 1
+        ref = mp.quad(lambda q: 1 / mp.sqrt(2 * (E + mp.cos(q))), [0, mp.pi, 2 * mp.pi])
     assert rot.period == pytest.approx(float(ref), rel=1e-13)
     sep = QuadraturePropagator(H, [0.0, 2.0], angle_period=2 * np.pi)
     assert sep.kind == "separatrix"

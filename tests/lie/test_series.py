@@ -12,8 +12,9 @@ import pytest
 
 from geomech.lie import _common as c
 
-# The closed forms cancel like t^5 at t = 1e-9, i.e. about 45 digits; 120 leave plenty.
-mp.mp.dps = 120
+# The closed forms cancel like t^5 at t = 1e-9, i.e. about 45 digits; 120 leave plenty. Set per test
+# (mpmath's precision is global, and other tests in the same process set their own).
+DIGITS = 120
 
 REFERENCE = {
     "SINC": lambda t: mp.sin(t) / t,
@@ -44,7 +45,8 @@ def test_coefficient_accurate_on_both_sides_of_the_switch(name):
     t = np.concatenate([np.geomspace(1e-9, 3.0, 300), tol * np.array([0.999, 0.9999999, 1.0, 1.0000001, 1.001])])
     t = np.concatenate([t, -t])
     got = f(t)
-    ref = np.array([float(REFERENCE[name](mp.mpf(float(x)))) for x in t])
+    with mp.workdps(DIGITS):
+        ref = np.array([float(REFERENCE[name](mp.mpf(float(x)))) for x in t])
     rel = np.abs(got - ref) / np.abs(ref)
     assert rel.max() < 2e-15, (name, float(t[np.argmax(rel)]), float(rel.max()))
 

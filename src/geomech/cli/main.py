@@ -17,6 +17,7 @@ from .._version import __version__
 from ..errors import GeomechError
 from ._args import FloatVector, gather_vectors, parse_params
 from .phase import phase
+from .reproduce import reproduce
 from .stability import stability_cmd, stability_map_cmd
 
 
@@ -113,6 +114,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
 
 
 cli.add_command(phase)
+cli.add_command(reproduce)
 cli.add_command(stability_cmd)
 cli.add_command(stability_map_cmd)
 

@@ -1,5 +1,53 @@
-"""Simulation: integrators and exact propagation."""
+"""Simulation: ``solve(system, method, ...)``, the integrators (compiled where they are fixed-step), and
+exact propagation of one-degree-of-freedom systems by quadrature."""
 
+from .methods import (
+    REGISTRY,
+    RK4,
+    AdamsBashforthMoulton4,
+    AdaptiveAdams,
+    GaussLegendre,
+    GeneratingFunction,
+    ImplicitMidpoint,
+    IncompatibleMethodError,
+    LieGroupVariational,
+    LiePoissonSplitting,
+    Method,
+    MoserVeselov,
+    StormerVerlet,
+    Structure,
+    SymplecticEuler,
+    get_method,
+    methods_table,
+)
 from .quadrature import CriticalPoint, OrbitIntegral, QuadraturePropagator, SerretAndoyerPropagator
+from .solution import Failure, Solution
+from .solve import compatible_methods, solve
 
-__all__ = ["CriticalPoint", "OrbitIntegral", "QuadraturePropagator", "SerretAndoyerPropagator"]
+__all__ = [
+    "REGISTRY",
+    "RK4",
+    "AdamsBashforthMoulton4",
+    "AdaptiveAdams",
+    "CriticalPoint",
+    "Failure",
+    "GaussLegendre",
+    "GeneratingFunction",
+    "ImplicitMidpoint",
+    "IncompatibleMethodError",
+    "LieGroupVariational",
+    "LiePoissonSplitting",
+    "Method",
+    "MoserVeselov",
+    "OrbitIntegral",
+    "QuadraturePropagator",
+    "SerretAndoyerPropagator",
+    "Solution",
+    "StormerVerlet",
+    "Structure",
+    "SymplecticEuler",
+    "compatible_methods",
+    "get_method",
+    "methods_table",
+    "solve",
+]

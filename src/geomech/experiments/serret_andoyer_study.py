@@ -1,0 +1,423 @@
+"""The numerical study of section 8.1 of the Serret-Andoyer paper, reproduced and extended.
+
+The seed compares five ways of simulating the closed loop of a rigid body with one rotor under the
+control :math:`\\varphi(v) = 2\\tan(v/G)`, :math:`p = 0`, :math:`G = 1`, on the level :math:`H_c = 0.47`
+(figures 5-7 there):
+
+1. the full 6-D dynamics in 3-1-3 Euler-angle coordinates, with Adams' method;
+2. Euler's equations :math:`\\dot m = m \\times \\nabla H_c`, with Adams' method;
+3. the reduced Serret-Andoyer dynamics :math:`(l, L)`, with Adams' method;
+4. the reduced dynamics with the second-order generating-function method;
+5. the reduced dynamics with the implicit midpoint rule;
+
+Adams as the seed's (variable order, adaptive, tolerance 1e-6, output every ``h``), ``h = 1`` ms, and the
+symplectic methods' Newton tolerance 1e-8. geomech adds the Lie-Poisson splitting of Euler's equations
+(:math:`H_c = f_1(m_1) + f_2(m_2) + f_3(m_3)`) and Gauss-Legendre collocation of the reduced system.
+
+The seed gives neither the inertias nor the duration; the defaults here are admissible
+(:math:`\\lambda_1 > \\lambda_2 > I_3 + J_3` and :math:`1/(2\\lambda_1) < 0.47 < 1/(2\\lambda_2)`, so that
+:math:`H_c = 0.47` is an orbit about the intermediate axis) and are written into the output.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .._version import __version__
+from ..errors import InputError
+
+__all__ = ["StudyConfig", "Approach", "run_study", "write_study", "approaches"]
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """Parameters of the study (defaults: the seed's example with admissible inertias of our choice)."""
+
+    lambda1: float = 1.2
+    lambda2: float = 1.0
+    I3: float = 0.6
+    J3: float = 0.2
+    phi: str = "2*tan(v/G)"
+    G: float = 1.0
+    p: float = 0.0
+    Hc: float = 0.47
+    h: float = 1e-3
+    t_final: float = 100.0
+    adams_tol: float = 1e-6
+    newton_tol: float = 1e-8
+    save_every: int = 10
+    extras: bool = True
+    tilt: float = math.pi / 6
+    """Angle between the spatial momentum and s3 in the frame of the 6-D Euler-angle dynamics (the
+    seed does not say; 0 would make the 6-D dynamics the reduced one in disguise)."""
+
+    def validate(self) -> None:
+        lam1, lam2, I3, J3 = self.lambda1, self.lambda2, self.I3, self.J3
+        for name in ("lambda1", "lambda2", "I3", "J3", "G", "h", "t_final", "adams_tol", "newton_tol"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise InputError(f"Expected `{name}` to be a positive number, got {v!r}.")
+        if not (lam1 > lam2 > I3 + J3):
+            raise InputError(
+                f"Expected lambda1 > lambda2 > I3 + J3 (the second axis intermediate for the locked body), got "
+                f"lambda1 = {lam1}, lambda2 = {lam2}, I3 + J3 = {I3 + J3}."
+            )
+        lo, hi = self.G**2 / (2 * lam1), self.G**2 / (2 * lam2)
+        if not (lo < self.Hc < hi):
+            raise InputError(
+                f"Expected G^2/(2 lambda1) < Hc < G^2/(2 lambda2) = ({lo:.6g}, {hi:.6g}) so that H_c = Hc is an "
+                f"orbit about the intermediate axis, got Hc = {self.Hc}."
+            )
+        n = self.t_final / self.h
+        if abs(n - round(n)) > 1e-9 * n:
+            raise InputError(f"Expected `t_final` to be a whole number of steps h = {self.h}, got {self.t_final}.")
+        if not (isinstance(self.save_every, int) and self.save_every >= 1):
+            raise InputError(f"Expected `save_every` to be a positive integer, got {self.save_every!r}.")
+
+
+@dataclass(frozen=True)
+class Approach:
+    """One way of simulating the closed loop: a representation and a method."""
+
+    key: str
+    label: str
+    representation: str  # "euler-angles-6d", "euler-equations", "reduced"
+    method: Any
+    in_seed: bool
+
+
+@dataclass
+class _Model:
+    control: Any
+    system: Any
+    reduction: Any
+    m0: np.ndarray
+    R0: np.ndarray
+    lL0: np.ndarray
+    euler: Any = field(default=None)
+
+
+def approaches(cfg: StudyConfig) -> list[Approach]:
+    """The seed's five approaches, and geomech's extra curves when ``cfg.extras``."""
+    from ..integrators.methods import (
+        AdaptiveAdams,
+        GaussLegendre,
+        GeneratingFunction,
+        ImplicitMidpoint,
+        LiePoissonSplitting,
+    )
+
+    adams = AdaptiveAdams(rtol=cfg.adams_tol, atol=cfg.adams_tol)
+    out = [
+        Approach("full6d_adams", "full 6-D, Adams", "euler-angles-6d", adams, True),
+        Approach("euler_adams", "Euler's equations, Adams", "euler-equations", adams, True),
+        Approach("reduced_adams", "Serret-Andoyer, Adams", "reduced", adams, True),
+        Approach("reduced_generating", "Serret-Andoyer, generating function", "reduced", GeneratingFunction(), True),
+        Approach("reduced_midpoint", "Serret-Andoyer, midpoint", "reduced", ImplicitMidpoint(), True),
+    ]
+    if cfg.extras:
+        out += [
+            Approach("euler_splitting2", "Euler's equations, Lie-Poisson splitting (Strang)", "euler-equations",
+                     LiePoissonSplitting(2), False),
+            Approach("euler_splitting4", "Euler's equations, Lie-Poisson splitting (order 4)", "euler-equations",
+                     LiePoissonSplitting(4, "yoshida"), False),
+            Approach("reduced_gauss2", "Serret-Andoyer, Gauss-Legendre s=2", "reduced", GaussLegendre(2), False),
+            Approach("reduced_gauss3", "Serret-Andoyer, Gauss-Legendre s=3", "reduced", GaussLegendre(3), False),
+        ]
+    return out
+
+
+def build_model(cfg: StudyConfig) -> _Model:
+    """The closed loop, its reduction, and an initial state on the level ``H_c = cfg.Hc`` with ``m3 = 0``."""
+    from ..lie import so3
+    from ..reduction import EulerCoordinates, GeneralizedSerretAndoyer, spatial_frame
+    from ..systems.control import StructurePreservingControl
+    from ..systems.rotors import RotorBody
+
+    cfg.validate()
+    body = RotorBody.one_rotor(cfg.lambda1, cfg.lambda2, cfg.I3, cfg.J3)
+    control = StructurePreservingControl.one_rotor(body, cfg.phi, p=cfg.p, parameters={"G": cfg.G},
+                                                   probe_radius=cfg.G)
+    system = control.closed_loop()
+    reduction = GeneralizedSerretAndoyer(system)
+    G = cfg.G
+
+    def level(l: float) -> float:
+        return float(system.hamiltonian(np.array([G * math.sin(l), G * math.cos(l), 0.0]))) - cfg.Hc
+
+    # on the equator m3 = 0, H_c runs from G^2/(2 lambda2) at l = 0 down to G^2/(2 lambda1) at l = pi/2
+    l0 = brentq(level, 0.0, math.pi / 2, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+    m0 = np.array([G * math.sin(l0), G * math.cos(l0), 0.0])
+    R0 = so3.exp(np.array([cfg.tilt, 0.0, 0.0])) @ spatial_frame(m0).T
+    model = _Model(control, system, reduction, m0, R0, np.array([l0, 0.0]))
+    model.euler = EulerCoordinates(system)
+    return model
+
+
+def _momentum(model: _Model, approach: Approach, states: np.ndarray, G: float) -> np.ndarray:
+    if approach.representation == "reduced":
+        return model.reduction.charts[2].inverse(states[..., :2], G)
+    if approach.representation == "euler-angles-6d":
+        return model.euler.body_momentum(states)
+    return states[..., :3]
+
+
+def run_approach(model: _Model, approach: Approach, cfg: StudyConfig) -> dict[str, Any]:
+    """Integrate one approach; return its times, body momenta, errors and timings."""
+    from ..integrators.solve import solve
+
+    kw = dict(h=cfg.h, t_final=cfg.t_final, save_every=cfg.save_every, newton_tol=cfg.newton_tol)
+    start = time.perf_counter()
+    if approach.representation == "reduced":
+        sol = solve(model.reduction.reduced_system(cfg.G), approach.method, y0=model.lL0, **kw)
+    elif approach.representation == "euler-angles-6d":
+        q0 = model.euler.forward(model.R0, model.m0)
+        sol = solve(model.euler.canonical_system(), approach.method, y0=q0, **kw)
+    else:
+        sol = solve(model.system, approach.method, m0=model.m0, **kw)
+    wall = time.perf_counter() - start
+    m = _momentum(model, approach, sol.states, cfg.G)
+    H = model.system.hamiltonian(m)
+    H0 = float(model.system.hamiltonian(model.m0))
+    return {
+        "t": np.asarray(sol.t),
+        "m": m,
+        "energy_error": np.abs(H - H0),
+        "momentum_error": np.abs(np.linalg.norm(m, axis=-1) - cfg.G),
+        "wall_time": wall,
+        "compile_time": float(sol.stats.get("compile_time", 0.0) or 0.0),
+        "n_rhs": int(sol.stats.get("n_rhs", 0) or 0),
+        "status": sol.status,
+        "lL": sol.states[..., :2] if approach.representation == "reduced" else None,
+    }
+
+
+def run_study(cfg: StudyConfig, *, progress: Callable[[Iterable[Approach]], Iterable[Approach]] | None = None,
+              command: str = "") -> tuple[Any, dict[str, Any], _Model]:
+    """Run every approach; return the xarray Dataset, the summary and the model."""
+    import xarray as xr
+
+    model = build_model(cfg)
+    todo = approaches(cfg)
+    results: dict[str, dict[str, Any]] = {}
+    for approach in progress(todo) if progress else todo:
+        results[approach.key] = run_approach(model, approach, cfg)
+    t = results[todo[0].key]["t"]
+    keys = [a.key for a in todo]
+    for k in keys:
+        if results[k]["t"].shape != t.shape or np.abs(results[k]["t"] - t).max() > 1e-9 * cfg.t_final:
+            raise InputError(f"internal: approach {k} saved on another time grid")
+    ds = xr.Dataset(
+        {
+            "m": (("approach", "time", "component"), np.stack([results[k]["m"] for k in keys]),
+                  {"long_name": "body angular momentum", "units": "kg m^2 / s"}),
+            "energy_error": (("approach", "time"), np.stack([results[k]["energy_error"] for k in keys]),
+                             {"long_name": "|H_c(t) - H_c(0)|", "units": "J"}),
+            "momentum_error": (("approach", "time"), np.stack([results[k]["momentum_error"] for k in keys]),
+                               {"long_name": "| |m(t)| - G |", "units": "kg m^2 / s"}),
+            "wall_time": (("approach",), np.array([results[k]["wall_time"] for k in keys]), {"units": "s"}),
+        },
+        coords={
+            "approach": keys,
+            "time": ("time", t, {"units": "s"}),
+            "component": ["m1", "m2", "m3"],
+            "label": ("approach", [a.label for a in todo]),
+            "method": ("approach", [repr(a.method) for a in todo]),
+            "representation": ("approach", [a.representation for a in todo]),
+            "in_seed": ("approach", np.array([a.in_seed for a in todo])),
+        },
+        attrs={
+            "title": "Serret-Andoyer paper, section 8.1: closed loop of a rigid body with one rotor",
+            "geomech_version": __version__,
+            "command": command,
+            "parameters": json.dumps(asdict(cfg)),
+            "initial_momentum": json.dumps(model.m0.tolist()),
+            "initial_lL": json.dumps(model.lL0.tolist()),
+        },
+    )
+    summary = _summary(cfg, model, todo, results, command)
+    model.results = results  # type: ignore[attr-defined]
+    return ds, summary, model
+
+
+def _summary(cfg: StudyConfig, model: _Model, todo: list[Approach], results: dict[str, dict[str, Any]],
+             command: str) -> dict[str, Any]:
+    per = {
+        a.key: {
+            "label": a.label,
+            "method": repr(a.method),
+            "representation": a.representation,
+            "in_seed": a.in_seed,
+            "max_energy_error": float(np.max(results[a.key]["energy_error"])),
+            "max_momentum_error": float(np.max(results[a.key]["momentum_error"])),
+            "wall_time_s": results[a.key]["wall_time"],
+            "compile_time_s": results[a.key]["compile_time"],
+            "rhs_evaluations": results[a.key]["n_rhs"],
+            "status": results[a.key]["status"],
+        }
+        for a in todo
+    }
+    seed = [a.key for a in todo if a.in_seed]
+    E = {k: per[k]["max_energy_error"] for k in per}
+    M = {k: per[k]["max_momentum_error"] for k in per}
+    # |m| of the reduced representations is G by construction; "keeps the momentum" means to round-off
+    keep_tol = 1e-12 * cfg.G
+    claims = {
+        "midpoint_best_on_energy": {
+            "claim": "Among the seed's five approaches, the midpoint rule has the smallest energy error.",
+            "holds": bool(E["reduced_midpoint"] <= min(E[k] for k in seed)),
+            "evidence": {k: E[k] for k in seed},
+        },
+        "reduced_form_better_whatever_the_method": {
+            "claim": "With the same method (Adams), the reduced Serret-Andoyer form has smaller energy and "
+                     "momentum errors than Euler's equations and the full 6-D dynamics.",
+            "holds": bool(E["reduced_adams"] <= min(E["euler_adams"], E["full6d_adams"])
+                          and M["reduced_adams"] <= min(M["euler_adams"], M["full6d_adams"])),
+            "evidence": {k: {"energy": E[k], "momentum": M[k]} for k in ("reduced_adams", "euler_adams",
+                                                                           "full6d_adams")},
+        },
+        "all_but_full_6d_keep_the_momentum": {
+            "claim": f"Every approach but the full 6-D one keeps |m| = G (here: to {keep_tol:g}).",
+            "holds": bool(all(M[k] <= keep_tol for k in seed if k != "full6d_adams") and M["full6d_adams"] > keep_tol),
+            "evidence": {k: M[k] for k in seed},
+        },
+    }
+    return {
+        "study": "serret-andoyer section 8.1",
+        "geomech_version": __version__,
+        "command": command,
+        "parameters": asdict(cfg),
+        "choices": {
+            "inertias": "not given by the seed; chosen admissible: lambda1 > lambda2 > I3 + J3 and "
+                        "G^2/(2 lambda1) < Hc < G^2/(2 lambda2)",
+            "duration": f"{cfg.t_final} s (the seed gives none)",
+            "initial_state": {"m0": model.m0.tolist(), "(l, L)": model.lL0.tolist(),
+                              "R0 (6-D frame)": model.R0.tolist()},
+        },
+        "approaches": per,
+        "claims": claims,
+    }
+
+
+# -- figures -------------------------------------------------------------------------------------------
+def _styles(keys: list[str]) -> dict[str, dict[str, Any]]:
+    seed_colors = {"full6d_adams": "C0", "euler_adams": "C1", "reduced_adams": "C2", "reduced_generating": "C3",
+                   "reduced_midpoint": "C4"}
+    extra = iter(["C5", "C6", "C7", "C8", "C9"])
+    return {k: {"color": seed_colors.get(k) or next(extra), "linestyle": "-" if k in seed_colors else "--",
+                "linewidth": 1.2} for k in keys}
+
+
+def figure5(ds: Any) -> Any:
+    """Energy error (a) and momentum error (b) of each approach, log scale (the seed's figure 5)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    keys = list(ds.approach.values)
+    style = _styles(keys)
+    floor = np.finfo(float).eps * 1e-2
+    for var, ax, title in (("energy_error", axes[0], "(a) energy error $|H_c(t) - H_c(0)|$"),
+                           ("momentum_error", axes[1], "(b) momentum error $|\\,|m(t)| - G\\,|$")):
+        for k, lab in zip(keys, ds.label.values):
+            ax.semilogy(ds.time, np.maximum(ds[var].sel(approach=k), floor), label=str(lab), **style[k])
+        ax.set_title(title, loc="left")
+        ax.grid(True, which="major", alpha=0.3)
+    axes[1].set_xlabel("t [s]")
+    axes[0].legend(fontsize=7, ncol=2, loc="lower right")
+    fig.tight_layout()
+    return fig
+
+
+def figure6(ds: Any, G: float) -> Any:
+    """Body momentum trajectories: three projections and a 3-D view on the sphere (the seed's figure 6)."""
+    import matplotlib.pyplot as plt
+
+    from ..plot import momentum_sphere
+
+    fig = plt.figure(figsize=(10, 9))
+    keys = list(ds.approach.values)
+    style = _styles(keys)
+    pairs = ((0, 1), (1, 2), (0, 2))
+    for i, (a, b) in enumerate(pairs):
+        ax = fig.add_subplot(2, 2, i + 1)
+        for k, lab in zip(keys, ds.label.values):
+            m = ds.m.sel(approach=k).values
+            ax.plot(m[:, a], m[:, b], label=str(lab), **style[k])
+        ax.set_xlabel(f"$m_{a + 1}$")
+        ax.set_ylabel(f"$m_{b + 1}$")
+        ax.set_aspect("equal", adjustable="datalim")
+    fig.axes[0].legend(fontsize=6)
+    ax3 = fig.add_subplot(2, 2, 4, projection="3d")
+    momentum_sphere(ds.m.sel(approach="reduced_midpoint").values, ax=ax3, title=f"on the sphere |m| = {G:g}")
+    fig.tight_layout()
+    return fig
+
+
+def figure7(model: _Model, cfg: StudyConfig) -> Any:
+    """The reduced flow in (l, L) with level sets of h_p (the seed's figure 7)."""
+    from ..plot import reduced_phase_portrait
+
+    lL = model.results["reduced_midpoint"]["lL"]  # type: ignore[attr-defined]
+    ax = reduced_phase_portrait(model.reduction, cfg.G, axis=2, levels=40)
+    l = np.linspace(-np.pi, np.pi, 361)
+    L = np.linspace(-cfg.G, cfg.G, 241)[1:-1]
+    ll, LL = np.meshgrid(l, L)
+    ax.contour(ll, LL, model.reduction.reduced_hamiltonian(np.stack([ll, LL], -1), cfg.G, 2), levels=[cfg.Hc],
+               colors="k", linewidths=1.0, linestyles="--")
+    ax.plot(np.angle(np.exp(1j * lL[:, 0])), lL[:, 1], ".", color="C3", markersize=1.5,
+            label=f"midpoint, on the level h_p = {cfg.Hc:g} (dashed)")
+    ax.legend(loc="upper right", fontsize=8)
+    return ax.figure
+
+
+def write_study(out: Path, ds: Any, summary: dict[str, Any], model: _Model, cfg: StudyConfig) -> list[Path]:
+    """Write figures 5-7, the data file and summary.json into ``out``, all or nothing: each file is written
+    under a temporary name and renamed into place only when every one is complete."""
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    final = {
+        "figure5_errors.png": lambda p: figure5(ds).savefig(p, dpi=130),
+        "figure6_trajectories.png": lambda p: figure6(ds, cfg.G).savefig(p, dpi=130),
+        "figure7_reduced_flow.png": lambda p: figure7(model, cfg).savefig(p, dpi=130),
+        "serret_andoyer_study.nc": lambda p: ds.to_netcdf(p),
+        "summary.json": lambda p: p.write_text(json.dumps(summary, indent=2) + "\n"),
+    }
+    tmp: dict[Path, Path] = {}
+    try:
+        for name, write in final.items():
+            target = out / name
+            t = out / f".{name}.partial{target.suffix}"
+            write(t)
+            tmp[t] = target
+        for t, target in tmp.items():
+            os.replace(t, target)
+    finally:
+        plt.close("all")
+        for t in tmp:
+            if t.exists():
+                t.unlink()
+    return list(tmp.values())
+
+
+def terminal_progress(items: list[Approach]) -> Iterable[Approach]:
+    """A progress bar on a terminal (click's), silent when stderr is not one."""
+    import click
+
+    if not sys.stderr.isatty():
+        yield from items
+        return
+    with click.progressbar(items, label="integrating", file=sys.stderr,
+                           item_show_func=lambda a: a.label if a else "") as bar:
+        yield from bar

@@ -1,0 +1,211 @@
+"""Compile symbolic models and the integrator loops into one numba module, cached on disk.
+
+The integrator loops are written once, as plain Python in the template modules ``_k_*.py``, calling the
+model through a few fixed names (``rhs``, ``fjac``, ``grad``, ...). For a model given by a formula this
+module prints those functions from sympy (common subexpressions shared, floats printed to round-trip),
+writes model and templates together into one source file named by a hash of its text, imports it, and
+lets numba compile each loop with ``cache=True``: a later run, or another process, loads the machine code
+from disk. Passing compiled model functions to compiled loops as arguments would defeat numba's disk cache
+(the function type differs in every process), hence one generated file per model.
+
+Without numba, or for a model given as Python callables, the same template source runs as plain Python
+with wrappers around the callables (slow but identical arithmetic), so every method works everywhere.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+import threading
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+__all__ = ["FunctionSpec", "model_source", "compiled_module", "python_module", "numba_available", "cache_dir"]
+
+_TEMPLATES = ("_k_common.py", "_k_explicit.py", "_k_implicit.py", "_k_canonical.py", "_k_liepoisson.py")
+_PREAMBLE_START = "# >>> template preamble"
+_PREAMBLE_END = "# <<< template preamble"
+_LOCK = threading.Lock()
+_MODULES: dict[str, Any] = {}
+
+
+def numba_available() -> bool:
+    """Whether numba can be imported (the compiled backend); without it the loops run as Python."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:  # pragma: no cover - numba is a dependency, kept optional for odd platforms
+        return False
+    return os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0")
+
+
+def cache_dir() -> Path:
+    """Directory of the generated kernel sources (and numba's cache of their machine code).
+
+    ``$GEOMECH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/geomech/kernels`` (``~/.cache/...``), else a
+    per-user directory under the system's temporary directory when the home cache is not writable.
+    """
+    env = os.environ.get("GEOMECH_CACHE_DIR")
+    if env:
+        base = Path(env)
+    else:
+        base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "geomech" / "kernels"
+    for candidate in (base, Path(tempfile.gettempdir()) / f"geomech-kernels-{os.getuid()}"):
+        try:
+            candidate.mkdir(parents=True, exist_ok=True)
+            probe = candidate / ".write-probe"
+            probe.write_text("")
+            probe.unlink()
+            return candidate
+        except OSError:
+            continue
+    raise OSError(f"No writable directory for compiled kernels (tried {base}); set GEOMECH_CACHE_DIR.")
+
+
+class _Printer(PythonCodePrinter):
+    """Python code for numba: ``math`` functions, floats printed so that they read back exactly."""
+
+    def _print_Float(self, expr: sp.Float) -> str:
+        value = float(expr)
+        return repr(value) if np.isfinite(value) else f"float('{value}')"
+
+    def _print_Rational(self, expr: sp.Rational) -> str:
+        return f"({expr.p}/{expr.q})"
+
+    def _print_Half(self, expr: sp.Rational) -> str:
+        return "0.5"
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    """One generated model function.
+
+    ``outputs`` is a tuple of sympy objects: a single scalar gives ``def name(y): return ...``; otherwise
+    each output (a list or a nested list) is an array argument written in place,
+    ``def name(y, out0, out1, ...)``. With ``scalar_args`` the arguments are the variables themselves,
+    ``def name(x0, x1, ...)``.
+    """
+
+    name: str
+    outputs: tuple[Any, ...]
+    variables: tuple[sp.Symbol, ...]
+    scalar_args: bool = False
+
+
+def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
+    alias = {v: sp.Symbol(f"_a{i}") for i, v in enumerate(spec.variables)}
+    shapes, flat = [], []
+    for out in spec.outputs:
+        arr = np.array(out, dtype=object)
+        shapes.append(arr.shape)
+        flat.extend(sp.sympify(e).xreplace(alias) for e in arr.ravel())
+    stray = set().union(*(e.free_symbols for e in flat)) - set(alias.values()) if flat else set()
+    if stray:
+        raise ValueError(f"{spec.name}: symbols {sorted(map(str, stray))} are not variables of the model")
+    replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
+    scalar_return = len(spec.outputs) == 1 and shapes[0] == ()
+    if spec.scalar_args:
+        args = [f"_a{i}" for i in range(len(spec.variables))]
+    else:
+        args = ["y"]
+    if not scalar_return:
+        args += [f"out{k}" for k in range(len(spec.outputs))]
+    lines = ["@kernel", f"def {spec.name}({', '.join(args)}):"]
+    if not spec.scalar_args:
+        lines += [f"    _a{i} = y[{i}]" for i in range(len(spec.variables))]
+    for sym, expr in replacements:
+        lines.append(f"    {sym} = {printer.doprint(expr)}")
+    if scalar_return:
+        lines.append(f"    return {printer.doprint(reduced[0])}")
+    else:
+        pos = 0
+        for k, shape in enumerate(shapes):
+            for index in np.ndindex(*shape):
+                target = f"out{k}[{', '.join(map(str, index))}]" if index else f"out{k}[0]"
+                lines.append(f"    {target} = {printer.doprint(reduced[pos])}")
+                pos += 1
+    if len(lines) == 2:
+        lines.append("    return")
+    if printer._not_supported:
+        raise NotImplementedError(
+            f"{spec.name}: cannot print {sorted(map(str, printer._not_supported))} for numba"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def model_source(specs: Sequence[FunctionSpec]) -> str:
+    """Python (numba-compatible) source of the model functions ``specs``.
+
+    Raises ``NotImplementedError`` when an expression uses a function numba's ``math`` lacks; the caller
+    then falls back to the Python backend.
+    """
+    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
+    return "\n\n".join(_function_source(s, printer) for s in specs)
+
+
+def _template_text() -> str:
+    here = Path(__file__).parent
+    parts = []
+    for name in _TEMPLATES:
+        text = (here / name).read_text()
+        start, end = text.index(_PREAMBLE_START), text.index(_PREAMBLE_END)
+        end = text.index("\n", end) + 1
+        parts.append(f"# ---- {name} ----\n" + text[:start] + text[end:])
+    return "\n\n".join(parts)
+
+
+_HEADER_NUMBA = (
+    "import math\nimport numpy as np\nimport numba\n\n"
+    "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n\n"
+)
+_HEADER_PYTHON = "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n"
+
+
+def compiled_module(model_src: str, tag: str) -> Any:
+    """Import (generating once) the numba module made of ``model_src`` and the loop templates.
+
+    Kept in memory for the process; the generated file and numba's cache persist across runs.
+    """
+    import numba
+
+    source = _HEADER_NUMBA + model_src + "\n\n" + _template_text()
+    digest = hashlib.sha256((numba.__version__ + source).encode()).hexdigest()[:24]
+    with _LOCK:
+        if digest in _MODULES:
+            return _MODULES[digest]
+        directory = cache_dir()
+        path = directory / f"gm_{tag}_{digest}.py"
+        if not path.exists() or path.read_text() != source:
+            fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
+            with os.fdopen(fd, "w") as fh:
+                fh.write(source)
+            os.replace(tmp, path)  # atomic: concurrent processes never import a half-written file
+        name = f"geomech_kernels_{tag}_{digest}"
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        _MODULES[digest] = module
+        return module
+
+
+class _Namespace:
+    def __init__(self, mapping: Mapping[str, Any]):
+        self.__dict__.update(mapping)
+
+
+def python_module(functions: Mapping[str, Any]) -> Any:
+    """The loop templates as plain Python, calling the model ``functions`` (name -> callable)."""
+    namespace: dict[str, Any] = {"__name__": "geomech_kernels_python"}
+    exec(compile(_HEADER_PYTHON, "<geomech kernels>", "exec"), namespace)
+    namespace.update(functions)
+    exec(compile(_template_text(), "<geomech kernels>", "exec"), namespace)
+    return _Namespace(namespace)

@@ -1,0 +1,191 @@
+"""Loop template: symplectic methods that use the canonical splitting y = (q, p) of the state: symplectic
+Euler (both variants), Stormer-Verlet, and the seed's second-order generating-function method.
+
+The model supplies ``grad(y, g)`` (g = (H_q, H_p)), ``ghess(y, g, Hm)`` (with the Hessian), and for the
+generating-function method ``gf_all(y, g, Hm, gw, Hw)`` and ``gf_grads(y, g, gw)``, where
+``W = sum_i H_{q_i} H_{p_i}``. See ``_k_common.py`` for the common loop signature.
+"""
+
+
+import numpy as np
+
+# >>> template preamble (removed when compiled)
+from ._k_common import (
+    ST_NEWTON,
+    fail,
+    finish_step,
+    kernel,
+    max_abs,
+    newton_update,
+    store,
+)
+
+
+def grad(y, g):
+    raise NotImplementedError
+
+
+def ghess(y, g, hm):
+    raise NotImplementedError
+
+
+def gf_all(y, g, hm, gw, hw):
+    raise NotImplementedError
+
+
+def gf_grads(y, g, gw):
+    raise NotImplementedError
+
+
+# <<< template preamble
+
+
+@kernel
+def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, scale, counts):
+    """Newton for the implicit half of symplectic Euler or of the generating-function method.
+
+    variant 0 (Euler A):  x = p_{n+1} solving x = p_n - h H_q(q_n, x).
+    variant 1 (Euler B):  x = q_{n+1} solving x = q_n + h H_p(x, p_n).
+    variant 2 (generating function): x = q_{n+1} solving x = q_n + h H_p(x, p_n) - h^2/2 W_p(x, p_n).
+    Returns (status, residual); ``x`` holds the solution.
+    """
+    dprev = 0.0
+    resid = np.inf
+    hh2 = 0.5 * h * h
+    for it in range(maxit):
+        if variant == 0:
+            for i in range(n):
+                tmp[i] = y[i]
+                tmp[n + i] = x[i]
+            ghess(tmp, g, hm)
+            for i in range(n):
+                r[i] = y[n + i] - h * g[i] - x[i]
+                for j in range(n):
+                    A[i, j] = h * hm[i, n + j]
+                A[i, i] += 1.0
+        else:
+            for i in range(n):
+                tmp[i] = x[i]
+                tmp[n + i] = y[n + i]
+            if variant == 1:
+                ghess(tmp, g, hm)
+                for i in range(n):
+                    r[i] = y[i] + h * g[n + i] - x[i]
+                    for j in range(n):
+                        A[i, j] = -h * hm[n + i, j]
+                    A[i, i] += 1.0
+            else:
+                gf_all(tmp, g, hm, gw, hw)
+                for i in range(n):
+                    r[i] = y[i] + h * g[n + i] - hh2 * gw[n + i] - x[i]
+                    for j in range(n):
+                        A[i, j] = -h * hm[n + i, j] + hh2 * hw[n + i, j]
+                    A[i, i] += 1.0
+        counts[0] += 1
+        counts[1] += 1
+        resid = max_abs(r)
+        state, dprev = newton_update(A, r, x, n, dprev, it, scale, tol)
+        if state >= 0:
+            return state, resid
+    return ST_NEWTON, resid
+
+
+@kernel
+def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
+    B, d = Y0.shape
+    n = d // 2
+    y, tmp, g, gw = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    x, xprev, r = np.empty(n), np.empty(n), np.empty(n)
+    hm, hw = np.empty((d, d)), np.empty((d, d))
+    A = np.empty((n, n))
+    counts = np.zeros(2)  # rhs evaluations, Newton iterations
+    off = n if variant == 0 else 0  # the implicit unknown is p (variant 0) or q
+    for b in range(B):
+        y[:] = Y0[b]
+        store(OUT, b, 0, y)
+        isave = 1
+        counts[:] = 0.0
+        grad(y, g)
+        counts[0] += 1
+        for i in range(n):
+            xprev[i] = y[off + i]
+            # explicit Euler predictor for the first step, then the last increment
+            x[i] = y[n + i] - h * g[i] if variant == 0 else y[i] + h * g[n + i]
+        for k in range(1, nsteps + 1):
+            if k > 1:
+                for i in range(n):
+                    x[i] = 2.0 * y[off + i] - xprev[i]
+            for i in range(n):
+                xprev[i] = y[off + i]
+            scale = max(1.0, max_abs(y))
+            code, resid = _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, scale, counts)
+            if code != 0:
+                fail(OUT, INFO, b, isave, k, code, resid)
+                break
+            if variant == 0:
+                for i in range(n):
+                    tmp[i] = y[i]
+                    tmp[n + i] = x[i]
+                grad(tmp, g)
+                for i in range(n):
+                    y[i] += h * g[n + i]
+                    y[n + i] = x[i]
+            else:
+                for i in range(n):
+                    tmp[i] = x[i]
+                    tmp[n + i] = y[n + i]
+                if variant == 1:
+                    grad(tmp, g)
+                    for i in range(n):
+                        y[n + i] -= h * g[i]
+                else:
+                    gf_grads(tmp, g, gw)
+                    for i in range(n):
+                        y[n + i] += -h * g[i] + 0.5 * h * h * gw[i]
+                for i in range(n):
+                    y[i] = x[i]
+            counts[0] += 1
+            isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
+            if isave < 0:
+                break
+        INFO[b, 3] = counts[1]
+        INFO[b, 4] = counts[0]
+
+
+@kernel
+def symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+    """P[0]: 0 symplectic Euler A, 1 symplectic Euler B, 2 the generating-function method (a runtime value,
+    so that numba compiles one loop for the three)."""
+    _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, int(P[0]))
+
+
+@kernel
+def verlet_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+    """Stormer-Verlet for H = T(p) + V(q): p_{1/2} = p - h/2 V'(q), q' = q + h T'(p_{1/2}),
+    p' = p_{1/2} - h/2 V'(q'); H_q at the new q is reused by the next step."""
+    B, d = Y0.shape
+    n = d // 2
+    y, g, gq = np.empty(d), np.empty(d), np.empty(n)
+    for b in range(B):
+        y[:] = Y0[b]
+        store(OUT, b, 0, y)
+        isave = 1
+        grad(y, g)
+        nrhs = 1
+        for i in range(n):
+            gq[i] = g[i]
+        for k in range(1, nsteps + 1):
+            for i in range(n):
+                y[n + i] -= 0.5 * h * gq[i]
+            grad(y, g)
+            for i in range(n):
+                y[i] += h * g[n + i]
+            grad(y, g)
+            nrhs += 2
+            for i in range(n):
+                gq[i] = g[i]
+                y[n + i] -= 0.5 * h * gq[i]
+            isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
+            if isave < 0:
+                break
+        INFO[b, 4] = nrhs

@@ -1,0 +1,164 @@
+"""Loop template: helpers shared by every integrator loop (status codes, saving, Newton, small solves).
+
+Template modules (``_k_*.py``) are not imported as such by the solver: :mod:`._codegen` concatenates
+them, minus their preamble, after the generated model functions and compiles the result with numba
+(or runs it as Python). Every loop has the signature
+
+``run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P)``
+
+with ``Y0`` the initial states ``(B, d)``, ``OUT`` the saved states ``(B, n_save, d)`` (state 0, every
+``save_every`` steps, and the last), ``INFO`` ``(B, 5)``: status, failing step, residual, Newton
+iterations, right-hand-side evaluations, and ``P`` the method's constants.
+"""
+
+import math
+
+import numpy as np
+
+# >>> template preamble (removed when compiled)
+
+
+def kernel(f):
+    return f
+
+
+# <<< template preamble
+
+ST_OK = 0
+ST_NEWTON = 1
+ST_NONFINITE = 2
+ST_SINGULAR = 3
+EPS = 2.220446049250313e-16
+
+
+@kernel
+def finite(y):
+    for i in range(y.shape[0]):
+        if not math.isfinite(y[i]):
+            return False
+    return True
+
+
+@kernel
+def store(OUT, b, isave, y):
+    for i in range(y.shape[0]):
+        OUT[b, isave, i] = y[i]
+
+
+@kernel
+def is_save(k, nsteps, save_every):
+    return k % save_every == 0 or k == nsteps
+
+
+@kernel
+def fail(OUT, INFO, b, isave, k, code, residual):
+    """Mark trajectory ``b`` failed at step ``k``: its later saved states are NaN, flagged in INFO."""
+    INFO[b, 0] = code
+    INFO[b, 1] = k
+    INFO[b, 2] = residual
+    for j in range(isave, OUT.shape[1]):
+        for i in range(OUT.shape[2]):
+            OUT[b, j, i] = np.nan
+
+
+@kernel
+def finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y):
+    """After step k: flag a non-finite state (returns -1), else save it when due; returns the next save
+    index."""
+    if not finite(y):
+        fail(OUT, INFO, b, isave, k, ST_NONFINITE, np.nan)
+        return -1
+    if is_save(k, nsteps, save_every):
+        store(OUT, b, isave, y)
+        return isave + 1
+    return isave
+
+
+@kernel
+def max_abs(v):
+    r = 0.0
+    for i in range(v.shape[0]):
+        a = abs(v[i])
+        if a > r or a != a:
+            r = a
+    return r
+
+
+@kernel
+def newton_done(dnorm, dprev, it, scale, tol):
+    """Newton stopping test on the size of the correction, relative to ``scale = max(1, |y|)``.
+
+    Converged when the correction is below ``tol * scale``, or when the contraction rate
+    ``theta = |d_k| / |d_{k-1}|`` predicts that the remaining error ``theta/(1-theta) |d_k|`` is (Hairer &
+    Wanner, Solving ODEs II, IV.8), or when the corrections stopped decreasing at the round-off floor.
+    """
+    if dnorm <= tol * scale:
+        return True
+    if it > 0 and dprev > 0.0:
+        theta = dnorm / dprev
+        if theta < 1.0:
+            return theta / (1.0 - theta) * dnorm <= tol * scale
+        return dnorm <= 64.0 * EPS * scale
+    return False
+
+
+@kernel
+def newton_update(A, r, x, n, dprev, it, scale, tol):
+    """One Newton correction: solve A d = r (``r`` is overwritten by d), x += d. Returns (state, |d|) with
+    state 0 converged, -1 not yet, ST_SINGULAR or ST_NEWTON (a non-finite correction) on failure."""
+    if not lu_solve(A, r, n):
+        return ST_SINGULAR, np.inf
+    for i in range(n):
+        x[i] += r[i]
+    dn = max_abs(r)
+    if not math.isfinite(dn):
+        return ST_NEWTON, dn
+    if newton_done(dn, dprev, it, scale, tol):
+        return 0, dn
+    return -1, dn
+
+
+@kernel
+def lu_solve(A, x, n):
+    """Solve ``A x = b`` in place (``x`` holds ``b``), Gaussian elimination with partial pivoting on the
+    leading ``n x n`` block; ``A`` is overwritten. Returns False if a pivot is zero or not finite."""
+    if n == 2:
+        # one-degree-of-freedom systems, the common case: Cramer's rule, scaled against overflow
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        scale = max(abs(A[0, 0]) * abs(A[1, 1]), abs(A[0, 1]) * abs(A[1, 0]))
+        if not (abs(det) > 1e-14 * scale) or not math.isfinite(det):
+            return False
+        x0 = (A[1, 1] * x[0] - A[0, 1] * x[1]) / det
+        x[1] = (A[0, 0] * x[1] - A[1, 0] * x[0]) / det
+        x[0] = x0
+        return True
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > amax:
+                amax = abs(A[i, k])
+                p = i
+        if not (amax > 0.0) or not math.isfinite(amax):
+            return False
+        if p != k:
+            for j in range(n):
+                t = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = t
+            t = x[k]
+            x[k] = x[p]
+            x[p] = t
+        piv = A[k, k]
+        for i in range(k + 1, n):
+            f = A[i, k] / piv
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+                x[i] -= f * x[k]
+    for k in range(n - 1, -1, -1):
+        s = x[k]
+        for j in range(k + 1, n):
+            s -= A[k, j] * x[j]
+        x[k] = s / A[k, k]
+    return True

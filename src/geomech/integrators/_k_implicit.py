@@ -1,0 +1,227 @@
+"""Loop template: implicit Runge-Kutta methods for any ODE with a Jacobian: the implicit midpoint rule and
+Gauss-Legendre collocation, solved by Newton's method with the exact Jacobian ``fjac``.
+
+See ``_k_common.py`` for the template mechanism and the common loop signature.
+"""
+
+import math
+
+import numpy as np
+
+# >>> template preamble (removed when compiled)
+from ._k_common import (
+    ST_NEWTON,
+    ST_SINGULAR,
+    fail,
+    finish_step,
+    kernel,
+    max_abs,
+    newton_done,
+    newton_update,
+    store,
+)
+
+
+def rhs(y, out):
+    raise NotImplementedError
+
+
+def fjac(y, out, jac):
+    raise NotImplementedError
+
+
+# <<< template preamble
+
+
+@kernel
+def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+    """y_{n+1} = y_n + h f((y_n + y_{n+1})/2), as Z = (y_{n+1} - y_n)/2 solving Z = (h/2) f(y_n + Z).
+
+    The predictor extrapolates the last two increments (error O(h^3)), so Newton usually stops after two
+    iterations at h small.
+    """
+    B, d = Y0.shape
+    if d == 2:
+        midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit)
+        return
+    hh = 0.5 * h
+    y, Z, Z1, Z2 = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    f, r, tmp = np.empty(d), np.empty(d), np.empty(d)
+    J, A = np.empty((d, d)), np.empty((d, d))
+    for b in range(B):
+        y[:] = Y0[b]
+        store(OUT, b, 0, y)
+        isave = 1
+        rhs(y, f)
+        nrhs = 1
+        nnewton = 0
+        for i in range(d):
+            Z1[i] = hh * f[i]
+            Z2[i] = Z1[i]
+        for k in range(1, nsteps + 1):
+            for i in range(d):
+                Z[i] = 2.0 * Z1[i] - Z2[i] if k > 2 else Z1[i]
+            scale = max(1.0, max_abs(y))
+            dprev = 0.0
+            code = ST_NEWTON
+            resid = np.inf
+            for it in range(maxit):
+                for i in range(d):
+                    tmp[i] = y[i] + Z[i]
+                fjac(tmp, f, J)
+                nrhs += 1
+                nnewton += 1
+                for i in range(d):
+                    r[i] = hh * f[i] - Z[i]
+                    for j in range(d):
+                        A[i, j] = -hh * J[i, j]
+                    A[i, i] += 1.0
+                resid = max_abs(r)
+                state, dprev = newton_update(A, r, Z, d, dprev, it, scale, tol)
+                if state >= 0:
+                    code = state
+                    break
+            if code != 0:
+                fail(OUT, INFO, b, isave, k, code, resid)
+                break
+            for i in range(d):
+                y[i] += 2.0 * Z[i]
+                Z2[i] = Z1[i]
+                Z1[i] = Z[i]
+            isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
+            if isave < 0:
+                break
+        INFO[b, 3] = nnewton
+        INFO[b, 4] = nrhs
+
+
+@kernel
+def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit):
+    """midpoint_run for d = 2 (one degree of freedom, the reduced Serret-Andoyer systems) on scalars."""
+    B = Y0.shape[0]
+    hh = 0.5 * h
+    f, J, y = np.empty(2), np.empty((2, 2)), np.empty(2)
+    for b in range(B):
+        y0, y1 = Y0[b, 0], Y0[b, 1]
+        OUT[b, 0, 0], OUT[b, 0, 1] = y0, y1
+        isave = 1
+        y[0], y[1] = y0, y1
+        rhs(y, f)
+        nrhs = 1
+        nnewton = 0
+        p0, p1 = hh * f[0], hh * f[1]  # the last two increments, for the predictor
+        q0, q1 = p0, p1
+        for k in range(1, nsteps + 1):
+            z0, z1 = (2.0 * p0 - q0, 2.0 * p1 - q1) if k > 2 else (p0, p1)
+            scale = max(1.0, abs(y0), abs(y1))
+            dprev = 0.0
+            code = ST_NEWTON
+            resid = np.inf
+            for it in range(maxit):
+                y[0], y[1] = y0 + z0, y1 + z1
+                fjac(y, f, J)
+                nrhs += 1
+                nnewton += 1
+                r0, r1 = hh * f[0] - z0, hh * f[1] - z1
+                a00, a01 = 1.0 - hh * J[0, 0], -hh * J[0, 1]
+                a10, a11 = -hh * J[1, 0], 1.0 - hh * J[1, 1]
+                resid = max(abs(r0), abs(r1))
+                det = a00 * a11 - a01 * a10
+                if not (abs(det) > 1e-14 * max(abs(a00 * a11), abs(a01 * a10))):
+                    code = ST_SINGULAR
+                    break
+                d0 = (a11 * r0 - a01 * r1) / det
+                d1 = (a00 * r1 - a10 * r0) / det
+                z0 += d0
+                z1 += d1
+                dn = max(abs(d0), abs(d1))
+                if not math.isfinite(dn):
+                    break
+                if newton_done(dn, dprev, it, scale, tol):
+                    code = 0
+                    break
+                dprev = dn
+            if code != 0:
+                fail(OUT, INFO, b, isave, k, code, resid)
+                break
+            y0 += 2.0 * z0
+            y1 += 2.0 * z1
+            q0, q1, p0, p1 = p0, p1, z0, z1
+            y[0], y[1] = y0, y1
+            isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
+            if isave < 0:
+                break
+        INFO[b, 3] = nnewton
+        INFO[b, 4] = nrhs
+
+
+@kernel
+def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+    """s-stage Gauss-Legendre collocation in the stage increments Z_i = Y_i - y_n:
+    Z_i = h sum_j a_ij f(y_n + Z_j), y_{n+1} = y_n + sum_i d_i Z_i with d = b^T A^{-1} (Hairer & Wanner
+    II, IV.8: no extra evaluations of f, and no amplification of the Newton error by h f').
+
+    P = (s, A (row-major), d, c).
+    """
+    B, d = Y0.shape
+    s = int(P[0])
+    a = P[1 : 1 + s * s]
+    dc = P[1 + s * s : 1 + s * s + s]
+    c = P[1 + s * s + s : 1 + s * s + 2 * s]
+    n = s * d
+    y, tmp, f0 = np.empty(d), np.empty(d), np.empty(d)
+    Z, r = np.empty(n), np.empty(n)
+    F = np.empty((s, d))
+    Js = np.empty((s, d, d))
+    M = np.empty((n, n))
+    for b in range(B):
+        y[:] = Y0[b]
+        store(OUT, b, 0, y)
+        isave = 1
+        rhs(y, f0)
+        nrhs = 1
+        nnewton = 0
+        for i in range(s):
+            for u in range(d):
+                Z[i * d + u] = c[i] * h * f0[u]
+        for k in range(1, nsteps + 1):
+            scale = max(1.0, max_abs(y))
+            dprev = 0.0
+            code = ST_NEWTON
+            resid = np.inf
+            for it in range(maxit):
+                for i in range(s):
+                    for u in range(d):
+                        tmp[u] = y[u] + Z[i * d + u]
+                    fjac(tmp, F[i], Js[i])
+                nrhs += s
+                nnewton += 1
+                for i in range(s):
+                    for u in range(d):
+                        acc = 0.0
+                        for j in range(s):
+                            acc += a[i * s + j] * F[j, u]
+                        r[i * d + u] = h * acc - Z[i * d + u]
+                        for j in range(s):
+                            hij = -h * a[i * s + j]
+                            for v in range(d):
+                                M[i * d + u, j * d + v] = hij * Js[j, u, v]
+                        M[i * d + u, i * d + u] += 1.0
+                resid = max_abs(r)
+                state, dprev = newton_update(M, r, Z, n, dprev, it, scale, tol)
+                if state >= 0:
+                    code = state
+                    break
+            if code != 0:
+                fail(OUT, INFO, b, isave, k, code, resid)
+                break
+            for u in range(d):
+                acc = 0.0
+                for i in range(s):
+                    acc += dc[i] * Z[i * d + u]
+                y[u] += acc
+            isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
+            if isave < 0:
+                break
+        INFO[b, 3] = nnewton
+        INFO[b, 4] = nrhs

@@ -1,0 +1,405 @@
+"""What the solver needs to know about a system: its state layout, which structures it has (and why not,
+when it lacks one), its model functions compiled for the loops, and its invariants.
+
+A :class:`~geomech.systems.CanonicalSystem` is a canonical problem with state ``(q, p)``; a left-invariant
+system (:class:`~geomech.LeftInvariantSystem`, :class:`~geomech.RigidBody`, anything wrapping one) is a
+Lie-Poisson problem with state ``m`` or, given an initial attitude, ``(m, R)``.
+"""
+
+from __future__ import annotations
+
+import functools
+import weakref
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .._symbolic import M_SYMBOLS
+from ..errors import InputError
+from ..systems.canonical import CanonicalSystem
+from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
+from . import _codegen
+from .methods import Structure
+
+__all__ = ["Problem", "make_problem"]
+
+_R_SYMBOLS = sp.symbols("r0:9", real=True)
+
+
+def _is_zero(expr: sp.Expr, variables: tuple[sp.Symbol, ...]) -> bool:
+    """Whether ``expr`` vanishes identically: a numeric screen at random points, then ``simplify``."""
+    if expr == 0:
+        return True
+    rng = np.random.default_rng(7)
+    f = sp.lambdify(variables, expr, modules="numpy")
+    with np.errstate(all="ignore"):
+        for _ in range(3):
+            value = complex(f(*rng.uniform(-0.6, 0.6, len(variables))))
+            if np.isfinite(value) and abs(value) > 1e-9:
+                return False
+    return sp.simplify(expr) == 0
+
+
+@dataclass(eq=False)
+class Problem:
+    """A system as the solver sees it (internal)."""
+
+    kind: str  # "canonical" | "lie_poisson"
+    layout: str  # "qp" | "m" | "mR"
+    dim: int
+    system: Any  # the object the user passed
+    core: Any  # CanonicalSystem or LeftInvariantSystem
+    expression: sp.Expr | None
+    variables: tuple[sp.Symbol, ...]
+    missing: dict[Structure, str] = field(default_factory=dict)
+    split_axis_order: tuple[int, int, int] = (0, 1, 2)
+    inertia_tensor: np.ndarray | None = None
+
+    @property
+    def name(self) -> str:
+        return getattr(self.core, "name", type(self.core).__name__)
+
+    def has(self, structure: Structure) -> bool:
+        return structure not in self.missing
+
+    # -- compiled model ---------------------------------------------------------------------------
+    def module(self, features: frozenset[str], backend: str) -> tuple[Any, str]:
+        """The loop module for ``features`` and the backend actually used."""
+        if backend not in ("auto", "numba", "python"):
+            raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
+        if backend != "python" and self.expression is not None and _codegen.numba_available():
+            if self.kind == "lie_poisson" and self.has(Structure.LIE_POISSON_SPLIT):
+                # cheap to add, and one module per model and layout keeps numba's compilations down
+                features = features | {"split"}
+            try:
+                src = _model_source(self.kind, self.layout, self.expression, self.variables, features)
+                tag = "c" if self.kind == "canonical" else self.layout
+                return _codegen.compiled_module(src, tag), "numba"
+            except NotImplementedError:
+                if backend == "numba":
+                    raise
+        elif backend == "numba":
+            why = "numba is not available" if self.expression is not None else "the system has no formula"
+            raise InputError(f"backend='numba' needs a system built from a formula and numba; {why}.")
+        return _codegen.python_module(self._python_functions(features)), "python"
+
+    def _python_functions(self, features: frozenset[str]) -> dict[str, Any]:
+        if self.kind == "canonical":
+            return _canonical_python(self.core, features)
+        return _lie_poisson_python(self.core, self.expression, features)
+
+    # -- invariants -------------------------------------------------------------------------------
+    def invariants(self, states: np.ndarray) -> dict[str, np.ndarray | None]:
+        ok = np.all(np.isfinite(states), axis=-1)
+        out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
+        if self.kind == "canonical":
+            energy = np.full(states.shape[:-1], np.nan)
+            energy[ok] = self.core.hamiltonian(states[ok])
+            out["energy"] = energy
+            return out
+        m = states[..., :3]
+        energy = np.full(states.shape[:-1], np.nan)
+        energy[ok] = self.core.hamiltonian(m[ok])
+        out["energy"] = energy
+        out["casimir"] = np.linalg.norm(m, axis=-1)
+        if self.layout == "mR":
+            R = states[..., 3:].reshape(states.shape[:-1] + (3, 3))
+            out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
+        return out
+
+
+# -- problems from systems ----------------------------------------------------------------------------
+_ANALYSIS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def make_problem(system: Any, *, attitude: bool) -> Problem:
+    """Classify ``system``; raises :class:`InputError` for something that is not a system."""
+    if isinstance(system, CanonicalSystem):
+        core = system
+        analysis = _ANALYSIS.get(core)
+        if analysis is None:
+            analysis = _ANALYSIS.setdefault(core, _analyse_canonical(core))
+        if attitude:
+            raise InputError(f"`R0` applies to left-invariant systems on T*SO(3); {core.name} is canonical.")
+        return Problem(kind="canonical", layout="qp", dim=2 * core.n, system=system, core=core, **analysis)
+    try:
+        core = as_left_invariant(system)
+    except InputError:
+        raise InputError(
+            "Expected `system` to be a CanonicalSystem or a left-invariant system (LeftInvariantSystem, "
+            f"RigidBody, ...), got {type(system).__name__}."
+        ) from None
+    analysis = _ANALYSIS.get(core)
+    if analysis is None:
+        analysis = _ANALYSIS.setdefault(core, _analyse_lie_poisson(core))
+    layout = "mR" if attitude else "m"
+    return Problem(kind="lie_poisson", layout=layout, dim=12 if attitude else 3, system=system, core=core, **analysis)
+
+
+def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
+    variables = tuple(core.q_symbols) + tuple(core.p_symbols)
+    missing: dict[Structure, str] = {}
+    expr = core.expression
+    if expr is None:
+        missing[Structure.SEPARABLE_CANONICAL] = (
+            f"{core.name} was built from Python callables, so its separability cannot be checked; build it "
+            "with CanonicalSystem.from_expression"
+        )
+    else:
+        for q in core.q_symbols:
+            for p in core.p_symbols:
+                mixed = sp.diff(expr, q, p)
+                if not _is_zero(mixed, variables):
+                    missing[Structure.SEPARABLE_CANONICAL] = (
+                        f"{core.name} is not separable: d^2H/d{q} d{p} = {sp.simplify(mixed)} is not zero"
+                    )
+                    break
+            if Structure.SEPARABLE_CANONICAL in missing:
+                break
+    for s in (Structure.LIE_POISSON_SPLIT, Structure.LIE_POISSON_QUADRATIC, Structure.LIE_GROUP):
+        missing[s] = f"{core.name} is a canonical system in (q, p), not a left-invariant system on T*SO(3)"
+    return {"expression": expr, "variables": variables, "missing": missing}
+
+
+def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
+    missing: dict[Structure, str] = {
+        Structure.CANONICAL: (
+            f"{core.name} is Lie-Poisson on so(3)*, not canonical; reduce it to canonical variables first "
+            "(GeneralizedSerretAndoyer(system).reduced_system(G) or EulerCoordinates(system).canonical_system())"
+        ),
+    }
+    missing[Structure.SEPARABLE_CANONICAL] = missing[Structure.CANONICAL]
+    result: dict[str, Any] = {"expression": None, "variables": tuple(M_SYMBOLS), "missing": missing}
+    if core.expression is None:
+        why = f"{core.name} was built from a Python callable; build it with LeftInvariantSystem.from_expression"
+        missing[Structure.LIE_POISSON_SPLIT] = f"proving H = f1(m1) + f2(m2) + f3(m3) needs a formula: {why}"
+        missing[Structure.LIE_POISSON_QUADRATIC] = f"proving H quadratic needs a formula: {why}"
+        return result
+    subs = {sp.Symbol(k, real=True): v for k, v in core.parameters.items()}
+    H = core.expression.subs(subs)
+    result["expression"] = H
+    grad = [sp.diff(H, s) for s in M_SYMBOLS]
+    for i in range(3):
+        for j in range(i + 1, 3):
+            mixed = sp.diff(grad[i], M_SYMBOLS[j])
+            if not _is_zero(mixed, M_SYMBOLS):
+                missing[Structure.LIE_POISSON_SPLIT] = (
+                    f"H is not a sum f1(m1) + f2(m2) + f3(m3): d^2H/dm{i + 1} dm{j + 1} = {sp.simplify(mixed)} "
+                    "is not zero"
+                )
+                break
+        if Structure.LIE_POISSON_SPLIT in missing:
+            break
+    if Structure.LIE_POISSON_SPLIT not in missing:
+        parts = [grad[i].subs({M_SYMBOLS[j]: 0 for j in range(3) if j != i}) for i in range(3)]
+        cost = [sp.count_ops(p) for p in parts]
+        # The middle flow of Strang's composition runs once a step, the outer ones merge across steps:
+        # the costliest in the middle, the cheapest outside.
+        by_cost = sorted(range(3), key=lambda i: (cost[i], i))
+        result["split_axis_order"] = (by_cost[0], by_cost[1], by_cost[2])
+    hess = sp.Matrix(3, 3, lambda i, j: sp.diff(grad[i], M_SYMBOLS[j]))
+    constant = all(not (e.free_symbols & set(M_SYMBOLS)) or _is_zero(sp.diff(e, s), M_SYMBOLS)
+                   for e in hess for s in M_SYMBOLS)
+    if not constant:
+        missing[Structure.LIE_POISSON_QUADRATIC] = "H is not quadratic in m (its Hessian is not constant)"
+    else:
+        A = np.array(hess.subs({s: 0 for s in M_SYMBOLS}).evalf(), dtype=float)
+        g0 = np.array([float(g.subs({s: 0 for s in M_SYMBOLS})) for g in grad])
+        if np.any(g0 != 0):
+            missing[Structure.LIE_POISSON_QUADRATIC] = (
+                f"H has terms linear in m (grad H(0) = {g0.tolist()}): it is not a free rigid body"
+            )
+        elif np.any(np.linalg.eigvalsh(0.5 * (A + A.T)) <= 0):
+            missing[Structure.LIE_POISSON_QUADRATIC] = "the quadratic form of H is not positive definite"
+        else:
+            result["inertia_tensor"] = np.linalg.inv(0.5 * (A + A.T))
+    if core.hyperregularity() == "no":
+        missing[Structure.LIE_GROUP] = "H is not hyperregular (its Hessian is singular): no Lagrangian exists"
+    return result
+
+
+_GF_STUBS = """
+
+@kernel
+def gf_all(y, out0, out1, out2, out3):
+    return
+
+
+@kernel
+def gf_grads(y, out0, out1):
+    return
+"""
+
+
+# -- generated model source ---------------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def _model_source(kind: str, layout: str, expr: sp.Expr, variables: tuple, features: frozenset[str]) -> str:
+    FS = _codegen.FunctionSpec
+    if kind == "canonical":
+        n = len(variables) // 2
+        g = [sp.diff(expr, v) for v in variables]
+        hm = [[sp.diff(gi, v) for v in variables] for gi in g]
+        f = g[n:] + [-gi for gi in g[:n]]
+        jf = [row for row in hm[n:]] + [[-e for e in row] for row in hm[:n]]
+        specs = [
+            FS("ham", (expr,), variables),
+            FS("grad", (g,), variables),
+            FS("ghess", (g, hm), variables),
+            FS("rhs", (f,), variables),
+            FS("fjac", (f, jf), variables),
+        ]
+        if "gf" in features:
+            w = sum(g[i] * g[n + i] for i in range(n))
+            gw = [sp.diff(w, v) for v in variables]
+            hw = [[sp.diff(e, v) for v in variables] for e in gw]
+            specs += [FS("gf_all", (g, hm, gw, hw), variables), FS("gf_grads", (g, gw), variables)]
+            return _codegen.model_source(specs)
+        # the symplectic-Euler loop shares code with the generating-function one and numba types every
+        # name it calls, taken branch or not: without "gf", inert stand-ins
+        return _codegen.model_source(specs) + _GF_STUBS
+    m = list(M_SYMBOLS)
+    g = [sp.diff(expr, s) for s in m]
+    hm = [[sp.diff(gi, s) for s in m] for gi in g]
+    fm = [m[1] * g[2] - m[2] * g[1], m[2] * g[0] - m[0] * g[2], m[0] * g[1] - m[1] * g[0]]
+    state = m
+    f = fm
+    if layout == "mR":
+        R = sp.Matrix(3, 3, _R_SYMBOLS)
+        w = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
+        state = m + list(_R_SYMBOLS)
+        f = fm + list(R * w)
+    jf = [[sp.diff(fi, s) for s in state] for fi in f]
+    specs = [
+        FS("ham", (expr,), tuple(m)),
+        FS("ghess3", (g, hm), tuple(m)),
+        FS("rhs", (f,), tuple(state)),
+        FS("fjac", (f, jf), tuple(state)),
+    ]
+    if "split" in features:
+        for i in range(3):
+            part = g[i].subs({m[j]: 0 for j in range(3) if j != i})
+            specs.append(FS(f"dh{i}", (part,), (m[i],), scalar_args=True))
+    return _codegen.model_source(specs)
+
+
+# -- Python model functions (systems from callables, or formulas numba cannot compile) -------------
+def _fd_hessian(gradient: Any, y: np.ndarray) -> np.ndarray:
+    step = np.cbrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(y))
+    cols = []
+    for j in range(y.shape[0]):
+        e = np.zeros_like(y)
+        e[j] = step[j]
+        cols.append((np.asarray(gradient(y + e)) - np.asarray(gradient(y - e))) / (2 * step[j]))
+    hess = np.stack(cols, -1)
+    return 0.5 * (hess + hess.T)
+
+
+def _canonical_python(core: CanonicalSystem, features: frozenset[str]) -> dict[str, Any]:
+    n = core.n
+    G = core._gradient
+
+    def H2(y: np.ndarray) -> np.ndarray:
+        return core._hessian(y) if core._hessian is not None else _fd_hessian(G, y)
+
+    def ham(y):
+        return float(core._hamiltonian(np.asarray(y)))
+
+    def grad(y, g):
+        g[:] = G(np.asarray(y))
+
+    def ghess(y, g, hm):
+        g[:] = G(np.asarray(y))
+        hm[:, :] = H2(np.asarray(y))
+
+    def rhs(y, f):
+        g = G(np.asarray(y))
+        f[:n] = g[n:]
+        f[n:] = -g[:n]
+
+    def fjac(y, f, jac):
+        rhs(y, f)
+        hm = H2(np.asarray(y))
+        jac[:n, :] = hm[n:, :]
+        jac[n:, :] = -hm[:n, :]
+
+    out = {"ham": ham, "grad": grad, "ghess": ghess, "rhs": rhs, "fjac": fjac}
+    if "gf" in features and core.expression is not None:
+        out.update(_gf_python(core))
+    return out
+
+
+def _gf_python(core: CanonicalSystem) -> dict[str, Any]:
+    """gf_all and gf_grads (W = H_q . H_p and its derivatives) from the formula, for the Python backend."""
+    variables = tuple(core.q_symbols) + tuple(core.p_symbols)
+    n = core.n
+    g = [sp.diff(core.expression, v) for v in variables]
+    w = sum(g[i] * g[n + i] for i in range(n))
+    gw = [sp.diff(w, v) for v in variables]
+    hm = [[sp.diff(e, v) for v in variables] for e in g]
+    hw = [[sp.diff(e, v) for v in variables] for e in gw]
+    f_all = sp.lambdify(variables, [g, hm, gw, hw], modules="numpy")
+
+    def gf_all(y, g_out, hm_out, gw_out, hw_out):
+        a, b, c, d = f_all(*y)
+        g_out[:], hm_out[:, :], gw_out[:], hw_out[:, :] = a, b, c, d
+
+    def gf_grads(y, g_out, gw_out):
+        a, _, c, _ = f_all(*y)
+        g_out[:], gw_out[:] = a, c
+
+    return {"gf_all": gf_all, "gf_grads": gf_grads}
+
+
+def _hat(w: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def _lie_poisson_python(core: LeftInvariantSystem, expr: sp.Expr | None, features: frozenset[str]) -> dict[str, Any]:
+    G, Hs = core._gradient, core._hessian
+
+    def ham(y):
+        return float(core._hamiltonian(np.asarray(y[:3])))
+
+    def ghess3(m, g, hm):
+        g[:] = G(np.asarray(m))
+        hm[:, :] = Hs(np.asarray(m))
+
+    def rhs(y, f):
+        m = np.asarray(y[:3])
+        w = G(m)
+        f[:3] = np.cross(m, w)
+        if y.shape[0] == 12:
+            f[3:] = (np.asarray(y[3:]).reshape(3, 3) @ _hat(w)).ravel()
+
+    def fjac(y, f, jac):
+        rhs(y, f)
+        m = np.asarray(y[:3])
+        w, hm = G(m), Hs(m)
+        jac[:, :] = 0.0
+        jac[:3, :3] = -_hat(w) + _hat(m) @ hm
+        if y.shape[0] == 12:
+            R = np.asarray(y[3:]).reshape(3, 3)
+            W = _hat(w)
+            for a in range(3):
+                for b in range(3):
+                    row = 3 + 3 * a + b
+                    for c in range(3):
+                        jac[row, 3 + 3 * a + c] = W[c, b]
+                    for j in range(3):
+                        jac[row, j] = (R @ _hat(hm[:, j]))[a, b]
+
+    out = {"ham": ham, "ghess3": ghess3, "rhs": rhs, "fjac": fjac}
+    if "split" in features and expr is not None:
+        for i in range(3):
+            part = sp.diff(expr, M_SYMBOLS[i]).subs({M_SYMBOLS[j]: 0 for j in range(3) if j != i})
+            out[f"dh{i}"] = _scalar_function(sp.lambdify(M_SYMBOLS[i], part, modules=["numpy", "scipy"]))
+    return out
+
+
+def _scalar_function(fn: Any) -> Any:
+    def scalar(x: float) -> float:
+        return float(fn(x))
+
+    return scalar

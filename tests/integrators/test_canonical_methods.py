@@ -1,0 +1,172 @@
+"""Methods for canonical systems: convergence orders on the reduced closed loop, the free body through its
+reduction, the seed's generating-function method, bounded energy error of the symplectic methods."""
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+import geomech as gm
+from geomech.integrators.methods import REGISTRY
+from geomech.integrators.solve import solve
+
+Y0 = np.array([0.3, 0.2])
+T = 4.0
+
+# (key, numbers of steps over [0, T]) chosen so that the errors lie between ~1e-3 and the round-off floor
+ORDER_CASES = [
+    ("rk4", [10, 20, 40, 80, 160]),
+    ("abm4", [160, 240, 320, 480, 640]),  # the h^5 part of its error is large: asymptotic later
+    ("symplectic_euler", [20, 40, 80, 160, 320]),
+    ("symplectic_euler_b", [20, 40, 80, 160, 320]),
+    ("implicit_midpoint", [20, 40, 80, 160, 320]),
+    ("generating_function", [20, 40, 80, 160, 320]),
+    ("gauss_legendre_1", [20, 40, 80, 160, 320]),
+    ("gauss_legendre_2", [10, 20, 40, 80, 160]),
+    ("gauss_legendre_3", [5, 7, 10, 14, 20]),
+]
+
+
+@pytest.fixture(scope="module")
+def reference(closed_loop_reduced):
+    sol = solve_ivp(lambda t, y: closed_loop_reduced.vector_field(y), (0, T), Y0, method="DOP853",
+                    rtol=1e-13, atol=1e-14)
+    return sol.y[:, -1]
+
+
+def test_test_model_is_the_reduction_of_the_closed_loop(closed_loop, closed_loop_reduced, rng):
+    # the formula typed in conftest against the library's own Serret-Andoyer reduction of H_c
+    red = gm.GeneralizedSerretAndoyer(closed_loop).reduced_system(1.0)
+    y = np.column_stack([rng.uniform(-3, 3, 20), rng.uniform(-0.9, 0.9, 20)])
+    np.testing.assert_allclose(red.hamiltonian(y), closed_loop_reduced.hamiltonian(y), rtol=1e-13, atol=1e-14)
+
+
+@pytest.mark.parametrize("key, steps", ORDER_CASES, ids=[c[0] for c in ORDER_CASES])
+def test_convergence_order(key, steps, closed_loop_reduced, reference, fitted_order):
+    method = REGISTRY[key]
+    errors = [
+        np.abs(solve(closed_loop_reduced, method, y0=Y0, h=T / n, n_steps=n, save_every=n).states[-1] - reference).max()
+        for n in steps
+    ]
+    order = fitted_order(T / np.array(steps), errors)
+    assert abs(order - method.order) < 0.2, (key, order, errors)
+
+
+def test_stormer_verlet_order_on_a_separable_problem(pendulum, fitted_order):
+    y0, t1 = np.array([1.2, 0.3]), 5.0
+    ref = solve_ivp(lambda t, y: pendulum.vector_field(y), (0, t1), y0, method="DOP853", rtol=1e-13, atol=1e-14)
+    ref = ref.y[:, -1]
+    steps = np.array([20, 40, 80, 160, 320])
+    errors = [np.abs(solve(pendulum, "stormer_verlet", y0=y0, h=t1 / n, n_steps=n).states[-1] - ref).max()
+              for n in steps]
+    assert abs(fitted_order(t1 / steps, errors) - 2) < 0.2
+
+
+def test_generating_function_h2_term_solves_hamilton_jacobi():
+    """The map q = dS/dp, P = dS/dQ with S = p Q - h H(Q, p) + h^2/2 H_q H_p (Q, p) agrees with the exact
+    flow to O(h^3) (Taylor series of the flow), and without the h^2 term only to O(h^2)."""
+    q, p, h, Q, c1, c2 = sp.symbols("q p h Q c1 c2")
+    H = q**2 * p + p**3 / 3 + q**3 + q * p**2 / 2 + q**2 * p**2
+    Hq, Hp = sp.diff(H, q), sp.diff(H, p)
+
+    def lie(F):
+        return sp.diff(F, q) * Hp - sp.diff(F, p) * Hq
+
+    exact_q = q + h * lie(q) + h**2 / 2 * lie(lie(q))
+    exact_p = p + h * lie(p) + h**2 / 2 * lie(lie(p))
+    residues = []
+    for S in (p * Q - h * H.subs(q, Q) + h**2 / 2 * (Hq * Hp).subs(q, Q), p * Q - h * H.subs(q, Q)):
+        trial = q + c1 * h + c2 * h**2
+        eq = sp.expand((sp.diff(S, p) - q).subs(Q, trial).series(h, 0, 3).removeO())
+        sol = sp.solve([eq.coeff(h, 1), eq.coeff(h, 2)], [c1, c2], dict=True)[0]
+        new_q = trial.subs(sol)
+        new_p = sp.expand(sp.diff(S, Q).subs(Q, new_q).series(h, 0, 3).removeO())
+        residues.append((sp.expand(new_q - exact_q), sp.expand(new_p - exact_p)))
+    assert residues[0] == (0, 0)
+    assert residues[1][0] != 0 and residues[1][1] != 0
+
+
+def test_generating_function_method_is_not_the_midpoint_rule(closed_loop_reduced):
+    diffs = []
+    for h in (0.1, 0.05):
+        gf = solve(closed_loop_reduced, "generating_function", y0=Y0, h=h, n_steps=1).states[-1]
+        mp = solve(closed_loop_reduced, "implicit_midpoint", y0=Y0, h=h, n_steps=1).states[-1]
+        diffs.append(np.abs(gf - mp).max())
+    # both are second order, so one step differs at O(h^3), far above round-off
+    assert diffs[0] > 1e-6
+    assert 2**3 * 0.8 < diffs[0] / diffs[1] < 2**3 * 1.2
+    # the midpoint rule is symmetric (a step back undoes a step), the generating-function method is not:
+    # there the step back misses by O(h^4) (the h^3 local errors of the two steps cancel)
+    for key, symmetric in (("implicit_midpoint", True), ("generating_function", False)):
+        gaps = []
+        for h in (0.2, 0.1):
+            forward = solve(closed_loop_reduced, key, y0=Y0, h=h, n_steps=1).states[-1]
+            back = solve(closed_loop_reduced, key, y0=forward, h=h, t0=h, t_final=0.0).states[-1]
+            gaps.append(np.abs(back - Y0).max())
+        if symmetric:
+            assert max(gaps) < 1e-14, (key, gaps)
+        else:
+            assert gaps[0] > 1e-6 and 2**4 * 0.7 < gaps[0] / gaps[1] < 2**4 * 1.3, (key, gaps)
+        assert REGISTRY[key].symmetric is symmetric
+
+
+CANONICAL_KEYS = [k for k, m in REGISTRY.items() if m.structure.value in ("any ODE", "canonical")]
+
+
+@pytest.mark.parametrize("key", CANONICAL_KEYS)
+def test_agrees_with_the_exact_free_body_through_its_reduction(key, body):
+    # on the Python backend: the compiled loops are exercised on the other models, and this keeps the
+    # number of loops numba compiles for the suite down
+    m0 = np.array([1.0, 0.3, 0.2])
+    G = np.linalg.norm(m0)
+    chart = gm.SerretAndoyerChart(2)
+    red = gm.GeneralizedSerretAndoyer(body).reduced_system(G)
+    t1 = 3.0
+    exact = body.exact_solution(m0).momentum(t1)
+    method = REGISTRY[key]
+    n = 100 if method.order < 4 else 20
+    errors = []
+    for steps in (n, 2 * n):
+        sol = solve(red, method, y0=chart.forward(m0), h=t1 / steps, t_final=t1, backend="python")
+        assert sol.stats["backend"] == "python"
+        errors.append(np.abs(chart.inverse(sol.states[-1], G) - exact).max())
+    tol = {1: 0.1, 2: 1e-3, 4: 1e-6, 6: 1e-8, 12: 1e-5}[method.order]
+    assert errors[1] < tol
+    if method.order <= 6:
+        assert errors[0] / errors[1] > 2 ** method.order * 0.7
+
+
+SYMPLECTIC_KEYS = [
+    "symplectic_euler", "implicit_midpoint", "generating_function", "gauss_legendre_2", "gauss_legendre_3"
+]
+
+
+def _quarters(energy):
+    err = np.abs(energy - energy[0])
+    q = len(err) // 4
+    return err[1:q].max(), err[-q:].max()
+
+
+@pytest.mark.parametrize("key", SYMPLECTIC_KEYS)
+def test_symplectic_energy_error_is_bounded(key, closed_loop_reduced):
+    sol = solve(closed_loop_reduced, key, y0=Y0, h=0.1, n_steps=20_000, save_every=10)
+    first, last = _quarters(sol.energy)
+    assert last < 1.2 * first + 1e-14, (first, last)
+
+
+@pytest.mark.parametrize("key", ["rk4", "abm4"])
+def test_non_symplectic_energy_error_drifts(key, closed_loop_reduced):
+    # the contrast that makes the bounded-error test meaningful: same problem, same step
+    sol = solve(closed_loop_reduced, key, y0=Y0, h=0.1, n_steps=20_000, save_every=10)
+    first, last = _quarters(sol.energy)
+    assert last > 2.5 * first
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key", SYMPLECTIC_KEYS + ["gauss_legendre_1"])
+def test_symplectic_energy_error_is_bounded_over_a_million_steps(key, closed_loop_reduced):
+    h = 0.01
+    sol = solve(closed_loop_reduced, key, y0=Y0, h=h, n_steps=1_000_000, save_every=100)
+    first, last = _quarters(sol.energy)
+    assert last < 1.2 * first + 1e-13, (first, last)
+    assert np.abs(sol.energy - sol.energy[0]).max() < 10 * h ** REGISTRY[key].order

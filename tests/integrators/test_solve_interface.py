@@ -1,0 +1,303 @@
+"""The interface of solve(): registry and traits, early rejection of incompatible pairs, input errors,
+failures as data, batches, backends, the Solution object."""
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import geomech as gm
+from geomech.errors import ConvergenceError, InputError, NumericalError, ShapeError
+from geomech.integrators.methods import (
+    REGISTRY,
+    AdaptiveAdams,
+    GaussLegendre,
+    IncompatibleMethodError,
+    LiePoissonSplitting,
+    Method,
+    get_method,
+    methods_table,
+)
+from geomech.integrators.solve import compatible_methods, solve
+from geomech.lie import so3
+
+
+# -- registry ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("key", sorted(REGISTRY))
+def test_every_method_documents_order_traits_structure_cost_reference(key):
+    method = REGISTRY[key]
+    doc = type(method).__doc__
+    for word in ("Order", "Structure", "Cost", "Reference"):
+        assert word in doc, (key, word)
+    assert method.key == key and get_method(key) is method
+    row = method.describe()
+    assert row["order"] == method.order >= 1
+    assert row["structure"] == method.structure.value
+    for trait in ("explicit", "symplectic", "symmetric", "preserves_casimirs"):
+        assert isinstance(row[trait], bool)
+
+
+def test_registry_traits_are_those_of_the_theory():
+    assert GaussLegendre(3).order == 6 and GaussLegendre(1).order == 2
+    assert LiePoissonSplitting(order=4).order == 4
+    assert not REGISTRY["rk4"].symplectic and REGISTRY["rk4"].explicit
+    assert REGISTRY["stormer_verlet"].explicit and REGISTRY["stormer_verlet"].symplectic
+    assert not REGISTRY["generating_function"].symmetric and REGISTRY["generating_function"].symplectic
+    assert len(methods_table()) == len(REGISTRY)
+    with pytest.raises(InputError, match="rk4"):
+        get_method("rk5")
+    with pytest.raises(InputError, match="stages"):
+        GaussLegendre(4)
+    with pytest.raises(InputError, match="order"):
+        LiePoissonSplitting(order=3)
+
+
+def test_methods_are_immutable_values():
+    m = GaussLegendre(2)
+    with pytest.raises(AttributeError):
+        m.stages = 3
+    assert m == GaussLegendre(2) and hash(m) == hash(GaussLegendre(2))
+    assert isinstance(m, Method)
+
+
+# -- incompatible pairs ------------------------------------------------------------------------------------
+def test_stormer_verlet_rejects_a_non_separable_hamiltonian_early(closed_loop_reduced):
+    # raised before the initial state is even looked at
+    with pytest.raises(IncompatibleMethodError) as info:
+        solve(closed_loop_reduced, "stormer_verlet", y0=None, h=0.1, n_steps=10)
+    msg = str(info.value)
+    assert "StormerVerlet" in msg and "closed-loop h_p" in msg and "not separable" in msg
+    assert "implicit_midpoint" in msg and "generating_function" in msg
+    assert isinstance(info.value, InputError) and isinstance(info.value, ValueError)
+
+
+def test_splitting_rejects_a_hamiltonian_that_is_not_a_sum_of_one_variable_terms():
+    m1, m2, m3 = gm.M_SYMBOLS
+    coupled = gm.LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2 + m1 * m2 / 10, name="coupled")
+    with pytest.raises(IncompatibleMethodError, match=r"not a sum f1\(m1\) \+ f2\(m2\) \+ f3\(m3\).*dm1 dm2"):
+        solve(coupled, "strang", m0=[1.0, 0.2, 0.3], h=0.1, n_steps=10)
+    assert "strang" not in compatible_methods(coupled) and "lgvi" in compatible_methods(coupled)
+
+
+def test_moser_veselov_needs_a_free_body(closed_loop, body):
+    with pytest.raises(IncompatibleMethodError, match="not quadratic"):
+        solve(closed_loop, "moser_veselov", m0=[1.0, 0.2, 0.3], h=0.1, n_steps=10)
+    m1, m2, m3 = gm.M_SYMBOLS
+    gyrostat = gm.LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2 + m3 / 3, name="gyrostat")
+    with pytest.raises(IncompatibleMethodError, match="linear in m"):
+        solve(gyrostat, "moser_veselov", m0=[1.0, 0.2, 0.3], h=0.1, n_steps=10)
+    assert "moser_veselov" in compatible_methods(body)
+
+
+def test_lie_group_integrator_needs_hyperregularity():
+    m1, m2, _ = gm.M_SYMBOLS
+    degenerate = gm.LeftInvariantSystem.from_expression(m1**2 / 2 + m2**2 / 2, name="degenerate")
+    with pytest.raises(IncompatibleMethodError, match="not hyperregular"):
+        solve(degenerate, "lgvi", m0=[1.0, 0.2, 0.3], h=0.1, n_steps=10)
+
+
+def test_structures_of_other_kinds_are_rejected(closed_loop_reduced, body):
+    with pytest.raises(IncompatibleMethodError, match="not a left-invariant system"):
+        solve(closed_loop_reduced, "lgvi", y0=[0.3, 0.2], h=0.1, n_steps=10)
+    with pytest.raises(IncompatibleMethodError, match="reduced_system"):
+        solve(body, "symplectic_euler", m0=[1.0, 0.2, 0.3], h=0.1, n_steps=10)
+    with pytest.raises(InputError, match="CanonicalSystem or a left-invariant system"):
+        solve("not a system", "rk4", y0=[1.0], h=0.1, n_steps=1)
+
+
+def test_generating_function_needs_a_formula():
+    body = gm.RigidBody([3.0, 2.0, 1.0])
+    core = body.system
+    from_callable = gm.LeftInvariantSystem.from_callable(core.hamiltonian, core.gradient, core.hessian, name="cb")
+    red = gm.GeneralizedSerretAndoyer(from_callable).reduced_system(1.0)
+    with pytest.raises(IncompatibleMethodError, match="no formula"):
+        solve(red, "generating_function", y0=[0.3, 0.2], h=0.1, n_steps=10)
+    with pytest.raises(IncompatibleMethodError, match="separability cannot be checked"):
+        solve(red, "stormer_verlet", y0=[0.3, 0.2], h=0.1, n_steps=10)
+
+
+# -- input errors ---------------------------------------------------------------------------------------
+def test_input_errors_name_the_argument_and_the_fix(closed_loop_reduced, body):
+    red = closed_loop_reduced
+    with pytest.raises(InputError, match=r"whole number of steps.*choose h"):
+        solve(red, "rk4", y0=[0.3, 0.2], h=0.3, t_final=1.0)
+    with pytest.raises(InputError, match="exactly one of `t_final` and `n_steps`"):
+        solve(red, "rk4", y0=[0.3, 0.2], h=0.1)
+    with pytest.raises(ShapeError, match=r"`y0` to have shape \(\.\.\., 2\)"):
+        solve(red, "rk4", y0=[0.3, 0.2, 0.1], h=0.1, n_steps=2)
+    with pytest.raises(InputError, match="`y0`"):
+        solve(red, "rk4", m0=[0.3, 0.2, 0.1], h=0.1, n_steps=2)
+    with pytest.raises(InputError, match="`m0`"):
+        solve(body, "rk4", y0=[0.3, 0.2, 0.1], h=0.1, n_steps=2)
+    with pytest.raises(InputError, match="rotation matrix"):
+        solve(body, "rk4", m0=[0.3, 0.2, 0.1], R0=2 * np.eye(3), h=0.1, n_steps=2)
+    with pytest.raises(InputError, match="`R0` applies to left-invariant"):
+        solve(red, "rk4", y0=[0.3, 0.2], R0=np.eye(3), h=0.1, n_steps=2)
+    with pytest.raises(InputError, match="`save_every`"):
+        solve(red, "rk4", y0=[0.3, 0.2], h=0.1, n_steps=2, save_every=0)
+    with pytest.raises(InputError, match="`newton_tol`"):
+        solve(red, "implicit_midpoint", y0=[0.3, 0.2], h=0.1, n_steps=2, newton_tol=-1.0)
+    with pytest.raises(InputError, match="`h`"):
+        solve(red, "rk4", y0=[0.3, 0.2], h=np.nan, n_steps=2)
+    with pytest.raises(InputError, match="`backend`"):
+        solve(red, "rk4", y0=[0.3, 0.2], h=0.1, n_steps=2, backend="cuda")
+    with pytest.raises(InputError, match="rtol"):
+        AdaptiveAdams(rtol=0.0)
+
+
+# -- failures as data -----------------------------------------------------------------------------------
+def test_newton_failure_is_reported_with_step_time_and_residual(pendulum):
+    with pytest.raises(ConvergenceError) as info:
+        solve(pendulum, "implicit_midpoint", y0=[3.0, 1.0], h=2.0, n_steps=50)
+    msg = str(info.value)
+    assert "step 8" in msg and "t = 14" in msg and "residual" in msg and "Reduce h" in msg
+    sol = info.value.solution
+    assert sol.status == "newton_failed" and not sol.success
+    (failure,) = sol.failures
+    assert failure.step == 8 and failure.time == 14.0 and 1e-6 < failure.residual < 1e3
+    # the states up to the failure are kept, the later ones are NaN (flagged, not silent)
+    assert np.all(np.isfinite(sol.states[:8])) and np.all(np.isnan(sol.states[8:]))
+
+
+def test_failure_as_status_data_in_a_batch(pendulum):
+    y0 = np.array([[0.5, 0.1], [3.0, 1.0], [1.0, 0.0]])
+    sol = solve(pendulum, "implicit_midpoint", y0=y0, h=2.0, n_steps=50, raise_on_failure=False)
+    assert sol.status == "newton_failed"
+    assert [f.batch_index for f in sol.failures] == [(1,)]
+    assert np.all(np.isfinite(sol.states[[0, 2]]))
+    assert "1 of 3 trajectories failed" in sol.message
+
+
+def test_newton_tolerance_is_the_callers(closed_loop_reduced):
+    y0 = [0.3, 0.2]
+    loose = solve(closed_loop_reduced, "gauss_legendre_2", y0=y0, h=0.1, n_steps=100, newton_tol=1e-6)
+    tight = solve(closed_loop_reduced, "gauss_legendre_2", y0=y0, h=0.1, n_steps=100)
+    assert loose.stats["n_newton"] < tight.stats["n_newton"]
+    assert 0 < np.abs(loose.states - tight.states).max() < 1e-6
+
+
+def test_max_newton_one_fails_at_the_first_step(closed_loop_reduced):
+    with pytest.raises(ConvergenceError, match="step 1, t = 0"):
+        solve(closed_loop_reduced, "implicit_midpoint", y0=[0.3, 0.2], h=0.1, n_steps=5, max_newton=1)
+
+
+def test_blow_up_is_a_numerical_error():
+    q, p = sp.symbols("q p", real=True)
+    quartic = gm.CanonicalSystem.from_expression(p**2 / 2 - q**4 / 4, (q,), (p,), name="quartic")
+    with pytest.raises(NumericalError, match="non-finite at step"):
+        solve(quartic, "rk4", y0=[1.0, 1.0], h=0.01, t_final=5.0, backend="python")
+
+
+# -- batches and backends ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("key", ["rk4", "implicit_midpoint", "gauss_legendre_3", "symplectic_euler"])
+def test_canonical_batch_equals_one_by_one(key, closed_loop_reduced, rng):
+    y0 = np.column_stack([rng.uniform(-1, 1, 6), rng.uniform(-0.5, 0.5, 6)]).reshape(2, 3, 2)
+    # 6 x 4000 steps: large enough for the batch to be split over threads
+    batch = solve(closed_loop_reduced, key, y0=y0, h=0.01, n_steps=4000, save_every=1000)
+    assert batch.states.shape == (2, 3, 5, 2) and batch.energy.shape == (2, 3, 5)
+    for idx in np.ndindex(2, 3):
+        one = solve(closed_loop_reduced, key, y0=y0[idx], h=0.01, n_steps=4000, save_every=1000)
+        np.testing.assert_array_equal(batch.states[idx], one.states)
+
+
+@pytest.mark.parametrize("key", ["strang", "lgvi", "moser_veselov", "rk4"])
+def test_lie_poisson_batch_equals_one_by_one(key, body, rng):
+    m0 = rng.normal(size=(5, 3))
+    R0 = so3.exp(rng.normal(size=(5, 3)))
+    batch = solve(body, key, m0=m0, R0=R0, h=0.01, n_steps=5000, save_every=2500)
+    for b in range(5):
+        one = solve(body, key, m0=m0[b], R0=R0[b], h=0.01, n_steps=5000, save_every=2500)
+        np.testing.assert_array_equal(batch.states[b], one.states)
+    # one attitude broadcast against many momenta
+    shared = solve(body, key, m0=m0, R0=R0[0], h=0.01, n_steps=10)
+    assert shared.R.shape == (5, 11, 3, 3)
+
+
+def test_splitting_batch_of_many_momenta(closed_loop, rng):
+    m0 = rng.normal(size=(3000, 3))
+    m0 /= np.linalg.norm(m0, axis=1, keepdims=True)  # H_c has log cos(m3): |m3| < pi/2
+    sol = solve(closed_loop, "strang", m0=m0, h=0.01, n_steps=100, save_every=100)
+    one = solve(closed_loop, "strang", m0=m0[1234], h=0.01, n_steps=100, save_every=100)
+    np.testing.assert_allclose(sol.m[1234], one.m, rtol=0, atol=1e-15)
+    assert np.abs(sol.casimir[:, -1] - np.linalg.norm(m0, axis=1)).max() < 1e-14
+
+
+def test_gauss_legendre_one_stage_is_the_midpoint_rule(closed_loop_reduced):
+    # two code paths (the s-stage loop and the midpoint loop) for one map
+    a = solve(closed_loop_reduced, "gauss_legendre_1", y0=[0.3, 0.2], h=0.05, n_steps=400)
+    b = solve(closed_loop_reduced, "implicit_midpoint", y0=[0.3, 0.2], h=0.05, n_steps=400)
+    np.testing.assert_allclose(a.states, b.states, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("key", ["implicit_midpoint", "stormer_verlet"])
+def test_python_backend_agrees_with_the_compiled_one(key, pendulum):
+    compiled = solve(pendulum, key, y0=[1.0, 0.5], h=0.05, n_steps=200)
+    python = solve(pendulum, key, y0=[1.0, 0.5], h=0.05, n_steps=200, backend="python")
+    assert compiled.stats["backend"] == "numba" and python.stats["backend"] == "python"
+    np.testing.assert_allclose(compiled.states, python.states, rtol=0, atol=1e-13)
+
+
+def test_system_from_callables_runs_on_the_python_backend(body):
+    core = body.system
+    from_callable = gm.LeftInvariantSystem.from_callable(core.hamiltonian, core.gradient, name="callable body")
+    m0 = np.array([1.0, 0.3, 0.2])
+    a = solve(from_callable, "lgvi", m0=m0, R0=np.eye(3), h=0.05, n_steps=40)  # Hessian by finite differences
+    b = solve(body, "lgvi", m0=m0, R0=np.eye(3), h=0.05, n_steps=40)
+    assert a.stats["backend"] == "python"
+    np.testing.assert_allclose(a.m, b.m, atol=1e-9)
+
+
+# -- the adaptive Adams method ----------------------------------------------------------------------------
+@pytest.mark.parametrize("solver", ["vode", "lsoda"])
+def test_adaptive_adams_meets_its_tolerance(solver, body):
+    m0 = np.array([1.0, 0.3, 0.2])
+    exact = body.exact_solution(m0)
+    errors = []
+    for rtol in (1e-6, 1e-9):
+        sol = solve(body, AdaptiveAdams(rtol=rtol, atol=rtol * 1e-2, solver=solver), m0=m0, h=0.01, t_final=5.0)
+        errors.append(np.abs(sol.m - exact.momentum(sol.t)).max())
+        assert sol.t.shape == (501,) and sol.stats["n_rhs"] > 0
+    assert errors[1] < 1e-6 < errors[0] * 1e3 and errors[1] < errors[0] / 30
+
+
+def test_adaptive_adams_failure_is_reported(body):
+    with pytest.raises(ConvergenceError, match="adaptive solver gave up"):
+        solve(body, AdaptiveAdams(max_steps=1, rtol=1e-12, atol=1e-14), m0=[1.0, 0.3, 0.2], h=1.0, t_final=5.0)
+
+
+# -- the solution object --------------------------------------------------------------------------------
+def test_solution_views_and_immutability(body, closed_loop_reduced):
+    sol = solve(body, "strang", m0=[1.0, 0.3, 0.2], R0=np.eye(3), h=0.1, n_steps=25, save_every=10)
+    np.testing.assert_allclose(sol.t, [0.0, 1.0, 2.0, 2.5])
+    assert sol.m.shape == (4, 3) and sol.R.shape == (4, 3, 3) and sol.spatial_momentum.shape == (4, 3)
+    np.testing.assert_allclose(sol.R[0], np.eye(3))
+    np.testing.assert_allclose(sol.energy, body.energy(sol.m))
+    with pytest.raises(ValueError):
+        sol.states[0, 0] = 1.0
+    with pytest.raises(AttributeError, match="layout"):
+        _ = sol.q
+    assert "Strang" in repr(sol.method) or "LiePoissonSplitting" in repr(sol)
+    red = solve(closed_loop_reduced, "rk4", y0=[0.3, 0.2], h=0.1, n_steps=3)
+    assert red.q.shape == (4, 1) and red.p.shape == (4, 1) and red.casimir is None
+    with pytest.raises(AttributeError, match="R0"):
+        _ = solve(body, "rk4", m0=[1.0, 0.3, 0.2], h=0.1, n_steps=3, backend="python").momentum_error
+    assert red.stats["n_steps"] == 3 and red.stats["n_rhs"] == 12 and red.stats["backend"] == "numba"
+
+
+def test_compiled_model_is_cached_by_expression():
+    from geomech.integrators import _codegen
+    from geomech.integrators._problem import make_problem
+
+    q, p = sp.symbols("q p", real=True)
+    expr = p**2 / 2 - sp.cos(q) + q**4 / 48
+    a = gm.CanonicalSystem.from_expression(expr, (q,), (p,), name="a")
+    b = gm.CanonicalSystem.from_expression(expr, (q,), (p,), name="b")  # another object, the same formula
+    first = solve(a, "rk4", y0=[1.0, 0.0], h=0.1, n_steps=10)
+    second = solve(b, "rk4", y0=[1.0, 0.0], h=0.1, n_steps=10)
+    np.testing.assert_array_equal(first.states, second.states)
+    assert second.stats["compile_time"] == 0.0  # compiled once per process
+    mod_a, _ = make_problem(a, attitude=False).module(frozenset(), "auto")
+    mod_b, _ = make_problem(b, attitude=False).module(frozenset(), "auto")
+    assert mod_a is mod_b
+    # the generated source lives in the kernel cache directory, where numba keeps its machine code
+    assert any(path.name.startswith("gm_c_") for path in _codegen.cache_dir().iterdir())
+    assert "def rhs(y, out0):" in open(mod_a.__file__).read()
