@@ -1,6 +1,6 @@
 """Immutable descriptions of mechanical systems."""
 
-from . import rotor_closed_forms
+from . import nonholonomic_examples, rotor_closed_forms
 from ._euler_top import EulerTopSolution
 from .canonical import CanonicalSystem
 from .control import ClosedLoopFamily, HyperregularityReport, StructurePreservingControl
@@ -13,10 +13,20 @@ from .holonomic_examples import (
     two_pinned_bodies,
 )
 from .left_invariant import LeftInvariantSystem, as_left_invariant
+from .nonholonomic import S1, SE2, SE3, SO3, InvarianceReport, MatrixGroup, NonholonomicSystem, Rn
 from .rigid_body import RigidBody
 from .rotors import RotorBody, RotorTrajectory
 
 __all__ = [
+    "S1",
+    "SE2",
+    "SE3",
+    "SO3",
+    "InvarianceReport",
+    "MatrixGroup",
+    "NonholonomicSystem",
+    "Rn",
+    "nonholonomic_examples",
     "CanonicalSystem",
     "ClosedLoopFamily",
     "EulerTopSolution",

@@ -1,0 +1,747 @@
+r"""Lagrange-d'Alembert equations and the BKMM reduction of a nonholonomic system with symmetry.
+
+Two derivations, both automatic from a :class:`~geomech.systems.nonholonomic.NonholonomicSystem`:
+
+* :func:`lagrange_dalembert`: the equations with multipliers in coordinates,
+
+  .. math::
+
+      \mathbb M(q)\,\ddot q - f(q, \dot q) = A(q)^T\lambda + B\tau, \qquad A(q)\,\dot q = 0,
+
+  with :math:`f = \partial L/\partial q - (\partial^2 L/\partial\dot q\,\partial q)\,\dot q`, the constraint
+  forces :math:`A^T\lambda` (the multipliers solved from the differentiated constraints) and the
+  accelerations with the multipliers eliminated; :math:`B\tau` are the shape forces.
+
+* :func:`bkmm_reduction`: the reduction of Bloch, Krishnaprasad, Marsden and Murray, "Nonholonomic
+  mechanical systems with symmetry", Arch. Rational Mech. Anal. 136 (1996) 21-99 (BKMM), in the form of
+  eqs. (1.1)-(1.3) of the nonholonomic seed,
+
+  .. math::
+
+      g^{-1}\dot g = -\mathcal A^{nh}(r)\,\dot r + \mathbb I^{-1}(r)\,p, \qquad
+      \dot p = \dot r^T H(r)\,\dot r + \dot r^T K(r)\,p + p^T D(r)\,p, \qquad
+      M(r)\,\ddot r = \delta(r, \dot r, p) + \tau.
+
+Conventions (body form, left action): :math:`\xi = g^{-1}\dot g`; :math:`S_q = \mathcal D_q\cap T_q\mathrm{Orb}`
+is :math:`\{\xi : A_\xi(r)\xi = 0\}`; the body-fixed basis :math:`e_i(r)` (columns of ``basis``) spans it;
+the nonholonomic momentum is :math:`p_i = \langle \partial l/\partial\xi, e_i(r)\rangle`; the locked inertia
+is :math:`\mathbb I_{ij} = \langle e_i, \mathbb I_{\mathrm{loc}}\, e_j\rangle` with
+:math:`\mathbb I_{\mathrm{loc}} = \partial^2 l/\partial\xi^2`; the nonholonomic connection
+:math:`\mathcal A^{nh}(r)` (k x sigma) is defined by the horizontal space: :math:`(\xi, \dot r) =
+(-\mathcal A^{nh}\dot r, \dot r)` satisfies the constraints and is orthogonal, in the kinetic metric, to
+every :math:`(e_i, 0)`. Then :math:`\xi = -\mathcal A^{nh}\dot r + e_i\,(\mathbb I^{-1})^{ij} p_j` (eq. 1.1)
+and the momentum equation is (BKMM; Theorem 1.2 of the seed)
+
+.. math::
+
+    \dot p_i = \Big\langle \frac{\partial l}{\partial \xi},\; [\xi, e_i] + \frac{\partial e_i}{\partial r^\beta}
+    \dot r^\beta \Big\rangle, \qquad [\xi, \eta]^a = C^a_{bd}\,\xi^b\eta^d .
+
+The shape equations are the Lagrange-d'Alembert equations along the horizontal lifts
+:math:`(-\mathcal A^{nh}\delta r, \delta r)`; :math:`M(r) = m_{rr} - \Gamma^T\mathcal A - \mathcal A^T\Gamma +
+\mathcal A^T\mathbb I_{\mathrm{loc}}\mathcal A` is the kinetic metric on horizontal vectors
+(:math:`\Gamma = \partial^2 l/\partial\xi\,\partial\dot r`, :math:`m_{rr} = \partial^2 l/\partial\dot r^2`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..errors import InputError, SymbolicError
+from ..systems.nonholonomic import NonholonomicSystem
+from .nonholonomic_symbolic import (
+    Derived,
+    NumericCache,
+    clear_denominators,
+    shared_property,
+    simplify_expr,
+    simplify_matrix,
+    stack_last,
+    time_derivative,
+)
+
+__all__ = [
+    "LagrangeDAlembert",
+    "LagrangeDAlembertNumeric",
+    "NonholonomicReduction",
+    "ReducedNumeric",
+    "lagrange_dalembert",
+    "bkmm_reduction",
+]
+
+_simp_matrix = simplify_matrix
+_dt = time_derivative
+_clear_denominators = clear_denominators
+_NumericMixin = NumericCache
+
+
+def _col(seq: Sequence[Any]) -> sp.Matrix:
+    """A column vector, also with no entries (``sp.Matrix(())`` would be 0 x 0)."""
+    return sp.Matrix(len(seq), 1, list(seq))
+
+
+def _symbols(prefix: str, names: Sequence[str]) -> tuple[sp.Symbol, ...]:
+    return tuple(sp.Symbol(f"{n}_{prefix}" if prefix else n, real=True) for n in names)
+
+
+# --------------------------------------------------------------------------------------------------
+# Lagrange-d'Alembert equations
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class LagrangeDAlembert(Derived, _NumericMixin):
+    r"""The Lagrange-d'Alembert equations of a nonholonomic system, with and without multipliers.
+
+    Attributes
+    ----------
+    system : NonholonomicSystem
+    qddot, lam, tau : tuple of Symbol
+        Accelerations, multipliers :math:`\lambda_a` (one per constraint), shape forces :math:`\tau_\alpha`.
+    mass_matrix : Matrix (n, n)
+        :math:`\mathbb M(q)`.
+    forces : Matrix (n, 1)
+        :math:`f(q, \dot q) = \partial L/\partial q - (\partial^2 L/\partial\dot q\,\partial q)\dot q`.
+    constraint_matrix : Matrix (c, n)
+        :math:`A(q)`.
+    constraint_drift : Matrix (c, 1)
+        :math:`\dot A\,\dot q`, so that the differentiated constraints read :math:`A\ddot q + \dot A\dot q = 0`.
+    """
+
+    system: NonholonomicSystem
+    qddot: tuple[sp.Symbol, ...]
+    lam: tuple[sp.Symbol, ...]
+    tau: tuple[sp.Symbol, ...]
+    mass_matrix: sp.ImmutableMatrix = field(repr=False)
+    forces: sp.ImmutableMatrix = field(repr=False)
+    constraint_matrix: sp.ImmutableMatrix = field(repr=False)
+    constraint_drift: sp.ImmutableMatrix = field(repr=False)
+    title: str = "Lagrange-d'Alembert equations"
+
+    @property
+    def _cache_key(self) -> tuple:
+        return (self.system.key,)
+
+    @property
+    def input_matrix(self) -> sp.Matrix:
+        r""":math:`B = (0, I_\\sigma)^T`: the shape forces act on the shape coordinates only."""
+        s = self.system
+        return sp.Matrix.vstack(sp.zeros(s.k, s.sigma), sp.eye(s.sigma))
+
+    @shared_property
+    def equations(self) -> sp.ImmutableMatrix:
+        r"""Left-hand sides (= 0) of :math:`\mathbb M\ddot q - f - A^T\lambda - B\tau = 0`."""
+        M, A = sp.Matrix(self.mass_matrix), sp.Matrix(self.constraint_matrix)
+        lhs = M * _col(self.qddot) - self.forces - A.T * _col(self.lam) - self.input_matrix * _col(self.tau)
+        return sp.ImmutableMatrix(lhs.applyfunc(sp.expand))
+
+    @shared_property
+    def _solved(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
+        # With X a basis of D (A X = 0) and Y a right inverse of A (A Y = I): qddot = X a + Y b, b = -Adot qdot from
+        # the differentiated constraints, a = (X^T M X)^{-1} X^T (F - M Y b) from the projected equations, and
+        # lambda = Y^T (M qddot - F). Only (X^T M X)^{-1} is inverted: it exists whenever M is positive definite on
+        # D (M itself may be singular, as for the point-mass bicycle), and it is smaller than M.
+        s = self.system
+        M = sp.Matrix(self.mass_matrix)
+        F = sp.Matrix(self.forces) + self.input_matrix * _col(self.tau)
+        X = sp.Matrix(self.projected_equations[1])
+        G = _simp_matrix(X.T * M * X)
+        Ginv = _simp_matrix(G.inv(method="LU"))
+        if s.c == 0:
+            qdd = (X * Ginv * X.T * F).applyfunc(sp.expand)
+            return sp.ImmutableMatrix(sp.zeros(0, 1)), sp.ImmutableMatrix(qdd)
+        Y = self._right_inverse()
+        b = -sp.Matrix(self.constraint_drift)
+        MY = _simp_matrix(M * Y)
+        a = Ginv * (X.T * F - (X.T * MY) * b)
+        qdd = X * a + Y * b
+        lam = (Y.T * M * X) * a + (Y.T * MY) * b - Y.T * F
+        return sp.ImmutableMatrix(lam.applyfunc(sp.expand)), sp.ImmutableMatrix(qdd.applyfunc(sp.expand))
+
+    def _right_inverse(self) -> sp.Matrix:
+        """A right inverse :math:`Y` of :math:`A` (:math:`AY = I`) supported on c coordinates: the columns of A with
+        the best-conditioned (and shortest) c x c block, inverted symbolically."""
+        from itertools import combinations
+
+        s = self.system
+        A = sp.Matrix(self.constraint_matrix)
+        pt = s._random_point(np.random.default_rng(3), s.q)
+        An = np.array(A.subs(pt).evalf(), dtype=float)
+        best = None
+        for cols in combinations(range(s.n), s.c):
+            cond = np.linalg.cond(An[:, cols])
+            if cond > 1e8:
+                continue
+            cost = (sum(sp.count_ops(A[i, j]) for i in range(s.c) for j in cols), cond)
+            if best is None or cost < best[0]:
+                best = (cost, cols)
+        cols = best[1]
+        block_inv = _simp_matrix(A[:, list(cols)].inv(method="LU"))
+        Y = sp.zeros(s.n, s.c)
+        for a, j in enumerate(cols):
+            Y[j, :] = block_inv[a, :]
+        return Y
+
+    @property
+    def multipliers(self) -> sp.ImmutableMatrix:
+        r""":math:`\lambda(q, \dot q, \tau) = Y^T(\mathbb M\ddot q - f - B\tau)`, the constraint forces being
+        :math:`A^T\lambda`; :math:`Y` is a right inverse of :math:`A` (:math:`AY = I`) and :math:`\ddot q` as in
+        :attr:`accelerations`
+        (expanded, not simplified)."""
+        return self._solved[0]
+
+    def multipliers_on_distribution(self, basis: Any = None) -> sp.ImmutableMatrix:
+        r""":math:`\lambda` along motions that satisfy the constraints, in the reduced variables
+        :math:`(q, \dot r, p, \tau)`: the group velocities eliminated with the reconstruction equation (1.1)
+        (:func:`bkmm_reduction` with ``basis``) and simplified. :attr:`multipliers` is defined off
+        :math:`\mathcal D` too and is much longer; the two agree on :math:`\mathcal D`."""
+        s = self.system
+        red = bkmm_reduction(s, basis)
+        qd_group = sp.Matrix(s.group.body_velocity_inverse) * sp.Matrix(red.reconstruction)
+        on_d = sp.Matrix(self.multipliers).subs(dict(zip(s.qdot[: s.k], qd_group)))
+        return _simp_matrix(on_d)
+
+    @property
+    def accelerations(self) -> sp.ImmutableMatrix:
+        r""":math:`\ddot q(q, \dot q, \tau) = X a - Y\dot A\dot q`, :math:`a = (X^T\mathbb M X)^{-1}X^T(f + B\tau +
+        \mathbb M Y\dot A\dot q)`: the accelerations with the multipliers eliminated (valid on :math:`\mathcal D`;
+        expanded, not simplified: :attr:`projected_equations` reads better)."""
+        return self._solved[1]
+
+    @shared_property
+    def projected_equations(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
+        r"""The equations without multipliers, :math:`X^T(\mathbb M\ddot q - f - B\tau) = 0`, with :math:`X(q)`
+        (n x (n - c), returned second) a basis of :math:`\mathcal D = \ker A`."""
+        A = sp.Matrix(self.constraint_matrix)
+        s = self.system
+        if s.c == 0:
+            X = sp.eye(s.n)
+        else:
+            vecs = A.nullspace(simplify=True)
+            X = sp.Matrix.hstack(*[_clear_denominators(v) for v in vecs])
+        lhs = X.T * (sp.Matrix(self.mass_matrix) * _col(self.qddot) - self.forces
+                     - self.input_matrix * _col(self.tau))
+        return _simp_matrix(lhs), sp.ImmutableMatrix(X)
+
+    def _latex_names(self) -> dict:
+        names = dict(self.system.latex_names)
+        for q, a in zip(self.system.q, self.qddot):
+            names[a] = rf"\ddot{{{sp.latex(q)}}}"
+        for i, lam in enumerate(self.lam):
+            names[lam] = rf"\lambda_{{{i + 1}}}"
+        for r, t in zip(self.system.shape, self.tau):
+            names[t] = rf"\tau_{{{sp.latex(r)}}}"
+        return names
+
+    def items(self):
+        return [("equations (= 0)", r"\mathbb M\ddot q - f - A^T\lambda - B\tau", self.equations),
+                ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * _col(self.system.qdot)),
+                ("multipliers lambda", r"\lambda", self.multipliers),
+                ("accelerations qddot", r"\ddot q", self.accelerations)]
+
+    # ---------------- numeric ----------------
+    def numeric(self, parameters: Mapping[str, float] | None = None) -> LagrangeDAlembertNumeric:
+        """Compiled numeric functions (vectorised over leading axes) with the given parameter values."""
+        s = self.system
+        x = list(s.q) + list(s.qdot)
+        funcs = self._compile(parameters, {
+            "M": self.mass_matrix, "f": self.forces, "A": self.constraint_matrix, "Adq": self.constraint_drift,
+            "E": s.energy}, x)
+        return LagrangeDAlembertNumeric(s, funcs)
+
+
+@dataclass(frozen=True)
+class LagrangeDAlembertNumeric:
+    """Numeric Lagrange-d'Alembert equations: the multipliers and accelerations by a linear solve.
+
+    Every function takes ``q`` and ``qd`` of shape ``(..., n)`` and ``tau`` of shape ``(..., sigma)``.
+    """
+
+    system: NonholonomicSystem
+    funcs: dict = field(repr=False)
+
+    def _x(self, q: Any, qd: Any) -> np.ndarray:
+        return stack_last(q, qd)
+
+    def mass_matrix(self, q: Any) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        return self.funcs["M"](self._x(q, np.zeros_like(q)))
+
+    def constraint_matrix(self, q: Any) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        return self.funcs["A"](self._x(q, np.zeros_like(q)))
+
+    def energy(self, q: Any, qd: Any) -> np.ndarray:
+        return self.funcs["E"](self._x(q, qd))[..., 0, 0]
+
+    def constraint_residual(self, q: Any, qd: Any) -> np.ndarray:
+        r""":math:`A(q)\\dot q`, shape (..., c)."""
+        A = self.constraint_matrix(q)
+        return np.einsum("...ij,...j->...i", A, np.asarray(qd, dtype=float))
+
+    def solve(self, q: Any, qd: Any, tau: Any = None) -> tuple[np.ndarray, np.ndarray]:
+        """Accelerations and multipliers ``(qddot, lam)`` from the index-reduced equations."""
+        s = self.system
+        x = self._x(q, qd)
+        M, f, A, Adq = self.funcs["M"](x), self.funcs["f"](x)[..., 0], self.funcs["A"](x), self.funcs["Adq"](x)[..., 0]
+        if tau is not None and s.sigma:
+            f = f.copy()
+            f[..., s.k:] += np.asarray(tau, dtype=float)
+        c = s.c
+        K = np.zeros(x.shape[:-1] + (s.n + c, s.n + c))
+        K[..., : s.n, : s.n] = M
+        K[..., : s.n, s.n:] = -np.swapaxes(A, -1, -2)
+        K[..., s.n:, : s.n] = A
+        rhs = np.concatenate([f, -Adq], axis=-1)
+        sol = np.linalg.solve(K, rhs[..., None])[..., 0]
+        return sol[..., : s.n], sol[..., s.n:]
+
+    def multipliers(self, q: Any, qd: Any, tau: Any = None) -> np.ndarray:
+        return self.solve(q, qd, tau)[1]
+
+    def accelerations(self, q: Any, qd: Any, tau: Any = None) -> np.ndarray:
+        return self.solve(q, qd, tau)[0]
+
+
+def lagrange_dalembert(system: NonholonomicSystem) -> LagrangeDAlembert:
+    """Derive the Lagrange-d'Alembert equations of ``system`` (cached on the system's symbolic content: systems
+    that differ only in parameter values share the derivation; each result keeps its own system's values)."""
+    if not isinstance(system, NonholonomicSystem):
+        raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
+    return LagrangeDAlembert(system, *_lda_fields(system))
+
+
+@lru_cache(maxsize=64)
+def _lda_fields(system: NonholonomicSystem) -> tuple:
+    s = system
+    names = [q.name for q in s.q]
+    qdd = _symbols("ddot", names)
+    lam = tuple(sp.Symbol(f"lambda{i + 1}", real=True) for i in range(s.c))
+    tau = _symbols("", [f"tau_{r.name}" for r in s.shape])
+    L = s.lagrangian
+    M = sp.Matrix(s.mass_matrix)
+    p = sp.Matrix([sp.diff(L, v) for v in s.qdot])
+    f = sp.Matrix([sp.diff(L, q) for q in s.q]) - p.jacobian(s.q) * _col(s.qdot)
+    A = sp.Matrix(s.constraint_matrix)
+    Adq = _dt(A, s.q, s.qdot) * _col(s.qdot)
+    return (qdd, lam, tau, sp.ImmutableMatrix(M), sp.ImmutableMatrix(f.applyfunc(sp.expand)), sp.ImmutableMatrix(A),
+            sp.ImmutableMatrix(Adq.applyfunc(sp.expand)))
+
+
+# --------------------------------------------------------------------------------------------------
+# BKMM reduction
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class NonholonomicReduction(Derived, _NumericMixin):
+    r"""The BKMM reduction of a nonholonomic system with symmetry (eqs. 1.1-1.3 of the nonholonomic seed).
+
+    Attributes
+    ----------
+    system : NonholonomicSystem
+    basis : Matrix (k, m)
+        The body-fixed basis :math:`e_1(r), \dots, e_m(r)` of :math:`S = \{\xi : A_\xi(r)\xi = 0\}` as columns.
+    normalization : str
+        How the basis was chosen (the momentum's scale depends on it).
+    p, rddot, tau : tuple of Symbol
+        Nonholonomic momentum, shape accelerations, shape forces.
+    locked_inertia_full, coupling, shape_metric : Matrix
+        :math:`\mathbb I_{\mathrm{loc}} = \partial^2 l/\partial\xi^2` (k x k),
+        :math:`\Gamma = \partial^2 l/\partial\xi\partial\dot r` (k x sigma),
+        :math:`m_{rr} = \partial^2 l/\partial\dot r^2` (sigma x sigma).
+    potential : Expr
+        :math:`V(r)`.
+    """
+
+    system: NonholonomicSystem
+    basis: sp.ImmutableMatrix
+    normalization: str
+    p: tuple[sp.Symbol, ...]
+    rddot: tuple[sp.Symbol, ...]
+    tau: tuple[sp.Symbol, ...]
+    locked_inertia_full: sp.ImmutableMatrix = field(repr=False)
+    coupling: sp.ImmutableMatrix = field(repr=False)
+    shape_metric: sp.ImmutableMatrix = field(repr=False)
+    potential: sp.Expr = field(repr=False)
+    title: str = "BKMM reduction"
+
+    @property
+    def _cache_key(self) -> tuple:
+        return (self.system.key, self.basis)
+
+    @property
+    def m(self) -> int:
+        """Dimension of :math:`S_q` (number of nonholonomic momenta)."""
+        return self.basis.cols
+
+    @property
+    def r(self) -> tuple[sp.Symbol, ...]:
+        return self.system.shape
+
+    @property
+    def rdot(self) -> tuple[sp.Symbol, ...]:
+        return self.system.shape_dot
+
+    # ---------------- connection and inertia ----------------
+    @shared_property
+    def locked_inertia(self) -> sp.ImmutableMatrix:
+        r""":math:`\mathbb I_{ij}(r) = e_i^T\,\mathbb I_{\mathrm{loc}}\,e_j` (m x m)."""
+        E = sp.Matrix(self.basis)
+        return _simp_matrix(E.T * self.locked_inertia_full * E)
+
+    @shared_property
+    def locked_inertia_inverse(self) -> sp.ImmutableMatrix:
+        return _simp_matrix(sp.Matrix(self.locked_inertia).inv(method="LU")) if self.m else sp.ImmutableMatrix(0, 0, [])
+
+    @shared_property
+    def connection(self) -> sp.ImmutableMatrix:
+        r"""The nonholonomic connection :math:`\mathcal A^{nh}(r)` (k x sigma), horizontal
+        :math:`\xi = -\mathcal A^{nh}\dot r`.
+
+        Solves :math:`A_\xi\,\xi_h = -A_r\dot r` and :math:`e_i^T(\mathbb I_{\mathrm{loc}}\xi_h + \Gamma\dot r) = 0`.
+        """
+        s = self.system
+        if s.sigma == 0:
+            return sp.ImmutableMatrix(sp.zeros(s.k, 0))
+        Axi, Ar = (sp.Matrix(a) for a in s.body_constraints)
+        E = sp.Matrix(self.basis)
+        lhs = sp.Matrix.vstack(Axi, E.T * self.locked_inertia_full)
+        rhs = sp.Matrix.vstack(Ar, E.T * self.coupling)
+        return _simp_matrix(lhs.LUsolve(rhs))
+
+    @shared_property
+    def reconstruction(self) -> sp.ImmutableMatrix:
+        r""":math:`\xi = g^{-1}\dot g = -\mathcal A^{nh}(r)\dot r + e(r)\,\mathbb I^{-1}(r)\,p` (seed eq. 1.1)."""
+        E = sp.Matrix(self.basis)
+        rd, p = _col(self.rdot), _col(self.p)
+        xi = -sp.Matrix(self.connection) * rd
+        if self.m:
+            xi += E * sp.Matrix(self.locked_inertia_inverse) * p
+        return _simp_matrix(xi)
+
+    @shared_property
+    def momentum(self) -> sp.ImmutableMatrix:
+        r""":math:`p_i(q, \dot q) = \langle\partial l/\partial\xi, e_i(r)\rangle`, :math:`\xi = \Lambda(g)\dot g`,
+        in coordinates."""
+        s = self.system
+        xi = s.group.body_velocity_matrix * _col(s.qdot[: s.k])
+        mu = sp.Matrix([sp.diff(s.body_lagrangian, x) for x in s.xi]).subs(dict(zip(s.xi, xi)), simultaneous=True)
+        return _simp_matrix(sp.Matrix(self.basis).T * mu)
+
+    @shared_property
+    def _mu_parts(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix, sp.ImmutableMatrix]:
+        r""":math:`\mu = \partial l/\partial\xi = \mu_r\dot r + \mu_p p` and :math:`\Omega = \mathbb I^{-1}p`, with
+        :math:`\mu_r = \Gamma - \mathbb I_{\mathrm{loc}}\mathcal A` (k x sigma), :math:`\mu_p = \mathbb I_{\mathrm{loc}}
+        e\,\mathbb I^{-1}` (k x m); returns ``(mu_r, mu_p, e I^{-1})``."""
+        Il, E = sp.Matrix(self.locked_inertia_full), sp.Matrix(self.basis)
+        EIinv = _simp_matrix(E * sp.Matrix(self.locked_inertia_inverse)) if self.m else sp.zeros(self.system.k, 0)
+        mu_r = _simp_matrix(sp.Matrix(self.coupling) - Il * sp.Matrix(self.connection))
+        mu_p = _simp_matrix(Il * EIinv) if self.m else sp.ImmutableMatrix(sp.zeros(self.system.k, 0))
+        return mu_r, mu_p, sp.ImmutableMatrix(EIinv)
+
+    @property
+    def mu(self) -> sp.Matrix:
+        r""":math:`\mu = \partial l/\partial\xi` (the body momentum, k components) in terms of ``(r, rdot, p)``."""
+        mu_r, mu_p, _ = self._mu_parts
+        return sp.Matrix(mu_r) * _col(self.rdot) + sp.Matrix(mu_p) * _col(self.p)
+
+    @property
+    def omega(self) -> sp.Matrix:
+        r""":math:`\Omega = \mathbb I^{-1}(r)\,p`, the velocity along :math:`S_q` in the basis :math:`e_i`."""
+        return sp.Matrix(self.locked_inertia_inverse) * _col(self.p)
+
+    @shared_property
+    def curvature(self) -> tuple[sp.ImmutableMatrix, ...]:
+        r"""Curvature of the nonholonomic connection (BKMM), one sigma x sigma matrix per algebra index a:
+
+        .. math::
+
+            B^a_{\alpha\beta} = \frac{\partial\mathcal A^a_\beta}{\partial r^\alpha}
+            - \frac{\partial\mathcal A^a_\alpha}{\partial r^\beta} - C^a_{bd}\,\mathcal A^b_\alpha\mathcal A^d_\beta,
+
+        the local form of :math:`B = d\mathcal A - [\mathcal A, \mathcal A]`."""
+        s, A = self.system, sp.Matrix(self.connection)
+        C, k, r = s.group.structure_constants, s.k, self.r
+        out = []
+        for a in range(k):
+            out.append(_simp_matrix(sp.Matrix(s.sigma, s.sigma, lambda al, be, a=a: sp.diff(A[a, be], r[al]) - sp.diff(
+                A[a, al], r[be]) - sum(C[a][b][d] * A[b, al] * A[d, be] for b in range(k) for d in range(k)))))
+        return tuple(out)
+
+    @shared_property
+    def F(self) -> tuple[sp.ImmutableMatrix, ...]:
+        r"""The seed's :math:`F^a_{i\beta} = \partial e^a_i/\partial r^\beta + C^a_{bd}\,e^b_i\mathcal A^d_\beta`
+        (Theorem 1.1), one m x sigma matrix per algebra index a."""
+        s, A, E = self.system, sp.Matrix(self.connection), sp.Matrix(self.basis)
+        C, k, r = s.group.structure_constants, s.k, self.r
+        return tuple(_simp_matrix(sp.Matrix(self.m, s.sigma, lambda i, be, a=a: sp.diff(E[a, i], r[be]) + sum(
+            C[a][b][d] * E[b, i] * A[d, be] for b in range(k) for d in range(k)))) for a in range(k))
+
+    # ---------------- momentum equation ----------------
+    @shared_property
+    def momentum_coefficients(self) -> tuple[tuple[sp.ImmutableMatrix, ...], ...]:
+        r"""``(H, K, D)``, each a tuple over :math:`i` of matrices, with
+        :math:`\dot p_i = \dot r^T H_i\dot r + \dot r^T K_i p + p^T D_i p` (seed eq. 1.2; :math:`H_i, D_i` symmetric).
+
+        From :math:`\dot p_i = -\mu_a C^a_{bd}e^b_i e^d_j\Omega^j + \mu_a F^a_{i\beta}\dot r^\beta` (BKMM's
+        :math:`\dot p_i = \langle\mu, [\xi, e_i] + \partial_\beta e_i\dot r^\beta\rangle` with eq. 1.1 inserted)."""
+        s = self.system
+        mu_r, mu_p, EIinv = (sp.Matrix(x) for x in self._mu_parts)
+        C, k, E = s.group.structure_constants, s.k, sp.Matrix(self.basis)
+        rd, p = _col(self.rdot), _col(self.p)
+        mu = mu_r * rd + mu_p * p
+        W = EIinv * p
+        Hs, Ks, Ds = [], [], []
+        for i in range(self.m):
+            adj = sum(mu[a] * C[a][b][d] * E[b, i] * W[d] for a in range(k) for b in range(k) for d in range(k))
+            e = sp.expand(-adj + sum(mu[a] * (sp.Matrix(self.F[a])[i, :] * rd)[0, 0] for a in range(k)))
+            Hs.append(_simp_matrix(sp.hessian(e, list(rd)) / 2) if s.sigma else sp.ImmutableMatrix(sp.zeros(0, 0)))
+            Ks.append(_simp_matrix(sp.Matrix(s.sigma, self.m, lambda al, j, e=e: sp.diff(e, rd[al], p[j]))))
+            Ds.append(_simp_matrix(sp.hessian(e, list(p)) / 2))
+        return tuple(Hs), tuple(Ks), tuple(Ds)
+
+    @shared_property
+    def momentum_rhs(self) -> sp.ImmutableMatrix:
+        r"""Right-hand side of the momentum equation (1.2) in ``(r, rdot, p)``."""
+        H, K, D = self.momentum_coefficients
+        rd, p = _col(self.rdot), _col(self.p)
+        return sp.ImmutableMatrix([(rd.T * H[i] * rd + rd.T * K[i] * p + p.T * D[i] * p)[0, 0] for i in range(self.m)])
+
+    # ---------------- shape equations ----------------
+    @shared_property
+    def shape_mass(self) -> sp.ImmutableMatrix:
+        r""":math:`M(r)`, the kinetic metric on horizontal vectors (seed eq. 1.3)."""
+        A = sp.Matrix(self.connection)
+        G, Il, mrr = sp.Matrix(self.coupling), sp.Matrix(self.locked_inertia_full), sp.Matrix(self.shape_metric)
+        return _simp_matrix(mrr - G.T * A - A.T * G + A.T * Il * A)
+
+    @shared_property
+    def shape_coefficients(self) -> tuple[tuple[sp.ImmutableMatrix, ...], ...]:
+        r"""``(Q, R, S)``, each a tuple over :math:`\alpha`, with
+        :math:`\delta_\alpha = \dot r^T Q_\alpha\dot r + \dot r^T R_\alpha p + p^T S_\alpha p
+        - \partial V/\partial r^\alpha`.
+
+        They come from the constrained reduced Lagrangian :math:`l_c = \tfrac12\dot r^T M\dot r + \tfrac12\Omega^T
+        \mathbb I\,\Omega - V` (no cross term: the connection makes horizontal and vertical orthogonal) and
+
+        .. math::
+
+            \frac{d}{dt}\frac{\partial l_c}{\partial\dot r^\alpha} - \frac{\partial l_c}{\partial r^\alpha}
+            = \mu_a B^a_{\alpha\beta}\dot r^\beta - \mu_a F^a_{j\alpha}\Omega^j + \tau_\alpha,
+
+        derived here from the Lagrange-d'Alembert principle along horizontal variations. Theorem 1.2 of the seed
+        prints :math:`-\mu_a B^a_{\alpha\beta}\dot r^\beta`: with BKMM's curvature
+        (:attr:`curvature`) the sign is +, as the tests confirm against the full equations.
+        """
+        s = self.system
+        r, rd, p = list(self.r), _col(self.rdot), _col(self.p)
+        M, Iinv = sp.Matrix(self.shape_mass), sp.Matrix(self.locked_inertia_inverse)
+        mu = self.mu
+        Om = Iinv * p
+        Qs, Rs, Ss = [], [], []
+        for al in range(s.sigma):
+            chris = sum((sp.diff(M[al, g], r[b]) - sp.diff(M[b, g], r[al]) / 2) * rd[b] * rd[g]
+                        for b in range(s.sigma) for g in range(s.sigma))
+            vert = -(p.T * sp.diff(Iinv, r[al]) * p)[0, 0] / 2 if self.m else sp.Integer(0)
+            curv = sum(mu[a] * (sp.Matrix(self.curvature[a])[al, :] * rd)[0, 0] for a in range(s.k))
+            fterm = sum(mu[a] * (sp.Matrix(self.F[a])[:, al].T * Om)[0, 0] for a in range(s.k)) if self.m else 0
+            # Each mechanism simplified on its own and the results added: one common denominator over all of
+            # them costs minutes (multivariate gcds) for general parameters and reads no better.
+            Q = R = S = None
+            for e in (-chris, vert, curv, -fterm):
+                q_ = _simp_matrix(sp.hessian(e, list(rd)) / 2)
+                r_ = _simp_matrix(sp.Matrix(s.sigma, self.m, lambda b, j, e=e: sp.diff(e, rd[b], p[j])))
+                s_ = _simp_matrix(sp.hessian(e, list(p)) / 2) if self.m else sp.ImmutableMatrix(sp.zeros(0, 0))
+                Q, R, S = (q_, r_, s_) if Q is None else (Q + q_, R + r_, S + s_)
+            Qs.append(sp.ImmutableMatrix(Q))
+            Rs.append(sp.ImmutableMatrix(R))
+            Ss.append(sp.ImmutableMatrix(S))
+        return tuple(Qs), tuple(Rs), tuple(Ss)
+
+    @shared_property
+    def shape_forces(self) -> sp.ImmutableMatrix:
+        r""":math:`\delta(r, \dot r, p)` with :math:`M(r)\ddot r = \delta + \tau` (seed eq. 1.3)."""
+        Q, R, S = self.shape_coefficients
+        rd, p = _col(self.rdot), _col(self.p)
+        out = []
+        for al, r in enumerate(self.r):
+            e = (rd.T * Q[al] * rd + rd.T * R[al] * p)[0, 0] - simplify_expr(sp.diff(self.potential, r))
+            if self.m:
+                e += (p.T * S[al] * p)[0, 0]
+            out.append(e)
+        return sp.ImmutableMatrix(sp.Matrix(len(out), 1, out))
+
+    def shape_equation_projection(self) -> sp.Matrix:
+        r"""Second derivation of eq. (1.3), unsimplified: :math:`-\mathcal A^T(\dot\mu - \mathrm{ad}^*_\xi\mu)
+        + \frac{d}{dt}\frac{\partial l}{\partial\dot r} - \frac{\partial l}{\partial r}` with eqs. (1.1)-(1.2)
+        inserted, in ``(r, rdot, rddot, p)``; it equals :math:`M\ddot r - \delta` (= :math:`\tau`)."""
+        s = self.system
+        r, rd, rdd, p = list(self.r), list(self.rdot), list(self.rddot), list(self.p)
+        xi = sp.Matrix(self.reconstruction)
+        pdot = list(self.momentum_rhs)
+
+        def ddt(expr):
+            out = _dt(expr, r, rd) + _dt(expr, rd, rdd)
+            return out + _dt(expr, p, pdot) if p else out
+
+        mu = self.mu
+        C, k = s.group.structure_constants, s.k
+        ad_star = sp.Matrix([sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k)) for d in range(k)])
+        l = s.body_lagrangian
+        sub = dict(zip(s.xi, xi))
+        pi_r = sp.Matrix([sp.diff(l, v) for v in rd]).subs(sub, simultaneous=True)
+        dl_dr = sp.Matrix([sp.diff(l, v) for v in r]).subs(sub, simultaneous=True)
+        return -sp.Matrix(self.connection).T * (ddt(mu) - ad_star) + ddt(pi_r) - dl_dr
+
+    def _latex_names(self) -> dict:
+        names = dict(self.system.latex_names)
+        for r, a, t in zip(self.r, self.rddot, self.tau):
+            names[a] = rf"\ddot{{{sp.latex(r)}}}"
+            names[t] = rf"\tau_{{{sp.latex(r)}}}"
+        return names
+
+    def items(self):
+        H, K, D = self.momentum_coefficients
+        return [("basis e_i(r) (columns)", r"e(r)", self.basis),
+                ("normalization", r"\mathrm{normalization}", self.normalization),
+                ("momentum p(q, qdot)", r"p", self.momentum),
+                ("locked inertia I(r)", r"\mathbb I(r)", self.locked_inertia),
+                ("connection A_nh(r)", r"\mathcal A^{nh}(r)", self.connection),
+                ("reconstruction g^-1 g' (eq. 1.1)", r"g^{-1}\dot g", self.reconstruction),
+                ("momentum equation p' (eq. 1.2)", r"\dot p", self.momentum_rhs),
+                ("H(r)", r"H(r)", list(H)), ("K(r)", r"K(r)", list(K)), ("D(r)", r"D(r)", list(D)),
+                ("shape mass M(r) (eq. 1.3)", r"M(r)", self.shape_mass),
+                ("delta(r, rdot, p) (eq. 1.3)", r"\delta(r, \dot r, p)", self.shape_forces)]
+
+    # ---------------- numeric ----------------
+    def numeric(self, parameters: Mapping[str, float] | None = None) -> ReducedNumeric:
+        """Compiled reduced equations; variables ``x = (r, rdot, p)`` of shape ``(..., 2 sigma + m)``."""
+        x = list(self.r) + list(self.rdot) + list(self.p)
+        exprs = {"pdot": self.momentum_rhs, "M": self.shape_mass, "delta": self.shape_forces,
+                 "xi": self.reconstruction, "A": self.connection, "E": self.basis, "I": self.locked_inertia}
+        funcs = self._compile(parameters, exprs, x)
+        s = self.system
+        mom = self._compile(parameters, {"p": self.momentum}, list(s.q) + list(s.qdot))["p"]
+        return ReducedNumeric(self, funcs, mom)
+
+
+@dataclass(frozen=True)
+class ReducedNumeric:
+    """Numeric reduced equations of :class:`NonholonomicReduction`; ``x = (r, rdot, p)``."""
+
+    reduction: NonholonomicReduction
+    funcs: dict = field(repr=False)
+    momentum_fn: Any = field(repr=False)
+
+    def _x(self, r: Any, rd: Any, p: Any) -> np.ndarray:
+        return stack_last(r, rd, p)
+
+    def pdot(self, r: Any, rd: Any, p: Any) -> np.ndarray:
+        return self.funcs["pdot"](self._x(r, rd, p))[..., 0]
+
+    def shape_mass(self, r: Any, rd: Any, p: Any) -> np.ndarray:
+        return self.funcs["M"](self._x(r, rd, p))
+
+    def delta(self, r: Any, rd: Any, p: Any) -> np.ndarray:
+        return self.funcs["delta"](self._x(r, rd, p))[..., 0]
+
+    def xi(self, r: Any, rd: Any, p: Any) -> np.ndarray:
+        r"""Body velocity :math:`g^{-1}\\dot g` from the reconstruction equation (1.1)."""
+        return self.funcs["xi"](self._x(r, rd, p))[..., 0]
+
+    def rddot(self, r: Any, rd: Any, p: Any, tau: Any = None) -> np.ndarray:
+        M = self.shape_mass(r, rd, p)
+        rhs = self.delta(r, rd, p)
+        if tau is not None:
+            rhs = rhs + np.asarray(tau, dtype=float)
+        return np.linalg.solve(M, rhs[..., None])[..., 0]
+
+    def momentum(self, q: Any, qd: Any) -> np.ndarray:
+        r""":math:`p(q, \\dot q)` from the full state."""
+        return self.momentum_fn(stack_last(q, qd))[..., 0]
+
+
+def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, str]:
+    s = system
+    Axi = sp.Matrix(s.body_constraints[0])
+    if basis is None:
+        if s.c == 0:
+            return sp.ImmutableMatrix(sp.eye(s.k)), "standard basis of the Lie algebra (no constraint on the group)"
+        vecs = Axi.nullspace(simplify=True)
+        E = sp.Matrix.hstack(*[_clear_denominators(v) for v in vecs]) if vecs else sp.zeros(s.k, 0)
+        return sp.ImmutableMatrix(E), ("null space of the body constraint matrix A_xi(r) by row reduction (one free "
+                                       "component set to 1), each vector then multiplied by the common denominator of "
+                                       "its entries")
+    names = {x.name: x for x in s.shape}
+    try:
+        E = sp.Matrix(basis)
+    except (TypeError, ValueError, sp.SympifyError) as exc:
+        raise InputError(f"Expected `basis` to be a k x m matrix (k = {s.k}) of expressions in the shape "
+                         f"variables, got {basis!r}.") from exc
+    E = E.applyfunc(lambda e: sp.sympify(e).xreplace({x: names.get(x.name, x) for x in sp.sympify(e).free_symbols}))
+    if E.rows != s.k and E.cols == s.k:
+        E = E.T
+    if E.rows != s.k:
+        raise InputError(f"Expected `basis` to have {s.k} rows (dim of {s.group.name}), got shape {E.shape}.")
+    bad = set().union(*[e.free_symbols for e in E]) & (set(s.group.coordinates) | set(s.qdot))
+    if bad:
+        raise InputError(f"Expected `basis` to depend on the shape variables only (it is body-fixed), got "
+                         f"{sorted(map(str, bad))}.")
+    res = (Axi * E).applyfunc(simplify_expr)
+    if any(e != 0 for e in res):
+        raise SymbolicError(f"`basis` does not lie in S_q = D_q cap T_q(Orb): A_xi(r) e(r) = {res.tolist()} != 0.")
+    expected = s.k - Axi.rank(simplify=True)
+    if E.cols != expected or E.rank(simplify=True) != expected:
+        raise InputError(f"Expected `basis` to hold {expected} independent vectors (dim S_q), got {E.cols} of rank "
+                         f"{E.rank(simplify=True)}.")
+    return sp.ImmutableMatrix(E), "given by the caller"
+
+
+@lru_cache(maxsize=64)
+def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
+    s = system
+    E, normalization = _basis(s, None if basis_key is None else sp.Matrix(basis_key[1]))
+    if basis_key is not None and basis_key[0] == "model":
+        normalization = s.basis_note or "given by the model"
+    l = s.body_lagrangian
+    xi, rd = list(s.xi), list(s.shape_dot)
+    Il = sp.hessian(l, xi) if xi else sp.zeros(0, 0)
+    Gam = sp.Matrix(len(xi), len(rd), lambda a, b: sp.diff(l, xi[a], rd[b]))
+    mrr = sp.hessian(l, rd) if rd else sp.zeros(0, 0)
+    V = -l.subs({v: 0 for v in xi + rd})
+    if any(e.free_symbols & set(s.group.coordinates) for e in list(Il) + list(Gam) + list(mrr)):
+        raise SymbolicError(f"{s.name}: the body Lagrangian still depends on the group variables; check G-invariance.")
+    p = tuple(sp.Symbol(f"p{i + 1}", real=True) for i in range(E.cols))
+    rdd = _symbols("ddot", [r.name for r in s.shape])
+    tau = _symbols("", [f"tau_{r.name}" for r in s.shape])
+    return (E, normalization, p, rdd, tau, sp.ImmutableMatrix(Il), sp.ImmutableMatrix(Gam), sp.ImmutableMatrix(mrr),
+            sp.simplify(V))
+
+
+def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> NonholonomicReduction:
+    r"""The BKMM reduction of ``system``.
+
+    Parameters
+    ----------
+    system : NonholonomicSystem
+    basis : k x m matrix, optional
+        The body-fixed basis :math:`e_i(r)` of :math:`S_q = \mathcal D_q\cap T_q\mathrm{Orb}` as columns, in
+        the shape variables. Default: the null space of :math:`A_\xi(r)` with denominators cleared (see
+        ``normalization`` of the result). The nonholonomic momentum scales with this choice.
+
+    Returns
+    -------
+    NonholonomicReduction
+        Cached on the system's symbolic content and the basis (systems that differ only in parameter values share
+        it; each result keeps its own system's values); every part is derived on first access.
+    """
+    if not isinstance(system, NonholonomicSystem):
+        raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
+    if basis is None and system.body_basis is not None:
+        key = ("model", system.body_basis)
+    else:
+        key = None if basis is None else ("caller", sp.ImmutableMatrix(sp.Matrix(basis)))
+    return NonholonomicReduction(system, *_bkmm_fields(system, key))

@@ -1,0 +1,802 @@
+r"""Nonholonomic mechanical systems with symmetry: a Lagrangian, linear velocity constraints and a group.
+
+This is the setting of section 1 of the nonholonomic seed (Koon and Marsden, "The geometric structure of
+nonholonomic mechanics") and of Bloch, Krishnaprasad, Marsden and Murray, "Nonholonomic mechanical
+systems with symmetry", Arch. Rational Mech. Anal. 136 (1996) 21-99 ("BKMM"). The configuration space is
+a trivial principal bundle :math:`Q = G \times S` with group variables :math:`g` (coordinates of a
+matrix Lie group :math:`G`) and shape variables :math:`r`; the group acts on the left,
+:math:`h\cdot(g, r) = (hg, r)`. The velocity is written in body form,
+
+.. math::
+
+    \xi = g^{-1}\dot g = \Lambda(g)\,\dot g \in \mathfrak g, \qquad \dot r,
+
+so that a left-invariant Lagrangian is a function :math:`l(r, \xi, \dot r)` of the shape and the body
+velocity only, and an invariant constraint distribution :math:`\mathcal D` is the kernel of one-forms
+whose body components :math:`A_\xi(r)\,\xi + A_r(r)\,\dot r = 0` do not depend on :math:`g`.
+
+Groups: :func:`SE2`, :func:`SE3`, :func:`SO3`, :func:`Rn`, :func:`S1` and their products
+(``SE2(...) * S1(...)``), or any :class:`MatrixGroup` given by a matrix parametrisation.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..errors import InputError, ShapeError, SymbolicError
+
+__all__ = [
+    "MatrixGroup",
+    "SE2",
+    "SE3",
+    "SO3",
+    "Rn",
+    "S1",
+    "NonholonomicSystem",
+    "InvarianceReport",
+]
+
+#: Relative tolerance of the numeric invariance tests (random points, exact formulas: round-off only).
+_INVARIANCE_RTOL = 1e-9
+
+
+# --------------------------------------------------------------------------------------------------
+# Groups
+# --------------------------------------------------------------------------------------------------
+def _symbols(names: Sequence[Any], argname: str) -> tuple[sp.Symbol, ...]:
+    out = []
+    for n in names:
+        if isinstance(n, sp.Symbol):
+            out.append(n)
+        elif isinstance(n, str) and n.isidentifier():
+            out.append(sp.Symbol(n, real=True))
+        else:
+            raise InputError(f"Expected `{argname}` to hold coordinate names (identifiers or sympy Symbols), "
+                             f"got {n!r}.")
+    return tuple(out)
+
+
+def _rot2(a: sp.Expr) -> sp.Matrix:
+    return sp.Matrix([[sp.cos(a), -sp.sin(a)], [sp.sin(a), sp.cos(a)]])
+
+
+def _rot3(axis: int, a: sp.Expr) -> sp.Matrix:
+    c, s = sp.cos(a), sp.sin(a)
+    if axis == 0:
+        return sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == 1:
+        return sp.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def _so3_basis() -> list[sp.Matrix]:
+    out = []
+    for k in range(3):
+        e = [0, 0, 0]
+        e[k] = 1
+        out.append(sp.Matrix([[0, -e[2], e[1]], [e[2], 0, -e[0]], [-e[1], e[0], 0]]))
+    return out
+
+
+def _euler_rotation(angles: Sequence[sp.Symbol], seq: str) -> sp.Matrix:
+    axes = {"x": 0, "y": 1, "z": 2}
+    if not (isinstance(seq, str) and len(seq) == 3 and seq.lower().strip("xyz") == "" and
+            seq.lower()[0] != seq.lower()[1] and seq.lower()[1] != seq.lower()[2] and (seq.isupper() or seq.islower())):
+        raise InputError(f"Expected `seq` to be an Euler sequence such as 'ZXZ' (intrinsic) or 'zyx' (extrinsic), "
+                         f"got {seq!r}.")
+    mats = [_rot3(axes[ch], a) for ch, a in zip(seq.lower(), angles)]
+    return mats[0] * mats[1] * mats[2] if seq.isupper() else mats[2] * mats[1] * mats[0]
+
+
+@dataclass(frozen=True, eq=False)
+class MatrixGroup:
+    r"""A matrix Lie group in coordinates: :math:`g(q_G)` with a basis :math:`\{b_a\}` of its algebra.
+
+    The body velocity is :math:`\hat\xi = g^{-1}\dot g = \sum_a \xi^a b_a`, so
+    :math:`\xi = \Lambda(q_G)\,\dot q_G` with columns :math:`\Lambda_{\cdot j} = (g^{-1}\partial_j g)^\vee`,
+    and the structure constants are :math:`[b_b, b_d] = C^a_{bd}\, b_a`.
+
+    Attributes
+    ----------
+    name : str
+    coordinates : tuple of Symbol
+    matrix, inverse : sympy ImmutableMatrix
+        :math:`g(q_G)` and its inverse in closed form.
+    basis : tuple of ImmutableMatrix
+        :math:`b_1, \dots, b_k` (the hat map of the unit vectors).
+    identity : tuple
+        Coordinate values of the identity.
+    angles : tuple of int
+        Indices of the coordinates that are angles.
+    reference : tuple
+        A regular point of the chart (exact values), where body-frame objects are read off: the identity,
+        unless the chart is singular there (proper Euler sequences such as 'ZXZ' at :math:`b = 0`). By
+        G-invariance the objects do not depend on the point.
+    """
+
+    name: str
+    coordinates: tuple[sp.Symbol, ...]
+    matrix: sp.ImmutableMatrix = field(repr=False)
+    inverse: sp.ImmutableMatrix = field(repr=False)
+    basis: tuple[sp.ImmutableMatrix, ...] = field(repr=False)
+    identity: tuple[sp.Expr, ...] = field(repr=False)
+    angles: tuple[int, ...] = ()
+    reference: tuple[sp.Expr, ...] = field(default=(), repr=False)
+
+    def __post_init__(self) -> None:
+        if not self.reference:
+            object.__setattr__(self, "reference", tuple(self.identity))
+
+    @property
+    def dim(self) -> int:
+        return len(self.basis)
+
+    @cached_property
+    def _vee_matrix(self) -> sp.Matrix:
+        return sp.Matrix.hstack(*[sp.Matrix(b).reshape(len(b), 1) for b in self.basis])
+
+    def vee(self, X: sp.MatrixBase) -> sp.Matrix:
+        """Components of an algebra element ``X`` in the basis (exact; raises if ``X`` is not in the span)."""
+        B = self._vee_matrix
+        x = sp.Matrix(X).reshape(B.rows, 1)
+        pivots = [next(i for i in range(B.rows) if B[i, a] != 0) for a in range(B.cols)]
+        comps = sp.Matrix([x[p] / B[p, a] for a, p in enumerate(pivots)])
+        if any(sp.simplify(e) != 0 for e in (B * comps - x)):
+            raise SymbolicError(f"{X} is not in the Lie algebra of {self.name}.")
+        return comps
+
+    @cached_property
+    def body_velocity_matrix(self) -> sp.ImmutableMatrix:
+        r""":math:`\Lambda(q_G)` with :math:`\xi = \Lambda(q_G)\,\dot q_G`."""
+        from ..reduction.nonholonomic_symbolic import simplify_expr  # deferred: reduction imports systems
+
+        cols = [self.vee((self.inverse * self.matrix.diff(c)).applyfunc(simplify_expr)) for c in self.coordinates]
+        return sp.ImmutableMatrix(sp.Matrix.hstack(*cols).applyfunc(simplify_expr))
+
+    @cached_property
+    def body_velocity_inverse(self) -> sp.ImmutableMatrix:
+        r""":math:`\Lambda(q_G)^{-1}`: coordinate rates from the body velocity."""
+        from ..reduction.nonholonomic_symbolic import simplify_expr
+
+        inv = sp.Matrix(self.body_velocity_matrix).inv(method="LU")
+        return sp.ImmutableMatrix(inv.applyfunc(simplify_expr))
+
+    @cached_property
+    def structure_constants(self) -> tuple[tuple[tuple[sp.Expr, ...], ...], ...]:
+        """``C[a][b][d]`` with :math:`[b_b, b_d] = C^a_{bd} b_a`."""
+        k = self.dim
+        C = [[[sp.Integer(0)] * k for _ in range(k)] for _ in range(k)]
+        for b in range(k):
+            for d in range(k):
+                comps = self.vee(self.basis[b] * self.basis[d] - self.basis[d] * self.basis[b])
+                for a in range(k):
+                    C[a][b][d] = comps[a]
+        return tuple(tuple(tuple(row) for row in Ca) for Ca in C)
+
+    def bracket(self, xi: Sequence[sp.Expr], eta: Sequence[sp.Expr]) -> sp.Matrix:
+        r""":math:`[\xi, \eta]^a = C^a_{bd}\,\xi^b \eta^d`."""
+        C, k = self.structure_constants, self.dim
+        return sp.Matrix([sum(C[a][b][d] * xi[b] * eta[d] for b in range(k) for d in range(k)) for a in range(k)])
+
+    def __mul__(self, other: MatrixGroup) -> MatrixGroup:
+        if not isinstance(other, MatrixGroup):
+            return NotImplemented
+        n1 = self.matrix.rows
+        basis = [sp.ImmutableMatrix(sp.diag(b, sp.zeros(other.matrix.rows))) for b in self.basis]
+        basis += [sp.ImmutableMatrix(sp.diag(sp.zeros(n1), b)) for b in other.basis]
+        return MatrixGroup(
+            name=f"{self.name} x {other.name}",
+            coordinates=self.coordinates + other.coordinates,
+            matrix=sp.ImmutableMatrix(sp.diag(self.matrix, other.matrix)),
+            inverse=sp.ImmutableMatrix(sp.diag(self.inverse, other.inverse)),
+            basis=tuple(basis),
+            identity=self.identity + other.identity,
+            reference=self.reference + other.reference,
+            angles=self.angles + tuple(len(self.coordinates) + i for i in other.angles),
+        )
+
+    def __repr__(self) -> str:
+        return f"{self.name}({', '.join(map(str, self.coordinates))})"
+
+
+def _rigid(R: sp.Matrix, t: sp.Matrix) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
+    n = R.rows
+    g = sp.Matrix.vstack(sp.Matrix.hstack(R, t), sp.Matrix([[0] * n + [1]]))
+    Rt = R.T
+    gi = sp.Matrix.vstack(sp.Matrix.hstack(Rt, -Rt * t), sp.Matrix([[0] * n + [1]]))
+    return sp.ImmutableMatrix(g), sp.ImmutableMatrix(gi.applyfunc(sp.trigsimp))
+
+
+def _check_count(names: Sequence[Any], n: int, group: str, hint: str) -> None:
+    if len(names) != n:
+        raise InputError(f"Expected {n} coordinate names for {group} ({hint}), got {len(names)}: {list(names)}.")
+
+
+def SE2(*names: Any) -> MatrixGroup:
+    r"""The planar rigid motions, coordinates :math:`(x, y, \theta)`, :math:`g = [[R(\theta), (x, y)], [0, 1]]`.
+
+    Body velocity :math:`\xi = (v_x, v_y, \omega)` in the body frame (the ordering of
+    :mod:`geomech.lie.se2`): :math:`v_x = \cos\theta\,\dot x + \sin\theta\,\dot y`,
+    :math:`v_y = -\sin\theta\,\dot x + \cos\theta\,\dot y`, :math:`\omega = \dot\theta`.
+    """
+    _check_count(names or ("x", "y", "theta"), 3, "SE(2)", "x, y, theta")
+    X, Y, T = _symbols(names or ("x", "y", "theta"), "SE2")
+    g, gi = _rigid(_rot2(T), sp.Matrix([X, Y]))
+    basis = (sp.ImmutableMatrix([[0, 0, 1], [0, 0, 0], [0, 0, 0]]),
+             sp.ImmutableMatrix([[0, 0, 0], [0, 0, 1], [0, 0, 0]]),
+             sp.ImmutableMatrix([[0, -1, 0], [1, 0, 0], [0, 0, 0]]))
+    return MatrixGroup("SE(2)", (X, Y, T), g, gi, basis, (0, 0, 0), angles=(2,))
+
+
+def SO3(*names: Any, seq: str = "ZXZ") -> MatrixGroup:
+    r"""The rotations, Euler angles of ``seq`` (default 3-1-3, :math:`R = R_z(a) R_x(b) R_z(c)`).
+
+    Body velocity: the body angular velocity :math:`\omega` with :math:`\hat\omega = R^T\dot R`. The chart
+    is singular at gimbal lock (for 'ZXZ' at :math:`b = 0, \pi`).
+    """
+    _check_count(names or ("phi", "theta", "psi"), 3, "SO(3)", "three Euler angles")
+    A, B, C = _symbols(names or ("phi", "theta", "psi"), "SO3")
+    R = _euler_rotation((A, B, C), seq)
+    basis = tuple(sp.ImmutableMatrix(m) for m in _so3_basis())
+    return MatrixGroup(f"SO(3)[{seq}]", (A, B, C), sp.ImmutableMatrix(R),
+                       sp.ImmutableMatrix(R.T), basis, (0, 0, 0), angles=(0, 1, 2), reference=_euler_reference(seq))
+
+
+def _euler_reference(seq: str) -> tuple[sp.Expr, ...]:
+    # A proper Euler sequence ('ZXZ') is singular at the identity (middle angle 0); a Tait-Bryan one is not.
+    return (0, sp.pi / 2, 0) if seq[0].lower() == seq[2].lower() else (0, 0, 0)
+
+
+def SE3(*names: Any, seq: str = "ZYX") -> MatrixGroup:
+    r"""The rigid motions of space, position :math:`(x, y, z)` and Euler angles of ``seq``.
+
+    Body velocity :math:`\xi = (v, \omega)` (translational part first, as in :mod:`geomech.lie.se3`),
+    :math:`v = R^T \dot t`, :math:`\hat\omega = R^T\dot R`.
+    """
+    default = ("x", "y", "z", "phi", "theta", "psi")
+    _check_count(names or default, 6, "SE(3)", "x, y, z and three Euler angles")
+    X, Y, Z, A, B, C = _symbols(names or default, "SE3")
+    R = _euler_rotation((A, B, C), seq)
+    g, gi = _rigid(R, sp.Matrix([X, Y, Z]))
+    basis = []
+    for k in range(3):
+        m = sp.zeros(4)
+        m[k, 3] = 1
+        basis.append(sp.ImmutableMatrix(m))
+    basis += [sp.ImmutableMatrix(sp.diag(w, sp.zeros(1))) for w in _so3_basis()]
+    return MatrixGroup(f"SE(3)[{seq}]", (X, Y, Z, A, B, C), g, gi, tuple(basis), (0,) * 6, angles=(3, 4, 5),
+                       reference=(0, 0, 0) + _euler_reference(seq))
+
+
+def Rn(*names: Any) -> MatrixGroup:
+    """The translations of :math:`\\mathbb R^n` acting on ``n`` coordinates; body velocity = coordinate rates."""
+    if not names:
+        raise InputError("Expected at least one coordinate name for Rn, got none.")
+    X = _symbols(names, "Rn")
+    n = len(X)
+    g, gi = _rigid(sp.eye(n), sp.Matrix(X))
+    basis = []
+    for k in range(n):
+        m = sp.zeros(n + 1)
+        m[k, n] = 1
+        basis.append(sp.ImmutableMatrix(m))
+    return MatrixGroup(f"R^{n}", X, g, gi, tuple(basis), (0,) * n)
+
+
+def S1(*names: Any) -> MatrixGroup:
+    """The circle as rotations of the plane, one angle; body velocity = the angle's rate."""
+    _check_count(names or ("alpha",), 1, "S^1", "one angle")
+    (a,) = _symbols(names or ("alpha",), "S1")
+    R = _rot2(a)
+    return MatrixGroup("S^1", (a,), sp.ImmutableMatrix(R), sp.ImmutableMatrix(R.T),
+                       (sp.ImmutableMatrix([[0, -1], [1, 0]]),), (0,), angles=(0,))
+
+
+# --------------------------------------------------------------------------------------------------
+# Parsing user formulas
+# --------------------------------------------------------------------------------------------------
+_FUNCTIONS = {"sin", "cos", "tan", "cot", "sec", "csc", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
+              "exp", "log", "sqrt", "Abs", "sign", "pi", "Rational", "Integer", "Float"}
+def _parse(expr: Any, names: dict[str, sp.Symbol], params: dict[str, sp.Symbol], argname: str,
+           dyn: dict | None = None) -> sp.Expr:
+    if isinstance(expr, str):
+        local = dict(names)
+        local.update(params)
+        # Every identifier that is not a known function or pi is a symbol: I (an inertia) and E (a modulus) must
+        # not become the imaginary unit and Euler's number.
+        for ident in set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", expr)) - set(local) - _FUNCTIONS:
+            local[ident] = params.setdefault(ident, sp.Symbol(ident, real=True))
+        try:
+            parsed = sp.sympify(expr, locals=local)
+        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            raise SymbolicError(f"Could not parse `{argname}` {expr!r}: {exc}.") from exc
+    elif isinstance(expr, (sp.Basic, int, float)):
+        parsed = sp.sympify(expr)
+    else:
+        raise SymbolicError(f"Expected `{argname}` to be a sympy expression or a string, got {type(expr).__name__}.")
+    if dyn:
+        parsed = parsed.subs(dyn["derivatives"]).subs(dyn["functions"])
+    if any(isinstance(f, sp.core.function.AppliedUndef) for f in parsed.atoms(sp.Function)):
+        raise SymbolicError(f"`{argname}` contains undefined functions {sorted(map(str, parsed.atoms(sp.Function)))}; "
+                            "write it in the coordinate and velocity symbols (or dynamicsymbols of the coordinates).")
+    rename = {}
+    for s in parsed.free_symbols:
+        if s.name in names:
+            rename[s] = names[s.name]
+        elif s.name in params:
+            rename[s] = params[s.name]
+        else:
+            params[s.name] = s if s.is_real else sp.Symbol(s.name, real=True)
+            rename[s] = params[s.name]
+    parsed = parsed.xreplace(rename)
+    if parsed.has(sp.I, sp.zoo, sp.oo, sp.nan):
+        raise SymbolicError(f"`{argname}` must be a finite real expression, got {parsed}.")
+    return parsed
+
+
+# --------------------------------------------------------------------------------------------------
+# The system
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class InvarianceReport:
+    """Outcome of the G-invariance checks of the Lagrangian and of the constraint distribution."""
+
+    group: str
+    lagrangian_invariant: bool
+    lagrangian_breaking_terms: tuple[sp.Expr, ...]
+    constraints_invariant: bool
+    breaking_constraints: tuple[int, ...]
+
+    @property
+    def ok(self) -> bool:
+        return self.lagrangian_invariant and self.constraints_invariant
+
+    def message(self) -> str:
+        parts = []
+        if not self.lagrangian_invariant:
+            terms = ", ".join(str(t) for t in self.lagrangian_breaking_terms) or "(terms not isolated)"
+            parts.append(f"the Lagrangian is not invariant under {self.group}: written in body velocities it still "
+                         f"depends on the group variables through the term(s) {terms}")
+        if not self.constraints_invariant:
+            which = ", ".join("#" + str(i) for i in self.breaking_constraints)
+            parts.append(f"the constraint distribution is not invariant under {self.group}: constraint(s) {which} "
+                         "(0-based) change with the group variables beyond a re-combination of the others")
+        return "; ".join(parts) if parts else f"L and the constraints are invariant under {self.group}"
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok, "lagrangian_invariant": self.lagrangian_invariant,
+                "lagrangian_breaking_terms": [str(t) for t in self.lagrangian_breaking_terms],
+                "constraints_invariant": self.constraints_invariant,
+                "breaking_constraints": list(self.breaking_constraints), "message": self.message()}
+
+    def to_json(self, **kwargs: Any) -> str:
+        import json
+
+        return json.dumps(self.to_dict(), **kwargs)
+
+    def to_latex(self) -> str:
+        terms = r",\; ".join(sp.latex(t) for t in self.lagrangian_breaking_terms) or r"\text{none}"
+        return rf"\text{{{self.message().split(':')[0]}}}:\; {terms}"
+
+    def __str__(self) -> str:
+        return self.message()
+
+
+def _random_values(symbols: Sequence[sp.Symbol], rng: np.random.Generator) -> dict:
+    # Parameters drawn positive (masses, lengths); coordinates and velocities anywhere in a unit box.
+    return {s: float(rng.uniform(0.6, 1.7)) for s in symbols}
+
+
+@dataclass(frozen=True, eq=False)
+class NonholonomicSystem:
+    r"""A Lagrangian system on :math:`Q = G \times S` with linear homogeneous velocity constraints.
+
+    Build it with :meth:`from_lagrangian`. The coordinates are ``q = (group coordinates, shape)``,
+    velocities ``qdot``; ``lagrangian`` is :math:`L = \tfrac12 \dot q^T \mathbb M(q)\dot q - V(q)` and the
+    constraints are :math:`\omega^a(q)\,\dot q = 0`, the rows of ``constraint_matrix`` (c x n).
+
+    ``parameters`` holds the numeric values known so far (derivations are symbolic in every parameter;
+    numeric functions ask for the values of those not given here).
+    """
+
+    name: str
+    group: MatrixGroup
+    shape: tuple[sp.Symbol, ...]
+    qdot: tuple[sp.Symbol, ...]
+    lagrangian: sp.Expr
+    constraint_matrix: sp.ImmutableMatrix
+    parameter_symbols: tuple[sp.Symbol, ...]
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    shape_angles: tuple[int, ...] = ()
+    description: str = ""
+    body_basis: sp.ImmutableMatrix | None = None
+    basis_note: str = ""
+
+    # ---------------- construction ----------------
+    @classmethod
+    def from_lagrangian(
+        cls,
+        lagrangian: Any,
+        group: MatrixGroup,
+        shape: Sequence[Any] = (),
+        constraints: Sequence[Any] = (),
+        *,
+        parameters: Mapping[str, float] | None = None,
+        velocities: Sequence[Any] | None = None,
+        shape_angles: Sequence[int] | None = None,
+        name: str = "system",
+        description: str = "",
+        basis: Any = None,
+        basis_note: str = "",
+        check: bool = True,
+    ) -> NonholonomicSystem:
+        r"""Describe a nonholonomic system with symmetry.
+
+        Parameters
+        ----------
+        lagrangian : sympy expression or str
+            :math:`L(q, \dot q)`, kinetic (quadratic in the velocities) minus potential, in the coordinate
+            symbols and the velocity symbols (default ``<name>_dot``: ``x_dot``, ``theta_dot``); sympy
+            ``dynamicsymbols`` of the coordinates are accepted too. Every other symbol is a parameter.
+        group : MatrixGroup
+            The symmetry group with the names of its coordinates, e.g. ``SE2("x", "y", "theta")``.
+        shape : sequence of str or Symbol
+            The shape variables :math:`r`.
+        constraints : sequence
+            One-forms :math:`\omega^a`: each either an expression linear and homogeneous in the velocities
+            (``"-sin(theta)*x_dot + cos(theta)*y_dot"``) or the row of its ``n`` coefficients in the order
+            ``q = (group coordinates, shape)``.
+        parameters : mapping, optional
+            Numeric values of (some of) the parameters.
+        velocities : sequence, optional
+            Names of the velocity symbols, in the order of ``q``.
+        shape_angles : sequence of int, optional
+            Indices (in ``shape``) of the shape variables that are angles; default: those whose name is a
+            Greek letter.
+        basis : k x m matrix, optional
+            The body-fixed basis :math:`e_i(r)` of :math:`S_q` (columns, in the shape variables) that
+            :func:`geomech.reduction.nonholonomic.bkmm_reduction` uses by default; ``basis_note`` says where
+            it comes from (the nonholonomic momentum scales with it).
+        check : bool
+            Check G-invariance of L and of the constraint distribution (raise :class:`SymbolicError`
+            naming the term that breaks it) and the regularity of the kinetic energy and constraints.
+
+        Raises
+        ------
+        InputError
+            Coordinates that do not match the group, repeated names, constraints that are not linear
+            homogeneous in the velocities, dependent constraints.
+        SymbolicError
+            A Lagrangian that is not kinetic minus potential, or that (or the constraints) is not
+            G-invariant.
+        """
+        if not isinstance(group, MatrixGroup):
+            raise InputError(f"Expected `group` to be a MatrixGroup such as SE2('x', 'y', 'theta'), got {group!r}.")
+        r = _symbols(list(shape), "shape")
+        q = group.coordinates + r
+        qnames = [s.name for s in q]
+        dup = sorted({n for n in qnames if qnames.count(n) > 1})
+        if dup:
+            raise InputError(f"Expected distinct coordinate names, got {dup} both as group and as shape variables "
+                             f"(group {group.name} uses {[s.name for s in group.coordinates]}).")
+        vnames = list(velocities) if velocities is not None else [f"{n}_dot" for n in qnames]
+        if len(vnames) != len(q):
+            raise InputError(f"Expected {len(q)} velocity names (one per coordinate {qnames}), got {len(vnames)}.")
+        qd = _symbols(vnames, "velocities")
+        names = {s.name: s for s in q + qd}
+        if len(names) != 2 * len(q):
+            raise InputError(f"Expected velocity names distinct from the coordinates, got {vnames}.")
+        dyn = _dynamic_map(q, qd)
+        params: dict[str, sp.Symbol] = {}
+        L = _parse(lagrangian, names, params, "lagrangian", dyn)
+        rows = []
+        for i, con in enumerate(constraints):
+            if isinstance(con, (list, tuple, sp.MatrixBase, np.ndarray)):
+                coeffs = [_parse(cf, names, params, f"constraints[{i}][{j}]", dyn) for j, cf in enumerate(list(con))]
+                if len(coeffs) != len(q):
+                    raise ShapeError(f"Expected constraint #{i} to have {len(q)} coefficients (one per coordinate "
+                                     f"{qnames}), got {len(coeffs)}.")
+                if any(c.free_symbols & set(qd) for c in coeffs):
+                    raise InputError(f"Constraint #{i}: the coefficients of a one-form must not contain velocities.")
+                rows.append(coeffs)
+            else:
+                expr = _parse(con, names, params, f"constraints[{i}]", dyn)
+                rows.append(_one_form(expr, qd, i))
+        stray = sorted(p for p in params if p.endswith("_dot") or p.endswith("_ddot"))
+        if stray:
+            raise InputError(f"{name}: the formulas use {stray}, velocities of coordinates that are neither group "
+                             f"coordinates of {group.name} {[s.name for s in group.coordinates]} nor shape variables "
+                             f"{[s.name for s in r]}; declare them (a shape/group split that does not match L).")
+        pvals = dict(parameters or {})
+        unknown = sorted(set(pvals) - set(params))
+        if unknown:
+            raise InputError(f"`parameters` names {unknown}, which appear neither in the Lagrangian nor in the "
+                             f"constraints (parameters found: {sorted(params)}).")
+        for k, v in pvals.items():
+            try:
+                v = float(v)
+            except (TypeError, ValueError) as exc:
+                raise InputError(f"Expected parameter `{k}` to be a number, got {v!r}.") from exc
+            if not np.isfinite(v):
+                raise InputError(f"Expected parameter `{k}` to be finite, got {v}.")
+            pvals[k] = v
+        if shape_angles is None:
+            greek = set("alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron pi rho "
+                        "sigma tau upsilon phi chi psi omega varphi vartheta".split())
+            shape_angles = [i for i, s in enumerate(r) if s.name.lower().rstrip("0123456789_") in greek]
+        cmat = sp.ImmutableMatrix(len(rows), len(q), [c for row in rows for c in row]) if rows else \
+            sp.ImmutableMatrix(sp.zeros(0, len(q)))
+        E = None
+        if basis is not None:
+            E = sp.Matrix(basis).applyfunc(lambda e: _parse(e, names, params, "basis", dyn))
+            if E.rows != group.dim and E.cols == group.dim:
+                E = E.T
+            if E.rows != group.dim:
+                raise ShapeError(f"Expected `basis` to have {group.dim} rows (dim {group.name}), got shape {E.shape}.")
+            E = sp.ImmutableMatrix(E)
+        system = cls(name=name, group=group, shape=r, qdot=qd, lagrangian=L, constraint_matrix=cmat,
+                     parameter_symbols=tuple(sorted(params.values(), key=lambda s: s.name)),
+                     parameters=pvals, shape_angles=tuple(shape_angles), description=description,
+                     body_basis=E, basis_note=basis_note)
+        if check:
+            system._check_mechanical()
+            report = system.check_invariance()
+            if not report.ok:
+                raise SymbolicError(f"{name}: {report.message()}.")
+        return system
+
+    def with_parameters(self, **values: float) -> NonholonomicSystem:
+        """The same system with more (or other) parameter values."""
+        names = {s.name for s in self.parameter_symbols}
+        unknown = sorted(set(values) - names)
+        if unknown:
+            raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {sorted(names)}.")
+        merged = dict(self.parameters)
+        merged.update({k: float(v) for k, v in values.items()})
+        return NonholonomicSystem(self.name, self.group, self.shape, self.qdot, self.lagrangian,
+                                  self.constraint_matrix, self.parameter_symbols, merged, self.shape_angles,
+                                  self.description, self.body_basis, self.basis_note)
+
+    # ---------------- identity for caches ----------------
+    @cached_property
+    def key(self) -> tuple:
+        """What the symbolic derivations depend on (the parameter values are not part of it)."""
+        return (self.group.name, self.group.coordinates, self.shape, self.qdot, self.lagrangian,
+                self.constraint_matrix, self.body_basis)
+
+    def __hash__(self) -> int:
+        return hash(self.key)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, NonholonomicSystem) and self.key == other.key
+
+    # ---------------- basic objects ----------------
+    @property
+    def q(self) -> tuple[sp.Symbol, ...]:
+        return self.group.coordinates + self.shape
+
+    @property
+    def n(self) -> int:
+        return len(self.q)
+
+    @property
+    def k(self) -> int:
+        """Dimension of the group."""
+        return self.group.dim
+
+    @property
+    def sigma(self) -> int:
+        """Dimension of the shape space."""
+        return len(self.shape)
+
+    @property
+    def c(self) -> int:
+        """Number of constraints."""
+        return self.constraint_matrix.rows
+
+    @property
+    def shape_dot(self) -> tuple[sp.Symbol, ...]:
+        return self.qdot[self.k:]
+
+    @cached_property
+    def xi(self) -> tuple[sp.Symbol, ...]:
+        """Body velocity symbols :math:`\\xi^1, \\dots, \\xi^k`."""
+        return tuple(sp.Symbol(f"xi{a + 1}", real=True) for a in range(self.k))
+
+    @cached_property
+    def latex_names(self) -> dict:
+        """LaTeX names of the velocity, acceleration and body-velocity symbols."""
+        out = {}
+        for s, v in zip(self.q, self.qdot):
+            base = sp.latex(s)
+            out[v] = rf"\dot{{{base}}}"
+        for a, x in enumerate(self.xi):
+            out[x] = rf"\xi^{{{a + 1}}}"
+        return out
+
+    @cached_property
+    def mass_matrix(self) -> sp.ImmutableMatrix:
+        r"""The kinetic-energy metric :math:`\mathbb M(q) = \partial^2 L / \partial\dot q^2`."""
+        return sp.ImmutableMatrix(sp.hessian(self.lagrangian, self.qdot))
+
+    @cached_property
+    def potential(self) -> sp.Expr:
+        """:math:`V(q) = -L(q, 0)`."""
+        return -self.lagrangian.subs({v: 0 for v in self.qdot})
+
+    @cached_property
+    def energy(self) -> sp.Expr:
+        r""":math:`E = \dot q\cdot\partial L/\partial\dot q - L`."""
+        return sp.expand(sum(v * sp.diff(self.lagrangian, v) for v in self.qdot) - self.lagrangian)
+
+    @cached_property
+    def body_substitution(self) -> dict:
+        r"""Coordinate rates of the group in terms of the body velocity: :math:`\dot q_G = \Lambda^{-1}\xi`."""
+        rates = self.group.body_velocity_inverse * sp.Matrix(self.xi)
+        return dict(zip(self.qdot[: self.k], rates))
+
+    @cached_property
+    def reference_substitution(self) -> dict:
+        """The group coordinates at the chart's regular reference point (the identity where it is regular)."""
+        return dict(zip(self.group.coordinates, self.group.reference))
+
+    @cached_property
+    def body_lagrangian(self) -> sp.Expr:
+        r"""The reduced Lagrangian :math:`l(r, \xi, \dot r) = L(e, r, \xi, \dot r)` (G-invariance assumed)."""
+        L = self.lagrangian.subs(self.body_substitution).subs(self.reference_substitution)
+        return sp.expand(L)
+
+    @cached_property
+    def body_constraints(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
+        r""":math:`(A_\xi(r), A_r(r))` with :math:`\mathcal D = \{A_\xi\xi + A_r\dot r = 0\}` at the identity."""
+        Lam_inv = self.group.body_velocity_inverse.subs(self.reference_substitution)
+        A = self.constraint_matrix.subs(self.reference_substitution)
+        Ag = sp.Matrix(A[:, : self.k]) * Lam_inv
+        from ..reduction.nonholonomic_symbolic import simplify_expr
+
+        return (sp.ImmutableMatrix(Ag.applyfunc(simplify_expr)), sp.ImmutableMatrix(A[:, self.k:]))
+
+    # ---------------- numeric helpers ----------------
+    def parameter_values(self, values: Mapping[str, float] | None = None) -> dict:
+        """Values of every parameter symbol (``values`` override ``self.parameters``); raise if one is missing."""
+        merged = dict(self.parameters)
+        merged.update(values or {})
+        missing = sorted(s.name for s in self.parameter_symbols if s.name not in merged)
+        if missing:
+            raise InputError(f"{self.name}: no value for parameter(s) {missing}; pass them as "
+                             f"parameters={{{', '.join(repr(m) + ': ...' for m in missing)}}}.")
+        return {s: float(merged[s.name]) for s in self.parameter_symbols}
+
+    def _random_point(self, rng: np.random.Generator, symbols: Sequence[sp.Symbol]) -> dict:
+        vals = _random_values(self.parameter_symbols, rng)
+        vals.update({s: float(rng.uniform(-1.2, 1.2)) for s in symbols})
+        return vals
+
+    def _check_mechanical(self) -> None:
+        L = sp.expand(self.lagrangian)
+        poly = sp.Poly(L, *self.qdot) if L.free_symbols & set(self.qdot) else None
+        if poly is not None:
+            bad = [m for m in poly.monoms() if sum(m) > 2]
+            lin = [m for m in poly.monoms() if sum(m) == 1]
+            if bad or lin:
+                what = "of degree > 2" if bad else "linear"
+                terms = [poly.coeff_monomial(m) * sp.prod([v**e for v, e in zip(self.qdot, m)]) for m in (bad or lin)]
+                raise SymbolicError(f"{self.name}: expected the Lagrangian to be kinetic energy (quadratic in the "
+                                    f"velocities) minus a potential; it has terms {what} in the velocities: "
+                                    f"{', '.join(map(str, terms[:4]))}.")
+            if any(not (poly.coeff_monomial(m).free_symbols.isdisjoint(self.qdot)) for m in poly.monoms()):
+                raise SymbolicError(f"{self.name}: the Lagrangian is not polynomial in the velocities.")
+        rng = np.random.default_rng(7)
+        pt = self._random_point(rng, self.q)
+        M = np.array(self.mass_matrix.subs(pt).evalf(), dtype=float)
+        A = np.array(self.constraint_matrix.subs(pt).evalf(), dtype=float).reshape(self.c, self.n)
+        _, sv, vt = np.linalg.svd(A) if self.c else (None, np.zeros(0), np.eye(self.n))
+        X = vt[int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0)))):].T
+        MD = X.T @ M @ X
+        if X.size and (np.linalg.eigvalsh(MD).min() <= 1e-12 * max(1.0, np.abs(MD).max())):
+            raise SymbolicError(f"{self.name}: the kinetic energy is not positive definite on the constraint "
+                                "distribution D at a random configuration; every allowed motion must carry kinetic "
+                                "energy.")
+        if self.c:
+            if np.linalg.matrix_rank(A, tol=1e-10 * max(1.0, np.abs(A).max())) < self.c:
+                raise InputError(f"{self.name}: the {self.c} constraint one-forms are linearly dependent at a random "
+                                 "configuration; remove the redundant ones.")
+            Ag = np.array(self.body_constraints[0].subs(pt).evalf(), dtype=float)
+            if np.linalg.matrix_rank(Ag, tol=1e-10 * max(1.0, np.abs(Ag).max())) < self.c:
+                raise InputError(f"{self.name}: the constraints restrict the shape velocities alone (their group "
+                                 "part has rank < number of constraints), so D_q + T_q(Orb) != T_q Q: BKMM's "
+                                 "dimension assumption fails. Treat such constraints as part of the shape space.")
+
+    def check_invariance(self, *, samples: int = 3, seed: int = 11) -> InvarianceReport:
+        r"""Check that :math:`L` and the distribution :math:`\mathcal D` are invariant under :math:`G`.
+
+        The Lagrangian written in body velocities, :math:`L(g, r, \Lambda(g)^{-1}\xi, \dot r)`, must not depend
+        on :math:`g`; the constraint rows in body velocities at :math:`g` must annihilate the distribution at
+        the identity. Both are tested exactly at random points (the formulas are exact, so a mismatch beyond
+        round-off is a real dependence); the report names the terms of :math:`L` that depend on :math:`g`
+        (after trigonometric simplification) and the constraints that break invariance.
+        """
+        rng = np.random.default_rng(seed)
+        gq = self.group.coordinates
+        L_body = self.lagrangian.subs(self.body_substitution)
+        L_id = L_body.subs(self.reference_substitution)
+        variables = list(gq + self.shape + self.xi + self.shape_dot)
+        f_body = sp.lambdify(variables + list(self.parameter_symbols), L_body, "numpy")
+        f_id = sp.lambdify(variables + list(self.parameter_symbols), L_id, "numpy")
+        lag_ok = True
+        for _ in range(samples):
+            pt = self._random_point(rng, variables)
+            args = [pt[s] for s in variables + list(self.parameter_symbols)]
+            a, b = float(f_body(*args)), float(f_id(*args))
+            if abs(a - b) > _INVARIANCE_RTOL * max(1.0, abs(a), abs(b)):
+                lag_ok = False
+                break
+        terms: tuple = ()
+        if not lag_ok:
+            diff = sp.expand(sp.expand_trig(L_body - L_id))
+            vel = list(self.xi + self.shape_dot)
+            poly = sp.Poly(diff, *vel)
+            found = []
+            for mon, coeff in zip(poly.monoms(), poly.coeffs()):
+                cs = sp.simplify(coeff)
+                if cs != 0:
+                    found.append(cs * sp.prod([v**e for v, e in zip(vel, mon)]))
+            terms = tuple(found)
+        bad_rows: list[int] = []
+        if self.c:
+            Lam_inv = self.group.body_velocity_inverse
+            Abody = sp.Matrix(self.constraint_matrix[:, : self.k]) * Lam_inv
+            Abody = sp.Matrix.hstack(Abody, sp.Matrix(self.constraint_matrix[:, self.k:]))
+            fA = sp.lambdify(list(gq + self.shape) + list(self.parameter_symbols), Abody, "numpy")
+            for _ in range(samples):
+                pt = self._random_point(rng, list(gq + self.shape))
+                args_g = [pt[s] for s in gq + self.shape] + [pt[s] for s in self.parameter_symbols]
+                args_e = [float(v) for v in self.group.reference] + [pt[s] for s in self.shape] + \
+                    [pt[s] for s in self.parameter_symbols]
+                Ag = np.array(fA(*args_g), dtype=float)
+                Ae = np.array(fA(*args_e), dtype=float)
+                _, sv, vt = np.linalg.svd(Ae)
+                null = vt[np.sum(sv > 1e-12 * max(sv.max(), 1.0)):].T
+                res = np.abs(Ag @ null).max(axis=1) if null.size else np.zeros(self.c)
+                scale = np.maximum(np.abs(Ag).max(axis=1), 1.0)
+                bad_rows += [int(i) for i in np.nonzero(res > 1e-9 * scale)[0]]
+        bad = tuple(sorted(set(bad_rows)))
+        return InvarianceReport(self.group.name, lag_ok, terms, not bad, bad)
+
+    def __repr__(self) -> str:
+        return (f"NonholonomicSystem({self.name!r}, group={self.group!r}, shape={[s.name for s in self.shape]}, "
+                f"constraints={self.c})")
+
+
+def _dynamic_map(q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> dict:
+    t = sp.Symbol("t")
+    funcs = {sp.Function(s.name)(t): s for s in q}
+    ders = {sp.Derivative(sp.Function(s.name)(t), t): v for s, v in zip(q, qd)}
+    return {"functions": funcs, "derivatives": ders}
+
+
+def _one_form(expr: sp.Expr, qd: Sequence[sp.Symbol], index: int) -> list[sp.Expr]:
+    """Coefficients of a constraint given as an expression; it must be linear and homogeneous in ``qd``."""
+    e = sp.expand(expr)
+    if not (e.free_symbols & set(qd)):
+        raise InputError(f"Constraint #{index} ({expr}) contains no velocity; a velocity constraint is a one-form "
+                         "omega(q) . qdot = 0 (a holonomic constraint f(q) = 0 is written as its differential df).")
+    try:
+        poly = sp.Poly(e, *qd)
+    except sp.PolynomialError as exc:
+        raise InputError(f"Constraint #{index} ({expr}) is not linear in the velocities: it is not even polynomial "
+                         f"in {[str(v) for v in qd]}.") from exc
+    for mon in poly.monoms():
+        deg = sum(mon)
+        if deg != 1:
+            kind = "has a velocity-free term (not homogeneous)" if deg == 0 else f"has a term of degree {deg}"
+            raise InputError(f"Constraint #{index} ({expr}) is not linear homogeneous in the velocities: it {kind}. "
+                             "Only constraints omega(q) . qdot = 0 are supported.")
+    return [poly.coeff_monomial(v) for v in qd]

@@ -1,0 +1,248 @@
+"""The BKMM reduction against the full Lagrange-d'Alembert equations, and against published equations."""
+
+import json
+import time
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from geomech.errors import InputError, SymbolicError
+from geomech.reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
+from geomech.reduction.nonholonomic_symbolic import simplify_expr
+from geomech.systems.nonholonomic_examples import (
+    EXAMPLES,
+    chaplygin_sleigh,
+    rolling_disk,
+    snakeboard,
+    snakeboard_bkmm,
+)
+
+ALL = [(name, {}) for name in EXAMPLES] + [("geared_body", {"scaled": True})]
+IDS = [n + ("_scaled" if kw else "") for n, kw in ALL]
+
+
+def _sym(system, name):
+    return next(p for p in system.parameter_symbols if p.name == name)
+
+
+def _reduced_state(s, red, rn, rng):
+    """A random full state (q, qdot) in D built from random (g, r, rdot, p) through eq. (1.1)."""
+    r, rd, p = rng.uniform(-1, 1, s.sigma), rng.uniform(-1, 1, s.sigma), rng.uniform(-1, 1, red.m)
+    g = rng.uniform(-1, 1, s.k)
+    xi = rn.xi(r, rd, p)
+    lam_inv = sp.lambdify(s.group.coordinates, s.group.body_velocity_inverse)
+    gd = np.asarray(lam_inv(*g), dtype=float) @ xi
+    return np.r_[g, r], np.r_[gd, rd], r, rd, p
+
+
+@pytest.mark.parametrize("name, kw", ALL, ids=IDS)
+def test_reduced_equations_agree_with_the_full_equations(name, kw, rng):
+    """Eqs. (1.1)-(1.3) at random states: p(q, qdot) returns p, d/dt p along the full solution is eq. (1.2), the
+    shape accelerations of the full equations solve eq. (1.3), and the state satisfies the constraints."""
+    s = EXAMPLES[name](**kw)
+    s = s.with_parameters(**{p.name: float(rng.uniform(0.5, 1.5)) for p in s.parameter_symbols})
+    red, lda = bkmm_reduction(s), lagrange_dalembert(s)
+    rn, num = red.numeric(), lda.numeric()
+    P = red.momentum.subs(s.parameter_values())
+    grad = sp.lambdify([s.q, s.qdot], [P.jacobian(s.q), P.jacobian(s.qdot)])
+    for _ in range(3):
+        q, qd, r, rd, p = _reduced_state(s, red, rn, rng)
+        tau = rng.uniform(-1, 1, s.sigma)
+        qdd, _ = num.solve(q, qd, tau)
+        Jq, Jv = (np.asarray(a, dtype=float).reshape(red.m, s.n) for a in grad(q, qd))
+        assert np.abs(num.constraint_residual(q, qd)).max(initial=0) < 1e-12
+        np.testing.assert_allclose(rn.momentum(q, qd), p, atol=1e-12)
+        np.testing.assert_allclose(Jq @ qd + Jv @ qdd, rn.pdot(r, rd, p), atol=1e-11)
+        np.testing.assert_allclose(qdd[s.k:], rn.rddot(r, rd, p, tau), atol=1e-10)
+
+
+@pytest.mark.parametrize("name", ["snakeboard_bkmm", "rolling_disk", "geared_body"])
+def test_shape_equation_two_derivations_agree_symbolically(name):
+    red = bkmm_reduction(EXAMPLES[name]())
+    lhs = red.shape_equation_projection()
+    M, delta = sp.Matrix(red.shape_mass), sp.Matrix(red.shape_forces)
+    diff = lhs - (M * sp.Matrix(red.rddot) - delta)
+    assert all(simplify_expr(e) == 0 for e in diff)
+
+
+@pytest.mark.parametrize("name", ["snakeboard", "roller_racer", "simplified_bicycle"])
+def test_shape_equation_two_derivations_agree_numerically(name, rng):
+    red = bkmm_reduction(EXAMPLES[name]())
+    lhs = red.shape_equation_projection()
+    diff = lhs - (sp.Matrix(red.shape_mass) * sp.Matrix(red.rddot) - sp.Matrix(red.shape_forces))
+    syms = sorted(diff.free_symbols, key=lambda s: s.name)
+    f = sp.lambdify(syms, diff)
+    for _ in range(3):
+        vals = rng.uniform(0.5, 1.5, len(syms))
+        assert np.abs(np.asarray(f(*vals), dtype=float)).max() < 1e-10
+
+
+@pytest.mark.parametrize("name", [n for n in EXAMPLES])
+def test_momentum_coefficients_reproduce_the_momentum_equation(name):
+    red = bkmm_reduction(EXAMPLES[name]())
+    H, K, D = red.momentum_coefficients
+    rd = sp.Matrix(red.rdot)
+    for i in range(red.m):
+        assert H[i] == H[i].T and D[i] == D[i].T
+        assert H[i].shape == (len(rd), len(rd)) and K[i].shape == (len(rd), red.m) and D[i].shape == (red.m, red.m)
+    # direct BKMM form <mu, [xi, e_i] + de_i/dt>, independent of the coefficient extraction
+    s = red.system
+    xi, mu, E = sp.Matrix(red.reconstruction), red.mu, sp.Matrix(red.basis)
+    for i in range(red.m):
+        direct = (mu.T * (s.group.bracket(list(xi), list(E[:, i])) + sum(
+            (sp.diff(E[:, i], r) * v for r, v in zip(red.r, red.rdot)), sp.zeros(s.k, 1))))[0, 0]
+        assert simplify_expr(direct - red.momentum_rhs[i]) == 0
+
+
+def test_snakeboard_matches_bkmm_published_equations():
+    """BKMM (1996), the snakeboard (also Koon and Marsden, Rep. Math. Phys. 40 (1997) 21-62): with their basis
+    e = (-2 r cos^2 phi, 0, sin 2 phi) and J + J0 + 2 J1 = m r^2,
+
+        I = 4 m r^2 cos^2 phi,  p' = 2 J0 cos^2(phi) phi' psi' - tan(phi) p phi',
+        theta' = -(J0 / (m r^2)) sin^2(phi) psi' + tan(phi) p / (2 m r^2),  2 J1 phi'' = tau_phi.
+    """
+    s = snakeboard_bkmm()
+    red = bkmm_reduction(s)
+    m, r, J0, J1 = (_sym(s, n) for n in ("m", "r", "J0", "J1"))
+    psi, phi = s.shape
+    psid, phid = s.shape_dot
+    (p,) = red.p
+    assert simplify_expr(red.locked_inertia[0, 0] - 4 * m * r**2 * sp.cos(phi) ** 2) == 0
+    published = 2 * J0 * sp.cos(phi) ** 2 * phid * psid - sp.tan(phi) * p * phid
+    assert simplify_expr(red.momentum_rhs[0] - published) == 0
+    theta_dot = -J0 / (m * r**2) * sp.sin(phi) ** 2 * psid + sp.tan(phi) * p / (2 * m * r**2)
+    assert simplify_expr(red.reconstruction[2] - theta_dot) == 0
+    # body forward velocity (x' cos theta + y' sin theta) along e: -(p - J0 sin 2phi psi') / (2 m r); no side slip
+    assert simplify_expr(red.reconstruction[0] + (p - J0 * sp.sin(2 * phi) * psid) / (2 * m * r)) == 0
+    assert red.reconstruction[1] == 0
+    # the connection: only the rotor drives the group directly
+    A = red.connection
+    assert A[:, 1] == sp.zeros(3, 1)
+    assert simplify_expr(A[2, 0] - J0 * sp.sin(phi) ** 2 / (m * r**2)) == 0
+    # shape equations: 2 J1 phi'' = tau_phi and J0 (1 - J0 sin^2 phi / (m r^2)) psi'' = delta_psi + tau_psi
+    assert red.shape_mass[1, 1] == 2 * J1 and red.shape_mass[0, 1] == 0 and red.shape_forces[1] == 0
+    assert simplify_expr(red.shape_mass[0, 0] - J0 * (1 - J0 * sp.sin(phi) ** 2 / (m * r**2))) == 0
+    delta_psi = J0**2 * sp.sin(2 * phi) * phid * psid / (2 * m * r**2) - J0 * p * phid / (2 * m * r**2)
+    assert simplify_expr(red.shape_forces[0] - delta_psi) == 0
+    H, K, D = red.momentum_coefficients
+    assert simplify_expr(H[0][0, 1] - J0 * sp.cos(phi) ** 2) == 0 and H[0][0, 0] == 0 and H[0][1, 1] == 0
+    assert simplify_expr(K[0][1, 0] + sp.tan(phi)) == 0 and K[0][0, 0] == 0 and D[0][0, 0] == 0
+
+
+def test_general_snakeboard_reduces_to_bkmm_with_normalised_inertia():
+    g, b = bkmm_reduction(snakeboard()), bkmm_reduction(snakeboard_bkmm())
+    s = g.system
+    m, r, J, J0, J1 = (_sym(s, n) for n in ("m", "r", "J", "J0", "J1"))
+    sub = {J: m * r**2 - J0 - 2 * J1}
+    assert simplify_expr(g.momentum_rhs[0].subs(sub) - b.momentum_rhs[0]) == 0
+    assert all(simplify_expr(e) == 0 for e in (g.reconstruction.subs(sub) - b.reconstruction))
+    assert all(simplify_expr(e) == 0 for e in (g.shape_forces.subs(sub) - b.shape_forces))
+
+
+def test_chaplygin_sleigh_matches_the_classical_equations():
+    """v' = a w^2, w' = -m a v w / (I_c + m a^2) with p1 = m v, p2 = (I_c + m a^2) w."""
+    s = chaplygin_sleigh()
+    red = bkmm_reduction(s)
+    m, I_c, a = (_sym(s, n) for n in ("m", "I_c", "a"))
+    assert red.basis == sp.Matrix([[1, 0], [0, 0], [0, 1]])
+    p1, p2 = red.p
+    v, w = p1 / m, p2 / (I_c + m * a**2)
+    assert simplify_expr(red.momentum_rhs[0] - m * a * w**2) == 0
+    assert simplify_expr(red.momentum_rhs[1] + (I_c + m * a**2) * m * a * v * w / (I_c + m * a**2)) == 0
+    assert red.connection.shape == (3, 0) and red.shape_mass.shape == (0, 0)
+
+
+def test_rolling_disk_spin_is_conserved_and_rolling_is_horizontal():
+    s = rolling_disk()
+    red = bkmm_reduction(s)
+    R, I = _sym(s, "R"), _sym(s, "I")
+    (phid,) = red.rdot
+    (p,) = red.p
+    assert red.basis == sp.Matrix([0, 0, 1]) and red.momentum_rhs[0] == 0
+    assert red.reconstruction == sp.Matrix([R * phid, 0, p / I]) and red.shape_forces[0] == 0
+
+
+def test_curvature_is_antisymmetric():
+    red = bkmm_reduction(EXAMPLES["roller_racer"]())
+    for B in red.curvature:
+        assert sp.simplify(B + B.T) == sp.zeros(*B.shape)
+
+
+def test_user_basis_is_validated_and_scales_the_momentum():
+    s = snakeboard_bkmm()
+    phi = s.shape[1]
+    r = _sym(s, "r")
+    with pytest.raises(SymbolicError, match="does not lie in S_q"):
+        bkmm_reduction(s, basis=[1, 0, 0])
+    with pytest.raises(InputError, match="3 rows"):
+        bkmm_reduction(s, basis=[[1, 0], [0, 1]])
+    red1 = bkmm_reduction(s, basis=[-r * sp.cos(phi), 0, sp.sin(phi)])
+    assert red1.normalization == "given by the caller"
+    red2 = bkmm_reduction(s)
+    assert "BKMM" in red2.normalization
+    # p_BKMM = 2 cos(phi) p_1 for e_BKMM = 2 cos(phi) e_1
+    assert simplify_expr(red2.momentum[0] - 2 * sp.cos(phi) * red1.momentum[0]) == 0
+
+
+def test_default_basis_is_the_cleared_null_space():
+    from geomech.systems.nonholonomic import SE2, NonholonomicSystem
+
+    s = snakeboard()
+    plain = NonholonomicSystem.from_lagrangian(s.lagrangian, SE2(*s.group.coordinates), s.shape,
+                                               [list(row) for row in s.constraint_matrix.tolist()])
+    red = bkmm_reduction(plain)
+    phi, r = plain.shape[1], _sym(s, "r")
+    assert red.basis == sp.Matrix([-r * sp.cos(phi), 0, sp.sin(phi)])
+    assert "null space" in red.normalization
+
+
+def test_derived_objects_print_as_text_latex_and_json():
+    red = bkmm_reduction(snakeboard_bkmm())
+    text, tex = red.to_text(), red.to_latex()
+    assert "momentum equation" in text and "phi_dot" in text
+    assert r"\dot{\phi}" in tex and r"\mathcal A^{nh}(r)" in tex
+    data = json.loads(red.to_json())
+    assert set(data) == {"title", "text", "latex"} and "H(r)" in data["text"]
+    lda = lagrange_dalembert(snakeboard_bkmm())
+    assert r"\lambda_{1}" in lda.to_latex() and json.loads(lda.to_json())["title"].startswith("Lagrange")
+
+
+def test_derivations_are_cached_and_fast():
+    t0 = time.perf_counter()
+    for name in ("snakeboard_bkmm", "chaplygin_sleigh", "rolling_disk"):
+        red = bkmm_reduction(EXAMPLES[name]())
+        assert red.momentum_coefficients and red.shape_forces is not None
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    a, b = bkmm_reduction(snakeboard_bkmm()), bkmm_reduction(snakeboard_bkmm(m=2.0))
+    # systems differing only in parameter values share the symbolic work but keep their own values
+    assert a.momentum_coefficients is b.momentum_coefficients and b.system.parameters == {"m": 2.0}
+    assert time.perf_counter() - t0 < 0.05
+    assert first < 30.0
+
+
+def test_multipliers_on_the_distribution():
+    # Chaplygin sleigh: the knife edge's lateral force is m (v omega + a omega') = m v omega I_c/(I_c + m a^2),
+    # with p1 = m v, p2 = (I_c + m a^2) omega (Newton's law for the centre of mass, not the reduction).
+    s = chaplygin_sleigh()
+    lam = lagrange_dalembert(s).multipliers_on_distribution()
+    m, a, Ic = (_sym(s, n) for n in ("m", "a", "I_c"))
+    v, w = sp.symbols("v omega")
+    p1, p2 = bkmm_reduction(s).p
+    expected = m * v * w * Ic / (Ic + m * a**2)
+    assert sp.simplify(lam[0].subs({p1: m * v, p2: (Ic + m * a**2) * w}) - expected) == 0
+    # Snakeboard (BKMM's): the short form equals the general multipliers at random states in D
+    s, rng = snakeboard_bkmm(), np.random.default_rng(3)
+    lda, red = lagrange_dalembert(s), bkmm_reduction(s)
+    short = lda.multipliers_on_distribution()
+    assert sum(sp.count_ops(e) for e in short) < sum(sp.count_ops(e) for e in lda.multipliers) / 10
+    values = {sym: float(rng.uniform(0.2, 1.0)) for sym in s.parameter_symbols}
+    rn = red.numeric({k.name: v for k, v in values.items()})
+    for _ in range(3):
+        q, qd, r, rd, p = _reduced_state(s, red, rn, rng)
+        tau = rng.uniform(-1, 1, s.sigma)
+        sub = {**values, **dict(zip(s.q, q)), **dict(zip(s.qdot, qd)), **dict(zip(red.p, p)),
+               **dict(zip(lda.tau, tau))}
+        full = np.array([float(e.subs(sub)) for e in lda.multipliers])
+        np.testing.assert_allclose([float(e.subs(sub)) for e in short], full, rtol=1e-10, atol=1e-12)
