@@ -20,6 +20,14 @@ from .methods import (
     get_method,
     methods_table,
 )
+from .nonholonomic import (
+    Gait,
+    NonholonomicTrajectory,
+    initial_state,
+    simulate_discrete,
+    simulate_full,
+    simulate_reduced,
+)
 from .quadrature import CriticalPoint, OrbitIntegral, QuadraturePropagator, SerretAndoyerPropagator
 from .solution import Failure, Solution
 from .solve import compatible_methods, solve
@@ -31,6 +39,7 @@ __all__ = [
     "AdaptiveAdams",
     "CriticalPoint",
     "Failure",
+    "Gait",
     "GaussLegendre",
     "GeneratingFunction",
     "ImplicitMidpoint",
@@ -39,6 +48,7 @@ __all__ = [
     "LiePoissonSplitting",
     "Method",
     "MoserVeselov",
+    "NonholonomicTrajectory",
     "OrbitIntegral",
     "QuadraturePropagator",
     "SerretAndoyerPropagator",
@@ -48,6 +58,10 @@ __all__ = [
     "SymplecticEuler",
     "compatible_methods",
     "get_method",
+    "initial_state",
     "methods_table",
+    "simulate_discrete",
+    "simulate_full",
+    "simulate_reduced",
     "solve",
 ]

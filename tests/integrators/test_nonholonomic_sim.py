@@ -1,0 +1,161 @@
+"""Simulation of nonholonomic systems: full equations with multipliers, reduced equations, discrete
+Lagrange-d'Alembert. Checked against each other, exact solutions, energy and the work-energy balance."""
+
+import numpy as np
+import pytest
+
+from geomech.errors import InputError
+from geomech.integrators.nonholonomic import (
+    Gait,
+    simulate_discrete,
+    simulate_full,
+    simulate_reduced,
+)
+from geomech.systems.nonholonomic_examples import (
+    chaplygin_sleigh,
+    roller_racer,
+    rolling_disk,
+    simplified_bicycle,
+    snakeboard,
+)
+
+SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+GAIT = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+
+
+def test_full_and_reduced_agree_on_a_snakeboard_gait():
+    s = snakeboard(**SNAKE)
+    a = simulate_full(s, 1.0, shapes=GAIT, samples=11)
+    b = simulate_reduced(s, 1.0, shapes=GAIT, samples=11)
+    np.testing.assert_allclose(a.q, b.q, atol=1e-8)
+    np.testing.assert_allclose(a.p, b.p, atol=1e-8)
+    assert abs(a.work[-1] - b.work[-1]) < 1e-8
+    # the gait drives the board: it moves (backwards along x for this phase) and turns
+    assert a.final()["x"] < -0.3 and abs(a.final()["theta"]) > 0.05
+    for tr in (a, b):
+        assert np.abs(tr.energy - tr.energy[0] - tr.work).max() < 1e-8  # work-energy balance
+    assert a.max_residual < 1e-8 and b.max_residual < 1e-13
+    # the initial state: board at rest, shapes on their gait (x' = y' = theta' = 0 at phi = 0)
+    np.testing.assert_allclose(a.qd[0], [0, 0, 0, 2 * np.pi, np.pi], atol=1e-14)
+
+
+def test_discrete_integrator_converges_at_second_order():
+    s = snakeboard(**SNAKE)
+    ref = simulate_full(s, 1.0, shapes=GAIT, samples=3, rtol=1e-12, atol=1e-13)
+    hs = np.array([0.02, 0.01, 0.005])
+    errs = [np.abs(simulate_discrete(s, 1.0, h, shapes=GAIT).q[-1] - ref.q[-1]).max() for h in hs]
+    slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    assert 1.8 < slope < 2.2 and errs[-1] < 5e-5
+    c = simulate_discrete(s, 1.0, 0.005, shapes=GAIT)
+    assert abs(c.work[-1] - ref.work[-1]) < 1e-3 and c.max_residual < 1e-3
+
+
+@pytest.mark.parametrize("build, q0, rdot0", [
+    (snakeboard, {"phi": 0.3}, {"psi": 0.7, "phi": 0.1}),
+    (roller_racer, {"phi": 0.4}, {"phi": 0.8}),
+    (chaplygin_sleigh, {}, {}),
+    (rolling_disk, {}, {"phi": 0.9}),
+])
+def test_energy_is_conserved_with_free_shapes_and_no_torque(build, q0, rdot0, rng):
+    s = build()
+    s = s.with_parameters(**{p.name: float(rng.uniform(0.6, 1.4)) for p in s.parameter_symbols})
+    kw = dict(q0=q0, rdot0=rdot0, p0=np.full(1 if s.name != "chaplygin_sleigh" else 2, 0.4))
+    a = simulate_full(s, 3.0, samples=31, **kw)
+    b = simulate_reduced(s, 3.0, samples=31, **kw)
+    c = simulate_discrete(s, 3.0, 0.01, **kw)
+    E0 = a.energy[0]
+    assert np.abs(a.energy - E0).max() < 1e-9 * max(1.0, E0)
+    assert np.abs(b.energy - E0).max() < 1e-9 * max(1.0, E0)
+    assert np.abs(c.energy - E0).max() < 1e-4 * max(1.0, E0)
+    assert a.max_residual < 1e-9 and c.max_residual < 1e-3
+    assert np.all(a.work == 0) and np.all(c.work == 0)
+    np.testing.assert_allclose(a.q, b.q, atol=1e-8)
+    assert np.abs(c.q[-1] - a.q[-1]).max() < 1e-4
+
+
+@pytest.mark.parametrize("sim", ["full", "reduced", "discrete"])
+def test_rolling_disk_exact_solution(sim):
+    """theta' = w and phi' = nu constant: x = R nu / w (sin(w t) - 0), y = -R nu / w (cos(w t) - 1)."""
+    I, R, nu, w = 0.7, 0.4, 1.3, 0.9
+    s = rolling_disk(m=1.2, R=R, I=I, J=0.3)
+    kw = dict(rdot0={"phi": nu}, p0=[I * w])
+    tr = (simulate_discrete(s, 2.0, 0.01, **kw) if sim == "discrete" else
+          (simulate_full if sim == "full" else simulate_reduced)(s, 2.0, samples=21, **kw))
+    t = tr.t
+    exact = np.stack([R * nu / w * np.sin(w * t), -R * nu / w * (np.cos(w * t) - 1), w * t, nu * t], -1)
+    tol = 1e-4 if sim == "discrete" else 1e-9
+    np.testing.assert_allclose(tr.q, exact, atol=tol)
+
+
+@pytest.mark.parametrize("sim", ["reduced", "full"])
+def test_chaplygin_sleigh_exact_speed(sim):
+    """v' = a w^2, w' = -m a v w / (I + m a^2) give v(t) = V tanh(kappa V t + artanh(v0 / V)), V^2 = 2E/m,
+    kappa = m a / (I + m a^2)."""
+    m, I_c, a = 1.5, 0.4, 0.6
+    s = chaplygin_sleigh(m=m, I_c=I_c, a=a)
+    v0, w0 = 0.2, 1.1
+    Itot = I_c + m * a**2
+    tr = (simulate_reduced if sim == "reduced" else simulate_full)(s, 4.0, samples=41, p0=[m * v0, Itot * w0])
+    V = np.sqrt(v0**2 + Itot * w0**2 / m)
+    kappa = m * a / Itot
+    v_exact = V * np.tanh(kappa * V * tr.t + np.arctanh(v0 / V))
+    np.testing.assert_allclose(tr.p[:, 0] / m, v_exact, atol=1e-8)
+
+
+def test_torque_driven_roller_racer_work_energy_balance():
+    s = roller_racer(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6)
+    tau = {"phi": "0.3*sin(3*t) - 0.05*phi_dot"}
+    a = simulate_full(s, 4.0, tau=tau, samples=41)
+    b = simulate_reduced(s, 4.0, tau=tau, samples=41)
+    np.testing.assert_allclose(a.q, b.q, atol=1e-8)
+    for tr in (a, b):
+        assert np.abs(tr.energy - tr.energy[0] - tr.work).max() < 1e-8
+    assert abs(a.work[-1]) > 1e-3 and np.hypot(*a.q[-1, :2]) > 1e-2  # the oscillating joint propels the racer
+    c = simulate_discrete(s, 4.0, 0.005, tau=tau)
+    assert np.abs(c.q[-1] - a.q[-1]).max() < 1e-3 and abs(c.energy[-1] - c.energy[0] - c.work[-1]) < 1e-3
+
+
+def test_bicycle_with_prescribed_steering_and_free_lean():
+    s = simplified_bicycle(m=1.0, h=0.8, c=0.3, b=1.0, g=9.81, J_s=0.05)
+    shapes = {"sigma": "0.05*sin(2*t)"}
+    kw = dict(shapes=shapes, q0={"phi": 0.02}, p0=[1.0])
+    a = simulate_full(s, 0.6, samples=13, **kw)
+    b = simulate_reduced(s, 0.6, samples=13, **kw)
+    np.testing.assert_allclose(a.q, b.q, atol=1e-8)
+    for tr in (a, b):
+        assert np.abs(tr.energy - tr.energy[0] - tr.work).max() < 1e-8
+    assert a.q[-1, 3] > 0.05  # the bicycle falls over (to the left) without lean control
+
+
+def test_input_errors():
+    s = snakeboard(**SNAKE)
+    with pytest.raises(InputError, match="not shape variables"):
+        simulate_reduced(s, 1.0, shapes={"rho": "t"})
+    with pytest.raises(InputError, match="formula in t only"):
+        simulate_reduced(s, 1.0, shapes={"psi": "sin(w*t)"})
+    with pytest.raises(InputError, match="prescribed gait"):
+        simulate_full(s, 1.0, shapes={"psi": "t"}, tau={"psi": "1"})
+    with pytest.raises(InputError, match="violates the constraints"):
+        simulate_full(s, 1.0, qd0=[0, 1.0, 0, 0, 0])
+    with pytest.raises(InputError, match="positive"):
+        simulate_discrete(s, 1.0, 0.0)
+    with pytest.raises(InputError, match="t_final"):
+        simulate_full(s, -1.0)
+    with pytest.raises(InputError, match="no value for parameter"):
+        simulate_full(snakeboard(), 1.0)
+
+
+def test_gait_derivatives_are_exact():
+    g = Gait.from_expressions({"psi": "sin(2*pi*t)"})
+    r, rd, rdd = g(0.1)
+    w = 2 * np.pi
+    np.testing.assert_allclose([r[0], rd[0], rdd[0]], [np.sin(w * 0.1), w * np.cos(w * 0.1), -w**2 * np.sin(w * 0.1)])
+
+
+def test_trajectory_csv(tmp_path):
+    tr = simulate_reduced(snakeboard(**SNAKE), 0.5, shapes=GAIT, samples=6)
+    path = tr.to_csv(tmp_path / "traj.csv")
+    rows = path.read_text().splitlines()
+    assert rows[0].startswith("t,x,y,theta,psi,phi,x_dot") and len(rows) == 7
+    assert set(tr.summary()) >= {"final_configuration", "nonholonomic_momentum", "constraint_residual_max",
+                                 "work_by_shape_inputs"}
