@@ -20,3 +20,14 @@ def test_readme_tour_runs():
     exact = namespace["exact"]
     assert exact.family == "major" and abs(exact.period - 19.135304560260906) < 1e-9
     assert len(namespace["traj"].switches) > 0
+
+
+def test_readme_nonholonomic_block_runs():
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+    code = next(b for b in blocks if "snakeboard" in b)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    assert namespace["red"].momentum_rhs.shape == (1, 1) or len(namespace["red"].momentum_rhs) == 1
+    from geomech.reduction import almost_poisson
+
+    assert almost_poisson(namespace["s"]).satisfies_jacobi is False

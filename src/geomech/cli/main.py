@@ -16,6 +16,7 @@ import click
 from .._version import __version__
 from ..errors import GeomechError
 from ._args import FloatVector, gather_vectors, parse_params
+from .nonholonomic import derive_cmd, simulate_cmd
 from .phase import phase
 from .reproduce import reproduce
 from .stability import stability_cmd, stability_map_cmd
@@ -113,6 +114,8 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
                    f"hyperregular: {summary['hyperregular']}")
 
 
+cli.add_command(derive_cmd)
+cli.add_command(simulate_cmd)
 cli.add_command(phase)
 cli.add_command(reproduce)
 cli.add_command(stability_cmd)

@@ -1,0 +1,241 @@
+"""``geomech derive`` and ``geomech simulate``: nonholonomic systems with symmetry from the command line.
+
+``derive`` prints the derived objects of an example or of a user's model file (see docs/nonholonomic.md for
+the file's contract); ``simulate`` integrates one with prescribed shape motions (gaits) or shape torques.
+Both print readable text, or JSON with ``--json``; bad input is one line on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ..errors import GeomechError, InputError
+
+__all__ = ["derive_cmd", "simulate_cmd", "load_model"]
+
+
+def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for item in items:
+        name, sep, val = item.partition("=")
+        if not sep or not name.strip() or not val.strip():
+            raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint=f"'{option}'")
+        if numeric:
+            try:
+                out[name.strip()] = float(val)
+            except ValueError:
+                raise click.BadParameter(f"{name.strip()} = {val!r} is not a number",
+                                         param_hint=f"'{option}'") from None
+        else:
+            out[name.strip()] = val.strip()
+    return out
+
+
+def load_model(path: str | Path, params: dict[str, float] | None = None):
+    """Load a model file: it defines ``system`` (a NonholonomicSystem) or ``build(**params)`` returning one."""
+    from ..systems.nonholonomic import NonholonomicSystem
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"Model file {str(path)!r} does not exist.")
+    spec = importlib.util.spec_from_file_location(f"geomech_model_{abs(hash(str(path)))}", path)
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)  # type: ignore[union-attr]
+    except GeomechError:
+        raise
+    except Exception as exc:  # the user's file: report any failure in one line
+        raise InputError(f"Could not run model file {str(path)!r}: {type(exc).__name__}: {exc}") from exc
+    params = dict(params or {})
+    if hasattr(module, "build") and callable(module.build):
+        try:
+            system = module.build(**params)
+        except GeomechError:
+            raise
+        except TypeError as exc:
+            raise InputError(f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}") from exc
+        params = {}
+    elif hasattr(module, "system"):
+        system = module.system
+    else:
+        raise InputError(f"Model file {str(path)!r} defines neither `system` (a NonholonomicSystem) nor a function "
+                         "`build(**params)` returning one; see docs/nonholonomic.md.")
+    if not isinstance(system, NonholonomicSystem):
+        raise InputError(f"{path.name}: expected `system` to be a NonholonomicSystem "
+                         f"(NonholonomicSystem.from_lagrangian(...)), got {type(system).__name__}.")
+    return system.with_parameters(**params) if params else system
+
+
+def _system(name: str | None, model: str | None, params: dict[str, float]):
+    from ..systems.nonholonomic_examples import EXAMPLES
+
+    if (name is None) == (model is None):
+        raise click.UsageError("give an example name (one of " + ", ".join(EXAMPLES) + ") or --model FILE.py, not both")
+    if model is not None:
+        return load_model(model, params)
+    if name not in EXAMPLES:
+        raise click.BadParameter(f"unknown example {name!r}; choose one of {', '.join(EXAMPLES)}", param_hint="'NAME'")
+    system = EXAMPLES[name]()
+    names = {p.name for p in system.parameter_symbols}
+    unknown = sorted(set(params) - names)
+    if unknown:
+        raise click.BadParameter(f"{name} has no parameter(s) {unknown}; its parameters are {sorted(names)}",
+                                 param_hint="'--param'")
+    return system.with_parameters(**params) if params else system
+
+
+def derivation(system, sections: tuple[str, ...] = ("system", "lagrange_dalembert", "bkmm", "almost_poisson",
+                                                      "poisson_reduction")) -> dict[str, Any]:
+    """All derived objects of ``system`` as a JSON-ready dict (text and LaTeX of each)."""
+    import sympy as sp
+
+    from ..reduction.almost_poisson import almost_poisson, poisson_reduction
+    from ..reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
+
+    out: dict[str, Any] = {}
+    if "system" in sections:
+        out["system"] = {
+            "name": system.name, "description": system.description, "group": system.group.name,
+            "group_coordinates": [c.name for c in system.group.coordinates],
+            "shape": [r.name for r in system.shape], "velocities": [v.name for v in system.qdot],
+            "lagrangian": str(system.lagrangian),
+            "constraints": [str(e) for e in system.constraint_matrix * sp.Matrix(system.qdot)],
+            "parameters": [p.name for p in system.parameter_symbols], "invariance": system.check_invariance().to_dict(),
+        }
+    if "lagrange_dalembert" in sections:
+        out["lagrange_dalembert"] = lagrange_dalembert(system).to_dict()
+    if "bkmm" in sections:
+        out["bkmm"] = bkmm_reduction(system).to_dict()
+    if "almost_poisson" in sections:
+        out["almost_poisson"] = almost_poisson(system).to_dict()
+    if "poisson_reduction" in sections:
+        out["poisson_reduction"] = poisson_reduction(system).to_dict()
+    return out
+
+
+_SECTIONS = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction")
+
+
+@click.command("derive")
+@click.argument("name", required=False)
+@click.option("--model", type=click.Path(dir_okay=False), default=None,
+              help="A Python model file defining `system` or `build(**params)` (docs/nonholonomic.md).")
+@click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
+@click.option("--section", "sections", multiple=True, type=click.Choice(_SECTIONS),
+              help="Derive only these parts (repeatable; default all).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON (text and LaTeX of every object).")
+@click.option("--latex", "as_latex", is_flag=True, help="Print LaTeX.")
+def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
+    """Derive the nonholonomic structure of an example (snakeboard, roller_racer, ...) or of --model FILE.py.
+
+    The Lagrange-d'Alembert equations with their multipliers; the BKMM reduction (body-fixed basis,
+    nonholonomic momentum, connection, locked inertia, reconstruction eq. 1.1, momentum equation 1.2 with
+    H, K, D, shape equations 1.3); the almost-Poisson bracket on FL(D) with its Jacobiator and the curvature
+    of D; the Poisson reduction of Theorems 1.1-1.2.
+    """
+    system = _system(name, model, _pairs(params, "--param", True))
+    data = derivation(system, tuple(sections) or _SECTIONS)
+    if as_json:
+        click.echo(json.dumps(data, indent=2))
+        return
+    for key, val in data.items():
+        click.echo(f"== {key} ==")
+        if key == "system":
+            for k, v in val.items():
+                click.echo(f"{k}: {v}")
+            continue
+        items = val["latex"] if as_latex else val["text"]
+        for k, v in items.items():
+            click.echo(f"{k} = {v}" if as_latex else f"{k} = {v}")
+
+
+@click.command("simulate")
+@click.argument("name", required=False)
+@click.option("--model", type=click.Path(dir_okay=False), default=None, help="A Python model file instead of NAME.")
+@click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
+@click.option("--shape", "shapes", multiple=True, metavar="NAME=F(t)",
+              help="A prescribed shape motion, e.g. 'psi=sin(2*pi*t)' (repeatable); other shapes are free.")
+@click.option("--tau", "taus", multiple=True, metavar="NAME=F(t, q, qdot)",
+              help="A torque on a free shape variable, a formula in t, the coordinates and velocities (repeatable).")
+@click.option("--q0", "q0s", multiple=True, metavar="NAME=VALUE", help="An initial coordinate (default 0).")
+@click.option("--rdot0", "rdot0s", multiple=True, metavar="NAME=VALUE",
+              help="An initial velocity of a free shape variable (default 0).")
+@click.option("--t-final", type=float, default=1.0, show_default=True, help="Final time.")
+@click.option("--method", type=click.Choice(["full", "reduced", "discrete"]), default="full", show_default=True,
+              help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA.")
+@click.option("--h", "step", type=float, default=1e-3, show_default=True, help="Step of the discrete method.")
+@click.option("--samples", type=click.IntRange(2, 10**6), default=201, show_default=True, help="Output times.")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Directory for trajectory.csv, summary.json and path.png (the path in the plane).")
+def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, t_final, method, step, samples, as_json, out) -> None:
+    """Simulate an example or --model FILE.py with gaits (--shape) and torques (--tau).
+
+    Prints the final configuration, the nonholonomic momentum, the constraint residual and the work done by
+    the shape inputs. Unless told otherwise the group starts at the identity with the nonholonomic momentum
+    zero (for the snakeboard at phi = 0: x' = y' = theta' = 0) while the shapes follow their gaits.
+    """
+    from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
+
+    system = _system(name, model, _pairs(params, "--param", True))
+    kw = dict(shapes=_pairs(shapes, "--shape", False), tau=_pairs(taus, "--tau", False),
+              q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True))
+    if method == "discrete":
+        traj = simulate_discrete(system, t_final, step, **kw)
+    else:
+        sim = simulate_full if method == "full" else simulate_reduced
+        traj = sim(system, t_final, samples=samples, **kw)
+    summary = traj.summary()
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        traj.to_csv(out / "trajectory.csv")
+        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        _plot_path(traj, out / "path.png")
+        summary["files"] = [str(out / f) for f in ("trajectory.csv", "summary.json", "path.png")]
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    fc = ", ".join(f"{k} = {v:.6g}" for k, v in summary["final_configuration"].items())
+    click.echo(f"{summary['system']} by {summary['method']} to t = {summary['t_final']:g}\n"
+               f"final configuration: {fc}\n"
+               f"nonholonomic momentum: {summary['nonholonomic_momentum']}\n"
+               f"constraint residual |A(q) qdot|: max {summary['constraint_residual_max']:.3g}, "
+               f"final {summary['constraint_residual_final']:.3g}\n"
+               f"work by shape inputs: {summary['work_by_shape_inputs']:.6g} "
+               f"(energy change {summary['energy_final'] - summary['energy_initial']:.6g})")
+
+
+def _plot_path(traj, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    s = traj.system
+    fig, ax = plt.subplots(figsize=(5, 5))
+    if s.group.name.startswith("SE(2)"):
+        x, y, th = traj.q[:, 0], traj.q[:, 1], traj.q[:, 2]
+        ax.plot(x, y, lw=1.5)
+        step = max(1, len(x) // 12)
+        arrow = 0.05 * max(np.ptp(x), np.ptp(y), 1e-3)
+        ax.quiver(x[::step], y[::step], arrow * np.cos(th[::step]), arrow * np.sin(th[::step]), angles="xy",
+                  scale_units="xy", scale=1, width=0.004)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel(s.q[0].name)
+        ax.set_ylabel(s.q[1].name)
+    else:
+        for j, c in enumerate(s.group.coordinates):
+            ax.plot(traj.t, traj.q[:, j], label=c.name)
+        ax.set_xlabel("t")
+        ax.legend()
+    ax.set_title(f"{s.name}: {traj.method}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+

@@ -1,0 +1,120 @@
+"""``geomech derive`` and ``geomech simulate`` (registered here as the lead registers them in main)."""
+
+import json
+import textwrap
+
+import numpy as np
+import pytest
+
+from geomech.cli.main import cli, main
+from geomech.cli.nonholonomic import derive_cmd, simulate_cmd
+from geomech.integrators.nonholonomic import simulate_full
+from geomech.systems.nonholonomic_examples import snakeboard
+
+for _cmd in (derive_cmd, simulate_cmd):
+    if _cmd.name not in cli.commands:
+        cli.add_command(_cmd)
+
+SNAKE_ARGS = ["--param", "m=1", "--param", "r=0.5", "--param", "J=0.18", "--param", "J0=0.05", "--param", "J1=0.01",
+              "--shape", "psi=sin(2*pi*t)", "--shape", "phi=0.5*sin(2*pi*t)", "--t-final", "1"]
+
+
+def _run(capsys, *argv):
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_simulate_snakeboard_json_matches_the_library(capsys, tmp_path):
+    code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--json", "--out", str(tmp_path))
+    assert code == 0, err
+    data = json.loads(out)
+    ref = simulate_full(snakeboard(m=1, r=0.5, J=0.18, J0=0.05, J1=0.01), 1.0,
+                        shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"})
+    for k in ("x", "y", "theta"):
+        assert data["final_configuration"][k] == pytest.approx(ref.final()[k], abs=1e-9)
+    assert data["nonholonomic_momentum"][0] == pytest.approx(ref.p[-1, 0], abs=1e-9)
+    assert data["constraint_residual_max"] < 1e-8
+    assert data["work_by_shape_inputs"] == pytest.approx(ref.work[-1], abs=1e-9)
+    assert abs(data["energy_change_minus_work"]) < 1e-8
+    header = (tmp_path / "trajectory.csv").read_text().splitlines()[0]
+    assert header.startswith("t,x,y,theta") and (tmp_path / "path.png").stat().st_size > 1000
+    assert json.loads((tmp_path / "summary.json").read_text())["system"] == "snakeboard"
+
+
+def test_simulate_text_and_other_methods(capsys):
+    code, out, _ = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "discrete", "--h", "0.01")
+    assert code == 0 and "final configuration: x = " in out and "work by shape inputs" in out
+    code, out, _ = _run(capsys, "simulate", "chaplygin_sleigh", "--param", "m=1", "--param", "I_c=0.5",
+                        "--param", "a=0.3", "--method", "reduced", "--json")
+    assert code == 0 and json.loads(out)["work_by_shape_inputs"] == 0.0
+
+
+def test_derive_snakeboard_json_and_latex(capsys):
+    code, out, err = _run(capsys, "derive", "snakeboard_bkmm", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert set(data) == {"system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction"}
+    assert "2*J0*phi_dot*psi_dot*cos(phi)**2" in data["bkmm"]["text"]["momentum equation p' (eq. 1.2)"][0][0]
+    assert data["almost_poisson"]["text"]["Jacobi identity holds"] == "False"
+    assert data["system"]["invariance"]["ok"]
+    code, out, _ = _run(capsys, "derive", "snakeboard_bkmm", "--latex", "--section", "bkmm")
+    assert code == 0 and r"\dot{\phi}" in out and "== bkmm ==" in out
+
+
+MODEL = '''
+from geomech.systems.nonholonomic import NonholonomicSystem, SE2
+
+def build(m=1.0, I=0.5, a=0.3):
+    return NonholonomicSystem.from_lagrangian(
+        "m/2*((x_dot - a*sin(theta)*theta_dot)**2 + (y_dot + a*cos(theta)*theta_dot)**2) + I/2*theta_dot**2",
+        SE2("x", "y", "theta"), (), ["-sin(theta)*x_dot + cos(theta)*y_dot"],
+        parameters={"m": m, "I": I, "a": a}, name="my_sleigh")
+'''
+
+
+def test_derive_and_simulate_a_model_file(capsys, tmp_path):
+    f = tmp_path / "sleigh.py"
+    f.write_text(MODEL)
+    code, out, err = _run(capsys, "derive", "--model", str(f), "--json", "--section", "bkmm")
+    assert code == 0, err
+    assert json.loads(out)["bkmm"]["text"]["locked inertia I(r)"] == [["m", "0"], ["0", "I + a**2*m"]]
+    code, out, err = _run(capsys, "simulate", "--model", str(f), "--param", "m=2", "--json", "--method", "reduced")
+    assert code == 0, err
+    assert np.isfinite(json.loads(out)["energy_final"])
+    g = tmp_path / "plain.py"
+    g.write_text(textwrap.dedent('''
+        from geomech.systems.nonholonomic_examples import rolling_disk
+        system = rolling_disk(m=1, R=0.5, I=0.2, J=0.1)
+    '''))
+    code, out, err = _run(capsys, "derive", "--model", str(g), "--section", "system")
+    assert code == 0 and "rolling_disk" in out
+
+
+@pytest.mark.parametrize("body, match", [
+    ('''L = "m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2 - m*g*y"\n'''
+     '''system = NonholonomicSystem.from_lagrangian(L, SE2(), (), ["-sin(theta)*x_dot + cos(theta)*y_dot"])''',
+     "not invariant under SE(2)"),
+    ('''system = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2", SE2(), (),'''
+     ''' ["x_dot**2 - y_dot"])''', "not linear homogeneous"),
+    ('''system = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2)", SE2("x", "y"), (), [])''',
+     "Expected 3 coordinate names for SE(2)"),
+    ('''system = 3''', "expected `system` to be a NonholonomicSystem"),
+    ('''raise RuntimeError("boom")''', "RuntimeError: boom"),
+])
+def test_bad_models_give_one_line_and_status_2(capsys, tmp_path, body, match):
+    f = tmp_path / "bad.py"
+    f.write_text("from geomech.systems.nonholonomic import NonholonomicSystem, SE2\n" + body + "\n")
+    code, out, err = _run(capsys, "derive", "--model", str(f))
+    assert code == 2 and match in err and len(err.strip().splitlines()) == 1
+
+
+def test_bad_command_lines(capsys):
+    code, _, err = _run(capsys, "derive", "unicycle")
+    assert code == 2 and "unknown example" in err
+    code, _, err = _run(capsys, "simulate", "snakeboard", "--param", "m=1", "--shape", "psi")
+    assert code == 2 and "NAME=VALUE" in err
+    code, _, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS[:10], "--shape", "rho=t")
+    assert code == 2 and "not shape variables" in err and len(err.strip().splitlines()) == 1
+    code, _, err = _run(capsys, "derive")
+    assert code == 2 and "example name" in err
