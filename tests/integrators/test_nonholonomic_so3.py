@@ -66,3 +66,42 @@ def test_suslov_body_with_rotor_on_so3():
     assert np.ptp(omega[:, 0]) > 0.05  # the rotor and the tilted inertia make the body rates move
     # the rotor drives the body; its work balances the energy
     assert np.abs(full.energy - full.energy[0] - full.work).max() < 1e-8
+
+
+def test_three_dimensional_sleigh_on_se3():
+    """A body in space that may only move along its body x axis (no sideslip, no heave), centre of mass a
+    distance a ahead of the constrained point: the SE(3) analogue of the Chaplygin sleigh. No shape: the
+    momentum equation is all the dynamics. Energy is conserved, the full and reduced simulators agree, and
+    the centre of mass obeys Newton's law with the constraint forces as the only forces."""
+    from geomech.reduction.nonholonomic import lagrange_dalembert
+    from geomech.systems.nonholonomic import SE3
+
+    G = SE3("x", "y", "z", "a1", "a2", "a3")
+    xi = G.body_velocity_matrix * sp.Matrix(sp.symbols("x_dot y_dot z_dot a1_dot a2_dot a3_dot"))
+    v, w = xi[:3, 0], xi[3:, 0]
+    m, a = 2.0, 0.4
+    Ic = sp.diag(sp.Rational(1, 2), sp.Rational(4, 5), 1)
+    vc = v + w.cross(sp.Matrix([sp.Rational(2, 5), 0, 0]))  # velocity of the centre of mass, body frame
+    L = m / 2 * vc.dot(vc) + (w.T * Ic * w)[0] / 2
+    system = NonholonomicSystem.from_lagrangian(sp.nsimplify(L), G, (), [v[1], v[2]], name="sleigh3d")
+    assert system.check_invariance().ok
+    red = bkmm_reduction(system)
+    assert red.m == 4  # S_q = D: forward speed and the three angular velocities
+    p0 = [0.8, 0.3, -0.2, 0.5]
+    full = simulate_full(system, 3.0, p0=p0, samples=61)
+    reduced = simulate_reduced(system, 3.0, p0=p0, samples=61)
+    np.testing.assert_allclose(full.q, reduced.q, atol=1e-8)
+    assert np.ptp(full.energy) < 1e-9 and full.max_residual < 1e-8
+    assert np.ptp(full.q[:, 0]) > 0.1 and np.ptp(full.p[:, 0]) > 1e-3  # it moves, and p is not conserved
+    # Newton: m * (centre of mass acceleration) = sum of the constraint forces A^T lambda (spatial frame)
+    lda = lagrange_dalembert(system).numeric()
+    rot = sp.lambdify(G.coordinates, G.matrix[:3, :3], "numpy")
+    com = np.array([np.asarray(rot(*q[:6]), float) @ [a, 0, 0] + q[:3] for q in full.q])
+    t = full.t
+    acc = np.gradient(np.gradient(com, t, axis=0, edge_order=2), t, axis=0, edge_order=2)
+    _, lam = lda.solve(full.q, full.qd)
+    A = np.array([np.asarray(sp.lambdify(system.q, system.constraint_matrix, "numpy")(*q), float) for q in full.q])
+    force = np.einsum("kci,kc->ki", A, lam)[:, :3]
+    assert np.abs(force).max() > 0.05  # the constraints do push
+    inner = slice(5, -5)
+    np.testing.assert_allclose(m * acc[inner], force[inner], atol=2e-3 * np.abs(force).max() + 1e-6)
