@@ -80,13 +80,27 @@ def _system(name: str | None, model: str | None, params: dict[str, float]):
         return load_model(model, params)
     if name not in EXAMPLES:
         raise click.BadParameter(f"unknown example {name!r}; choose one of {', '.join(EXAMPLES)}", param_hint="'NAME'")
+    return example_system(name, params)
+
+
+def example_system(name: str, params: dict[str, float]):
+    """The built-in example ``name`` with the ``--param`` values; unknown parameter names are an error."""
+    from ..systems.nonholonomic_examples import EXAMPLES
+
     system = EXAMPLES[name]()
     names = {p.name for p in system.parameter_symbols}
     unknown = sorted(set(params) - names)
     if unknown:
-        raise click.BadParameter(f"{name} has no parameter(s) {unknown}; its parameters are {sorted(names)}",
-                                 param_hint="'--param'")
+        raise InputError(f"{name} has no parameter(s) {unknown}; its parameters are {sorted(names)}.")
     return system.with_parameters(**params) if params else system
+
+
+def require_values(system) -> None:
+    """Numeric commands need every parameter: name the missing ones as ``--param`` options."""
+    missing = sorted(p.name for p in system.parameter_symbols if p.name not in system.parameters)
+    if missing:
+        raise InputError(f"{system.name} needs a value for parameter(s) {missing}: add "
+                         + " ".join(f"--param {m}=VALUE" for m in missing) + ".")
 
 
 def derivation(system, sections: tuple[str, ...] = ("system", "lagrange_dalembert", "bkmm", "almost_poisson",
@@ -183,6 +197,7 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, t_final, method
     from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
 
     system = _system(name, model, _pairs(params, "--param", True))
+    require_values(system)
     kw = dict(shapes=_pairs(shapes, "--shape", False), tau=_pairs(taus, "--tau", False),
               q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True))
     if method == "discrete":

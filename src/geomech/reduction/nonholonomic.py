@@ -547,7 +547,8 @@ class NonholonomicReduction(Derived, _NumericMixin):
                         for b in range(s.sigma) for g in range(s.sigma))
             vert = -(p.T * sp.diff(Iinv, r[al]) * p)[0, 0] / 2 if self.m else sp.Integer(0)
             curv = sum(mu[a] * (sp.Matrix(self.curvature[a])[al, :] * rd)[0, 0] for a in range(s.k))
-            fterm = sum(mu[a] * (sp.Matrix(self.F[a])[:, al].T * Om)[0, 0] for a in range(s.k)) if self.m else 0
+            fterm = (sum(mu[a] * (sp.Matrix(self.F[a])[:, al].T * Om)[0, 0] for a in range(s.k)) if self.m
+                     else sp.Integer(0))
             # Each mechanism simplified on its own and the results added: one common denominator over all of
             # them costs minutes (multivariate gcds) for general parameters and reads no better.
             Q = R = S = None
@@ -639,18 +640,26 @@ class ReducedNumeric:
     def _x(self, r: Any, rd: Any, p: Any) -> np.ndarray:
         return stack_last(r, rd, p)
 
+    @staticmethod
+    def _column(out: np.ndarray, x: np.ndarray, n: int) -> np.ndarray:
+        # a column of n entries per state; n = 0 (no momentum: a principally kinematic system) included
+        return np.asarray(out).reshape(np.shape(x)[:-1] + (n,))
+
     def pdot(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        return self.funcs["pdot"](self._x(r, rd, p))[..., 0]
+        x = self._x(r, rd, p)
+        return self._column(self.funcs["pdot"](x), x, self.reduction.m)
 
     def shape_mass(self, r: Any, rd: Any, p: Any) -> np.ndarray:
         return self.funcs["M"](self._x(r, rd, p))
 
     def delta(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        return self.funcs["delta"](self._x(r, rd, p))[..., 0]
+        x = self._x(r, rd, p)
+        return self._column(self.funcs["delta"](x), x, self.reduction.system.sigma)
 
     def xi(self, r: Any, rd: Any, p: Any) -> np.ndarray:
         r"""Body velocity :math:`g^{-1}\\dot g` from the reconstruction equation (1.1)."""
-        return self.funcs["xi"](self._x(r, rd, p))[..., 0]
+        x = self._x(r, rd, p)
+        return self._column(self.funcs["xi"](x), x, self.reduction.system.k)
 
     def rddot(self, r: Any, rd: Any, p: Any, tau: Any = None) -> np.ndarray:
         M = self.shape_mass(r, rd, p)
@@ -661,7 +670,8 @@ class ReducedNumeric:
 
     def momentum(self, q: Any, qd: Any) -> np.ndarray:
         r""":math:`p(q, \\dot q)` from the full state."""
-        return self.momentum_fn(stack_last(q, qd))[..., 0]
+        x = stack_last(q, qd)
+        return self._column(self.momentum_fn(x), x, self.reduction.m)
 
 
 def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, str]:

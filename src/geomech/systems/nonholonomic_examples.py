@@ -304,6 +304,34 @@ def geared_body(*, scaled: bool = False, **values: float) -> NonholonomicSystem:
 
 
 #: Builders by name (used by the command line).
+@lru_cache(maxsize=None)
+def _car() -> NonholonomicSystem:
+    m, I, R, ell, J, K = _params("m I R ell J K")
+    x, y, th, psi, phi = _q("x", "y", "theta", "psi", "phi")
+    xd, yd, thd, psid, phid = _v("x", "y", "theta", "psi", "phi")
+    L = m / 2 * (xd**2 + yd**2) + I / 2 * thd**2 + J / 2 * psid**2 + K / 2 * phid**2
+    cons = [sp.cos(th) * xd + sp.sin(th) * yd - R * psid, _no_slip(xd, yd, th), thd - R / ell * sp.tan(phi) * psid]
+    return NonholonomicSystem.from_lagrangian(
+        L, SE2(x, y, th), (psi, phi), cons, name="kinematic_car",
+        description="kinematic car: rear axle at (x, y) heading theta, rear wheel angle psi (radius R), steering "
+                    "angle phi, wheelbase ell; principally kinematic (S_q = 0)")
+
+
+def kinematic_car(**values: float) -> NonholonomicSystem:
+    r"""A rear-wheel-drive car with rolling rear wheels (radius ``R``, angle :math:`\psi`) and a front axle steered
+    by :math:`\phi` at wheelbase ``ell``: three constraints,
+
+    .. math::
+
+        v_x = R\dot\psi, \qquad v_y = 0, \qquad \dot\theta = \frac{R}{\ell}\tan\phi\,\dot\psi,
+
+    fix the body velocity from the shape velocity, so :math:`S_q = 0`: the system is *principally kinematic*,
+    has no nonholonomic momentum, and its motion is the connection term alone. ``m``, ``I``: the body's mass
+    and inertia; ``J``, ``K``: the inertias of the driven wheel and of the steering.
+    """
+    return _car().with_parameters(**values) if values else _car()
+
+
 EXAMPLES: dict[str, Any] = {
     "snakeboard": snakeboard,
     "snakeboard_bkmm": snakeboard_bkmm,
@@ -312,4 +340,5 @@ EXAMPLES: dict[str, Any] = {
     "chaplygin_sleigh": chaplygin_sleigh,
     "rolling_disk": rolling_disk,
     "geared_body": geared_body,
+    "kinematic_car": kinematic_car,
 }
