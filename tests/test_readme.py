@@ -31,3 +31,22 @@ def test_readme_nonholonomic_block_runs():
     from geomech.reduction import almost_poisson
 
     assert almost_poisson(namespace["s"]).satisfies_jacobi is False
+
+
+def _readme_commands() -> list[str]:
+    block = re.search(r"\nCommand line \(.*?\n```\n(.*?)```", README.read_text(), re.S).group(1)
+    joined = re.sub(r"\\\n\s*", "", block)
+    return [line.split("   #")[0].strip() for line in joined.splitlines() if line.startswith("geomech ")]
+
+
+def test_readme_commands_run(tmp_path, capsys):
+    import shlex
+
+    from geomech.cli.main import main
+
+    commands = [c for c in _readme_commands() if "..." not in c]  # the elided stability-map line aside
+    assert len(commands) >= 8
+    for command in commands:
+        argv = [a.replace("DIR", str(tmp_path / "out")) for a in shlex.split(command)[1:]]
+        assert main(argv) == 0, command
+        assert "error" not in capsys.readouterr().err, command

@@ -1,5 +1,5 @@
 """Analysis of mechanical systems: relative equilibria and their stability (Lagrange-Dirichlet,
-energy-Casimir, linearisation), stability boundaries and maps; geometric and dynamic phases."""
+energy-Casimir, linearisation), stability boundaries and maps; geometric and dynamic phases; nonholonomic gaits."""
 
 from .equilibria import (
     Equilibrium,
@@ -8,6 +8,14 @@ from .equilibria import (
     continue_equilibria,
     find_equilibria,
     refine_equilibrium,
+)
+from .gaits import (
+    GaitAnalysis,
+    GaitModel,
+    analyse_gait,
+    connection_line_integral,
+    gait_curvature_integral,
+    gait_loop,
 )
 from .phases import (
     GroupPath,
@@ -41,6 +49,12 @@ from .stability import (
 from .stability_map import stability_map, theorem5_margin
 
 __all__ = [
+    "GaitAnalysis",
+    "GaitModel",
+    "analyse_gait",
+    "connection_line_integral",
+    "gait_curvature_integral",
+    "gait_loop",
     "GroupPath",
     "PhaseSplit",
     "Reconstruction",

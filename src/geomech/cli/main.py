@@ -16,6 +16,7 @@ import click
 from .._version import __version__
 from ..errors import GeomechError
 from ._args import FloatVector, gather_vectors, parse_params
+from .gait import gait_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
 from .phase import phase
 from .reproduce import reproduce
@@ -115,6 +116,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
 
 
 cli.add_command(derive_cmd)
+cli.add_command(gait_cmd)
 cli.add_command(simulate_cmd)
 cli.add_command(phase)
 cli.add_command(reproduce)

@@ -1,0 +1,630 @@
+r"""Periodic gaits of nonholonomic systems with symmetry: net displacement, and what each term contributes.
+
+For a nonholonomic system with symmetry (:class:`~geomech.systems.nonholonomic.NonholonomicSystem`) with the
+shape driven along a prescribed loop :math:`r(t)` of period :math:`T`, the BKMM reduction (eqs. 1.1-1.2 of
+the nonholonomic seed; Bloch, Krishnaprasad, Marsden and Murray 1996) gives
+
+.. math::
+
+    g^{-1}\dot g = \underbrace{-\mathcal A^{nh}(r)\,\dot r}_{\text{connection term}}
+                 + \underbrace{e(r)\,\mathbb I^{-1}(r)\,p}_{\text{momentum term}}, \qquad
+    \dot p = \dot r^T H(r)\,\dot r + \dot r^T K(r)\,p + p^T D(r)\,p,
+
+with :math:`e(r)` the body-fixed basis of :math:`S_q = \mathcal D_q\cap T_q\mathrm{Orb}`. Along a prescribed
+gait the momentum equation is an ODE for :math:`p` alone, driven by :math:`(r, \dot r)`; :func:`analyse_gait`
+integrates it, then reconstructs :math:`g(t)` on the group with a Lie-group method
+(:func:`~geomech.analysis.phases.integrate_on_group`), and gives the net displacement
+:math:`g(0)^{-1}g(T)` per period and over several periods, the change of :math:`p` over each period, and the
+displacement that the connection term and the momentum term would each produce alone
+(:func:`~geomech.analysis.phases.decompose_displacement`).
+
+**What the split is, and is not.** The two terms are a split of the body velocity, not of the
+displacement: on a non-abelian group (SE(2)) the displacement of the sum is not the composition, let
+alone the sum, of the displacements of the parts, and :math:`p` is not conserved but built up along the
+gait. For holonomic systems with an abelian symmetry the analogous split is the geometric plus dynamic
+phase of Theorem 2.2 (eq. 2.3); for nonholonomic systems the seed (section 2) leaves the division of the
+net motion into a geometric and a dynamic phase open, and this split is not offered as one. Only the
+connection-alone displacement is geometric (it depends on the loop's image and orientation, not on its
+timing), and the rotation it produces is exactly :math:`-\oint\mathcal A^{nh}_\theta\,dr
+= -\iint B_\theta` (:func:`connection_line_integral`, :func:`gait_curvature_integral`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
+
+from .. import _validate as V
+from .._symbolic import compile_vector
+from ..errors import ConvergenceError, InputError, NumericalError, ShapeError, SingularityError
+from ..reduction.nonholonomic_symbolic import stack_last
+from .phases import GroupPath, ShapeLoop, _periodic_integral, bind_loop, decompose_displacement
+
+__all__ = [
+    "GaitAnalysis",
+    "GaitModel",
+    "analyse_gait",
+    "gait_loop",
+    "connection_line_integral",
+    "gait_curvature_integral",
+]
+
+_NOTE = ("The connection-alone and momentum-alone displacements integrate each term of the body velocity by "
+         "itself; on a non-abelian group they do not compose (nor add) to the net displacement, and their split "
+         "is not a geometric/dynamic phase decomposition (open for nonholonomic systems, section 2 of the seed).")
+
+#: The groups the Lie-group reconstruction supports, by the name of the system's group.
+_GROUPS = {"SE(2)": "SE2", "S^1": "S1"}
+
+
+# ---------------------------------------------------------------------------------------------------
+# The system's reduced objects, evaluated numerically
+# ---------------------------------------------------------------------------------------------------
+class GaitModel:
+    """The BKMM objects of a nonholonomic system as numeric functions of the shape.
+
+    It also answers the questions :func:`~geomech.analysis.phases.bind_loop` asks of a system (shape
+    coordinates, which are angles, where the locked inertia is singular), so loops are checked the same
+    way for holonomic and nonholonomic systems.
+
+    Parameters
+    ----------
+    system : NonholonomicSystem
+    parameters : mapping, optional
+        Parameter values not stored in the system.
+    basis : k x m matrix, optional
+        The body-fixed basis of :math:`S_q` (default: the model's, else the null space); the scale of
+        :math:`p` depends on it.
+    """
+
+    def __init__(self, system: Any, parameters: Mapping[str, float] | None = None, basis: Any = None):
+        from ..reduction.nonholonomic import bkmm_reduction
+        from ..systems.nonholonomic import NonholonomicSystem
+
+        if not isinstance(system, NonholonomicSystem):
+            raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
+        self.system = system
+        self.parameters = dict(parameters or {})
+        self.reduction = red = bkmm_reduction(system, basis)
+        self.k, self.sigma, self.m = system.k, system.sigma, red.m
+        pv = system.parameter_values(self.parameters)
+        # Only eqs. (1.1)-(1.2) are needed along a prescribed gait: compiling them alone skips the derivation
+        # of the shape equations (1.3), the costliest part of the reduction.
+        r = list(system.shape)
+        self._A = compile_vector(sp.Matrix(red.connection).subs(pv).tolist(), r)
+        if self.m:
+            self._E = compile_vector(sp.Matrix(red.basis).subs(pv).tolist(), r)
+            self._I = compile_vector(sp.Matrix(red.locked_inertia).subs(pv).tolist(), r)
+            self._pdot = compile_vector(list(sp.Matrix(red.momentum_rhs).subs(pv)), r + list(red.rdot) + list(red.p))
+        gname = system.group.name
+        key = "SO3" if gname.startswith("SO(3)") else _GROUPS.get(gname)
+        if key is None:
+            raise InputError(f"Reconstruction on the group is available for SE(2), SO(3) and S^1; {system.name} has "
+                             f"{gname}. Simulate it with geomech.integrators.nonholonomic.simulate_full instead.")
+        from ..systems.holonomic import symmetry_group
+
+        self.group = symmetry_group(key)
+        self._matrix = compile_vector(sp.Matrix(system.group.matrix).subs(pv).tolist(), list(system.group.coordinates))
+        self._curvature = None
+
+    # -- what bind_loop asks ------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.system.name
+
+    @property
+    def shape_coordinates(self) -> tuple:
+        return self.system.shape
+
+    @property
+    def shape_dim(self) -> int:
+        return self.sigma
+
+    @property
+    def angle_shapes(self) -> tuple[int, ...]:
+        return self.system.shape_angles
+
+    def check_locked_inertia(self, r: Any) -> np.ndarray:
+        """The locked inertia :math:`\\mathbb I(r)` at the points ``r`` ``(n, sigma)``, or
+        :class:`SingularityError` where it is singular (the reconstruction needs :math:`\\mathbb I^{-1}`)."""
+        I = self.locked_inertia(np.atleast_2d(r))
+        if self.m == 0:
+            return I
+        eig = np.linalg.eigvalsh(0.5 * (I + np.swapaxes(I, -1, -2)))
+        # The scale is the largest eigenvalue over all points: a 1 x 1 inertia is its own scale pointwise.
+        scale = max(float(np.abs(eig).max()), 1e-300)
+        bad = eig.min(-1) <= 1e-10 * scale
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise SingularityError(
+                f"The locked inertia of {self.name} is singular at r = {np.round(np.atleast_2d(r)[i], 6).tolist()} "
+                f"(eigenvalues {np.round(eig[i], 12).tolist()}): I^-1 p in the reconstruction g^-1 g' = -A r' + "
+                "I^-1 p is undefined there; keep the gait away from it.")
+        return I
+
+    # -- numeric objects ---------------------------------------------------------------------------
+    def connection(self, r: Any) -> np.ndarray:
+        """:math:`\\mathcal A^{nh}(r)`, shape ``(..., k, sigma)``."""
+        r = np.asarray(r, dtype=float)
+        if self.sigma == 0:
+            return np.zeros(r.shape[:-1] + (self.k, 0))
+        return self._A(r)
+
+    def basis(self, r: Any) -> np.ndarray:
+        """:math:`e(r)`, shape ``(..., k, m)``."""
+        r = np.asarray(r, dtype=float)
+        return self._E(r) if self.m else np.zeros(r.shape[:-1] + (self.k, 0))
+
+    def locked_inertia(self, r: Any) -> np.ndarray:
+        """:math:`\\mathbb I(r)`, shape ``(..., m, m)``."""
+        r = np.asarray(r, dtype=float)
+        return self._I(r) if self.m else np.zeros(r.shape[:-1] + (0, 0))
+
+    def curvature(self, r: Any) -> np.ndarray:
+        """:math:`B^a_{\\alpha\\beta}(r)` (BKMM), shape ``(..., k, sigma, sigma)``."""
+        if self._curvature is None:
+            pv = self.system.parameter_values(self.parameters)
+            B = [sp.Matrix(Ba).subs(pv).tolist() for Ba in self.reduction.curvature]
+            self._curvature = compile_vector(B, list(self.system.shape))
+        return self._curvature(np.asarray(r, dtype=float))
+
+    def xi_connection(self, r: Any, rdot: Any) -> np.ndarray:
+        """:math:`-\\mathcal A^{nh}(r)\\dot r`, shape ``(..., k)``."""
+        return -np.einsum("...aj,...j->...a", self.connection(r), np.asarray(rdot, dtype=float))
+
+    def xi_momentum(self, r: Any, p: Any) -> np.ndarray:
+        """:math:`e(r)\\,\\mathbb I^{-1}(r)\\,p`, shape ``(..., k)``."""
+        r = np.asarray(r, dtype=float)
+        if self.m == 0:
+            return np.zeros(r.shape[:-1] + (self.k,))
+        Om = np.linalg.solve(self.locked_inertia(r), np.asarray(p, dtype=float)[..., None])[..., 0]
+        return np.einsum("...ai,...i->...a", self.basis(r), Om)
+
+    def pdot(self, r: Any, rdot: Any, p: Any) -> np.ndarray:
+        """Right-hand side of the momentum equation (1.2)."""
+        if not self.m:
+            return np.zeros(np.shape(r)[:-1] + (0,))
+        return self._pdot(stack_last(r, rdot, p))
+
+    def element(self, coordinates: Any) -> np.ndarray:
+        """The group element (as :func:`~geomech.analysis.phases.integrate_on_group` holds it) at the system's
+        group coordinates ``(..., k)``: a matrix, or for S^1 the angle."""
+        c = np.asarray(coordinates, dtype=float)
+        return c[..., :1].copy() if self.group.name == "S1" else self._matrix(c)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Loops
+# ---------------------------------------------------------------------------------------------------
+def gait_loop(system: Any, shapes: Any, period: float | None = None, *,
+              parameters: Mapping[str, float] | None = None) -> ShapeLoop:
+    """A :class:`~geomech.analysis.phases.ShapeLoop` in the shape space of ``system``.
+
+    ``shapes`` maps every shape variable to a formula in ``t`` (and ``T``, the period), e.g.
+    ``{"psi": "sin(2*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}``; a ShapeLoop is returned as it is (with its
+    coordinate names checked when it has them). Unknown or missing shape variables raise :class:`InputError`.
+    """
+    names = [s.name for s in system.shape]
+    if isinstance(shapes, ShapeLoop):
+        if shapes.names is not None and list(shapes.names) != names:
+            raise ShapeError(f"Expected the shape loop's coordinates to be ({', '.join(names)}) for {system.name}, "
+                             f"got ({', '.join(shapes.names)}).")
+        return shapes
+    if not isinstance(shapes, Mapping):
+        raise InputError(f"Expected `shapes` to be a mapping shape variable -> formula in t, or a ShapeLoop, got "
+                         f"{type(shapes).__name__}.")
+    unknown = [str(n) for n in shapes if str(n) not in names]
+    if unknown:
+        raise InputError(f"The gait names {unknown}, which are not shape variables of {system.name} "
+                         f"({', '.join(names) or 'no shape variables'}).")
+    missing = [n for n in names if n not in {str(k) for k in shapes}]
+    if missing:
+        raise ShapeError(f"Expected a formula for each of the {len(names)} shape variables ({', '.join(names)}) of "
+                         f"{system.name}; missing {missing}: a gait prescribes the whole shape.")
+    T = V.positive_scalar(period, "period")
+    values = {"T": T, **dict(parameters or {})}
+    by_name = {str(k): v for k, v in shapes.items()}
+    return ShapeLoop.from_expressions({n: by_name[n] for n in names}, T, parameters=values)
+
+
+def _check_regular(model: GaitModel, loop: ShapeLoop, n: int = 1024) -> None:
+    """Refuse a loop that passes through (or between samples touches) a singular locked inertia.
+
+    The smallest eigenvalue is sampled densely and each local minimum refined by Brent's method: a loop
+    that only grazes the singular set (the snakeboard's :math:`\\phi = \\pm\\pi/2`, where
+    :math:`\\mathbb I = 4mr^2\\cos^2\\phi` touches 0 without changing sign) is caught too.
+    """
+    if model.m == 0:
+        return
+    T = loop.period
+
+    def lam(t: Any) -> np.ndarray:
+        I = model.locked_inertia(loop.r(np.atleast_1d(t)))
+        return np.linalg.eigvalsh(0.5 * (I + np.swapaxes(I, -1, -2))).min(-1)
+
+    t = np.linspace(0.0, T, n + 1)
+    vals = lam(t)
+    if not np.all(np.isfinite(vals)):
+        i = int(np.argmax(~np.isfinite(vals)))
+        raise SingularityError(f"The locked inertia of {model.name} is not finite at r = "
+                               f"{np.round(loop.r(t[i]), 6).tolist()} (t = {t[i]:.6g}) on the gait.")
+    I_all = model.locked_inertia(loop.r(t))
+    scale = max(float(np.abs(np.linalg.eigvalsh(0.5 * (I_all + np.swapaxes(I_all, -1, -2)))).max()), 1e-300)
+    worst, t_worst = float(vals.min()), float(t[int(np.argmin(vals))])
+    for i in range(1, n):
+        # strict on one side at least: a constant stretch (a frozen shape) has nothing to refine
+        if vals[i] <= min(vals[i - 1], vals[i + 1]) and vals[i] < max(vals[i - 1], vals[i + 1]):
+            res = minimize_scalar(lambda s: float(lam(s)[0]), bounds=(t[i - 1], t[i + 1]), method="bounded",
+                                  options={"xatol": 1e-13 * max(T, 1.0)})
+            if res.fun < worst:
+                worst, t_worst = float(res.fun), float(res.x)
+    if worst <= 1e-10 * scale:
+        raise SingularityError(
+            f"The locked inertia of {model.name} is singular on the gait at t = {t_worst:.6g}, r = "
+            f"{np.round(loop.r(t_worst), 6).tolist()} (smallest eigenvalue {worst:.3g}, largest on the loop "
+            f"{scale:.3g}): I^-1 p is undefined there; keep the gait away from it.")
+    A = model.connection(loop.r(t))
+    if not np.all(np.isfinite(A)):
+        i = int(np.argmax(~np.all(np.isfinite(A), axis=(-2, -1))))
+        raise SingularityError(f"The nonholonomic connection of {model.name} is not finite at r = "
+                               f"{np.round(loop.r(t[i]), 6).tolist()} on the gait.")
+
+
+# ---------------------------------------------------------------------------------------------------
+# The analysis
+# ---------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class GaitAnalysis:
+    """The motion of a nonholonomic system along ``periods`` periods of a gait, and its parts.
+
+    Attributes
+    ----------
+    model : GaitModel
+    loop : ShapeLoop
+    periods : int
+    t : (n,) times, ``samples_per_period`` per period, the period boundaries among them.
+    r, rdot : (n, sigma) shapes and shape velocities.
+    p : (n, m) nonholonomic momentum (eq. 1.2 integrated along the gait).
+    xi_connection, xi_momentum : (n, k) the two terms of the body velocity (eq. 1.1); ``xi`` their sum.
+    path : GroupPath of :math:`g(t)` (eq. 1.1 integrated on the group).
+    alone : ``{"connection": GroupPath, "momentum": GroupPath}``, each term integrated by itself from ``g0``.
+    winding : whole turns of the loop in its angle coordinates.
+    """
+
+    model: GaitModel = field(repr=False)
+    loop: ShapeLoop = field(repr=False)
+    periods: int
+    t: np.ndarray = field(repr=False)
+    r: np.ndarray = field(repr=False)
+    rdot: np.ndarray = field(repr=False)
+    p: np.ndarray = field(repr=False)
+    xi_connection: np.ndarray = field(repr=False)
+    xi_momentum: np.ndarray = field(repr=False)
+    path: GroupPath = field(repr=False)
+    alone: dict[str, GroupPath] = field(repr=False)
+    winding: tuple[int, ...] = ()
+    momentum_nfev: int = 0
+
+    @property
+    def system(self) -> Any:
+        return self.model.system
+
+    @property
+    def period(self) -> float:
+        return self.loop.period
+
+    @property
+    def xi(self) -> np.ndarray:
+        return self.xi_connection + self.xi_momentum
+
+    @property
+    def boundary_indices(self) -> np.ndarray:
+        """Indices of the times :math:`0, T, \\dots, NT` in ``t``."""
+        step = (self.t.size - 1) // self.periods
+        return np.arange(self.periods + 1) * step
+
+    def _path(self, part: str) -> GroupPath:
+        if part == "total":
+            return self.path
+        if part not in self.alone:
+            raise InputError(f"Expected `part` to be 'total', 'connection' or 'momentum', got {part!r}.")
+        return self.alone[part]
+
+    def displacement(self, periods: int | None = None, *, part: str = "total", start: int = 0) -> np.ndarray:
+        """:math:`g(t_0)^{-1}g(t_0 + nT)`, :math:`t_0` the start of period ``start``, ``n = periods`` (default
+        all the rest): the net motion in the body frame at :math:`t_0`, as a group element."""
+        path = self._path(part)
+        idx = self.boundary_indices
+        n = self.periods - start if periods is None else int(periods)
+        if not (0 <= start and 0 <= n and start + n <= self.periods):
+            raise InputError(f"Expected 0 <= start and start + periods <= {self.periods}, got start = {start}, "
+                             f"periods = {n}.")
+        G = self.model.group
+        return G.compose(G.inverse(path.g[idx[start]]), path.g[idx[start + n]])
+
+    def displacement_coordinates(self, periods: int | None = None, *, part: str = "total",
+                                 start: int = 0) -> np.ndarray:
+        """:meth:`displacement` in coordinates: SE(2) ``(dx, dy, dtheta)`` with ``dtheta`` unwrapped (the turn
+        accumulated on the universal cover), S^1 the unwrapped angle, SO(3) the rotation vector (log)."""
+        G = self.model.group
+        path = self._path(part)
+        idx = self.boundary_indices
+        n = self.periods - start if periods is None else int(periods)
+        d = self.displacement(n, part=part, start=start)
+        if G.name == "SE2":
+            return np.array([d[0, 2], d[1, 2], path.angle[idx[start + n]] - path.angle[idx[start]]])
+        if G.name == "S1":
+            return np.asarray(d, dtype=float).reshape(1)
+        from ..lie import so3
+
+        return so3.log(d)
+
+    @property
+    def net_displacement(self) -> np.ndarray:
+        """:meth:`displacement_coordinates` over all the periods."""
+        return self.displacement_coordinates()
+
+    def per_period(self, part: str = "total") -> np.ndarray:
+        """``(periods, k)``: the displacement of each period in the body frame at its start. For a gait whose
+        momentum changes from period to period these differ; they are equal when :math:`p` returns."""
+        return np.array([self.displacement_coordinates(1, part=part, start=j) for j in range(self.periods)])
+
+    @property
+    def momentum_change(self) -> np.ndarray:
+        """``(periods, m)``: :math:`p((j+1)T) - p(jT)` for each period."""
+        return np.diff(self.p[self.boundary_indices], axis=0)
+
+    @property
+    def coordinate_names(self) -> tuple[str, ...]:
+        G = self.model.group
+        if G.name == "SO3":
+            return ("rotation_vector_1", "rotation_vector_2", "rotation_vector_3")
+        return tuple(c.name for c in self.system.group.coordinates)
+
+    def summary(self) -> dict[str, Any]:
+        """A JSON-ready summary (numbers as floats and lists)."""
+        names = self.coordinate_names
+
+        def named(v: np.ndarray) -> dict[str, float]:
+            return {n: float(x) for n, x in zip(names, v)}
+
+        idx = self.boundary_indices
+        return {
+            "system": self.system.name,
+            "group": self.system.group.name,
+            "shape": [s.name for s in self.system.shape],
+            "loop": (None if self.loop.expressions is None else
+                     {n: str(e) for n, e in zip([s.name for s in self.system.shape], self.loop.expressions)}),
+            "period": self.period,
+            "periods": self.periods,
+            "winding": list(self.winding),
+            "p0": self.p[0].tolist(),
+            "momentum_basis": self.model.reduction.normalization,
+            "net_displacement": named(self.net_displacement),
+            "displacement_per_period": [named(v) for v in self.per_period()],
+            "connection_alone": named(self.displacement_coordinates(part="connection")),
+            "momentum_alone": named(self.displacement_coordinates(part="momentum")),
+            "connection_alone_per_period": [named(v) for v in self.per_period("connection")],
+            "momentum_at_period_starts": self.p[idx].tolist(),
+            "momentum_change_per_period": self.momentum_change.tolist(),
+            "displacement_frame": "body frame at the start: g(t0)^-1 g(t0 + n T)",
+            "angles_unwrapped": self.model.group.name != "SO3",
+            "note": _NOTE,
+            "integrator": {"group": self.path.method, "steps": int(self.path.steps), "nfev": int(self.path.nfev),
+                           "momentum_nfev": int(self.momentum_nfev)},
+        }
+
+    def to_dataset(self) -> Any:
+        """The time series as an :class:`xarray.Dataset` (write it with ``.to_netcdf(path)``)."""
+        import xarray as xr
+
+        s = self.system
+        alg = [f"xi{a + 1}" for a in range(self.model.k)]
+        coords = {"t": self.t, "shape": [r.name for r in s.shape], "algebra": alg,
+                  "momentum": [f"p{i + 1}" for i in range(self.model.m)], "coordinate": list(self.coordinate_names)}
+
+        def gcoords(path: GroupPath) -> np.ndarray:
+            G = self.model.group
+            if G.name == "SO3":
+                from ..lie import so3
+
+                return so3.log(G.compose(G.inverse(path.g[0])[None], path.g))
+            return path.coordinates
+
+        data = {
+            "r": (("t", "shape"), self.r), "rdot": (("t", "shape"), self.rdot), "p": (("t", "momentum"), self.p),
+            "xi": (("t", "algebra"), self.xi), "xi_connection": (("t", "algebra"), self.xi_connection),
+            "xi_momentum": (("t", "algebra"), self.xi_momentum), "g": (("t", "coordinate"), gcoords(self.path)),
+            "g_connection_alone": (("t", "coordinate"), gcoords(self.alone["connection"])),
+            "g_momentum_alone": (("t", "coordinate"), gcoords(self.alone["momentum"])),
+        }
+        attrs = {"system": s.name, "group": s.group.name, "period": self.period, "periods": self.periods,
+                 "note": _NOTE, "g_convention": ("SE(2): x, y and the unwrapped heading; S^1: unwrapped angle; "
+                                                 "SO(3): rotation vector of g(0)^-1 g(t)")}
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _element0(model: GaitModel, g0: Any) -> np.ndarray:
+    names = [c.name for c in model.system.group.coordinates]
+    if g0 is None:
+        vals = np.array([float(v) for v in model.system.group.identity])
+    elif isinstance(g0, Mapping):
+        unknown = sorted(set(map(str, g0)) - set(names))
+        if unknown:
+            raise InputError(f"`g0` names {unknown}, which are not group coordinates of {model.name} ({names}).")
+        vals = np.array([float(g0.get(n, v)) for n, v in zip(names, model.system.group.identity)])
+    else:
+        vals = V.finite(g0, "g0").reshape(-1)
+        if vals.size != len(names):
+            raise ShapeError(f"Expected `g0` with {len(names)} group coordinates ({', '.join(names)}), "
+                             f"got {vals.size}.")
+    return model.element(vals)
+
+
+def analyse_gait(system: Any, loop: Any, *, period: float | None = None, periods: int = 1, p0: Any = None,
+                 g0: Any = None, parameters: Mapping[str, float] | None = None, basis: Any = None,
+                 samples_per_period: int = 201, rtol: float = 1e-12, atol: float = 1e-12) -> GaitAnalysis:
+    r"""Integrate a nonholonomic system along ``periods`` periods of a prescribed gait and split its motion.
+
+    Steps: (1) the momentum equation (1.2) along :math:`r(t)` from :math:`p(0) = p_0` (scipy's DOP853,
+    dense output); (2) :math:`g^{-1}\dot g = -\mathcal A^{nh}(r)\dot r + e(r)\mathbb I^{-1}(r)p` (eq. 1.1) on
+    the group by Runge-Kutta-Munthe-Kaas (:func:`~geomech.analysis.phases.integrate_on_group`), together
+    with each term alone (:func:`~geomech.analysis.phases.decompose_displacement`). The alone-displacements
+    do not add (nor compose) to the net one on a non-abelian group, and are not a geometric/dynamic phase
+    split: see the module docstring.
+
+    Parameters
+    ----------
+    system : NonholonomicSystem
+        Its group must be SE(2), SO(3) or S^1.
+    loop : ShapeLoop or mapping
+        The gait: a closed loop in shape space (angle coordinates may wind by whole turns), or formulas in
+        ``t`` (and ``T``) for every shape variable, with ``period``.
+    periods : int
+        Number of periods to integrate.
+    p0 : (m,) array, optional
+        Initial nonholonomic momentum in the reduction's basis (default 0).
+    g0 : mapping or (k,) array, optional
+        Initial group coordinates (default the identity); the displacements do not depend on it.
+    parameters : mapping, optional
+        Parameter values not stored in the system.
+    samples_per_period : int
+        Output times per period (the integrators choose their own steps).
+
+    Raises
+    ------
+    ShapeError
+        The loop has the wrong dimension or wrong coordinate names, ``p0`` the wrong size.
+    InputError
+        The loop is not closed, or names an unknown shape variable.
+    SingularityError
+        The locked inertia is singular (or the connection infinite) somewhere on the loop.
+    """
+    model = system if isinstance(system, GaitModel) else GaitModel(system, parameters, basis)
+    s = model.system
+    loop = gait_loop(s, loop, period, parameters=parameters)
+    winding = bind_loop(model, loop)
+    _check_regular(model, loop)
+    periods = int(periods)
+    if periods < 1:
+        raise InputError(f"Expected `periods` to be a positive integer, got {periods}.")
+    samples = int(samples_per_period)
+    if samples < 3:
+        raise InputError(f"Expected `samples_per_period` >= 3, got {samples}.")
+    T = loop.period
+    t_eval = np.linspace(0.0, periods * T, periods * (samples - 1) + 1)
+    m = model.m
+    if p0 is None:
+        p_init = np.zeros(m)
+    else:
+        p_init = V.finite(np.atleast_1d(p0), "p0").reshape(-1)
+        if p_init.size != m:
+            raise ShapeError(f"Expected `p0` with {m} component(s) (dim S_q of {s.name}, basis: "
+                             f"{model.reduction.normalization}), got {p_init.size}.")
+    nfev = 0
+    if m:
+        def rhs(t: float, p: np.ndarray) -> np.ndarray:
+            return model.pdot(loop.r(t), loop.rdot(t), p)
+
+        sol = solve_ivp(rhs, (0.0, t_eval[-1]), p_init, method="DOP853", rtol=rtol, atol=atol, dense_output=True,
+                        t_eval=t_eval)
+        if sol.status != 0 or not np.all(np.isfinite(sol.y)):
+            raise NumericalError(f"The momentum equation (1.2) of {s.name} along the gait failed at t = "
+                                 f"{sol.t[-1]:.6g}: {sol.message}")
+        nfev = int(sol.nfev)
+        p_of_t, P = sol.sol, sol.y.T
+    else:
+        def p_of_t(t: float) -> np.ndarray:
+            return np.zeros(0)
+
+        P = np.zeros((t_eval.size, 0))
+
+    def xi_conn(t: float, g: np.ndarray) -> np.ndarray:
+        return model.xi_connection(loop.r(t), loop.rdot(t))
+
+    def xi_mom(t: float, g: np.ndarray) -> np.ndarray:
+        return model.xi_momentum(loop.r(t), p_of_t(t))
+
+    parts = decompose_displacement(model.group, {"connection": xi_conn, "momentum": xi_mom}, _element0(model, g0),
+                                   t_eval, rtol=rtol, atol=atol)
+    path = parts.pop("total")
+    r, rd = loop.r(t_eval), loop.rdot(t_eval)
+    out = GaitAnalysis(model, loop, periods, t_eval, r, rd, P, model.xi_connection(r, rd), model.xi_momentum(r, P),
+                       path, parts, tuple(int(w) for w in winding), nfev)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------
+# Geometric integrals of the connection
+# ---------------------------------------------------------------------------------------------------
+def _model(system: Any, parameters: Mapping[str, float] | None) -> GaitModel:
+    return system if isinstance(system, GaitModel) else GaitModel(system, parameters)
+
+
+def connection_line_integral(system: Any, loop: Any, *, period: float | None = None,
+                             parameters: Mapping[str, float] | None = None, rtol: float = 1e-13) -> np.ndarray:
+    r""":math:`-\oint\mathcal A^{nh}(r)\,dr`, shape ``(k,)``.
+
+    Its abelian components are displacements: for SE(2) the rotation (index 2), equal to the turn of the
+    connection-alone path whatever the loop's timing; the translational components are not (the
+    connection-alone path must be integrated on the group, :func:`analyse_gait`).
+    """
+    model = _model(system, parameters)
+    loop = gait_loop(model.system, loop, period, parameters=parameters)
+    bind_loop(model, loop)
+
+    def integrand(t: np.ndarray) -> np.ndarray:
+        return model.xi_connection(loop.r(t), loop.rdot(t))
+
+    return _periodic_integral(integrand, loop.period, rtol=rtol, what="connection")
+
+
+def gait_curvature_integral(system: Any, loop: Any, *, period: float | None = None,
+                            parameters: Mapping[str, float] | None = None, base_point: Any = None,
+                            n_radial: int = 24, rtol: float = 1e-12) -> np.ndarray:
+    r""":math:`\iint_D B_{12}\,dr_1\,dr_2` of the nonholonomic connection's curvature (BKMM,
+    :math:`B = d\mathcal A - [\mathcal A, \mathcal A]`) over the region a loop in a 2-D shape space encloses,
+    weighted by its winding number; shape ``(k,)``.
+
+    Its rotation component (SE(2)) is exactly :math:`\oint\mathcal A_\theta\,dr` (Stokes, the bracket has no
+    rotation part), so minus it is the connection-alone turn; for a small loop around :math:`r_0` the
+    whole connection-alone displacement is :math:`\exp(-\iint B) + O(\varepsilon^3)`. Computed as in
+    :func:`~geomech.analysis.phases.curvature_integral`: the pull-back of :math:`B` by the cone
+    :math:`(s, t)\mapsto c + s(r(t) - c)`, Gauss-Legendre in ``s``, trapezoidal in ``t``.
+    """
+    model = _model(system, parameters)
+    if model.sigma != 2:
+        raise ShapeError(f"Expected a 2-D shape space for the curvature integral, {model.name} has {model.sigma} "
+                         "shape variables.")
+    loop = gait_loop(model.system, loop, period, parameters=parameters)
+    turns = bind_loop(model, loop)
+    if np.any(turns != 0):
+        raise InputError(f"The loop winds {turns.tolist()} times around the angle coordinates: it bounds no region "
+                         "of shape space, so Stokes' theorem does not apply.")
+    T = loop.period
+    c = (loop.r(np.linspace(0, T, 257)[:-1]).mean(0) if base_point is None
+         else V.exact_shape(base_point, "base_point", (2,)))
+    prev = None
+    for nr in (n_radial, 2 * n_radial):
+        s, w = np.polynomial.legendre.leggauss(nr)
+        s, w = 0.5 * (s + 1.0), 0.5 * w
+
+        def integrand(t: np.ndarray, s=s, w=w) -> np.ndarray:
+            d = loop.r(t) - c
+            rd = loop.rdot(t)
+            jac = d[:, 0] * rd[:, 1] - d[:, 1] * rd[:, 0]
+            B = model.curvature(c + s[None, :, None] * d[:, None, :])[..., 0, 1]
+            return np.einsum("mrk,r,m->mk", B, w * s, jac)
+
+        val = _periodic_integral(integrand, T, rtol=rtol, what="curvature")
+        if prev is not None and np.abs(val - prev).max() <= 1e-11 * max(1.0, np.abs(val).max()):
+            return val
+        prev = val
+    raise ConvergenceError("The radial Gauss-Legendre rule for the curvature integral did not converge; the "
+                           "curvature may be singular inside the loop.")
