@@ -28,6 +28,7 @@ from .nonholonomic import (
     simulate_full,
     simulate_reduced,
 )
+from .periodic import PeriodicOrbitPropagator
 from .quadrature import CriticalPoint, OrbitIntegral, QuadraturePropagator, SerretAndoyerPropagator
 from .solution import Failure, Solution
 from .solve import compatible_methods, solve
@@ -50,6 +51,7 @@ __all__ = [
     "MoserVeselov",
     "NonholonomicTrajectory",
     "OrbitIntegral",
+    "PeriodicOrbitPropagator",
     "QuadraturePropagator",
     "SerretAndoyerPropagator",
     "Solution",

@@ -3,6 +3,8 @@
 See ``_k_common.py`` for the template mechanism and the common loop signature.
 """
 
+import math
+
 import numpy as np
 
 # >>> template preamble (removed when compiled)
@@ -93,3 +95,261 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
             if isave < 0:
                 break
         INFO[b, 4] = nrhs
+
+
+# -- periodic orbits: one period by an embedded Runge-Kutta pair of order 8(5,3) -------------------------
+# The tableau (A, B) and the error weights (E5, E3, on the 12 stages and f at the new point) come in as
+# arrays: Dormand & Prince's DOP853 (Hairer, Norsett & Wanner, Solving ODEs I, II.10).
+
+
+@kernel
+def erk_stages(y, h, A, K, tmp, ns):
+    """Stages 1..ns-1 of an explicit Runge-Kutta step of size h from y (K[0] holds f(y))."""
+    d = y.shape[0]
+    for s in range(1, ns):
+        for i in range(d):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            tmp[i] = y[i] + h * acc
+        rhs(tmp, K[s])
+
+
+@kernel
+def erk_increment(h, B, K, ns, i):
+    acc = 0.0
+    for j in range(ns):
+        acc += B[j] * K[j, i]
+    return h * acc
+
+
+@kernel
+def section_value(f0, y, y0, shift, w):
+    """g_w(y) = f(y0) . (y - y0 - w shift): the section through y0 (shifted by w angle periods) normal to
+    the flow at y0; the orbit crosses it increasingly at its return."""
+    g = 0.0
+    for i in range(y.shape[0]):
+        g += f0[i] * (y[i] - y0[i] - w * shift[i])
+    return g
+
+
+@kernel
+def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
+    """Integrate y' = f(y) from y0 until the first return to y0 (to y0 + w shift, w = +-1, for a rotation
+    of an angle coordinate), adaptive steps of the 8th-order solution, errors estimated as DOP853 does.
+
+    The accepted mesh (TM[k], YM[k]) is kept: the state at any time in [0, T) is then one Runge-Kutta
+    step from a mesh point. The return time is the root of the section function on the last step, found
+    by Newton's method in the step size (each iterate one Runge-Kutta step). Time and state are summed
+    with compensation (Kahan), so that round-off stays at a few ulps over the period.
+
+    INFO: status (0 returned, 1 step budget spent, 2 non-finite or p left (lo, hi), 3 step size
+    underflow), mesh points, period, winding, local error estimates summed and divided by |f(y0)| (a
+    bound on the error of the period), evaluations of f,
+    min and max of |f| along the orbit, the index of the mesh point where |f| is smallest.
+    """
+    d = y0.shape[0]
+    ns = 12
+    K = np.empty((ns + 1, d))
+    y = np.empty(d)
+    ynew = np.empty(d)
+    comp = np.empty(d)
+    dy = np.empty(d)
+    tmp = np.empty(d)
+    f0 = np.empty(d)
+    z = np.empty(d)
+    fz = np.empty(d)
+    for i in range(d):
+        y[i] = y0[i]
+        comp[i] = 0.0
+        YM[0, i] = y0[i]
+    TM[0] = 0.0
+    rhs(y, f0)
+    for i in range(d):
+        K[0, i] = f0[i]
+    nfev = 1
+    INFO[0] = 0.0
+    for j in range(INFO.shape[0]):
+        INFO[j] = 0.0
+    f00 = 0.0
+    for i in range(d):
+        f00 += f0[i] * f0[i]
+    fmin = math.sqrt(f00)
+    fmax = fmin
+    imin = 0
+    if not (f00 > 0.0) or not math.isfinite(f00):
+        INFO[0] = 3.0
+        INFO[5] = nfev
+        return
+    # initial step (Hairer, Norsett & Wanner II.4): a first-order guess, then the order-8 rule
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(d):
+        sc = tol + tol * abs(y0[i])
+        d0 += (y0[i] / sc) ** 2
+        d1 += (f0[i] / sc) ** 2
+    d0 = math.sqrt(d0 / d)
+    d1 = math.sqrt(d1 / d)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    for i in range(d):
+        tmp[i] = y0[i] + h0 * f0[i]
+    rhs(tmp, fz)
+    nfev += 1
+    d2 = 0.0
+    for i in range(d):
+        sc = tol + tol * abs(y0[i])
+        d2 += ((fz[i] - f0[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / d) / h0
+    if max(d1, d2) <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    h = min(100.0 * h0, h1)
+    t = 0.0
+    tcomp = 0.0
+    errsum = 0.0
+    k = 0
+    periodic = shift[0] != 0.0 or (d > 1 and shift[1] != 0.0)
+    while True:
+        if k >= max_steps:
+            INFO[0] = 1.0
+            break
+        erk_stages(y, h, A, K, tmp, ns)
+        for i in range(d):
+            dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
+            ynew[i] = y[i] + dy[i]
+        rhs(ynew, K[ns])
+        nfev += ns
+        err5 = 0.0
+        err3 = 0.0
+        ok = True
+        for i in range(d):
+            sc = tol + tol * max(abs(y[i]), abs(ynew[i]))
+            e5 = 0.0
+            e3 = 0.0
+            for j in range(ns + 1):
+                e5 += E5[j] * K[j, i]
+                e3 += E3[j] * K[j, i]
+            err5 += (e5 / sc) ** 2
+            err3 += (e3 / sc) ** 2
+            if not math.isfinite(ynew[i]):
+                ok = False
+        if not ok:
+            h *= 0.25
+            if h < 1e-14 * max(1.0, t):
+                INFO[0] = 2.0
+                break
+            continue
+        if err5 == 0.0 and err3 == 0.0:
+            err = 0.0
+        else:
+            err = abs(h) * err5 / math.sqrt((err5 + 0.01 * err3) * d)
+        if err > 1.0:
+            h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
+            if h < 1e-14 * max(1.0, t):
+                INFO[0] = 3.0
+                break
+            continue
+        if d > 1 and not (lo < ynew[d - 1] < hi):
+            INFO[0] = 2.0
+            break
+        errsum += err * tol
+        # the return: the section about the nearest copy of y0 is crossed upwards near it
+        w = 0.0
+        if periodic:
+            w = float(round((ynew[0] - y0[0]) / shift[0])) if shift[0] != 0.0 else 0.0
+            w = max(-1.0, min(1.0, w))
+        ga = section_value(f0, y, y0, shift, w)
+        gb = section_value(f0, ynew, y0, shift, w)
+        found = False
+        if ga < 0.0 <= gb and (k > 0 or w != 0.0):
+            chord = 0.0
+            da = 0.0
+            db = 0.0
+            for i in range(d):
+                chord += (ynew[i] - y[i]) ** 2
+                da += (y[i] - y0[i] - w * shift[i]) ** 2
+                db += (ynew[i] - y0[i] - w * shift[i]) ** 2
+            if da <= 4.0 * chord and db <= 4.0 * chord:
+                tau = h * (-ga) / (gb - ga)
+                for _newton in range(8):
+                    erk_stages(y, tau, A, K, tmp, ns)
+                    for i in range(d):
+                        z[i] = y[i] + (erk_increment(tau, B, K, ns, i) + comp[i])
+                    rhs(z, fz)
+                    nfev += ns
+                    gz = section_value(f0, z, y0, shift, w)
+                    slope = 0.0
+                    for i in range(d):
+                        slope += f0[i] * fz[i]
+                    dtau = -gz / slope
+                    tau += dtau
+                    if abs(dtau) <= 4e-16 * (t + tau):
+                        break
+                dist = 0.0
+                for i in range(d):
+                    dist += (z[i] - y0[i] - w * shift[i]) ** 2
+                if dist <= 1e-12 * chord:
+                    found = True
+                    INFO[2] = t + (tau + tcomp)
+                    INFO[3] = w
+                    k += 1
+                    TM[k] = INFO[2]
+                    for i in range(d):
+                        YM[k, i] = z[i]
+                    break
+                # else a crossing away from y0 (the curve is not convex): accept the step and go on
+        if found:
+            break
+        # accept: compensated sums of time and state
+        dt = h + tcomp
+        tn = t + dt
+        tcomp = (t - tn) + dt
+        t = tn
+        for i in range(d):
+            comp[i] = (y[i] - ynew[i]) + dy[i]
+            y[i] = ynew[i]
+        k += 1
+        TM[k] = t
+        fn = 0.0
+        for i in range(d):
+            YM[k, i] = y[i]
+            K[0, i] = K[ns, i]
+            fn += K[ns, i] * K[ns, i]
+        fn = math.sqrt(fn)
+        if fn < fmin:
+            fmin = fn
+            imin = k
+        fmax = max(fmax, fn)
+        h *= min(10.0, 0.9 * err ** (-1.0 / 8.0)) if err > 0.0 else 10.0
+    INFO[1] = k + 1
+    INFO[4] = errsum / math.sqrt(f00)
+    INFO[5] = nfev
+    INFO[6] = fmin
+    INFO[7] = fmax
+    INFO[8] = imin
+
+
+@kernel
+def orbit_states(YM, TM, idx, tau, A, B, OUT):
+    """OUT[j] = one Runge-Kutta step of size tau[j] from the mesh point idx[j] (dense output)."""
+    d = YM.shape[1]
+    ns = 12
+    K = np.empty((ns + 1, d))
+    y = np.empty(d)
+    tmp = np.empty(d)
+    last = -1
+    for j in range(idx.shape[0]):
+        m = idx[j]
+        if m != last:
+            for i in range(d):
+                y[i] = YM[m, i]
+            rhs(y, K[0])
+            last = m
+        if tau[j] == 0.0:
+            for i in range(d):
+                OUT[j, i] = y[i]
+            continue
+        erk_stages(y, tau[j], A, K, tmp, ns)
+        for i in range(d):
+            OUT[j, i] = y[i] + erk_increment(tau[j], B, K, ns, i)

@@ -89,19 +89,22 @@ def axis_flow(y, axis, tau, attitude):
 @kernel
 def flow_block(A, axis, tau, n, T):
     """axis_flow for the momenta of a block of trajectories, A of shape (3, K) (structure of arrays):
-    simple loops over contiguous lanes, which LLVM vectorises."""
+    simple loops over contiguous lanes, which LLVM vectorises. The angles and their maximum come in one
+    pass; f_i' is a scalar call per lane (libm's tan, for the closed loop, is most of the cost: numba has
+    no vector math library without SVML)."""
+    tmax = 0.0
     if axis == 0:
         for q in range(n):
             T[q] = tau * dh0(A[0, q])
+            tmax = max(tmax, abs(T[q]))
     elif axis == 1:
         for q in range(n):
             T[q] = tau * dh1(A[1, q])
+            tmax = max(tmax, abs(T[q]))
     else:
         for q in range(n):
             T[q] = tau * dh2(A[2, q])
-    tmax = 0.0
-    for q in range(n):
-        tmax = max(tmax, abs(T[q]))
+            tmax = max(tmax, abs(T[q]))
     j = (axis + 1) % 3
     k = (axis + 2) % 3
     if tmax <= 0.1:
