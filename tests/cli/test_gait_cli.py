@@ -87,7 +87,7 @@ def test_unknown_model_and_missing_parameters(capsys):
     code, _, err = run(capsys, "no_such_board", *DRIVE, "--period", "1")
     assert code == 2 and "Unknown MODEL" in err and err.count("\n") == 1
     code, _, err = run(capsys, "snakeboard_bkmm", *DRIVE, "--period", "1")
-    assert code == 2 and "no value for parameter" in err and err.count("\n") == 1
+    assert code == 2 and "--param J0=VALUE" in err and err.count("\n") == 1
 
 
 def test_command_object():

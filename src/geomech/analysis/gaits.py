@@ -42,9 +42,9 @@ from scipy.optimize import minimize_scalar
 
 from .. import _validate as V
 from .._symbolic import compile_vector
-from ..errors import ConvergenceError, InputError, NumericalError, ShapeError, SingularityError
+from ..errors import InputError, NumericalError, ShapeError, SingularityError
 from ..reduction.nonholonomic_symbolic import stack_last
-from .phases import GroupPath, ShapeLoop, _periodic_integral, bind_loop, decompose_displacement
+from .phases import GroupPath, ShapeLoop, _periodic_integral, bind_loop, decompose_displacement, stokes_integral
 
 __all__ = [
     "GaitAnalysis",
@@ -603,28 +603,5 @@ def gait_curvature_integral(system: Any, loop: Any, *, period: float | None = No
         raise ShapeError(f"Expected a 2-D shape space for the curvature integral, {model.name} has {model.sigma} "
                          "shape variables.")
     loop = gait_loop(model.system, loop, period, parameters=parameters)
-    turns = bind_loop(model, loop)
-    if np.any(turns != 0):
-        raise InputError(f"The loop winds {turns.tolist()} times around the angle coordinates: it bounds no region "
-                         "of shape space, so Stokes' theorem does not apply.")
-    T = loop.period
-    c = (loop.r(np.linspace(0, T, 257)[:-1]).mean(0) if base_point is None
-         else V.exact_shape(base_point, "base_point", (2,)))
-    prev = None
-    for nr in (n_radial, 2 * n_radial):
-        s, w = np.polynomial.legendre.leggauss(nr)
-        s, w = 0.5 * (s + 1.0), 0.5 * w
-
-        def integrand(t: np.ndarray, s=s, w=w) -> np.ndarray:
-            d = loop.r(t) - c
-            rd = loop.rdot(t)
-            jac = d[:, 0] * rd[:, 1] - d[:, 1] * rd[:, 0]
-            B = model.curvature(c + s[None, :, None] * d[:, None, :])[..., 0, 1]
-            return np.einsum("mrk,r,m->mk", B, w * s, jac)
-
-        val = _periodic_integral(integrand, T, rtol=rtol, what="curvature")
-        if prev is not None and np.abs(val - prev).max() <= 1e-11 * max(1.0, np.abs(val).max()):
-            return val
-        prev = val
-    raise ConvergenceError("The radial Gauss-Legendre rule for the curvature integral did not converge; the "
-                           "curvature may be singular inside the loop.")
+    return stokes_integral(lambda pts: model.curvature(pts)[..., 0, 1], loop, bind_loop(model, loop),
+                           base_point=base_point, rtol=rtol, n_radial=n_radial)

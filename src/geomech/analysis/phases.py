@@ -405,10 +405,23 @@ def curvature_integral(system: Any, loop: ShapeLoop, *, base_point: Any = None, 
     if system.shape_dim != 2:
         raise ShapeError(f"Expected a 2-D shape space for the curvature integral, {system.name} has "
                          f"{system.shape_dim} shape coordinates.")
-    turns = bind_loop(system, loop)
+    return stokes_integral(conn.curvature_2d, loop, bind_loop(system, loop), base_point=base_point, rtol=rtol,
+                           n_radial=n_radial)
+
+
+def stokes_integral(curvature_2d: Callable[[np.ndarray], np.ndarray], loop: ShapeLoop, turns: np.ndarray, *,
+                    base_point: Any = None, rtol: float = 1e-12, n_radial: int = 24) -> np.ndarray:
+    r""":math:`\iint_D B_{12}\,dr_1 dr_2` over the region a loop in a 2-D shape space encloses, weighted by its
+    winding number, for a curvature given as ``curvature_2d(points (..., 2)) -> (..., k)``.
+
+    The integral of the pull-back of :math:`B` by the cone :math:`(s, t) \mapsto c + s\,(r(t) - c)`, whose
+    boundary is the loop: Gauss-Legendre in ``s`` (doubled until two rules agree), trapezoidal in ``t``.
+    ``turns`` are the loop's windings around angle coordinates (from :func:`bind_loop`): a loop that winds
+    bounds no region.
+    """
     if np.any(turns != 0):
-        raise InputError(f"The loop winds {turns.tolist()} times around the angle coordinates: it bounds no "
-                         "region of shape space, so Stokes' theorem does not apply.")
+        raise InputError(f"The loop winds {np.asarray(turns).tolist()} times around the angle coordinates: it "
+                         "bounds no region of shape space, so Stokes' theorem does not apply.")
     T = loop.period
     c = (loop.r(np.linspace(0, T, 257)[:-1]).mean(0) if base_point is None
          else V.exact_shape(base_point, "base_point", (2,)))
@@ -419,9 +432,9 @@ def curvature_integral(system: Any, loop: ShapeLoop, *, base_point: Any = None, 
 
         def integrand(t: np.ndarray, s=s, w=w) -> np.ndarray:
             d = loop.r(t) - c
-            jac = d[:, 0] * loop.rdot(t)[:, 1] - d[:, 1] * loop.rdot(t)[:, 0]
-            pts = c + s[None, :, None] * d[:, None, :]
-            B = conn.curvature_2d(pts)  # (m, nr, k)
+            rd = loop.rdot(t)
+            jac = d[:, 0] * rd[:, 1] - d[:, 1] * rd[:, 0]
+            B = curvature_2d(c + s[None, :, None] * d[:, None, :])  # (m, nr, k)
             return np.einsum("mrk,r,m->mk", B, w * s, jac)
 
         val = _periodic_integral(integrand, T, rtol=rtol, what="curvature")

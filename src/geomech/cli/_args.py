@@ -72,3 +72,26 @@ def parse_params(items: Sequence[str], option: str = "--param") -> dict[str, flo
         except ValueError:
             raise click.BadParameter(f"{name.strip()} = {val!r} is not a number", param_hint=f"'{option}'") from None
     return values
+
+
+def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, owner: str) -> dict[str, str]:
+    """``NAME=EXPR`` items, one for each shape variable in ``names`` (in that order); bad or missing ones
+    are an error naming ``option`` and the variables ``owner`` has."""
+    from ..errors import InputError, ShapeError
+
+    given: dict[str, str] = {}
+    for item in items:
+        name, sep, expr = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not expr.strip():
+            raise InputError(f"Expected `{option}` as NAME=EXPR, got {item!r}.")
+        if name not in names:
+            raise InputError(f"`{option}` names {name!r}, which is not a shape variable of {owner} "
+                             f"({', '.join(names) or 'none'}).")
+        if name in given:
+            raise InputError(f"`{option}` gives {name!r} twice.")
+        given[name] = expr.strip()
+    if len(given) != len(names):
+        raise ShapeError(f"Expected one `{option}` for each of the {len(names)} shape variables "
+                         f"({', '.join(names)}) of {owner}, got {len(given)} ({', '.join(given) or 'none'}).")
+    return {n: given[n] for n in names}

@@ -18,8 +18,8 @@ from typing import Any
 
 import click
 
-from ..errors import InputError, ShapeError
-from ._args import FloatVector, parse_params
+from ..errors import InputError
+from ._args import FloatVector, parse_params, parse_shape_loop
 
 __all__ = ["gait_cmd"]
 
@@ -40,23 +40,7 @@ def _system(model: str, params: dict[str, float]) -> Any:
 
 
 def _shape_loop(system: Any, items: tuple[str, ...]) -> dict[str, str]:
-    names = [r.name for r in system.shape]
-    given: dict[str, str] = {}
-    for item in items:
-        name, sep, expr = item.partition("=")
-        name = name.strip()
-        if not sep or not name or not expr.strip():
-            raise InputError(f"Expected `--shape-loop` as NAME=EXPR, got {item!r}.")
-        if name not in names:
-            raise InputError(f"`--shape-loop` names {name!r}, which is not a shape variable of {system.name} "
-                             f"({', '.join(names) or 'none'}).")
-        if name in given:
-            raise InputError(f"`--shape-loop` gives {name!r} twice.")
-        given[name] = expr.strip()
-    if len(given) != len(names):
-        raise ShapeError(f"Expected one `--shape-loop` for each of the {len(names)} shape variables "
-                         f"({', '.join(names)}) of {system.name}, got {len(given)} ({', '.join(given) or 'none'}).")
-    return given
+    return parse_shape_loop(items, [r.name for r in system.shape], "--shape-loop", system.name)
 
 
 def _named(system: Any, items: tuple[str, ...], option: str) -> dict[str, float]:

@@ -197,9 +197,9 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, t_final, method
     from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
 
     system = _system(name, model, _pairs(params, "--param", True))
-    require_values(system)
     kw = dict(shapes=_pairs(shapes, "--shape", False), tau=_pairs(taus, "--tau", False),
               q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True))
+    require_values(system)
     if method == "discrete":
         traj = simulate_discrete(system, t_final, step, **kw)
     else:

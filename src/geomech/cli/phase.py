@@ -19,7 +19,7 @@ import click
 import numpy as np
 
 from ..errors import InputError
-from ._args import FloatVector
+from ._args import FloatVector, parse_shape_loop
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
 
@@ -202,19 +202,7 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple, as_json: bool,
         raise InputError(f"Expected `--period` to be positive, got {period}.")
     system = HOLONOMIC_MODELS[model][0]()
     names = [str(s) for s in system.shape_coordinates]
-    given: dict[str, str] = {}
-    for item in shapes:
-        name, sep, expr = item.partition("=")
-        name = name.strip()
-        if not sep or not name or not expr.strip():
-            raise InputError(f"Expected `--shape` as NAME=EXPR, got {item!r}.")
-        if name not in names:
-            raise InputError(f"`--shape` names {name!r}, which is not a shape coordinate of {model} "
-                             f"({', '.join(names)}).")
-        given[name] = expr
-    if len(given) != len(names):
-        raise InputError(f"Expected one `--shape` for each of the {len(names)} shape coordinates "
-                         f"({', '.join(names)}) of {model}, got {len(given)} ({', '.join(given) or 'none'}).")
+    given = parse_shape_loop(shapes, names, "--shape", model)
     loop = ShapeLoop.from_expressions({n: given[n] for n in names}, period, parameters={"T": period})
     mu_arr = np.asarray(mu, dtype=float)
     summary: dict[str, Any] = {"model": model, "shape": {n: given[n] for n in names}, "period": period,

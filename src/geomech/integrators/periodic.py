@@ -39,7 +39,7 @@ from .. import _validate as V
 from ..errors import InputError, SingularityError
 from ..systems.canonical import CanonicalSystem
 from ._problem import make_problem
-from .quadrature import QuadraturePropagator
+from .quadrature import QuadraturePropagator, one_dof_arguments
 
 __all__ = ["PeriodicOrbitPropagator", "dop853_tableau"]
 
@@ -141,18 +141,8 @@ class PeriodicOrbitPropagator:
         max_steps: int = 20_000,
         energy_tol: float | None = None,
     ):
-        if not isinstance(system, CanonicalSystem) or system.n != 1:
-            got = f"n = {system.n}" if isinstance(system, CanonicalSystem) else type(system).__name__
-            raise InputError(
-                f"Expected `system` to be a CanonicalSystem with one degree of freedom (n = 1), got {got}; "
-                "periodic propagation applies to 1-degree-of-freedom systems such as "
-                "GeneralizedSerretAndoyer.reduced_system(G)."
-            )
-        self.system = system
-        self.y0 = y0 = V.exact_shape(y0, "y0", (2,))
-        tol = V.positive_scalar(tol, "tol")
-        if not (1e-15 <= tol <= 1e-6):
-            raise InputError(f"Expected `tol` in [1e-15, 1e-6], got {tol}.")
+        self.system, self.y0, tol = one_dof_arguments(system, y0, tol, (1e-15, 1e-6), "periodic propagation")
+        y0 = self.y0
         if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
             raise InputError(f"Expected `max_steps` to be a positive integer, got {max_steps!r}.")
         self.tol = tol

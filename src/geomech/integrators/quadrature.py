@@ -58,6 +58,22 @@ _MAX_STEPS = 20_000
 
 
 
+def one_dof_arguments(system: Any, y0: Any, tol: Any, tol_range: tuple[float, float],
+                      what: str) -> tuple[CanonicalSystem, np.ndarray, float]:
+    """Check the arguments common to the one-degree-of-freedom propagators: ``(system, y0, tol)``."""
+    if not isinstance(system, CanonicalSystem) or system.n != 1:
+        got = f"n = {system.n}" if isinstance(system, CanonicalSystem) else type(system).__name__
+        raise InputError(
+            f"Expected `system` to be a CanonicalSystem with one degree of freedom (n = 1), got {got}; "
+            f"{what} applies to 1-degree-of-freedom systems such as GeneralizedSerretAndoyer.reduced_system(G)."
+        )
+    y0 = V.exact_shape(y0, "y0", (2,))
+    tol = V.positive_scalar(tol, "tol")
+    if not (tol_range[0] <= tol <= tol_range[1]):
+        raise InputError(f"Expected `tol` in [{tol_range[0]:g}, {tol_range[1]:g}], got {tol}.")
+    return system, y0, tol
+
+
 def _norm(g: np.ndarray) -> np.ndarray:
     return np.hypot(g[..., 0], g[..., 1])
 
@@ -167,17 +183,8 @@ class QuadraturePropagator:
         scale: Any = None,
         energy_tol: float | None = None,
     ):
-        if not isinstance(system, CanonicalSystem) or system.n != 1:
-            got = f"n = {system.n}" if isinstance(system, CanonicalSystem) else type(system).__name__
-            raise InputError(
-                f"Expected `system` to be a CanonicalSystem with one degree of freedom (n = 1), got {got}; "
-                "quadrature applies to 1-degree-of-freedom systems such as GeneralizedSerretAndoyer.reduced_system(G)."
-            )
-        self.system = system
-        self.y0 = y0 = V.exact_shape(y0, "y0", (2,))
-        tol = V.positive_scalar(tol, "tol")
-        if not (1e-15 <= tol <= 1e-3):
-            raise InputError(f"Expected `tol` in [1e-15, 1e-3], got {tol}.")
+        self.system, self.y0, tol = one_dof_arguments(system, y0, tol, (1e-15, 1e-3), "quadrature")
+        y0 = self.y0
         self.tol = tol
         self._ctol = max(tol / 100, 16 * _EPS)
         if angle_period is _AUTO:
