@@ -160,6 +160,9 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
                 break
     for s in (Structure.LIE_POISSON_SPLIT, Structure.LIE_POISSON_QUADRATIC, Structure.LIE_GROUP):
         missing[s] = f"{core.name} is a canonical system in (q, p), not a left-invariant system on T*SO(3)"
+    if core.n != 1:
+        missing[Structure.ONE_DOF] = (f"{core.name} has {core.n} degrees of freedom; propagation by the period "
+                                      "needs one (a reduced system: GeneralizedSerretAndoyer(H).reduced_system(G))")
     return {"expression": expr, "variables": variables, "missing": missing}
 
 
@@ -171,6 +174,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
         ),
     }
     missing[Structure.SEPARABLE_CANONICAL] = missing[Structure.CANONICAL]
+    missing[Structure.ONE_DOF] = missing[Structure.CANONICAL]
     result: dict[str, Any] = {"expression": None, "variables": tuple(M_SYMBOLS), "missing": missing}
     if core.expression is None:
         why = f"{core.name} was built from a Python callable; build it with LeftInvariantSystem.from_expression"

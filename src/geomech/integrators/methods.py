@@ -58,6 +58,7 @@ class Structure(str, enum.Enum):
     LIE_POISSON_SPLIT = "Lie-Poisson so(3)* with split Hamiltonian"
     LIE_POISSON_QUADRATIC = "Lie-Poisson so(3)* with quadratic Hamiltonian (free rigid body)"
     LIE_GROUP = "Lie group SO(3) hyperregular Lagrangian"
+    ONE_DOF = "canonical with one degree of freedom"
 
 
 class IncompatibleMethodError(InputError):
@@ -546,6 +547,55 @@ class LieGroupVariational(Method):
 
 
 #: One instance of every method, by key.
+@dataclass(frozen=True)
+class PeriodicOrbit(Method):
+    """Exact propagation of a one-degree-of-freedom orbit by its period: the state at any time from one period.
+
+    Every bounded orbit of a 1-dof Hamiltonian that is not an equilibrium or a separatrix is periodic, so
+    the state at t is the state at t mod T: one period is integrated (Dormand-Prince 8(5,3) with error
+    control, compiled), its end located on the section through y0 by Newton, and each output is one
+    Runge-Kutta step from the stored mesh point before it (:class:`~geomech.integrators.PeriodicOrbitPropagator`).
+    Order: 8 within the period; the error does not grow with t beyond ``t * period_error / T``. ``h`` is only
+    the output interval. Explicit; not symplectic, but the energy error is that of one period, bounded for all
+    t. Structure: canonical with n = 1. Cost per trajectory: about (0.1 ms + compile once) for the period,
+    then one step per output, independent of t. A separatrix, an equilibrium that the period cannot resolve
+    or an orbit that leaves ``L_bounds`` is a failure (``not_periodic``) with the reason in the message.
+    Reference: [HNW] II.10 (DOP853); eq. (11) of the Serret-Andoyer paper (periodicity).
+
+    Parameters
+    ----------
+    tol : float
+        Local error tolerance of the period's integration (in [1e-15, 1e-6]).
+    L_bounds : (p_min, p_max), optional
+        The open interval of ``p`` where ``H`` is defined (``(-G, G)`` for a Serret-Andoyer chart).
+    """
+
+    tol: float = 1e-14
+    L_bounds: tuple[float, float] | None = None
+    structure: ClassVar[Structure] = Structure.ONE_DOF
+    explicit: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.tol, (int, float)) and 1e-15 <= self.tol <= 1e-6):
+            raise InputError(f"Expected `tol` in [1e-15, 1e-6], got {self.tol!r}.")
+        if self.L_bounds is not None:
+            try:
+                lo, hi = (float(v) for v in self.L_bounds)
+            except (TypeError, ValueError):
+                raise InputError(f"Expected `L_bounds` to be a pair (p_min, p_max), got {self.L_bounds!r}.") from None
+            if not lo < hi:
+                raise InputError(f"Expected `L_bounds` to be increasing, got {self.L_bounds!r}.")
+            object.__setattr__(self, "L_bounds", (lo, hi))
+
+    @property
+    def order(self) -> int:
+        return 8
+
+    @property
+    def key(self) -> str:
+        return "periodic_orbit"
+
+
 REGISTRY: dict[str, Method] = {
     m.key: m
     for m in (
@@ -566,6 +616,7 @@ REGISTRY: dict[str, Method] = {
         MoserVeselov(),
         LieGroupVariational("cayley"),
         LieGroupVariational("exp"),
+        PeriodicOrbit(),
     )
 }
 

@@ -14,7 +14,8 @@ import numpy as np
 __all__ = ["Failure", "Solution", "STATUS"]
 
 #: Status codes of the compiled loops and their names.
-STATUS = {0: "success", 1: "newton_failed", 2: "nonfinite", 3: "singular_jacobian", 4: "adaptive_failed"}
+STATUS = {0: "success", 1: "newton_failed", 2: "nonfinite", 3: "singular_jacobian", 4: "adaptive_failed",
+          5: "not_periodic"}
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,7 @@ class Failure:
             "singular_jacobian": "the Newton matrix is singular",
             "nonfinite": "the state became non-finite",
             "adaptive_failed": "the adaptive solver gave up",
+            "not_periodic": "the orbit is not periodic (a separatrix, or it leaves L_bounds)",
         }.get(self.kind, self.kind)
         res = f", residual {self.residual:.3g}" if np.isfinite(self.residual) else ""
         return f"{what} at step {self.step}, t = {self.time:.10g}{where}{res}"

@@ -14,7 +14,7 @@ from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
 from ._adaptive import run_adaptive
 from ._problem import Problem, make_problem
-from .methods import REGISTRY, AdaptiveAdams, IncompatibleMethodError, Method, get_method
+from .methods import REGISTRY, AdaptiveAdams, IncompatibleMethodError, Method, PeriodicOrbit, get_method
 from .solution import STATUS, Failure, Solution
 
 __all__ = ["solve", "compatible_methods"]
@@ -117,6 +117,28 @@ def _run_compiled(
             fut.result()
 
 
+def _run_periodic(core: Any, method: PeriodicOrbit, Y0: np.ndarray, times: np.ndarray, OUT: np.ndarray,
+                  INFO: np.ndarray, reasons: dict[int, str]) -> tuple[int, float]:
+    """Each row of ``Y0`` by :class:`PeriodicOrbitPropagator`; returns (mesh steps, compile time)."""
+    from ..errors import SingularityError
+    from .periodic import PeriodicOrbitPropagator
+
+    steps, compile_time = 0, 0.0
+    for b in range(Y0.shape[0]):
+        try:
+            orbit = PeriodicOrbitPropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
+            compile_time += orbit.stats["compile_time"]
+            OUT[b] = orbit.state(times)
+            steps += orbit.n_mesh
+            INFO[b, 4] = orbit.nfev
+        except SingularityError as exc:
+            OUT[b] = np.nan
+            OUT[b, 0] = Y0[b]
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = 5, 1, np.nan
+            reasons[b] = str(exc)
+    return steps, compile_time
+
+
 def solve(
     system: Any,
     method: Any,
@@ -198,9 +220,13 @@ def solve(
     module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)
     compile_time = 0.0
     t_start = time.perf_counter()
+    reasons: dict[int, str] = {}
     if isinstance(method, AdaptiveAdams):
         with np.errstate(all="ignore"):
             internal = run_adaptive(module, method, Y0, t0, h, nsteps, save_every, OUT, INFO)
+    elif isinstance(method, PeriodicOrbit):
+        internal, compile_time = _run_periodic(problem.core, method, Y0, h * save_steps, OUT, INFO, reasons)
+        t_start += compile_time
     else:
         kern = getattr(module, method.kernel)
         P = np.ascontiguousarray(method.constants(problem), dtype=float)
@@ -251,6 +277,8 @@ def solve(
             )
     else:
         message = f"{type(method).__name__}: {nsteps} steps of h = {abs(h):g} from t = {t0:g}."
+    if reasons:
+        message += " " + reasons[min(reasons)]
     solution = Solution(
         t=t0 + h * save_steps.astype(float),
         states=states,

@@ -1,0 +1,44 @@
+"""``solve(..., "periodic_orbit")``: the periodic-orbit propagator behind the common interface."""
+
+import numpy as np
+import pytest
+
+import geomech as gm
+from geomech.errors import NumericalError
+from geomech.integrators import IncompatibleMethodError, PeriodicOrbit, solve
+from geomech.reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
+
+CHART = SerretAndoyerChart(2)
+
+
+def test_solve_periodic_orbit_matches_the_elliptic_solution_for_a_batch():
+    body = gm.RigidBody([1.0, 2.0, 3.0])
+    m0 = np.array([[0.3, 0.5, 0.8], [0.5, -0.4, 0.77]])  # same |m|: one reduced system
+    m0[1] *= np.linalg.norm(m0[0]) / np.linalg.norm(m0[1])
+    G = float(np.linalg.norm(m0[0]))
+    red = GeneralizedSerretAndoyer(body).reduced_system(G)
+    y0 = CHART.forward(m0)
+    sol = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=y0, h=50.0, t_final=1000.0)
+    assert sol.status == "success" and sol.states.shape == (2, 21, 2)
+    for b in range(2):
+        exact = body.exact_solution(m0[b]).momentum(sol.t)
+        np.testing.assert_allclose(CHART.inverse(sol.states[b], G), exact, atol=1e-11)
+    assert np.abs(sol.energy_error).max() < 1e-13  # bounded: the error of one period, not of 1000 time units
+    assert sol.stats["n_internal_steps"] < 2000  # one period per trajectory, whatever t_final is
+
+
+def test_periodic_orbit_refuses_systems_and_reports_a_separatrix():
+    body = gm.RigidBody([1.0, 2.0, 3.0])
+    with pytest.raises(IncompatibleMethodError, match="canonical"):
+        solve(body, "periodic_orbit", m0=[1.0, 0.3, 0.2], h=0.1, t_final=1.0)
+    # on the separatrix E = G^2 / (2 I2): no period; status data with the reason, raised by default
+    G = 1.0
+    red = GeneralizedSerretAndoyer(body).reduced_system(G)
+    I1, I2, I3 = 1.0, 2.0, 3.0
+    a = np.sqrt((1 / I2 - 1 / I3) / (1 / I1 - 1 / I3))  # m1^2/I1 + m3^2/I3 = 1/I2 with m1^2 + m3^2 = 1
+    m_sep = np.array([a, 0.0, np.sqrt(1 - a * a)])
+    sol = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0,
+                raise_on_failure=False)
+    assert sol.status == "not_periodic" and "separatrix" in sol.message
+    with pytest.raises(NumericalError, match="separatrix"):
+        solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0)
