@@ -104,12 +104,11 @@ class GaitModel:
             self._pdot = compile_vector(list(sp.Matrix(red.momentum_rhs).subs(pv)), r + list(red.rdot) + list(red.p))
         gname = system.group.name
         key = "SO3" if gname.startswith("SO(3)") else _GROUPS.get(gname)
-        if key is None:
-            raise InputError(f"Reconstruction on the group is available for SE(2), SO(3) and S^1; {system.name} has "
-                             f"{gname}. Simulate it with geomech.integrators.nonholonomic.simulate_full instead.")
         from ..systems.holonomic import symmetry_group
 
-        self.group = symmetry_group(key)
+        # the closed forms where there are some (and the unwrapped angle of SE(2) and S^1); any other matrix
+        # group (SE(3), R^n, products) numerically, from its algebra and its chart
+        self.group = symmetry_group(key) if key is not None else system.group.numeric()
         self._matrix = compile_vector(sp.Matrix(system.group.matrix).subs(pv).tolist(), list(system.group.coordinates))
         self._curvature = None
 
@@ -351,7 +350,8 @@ class GaitAnalysis:
     def displacement_coordinates(self, periods: int | None = None, *, part: str = "total",
                                  start: int = 0) -> np.ndarray:
         """:meth:`displacement` in coordinates: SE(2) ``(dx, dy, dtheta)`` with ``dtheta`` unwrapped (the turn
-        accumulated on the universal cover), S^1 the unwrapped angle, SO(3) the rotation vector (log)."""
+        accumulated on the universal cover), S^1 the unwrapped angle, SO(3) the rotation vector (log), any
+        other group the system's chart coordinates of the displacement."""
         G = self.model.group
         path = self._path(part)
         idx = self.boundary_indices
@@ -361,9 +361,12 @@ class GaitAnalysis:
             return np.array([d[0, 2], d[1, 2], path.angle[idx[start + n]] - path.angle[idx[start]]])
         if G.name == "S1":
             return np.asarray(d, dtype=float).reshape(1)
-        from ..lie import so3
+        if G.name == "SO3":
+            from ..lie import so3
 
-        return so3.log(d)
+            return so3.log(d)
+        # any other group: the chart coordinates of the displacement (angles in the branch nearest the reference)
+        return G.to_coordinates(d)
 
     @property
     def net_displacement(self) -> np.ndarray:
@@ -414,7 +417,7 @@ class GaitAnalysis:
             "momentum_at_period_starts": self.p[idx].tolist(),
             "momentum_change_per_period": self.momentum_change.tolist(),
             "displacement_frame": "body frame at the start: g(t0)^-1 g(t0 + n T)",
-            "angles_unwrapped": self.model.group.name != "SO3",
+            "angles_unwrapped": self.model.group.name in ("SE2", "S1"),
             "note": _NOTE,
             "integrator": {"group": self.path.method, "steps": int(self.path.steps), "nfev": int(self.path.nfev),
                            "momentum_nfev": int(self.momentum_nfev)},
@@ -446,7 +449,8 @@ class GaitAnalysis:
         }
         attrs = {"system": s.name, "group": s.group.name, "period": self.period, "periods": self.periods,
                  "note": _NOTE, "g_convention": ("SE(2): x, y and the unwrapped heading; S^1: unwrapped angle; "
-                                                 "SO(3): rotation vector of g(0)^-1 g(t)")}
+                                                 "SO(3): rotation vector of g(0)^-1 g(t); other groups: chart "
+                                                 "coordinates, continuous along the path")}
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

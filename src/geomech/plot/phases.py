@@ -182,13 +182,21 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
         ax.set_xlabel("$t$")
         ax.set_ylabel(r"$\theta$ (unwrapped)")
         ax.set_title(f"path in $S^1$: net {path.coordinates[-1, 0] - path.coordinates[0, 0]:.4g} rad")
-    else:
+    elif G.name == "SO3":
         for i, lab in enumerate((r"$\varphi$", r"$\theta$", r"$\psi$")):
             ax.plot(path.t, path.coordinates[:, i], label=lab)
         ax.legend(loc="best")
         ax.set_xlabel("$t$")
         ax.set_ylabel("3-1-3 Euler angles (wrapped)")
         ax.set_title("path in SO(3)")
+    else:  # any matrix group: its chart coordinates, continuous along the path
+        names = getattr(G, "coordinate_names", None) or [f"$q_{i + 1}$" for i in range(path.coordinates.shape[1])]
+        for i, lab in enumerate(names):
+            ax.plot(path.t, path.coordinates[:, i], label=lab)
+        ax.legend(loc="best", fontsize=8)
+        ax.set_xlabel("$t$")
+        ax.set_ylabel("group coordinates (continuous)")
+        ax.set_title(f"path in {G.name}")
     return ax
 
 

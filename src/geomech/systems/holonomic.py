@@ -242,8 +242,12 @@ _ALIASES = {"S1": "S1", "SO2": "S1", "SO(2)": "S1", "S^1": "S1", "SE2": "SE2", "
 
 def symmetry_group(name: Any) -> SymmetryGroup:
     """The group named ``name``: ``"S1"`` (or ``"SO2"``), ``"SE2"``, ``"SO3"`` (case-insensitive)."""
-    if isinstance(name, SymmetryGroup):
+    from ..lie.matrix_group import MatrixLieGroup
+
+    if isinstance(name, (SymmetryGroup, MatrixLieGroup)):
         return name
+    if hasattr(name, "numeric") and hasattr(name, "basis"):  # a nonholonomic MatrixGroup: any matrix group
+        return name.numeric()
     key = _ALIASES.get(str(name).upper().replace(" ", ""))
     if key is None:
         raise InputError(

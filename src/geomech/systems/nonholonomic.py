@@ -168,6 +168,21 @@ class MatrixGroup:
         inv = sp.Matrix(self.body_velocity_matrix).inv(method="LU")
         return sp.ImmutableMatrix(inv.applyfunc(simplify_expr))
 
+    def numeric(self):
+        """The group for numerical work on it (:class:`~geomech.lie.matrix_group.MatrixLieGroup`): exp,
+        composition, the inverse right Jacobian of exp, and this chart (compiled) to read coordinates back."""
+        from .._symbolic import compile_vector
+        from ..lie.matrix_group import MatrixLieGroup
+
+        q = list(self.coordinates)
+        chart = compile_vector(sp.Matrix(self.matrix).tolist(), q)
+        jac = sp.Array([[[sp.diff(self.matrix[i, j], c) for c in q] for j in range(self.matrix.cols)]
+                        for i in range(self.matrix.rows)])
+        chart_jacobian = compile_vector(jac.tolist(), q)
+        return MatrixLieGroup(self.name, [np.asarray(sp.Matrix(b), dtype=float) for b in self.basis], chart=chart,
+                              chart_jacobian=chart_jacobian, reference=[float(v) for v in self.reference],
+                              coordinate_names=[c.name for c in self.coordinates])
+
     @cached_property
     def structure_constants(self) -> tuple[tuple[tuple[sp.Expr, ...], ...], ...]:
         """``C[a][b][d]`` with :math:`[b_b, b_d] = C^a_{bd} b_a`."""
