@@ -42,3 +42,15 @@ def test_periodic_orbit_refuses_systems_and_reports_a_separatrix():
     assert sol.status == "not_periodic" and "separatrix" in sol.message
     with pytest.raises(NumericalError, match="separatrix"):
         solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0)
+
+
+def test_a_users_system_at_t_1000_against_a_quadruple_precision_reference():
+    # The demo's gyrostat-like H, reduced about axis 3 at G = 1, from (l, L) = (0.3, 0.2). Reference: heyoka's
+    # taylor_adaptive in real128 (tolerance 1e-32) on dl/dt = dh/dL, dL/dt = -dh/dl written by hand, t = 1000;
+    # its 80-bit run agrees to 2e-19. DOP853 at rtol 1e-14 is 5.5e-11 off there (its energy drifts).
+    m1, m2, m3 = gm.M_SYMBOLS
+    H = gm.LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2 + m3**4 / 10 + m1 + m2 + m3)
+    hp = GeneralizedSerretAndoyer(H).reduced_system(G=1.0, axis=2)
+    reference = np.array([1.06372235899792973734668062106347905, 0.139836427795311357602754631055249157])
+    sol = solve(hp, PeriodicOrbit(tol=1e-15), y0=[0.3, 0.2], h=100.0, t_final=1000.0)
+    np.testing.assert_allclose(sol.states[-1], reference, atol=1e-12)

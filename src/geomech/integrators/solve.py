@@ -277,6 +277,9 @@ def solve(
             )
     else:
         message = f"{type(method).__name__}: {nsteps} steps of h = {abs(h):g} from t = {t0:g}."
+        if isinstance(method, PeriodicOrbit):
+            message = (f"PeriodicOrbit: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from one stored "
+                       f"period ({internal} mesh steps in all).")
     if reasons:
         message += " " + reasons[min(reasons)]
     solution = Solution(
