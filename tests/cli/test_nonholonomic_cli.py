@@ -118,3 +118,16 @@ def test_bad_command_lines(capsys):
     assert code == 2 and "not shape variables" in err and len(err.strip().splitlines()) == 1
     code, _, err = _run(capsys, "derive")
     assert code == 2 and "example name" in err
+
+
+def test_simulate_with_initial_momentum(capsys):
+    base = ("simulate", "chaplygin_sleigh", "--param", "m=1", "--param", "a=0.3", "--param", "I_c=0.2")
+    code, out, _ = _run(capsys, *base, "--p0", "1,0.5", "--t-final", "5", "--json")
+    assert code == 0
+    summary = json.loads(out)
+    assert summary["constraint_residual_max"] < 1e-8 and abs(summary["final_configuration"]["x"]) > 0.5
+    # the sleigh's known end state: the turning dies out and all the energy goes into forward motion,
+    # p1 = m v -> sqrt(2 m E); here E = 0.931 (v0 = 1, omega0 = 0.5 / (I_c + m a^2))
+    assert abs(summary["nonholonomic_momentum"][0] - (2 * summary["energy_initial"]) ** 0.5) < 1e-3
+    code, _, err = _run(capsys, *base, "--p0", "1")
+    assert code == 2 and "Expected `p0` to have 2 entries" in err and err.count("\n") == 1

@@ -15,6 +15,7 @@ from typing import Any
 import click
 
 from ..errors import GeomechError, InputError
+from ._args import FloatVector
 
 __all__ = ["derive_cmd", "simulate_cmd", "load_model"]
 
@@ -179,6 +180,8 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
 @click.option("--q0", "q0s", multiple=True, metavar="NAME=VALUE", help="An initial coordinate (default 0).")
 @click.option("--rdot0", "rdot0s", multiple=True, metavar="NAME=VALUE",
               help="An initial velocity of a free shape variable (default 0).")
+@click.option("--p0", type=FloatVector(*range(1, 65)), default=None,
+              help="Initial nonholonomic momentum, comma-separated (default 0; basis of docs/nonholonomic.md).")
 @click.option("--t-final", type=float, default=1.0, show_default=True, help="Final time.")
 @click.option("--method", type=click.Choice(["full", "reduced", "discrete"]), default="full", show_default=True,
               help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA.")
@@ -187,7 +190,8 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Directory for trajectory.csv, summary.json and path.png (the path in the plane).")
-def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, t_final, method, step, samples, as_json, out) -> None:
+def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, method, step, samples, as_json,
+                 out) -> None:
     """Simulate an example or --model FILE.py with gaits (--shape) and torques (--tau).
 
     Prints the final configuration, the nonholonomic momentum, the constraint residual and the work done by
@@ -198,7 +202,8 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, t_final, method
 
     system = _system(name, model, _pairs(params, "--param", True))
     kw = dict(shapes=_pairs(shapes, "--shape", False), tau=_pairs(taus, "--tau", False),
-              q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True))
+              q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True),
+              p0=None if p0 is None else list(p0))
     require_values(system)
     if method == "discrete":
         traj = simulate_discrete(system, t_final, step, **kw)

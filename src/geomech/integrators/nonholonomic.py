@@ -220,7 +220,10 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
         rd[i] = rd_given.get(r.name, 0.0)
     for j, i in enumerate(setup.prescribed):
         rd[i] = rd_p[j]
-    p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").reshape(red.m)
+    p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
+    if p.size != red.m:
+        raise InputError(f"Expected `p0` to have {red.m} entries (the nonholonomic momentum of {system.name}, basis: "
+                         f"{red.normalization}), got {p.size}.")
     rn = red.numeric(parameters)
     xi = rn.xi(q[system.k:], rd, p)
     lam_inv = _group_rates(system)
