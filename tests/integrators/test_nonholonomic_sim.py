@@ -177,3 +177,15 @@ def test_principally_kinematic_system_simulates_in_all_three_ways():
     for tr in (a, b):
         np.testing.assert_allclose(tr.q[:, :3], exact, atol=1e-8)
     np.testing.assert_allclose(c.q[-1, :3], exact[-1], atol=1e-4)
+
+
+def test_bad_torques_and_unphysical_parameters_are_reported():
+    s = snakeboard(**SNAKE)
+    with pytest.raises(InputError, match=r"unknown function\(s\) \['foo'\]"):
+        simulate_full(s, 0.1, shapes={"phi": "0"}, tau={"psi": "foo(t)"})
+    with pytest.raises(InputError, match="unknown symbols"):
+        simulate_full(s, 0.1, shapes={"phi": "0"}, tau={"psi": "k*t"})
+    # a negative mass makes the kinetic energy indefinite on D: refused before integrating
+    bad = snakeboard(**{**SNAKE, "m": -1.0})
+    with pytest.raises(InputError, match="not positive definite.*m=-1"):
+        simulate_reduced(bad, 0.1, shapes=GAIT)

@@ -124,11 +124,20 @@ class _Torques:
             if callable(spec):
                 fn = spec
             else:
-                e = sp.sympify(spec, locals=local) if isinstance(spec, str) else sp.sympify(spec)
+                try:
+                    e = sp.sympify(spec, locals=local) if isinstance(spec, str) else sp.sympify(spec)
+                except (sp.SympifyError, SyntaxError, TypeError) as exc:
+                    raise InputError(f"Could not parse the torque on `{name}`: {spec!r} ({exc}).") from exc
+                undefined = sorted(str(f.func) for f in e.atoms(sp.Function)
+                                   if isinstance(f, sp.core.function.AppliedUndef))
+                if undefined:
+                    raise InputError(f"The torque on `{name}` calls unknown function(s) {undefined}; use sympy's "
+                                     "(sin, cos, exp, tanh, ...) or pass a Python callable f(t, q, qd).")
                 e = e.xreplace({s: local[s.name] for s in e.free_symbols if s.name in local})
                 extra = sorted(s.name for s in e.free_symbols - set(local.values()))
                 if extra:
-                    raise InputError(f"The torque on `{name}` has unknown symbols {extra}.")
+                    raise InputError(f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
+                                     f"coordinates and the velocities ({', '.join(local)}).")
                 f = sp.lambdify([T_SYMBOL, list(system.q), list(system.qdot)], e, "numpy")
                 fn = (lambda f_: lambda t, q, qd: float(f_(t, q, qd)))(f)
             self.fns[self.free.index(i)] = fn
@@ -203,6 +212,7 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
     for j, i in enumerate(setup.prescribed):
         q[system.k + i] = r_p[j]
     lda = lagrange_dalembert(system).numeric(parameters)
+    _require_positive_kinetic_energy(system, lda, q, parameters)
     if qd0 is not None:
         qd = np.array([_by_name(qd0, [s.name for s in system.qdot], "qd0").get(s.name, 0.0)
                        for s in system.qdot]) if isinstance(qd0, Mapping) else V.finite(qd0, "qd0").ravel()
@@ -229,6 +239,28 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
     lam_inv = _group_rates(system)
     qd = np.r_[lam_inv(q[: system.k]) @ xi, rd]
     return q, qd
+
+
+def _require_positive_kinetic_energy(system: NonholonomicSystem, lda: Any, q: np.ndarray,
+                                     parameters: Mapping[str, float] | None) -> None:
+    """Parameter values (a negative mass, a wrong inertia) can make the kinetic energy indefinite on D, where
+    the equations have no meaning: say so at the start, with the values, rather than integrate nonsense."""
+    M, A = lda.mass_matrix(q), lda.constraint_matrix(q).reshape(system.c, system.n)
+    if system.c:
+        _, sv, vt = np.linalg.svd(A)
+        X = vt[int(np.sum(sv > 1e-12 * max(1.0, sv.max()))):].T
+    else:
+        X = np.eye(system.n)
+    if X.size == 0:
+        return
+    MD = X.T @ M @ X
+    low = float(np.linalg.eigvalsh(0.5 * (MD + MD.T)).min())
+    if not low > 1e-12 * max(1.0, float(np.abs(MD).max())):
+        values = {k: v for k, v in sorted(system.parameter_values(parameters).items(), key=lambda kv: kv[0].name)}
+        shown = ", ".join(f"{k.name}={v:g}" for k, v in values.items())
+        raise InputError(f"The kinetic energy of {system.name} is not positive definite on the constraint distribution "
+                         f"at q0 = {np.round(q, 6).tolist()} (smallest eigenvalue {low:.3g}) with {shown}: check the "
+                         "signs and sizes of the masses and inertias.")
 
 
 def _group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarray]:
