@@ -35,6 +35,8 @@ __all__ = [
     "chaplygin_sleigh",
     "rolling_disk",
     "geared_body",
+    "kinematic_car",
+    "chaplygin_ball",
     "EXAMPLES",
 ]
 
@@ -332,6 +334,51 @@ def kinematic_car(**values: float) -> NonholonomicSystem:
     return _car().with_parameters(**values) if values else _car()
 
 
+@lru_cache(maxsize=None)
+def _ball() -> NonholonomicSystem:
+    m, r, I1, I2, I3 = _params("m r I1 I2 I3")
+    x, y, ph, th, ps = _q("x", "y", "phi", "theta", "psi")
+    xd, yd, phd, thd, psd = _v("x", "y", "phi", "theta", "psi")
+    R = _rot3z(ph) * _rot3x(th) * _rot3z(ps)
+    Rd = sum((R.diff(a) * b for a, b in zip((ph, th, ps), (phd, thd, psd))), sp.zeros(3))
+    body = (R.T * Rd).applyfunc(sp.trigsimp)      # hat of the body angular velocity omega
+    space = (Rd * R.T).applyfunc(sp.trigsimp)     # hat of the spatial angular velocity Omega = R omega
+    w = (body[2, 1], body[0, 2], body[1, 0])
+    Om = (space[2, 1], space[0, 2], space[1, 0])
+    L = m / 2 * (xd**2 + yd**2) + (I1 * w[0] ** 2 + I2 * w[1] ** 2 + I3 * w[2] ** 2) / 2
+    # the contact point, a distance r below the centre, does not slip: x' + Omega x (-r e3) = 0
+    cons = [xd - r * Om[1], yd + r * Om[0]]
+    return NonholonomicSystem.from_lagrangian(
+        sp.expand(L), SE2(x, y, ph), (th, ps), cons, name="chaplygin_ball",
+        description="Chaplygin's ball: a sphere (radius r, mass m, centre of mass at its centre, principal moments "
+                    "I1, I2, I3) rolling without slipping on a plane; attitude R = Rz(phi) Rx(theta) Rz(psi)")
+
+
+def _rot3z(a: sp.Expr) -> sp.Matrix:
+    return sp.Matrix([[sp.cos(a), -sp.sin(a), 0], [sp.sin(a), sp.cos(a), 0], [0, 0, 1]])
+
+
+def _rot3x(a: sp.Expr) -> sp.Matrix:
+    return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
+
+
+def chaplygin_ball(**values: float) -> NonholonomicSystem:
+    r"""Chaplygin's ball: a sphere of radius ``r`` and mass ``m`` whose centre of mass is its geometric centre,
+    with principal moments ``I1, I2, I3``, rolling without slipping on a horizontal plane.
+
+    Attitude :math:`R = R_z(\phi)R_x(	heta)R_z(\psi)` (3-1-3), centre at :math:`(x, y, r)`;
+    :math:`L = 	frac m2(\dot x^2 + \dot y^2) + 	frac12\sum_i I_i\omega_i^2` with :math:`\omega` the body angular
+    velocity; no slip at the contact point, :math:`\dot x = r\Omega_y`, :math:`\dot y = -r\Omega_x`
+    (:math:`\Omega = R\omega`, spatial). Rotating the ball about the vertical and translating it, SE(2) acts on
+    :math:`(x, y, \phi)`, leaving the shape :math:`(	heta, \psi)`; :math:`S_q` is the spin about the vertical,
+    and its momentum is conserved. Chaplygin (1903) showed the angular momentum about the contact point,
+    :math:`K = R\,\mathbb I\omega + m r^2(\Omega - \Omega_z e_3)`, is constant in space, and the system integrable
+    (Borisov and Mamaev, Regul. Chaotic Dyn. 7 (2002)); the tests check :math:`K`. The 3-1-3 chart is singular
+    at :math:`	heta = 0, \pi` (a body axis vertical).
+    """
+    return _ball().with_parameters(**values) if values else _ball()
+
+
 EXAMPLES: dict[str, Any] = {
     "snakeboard": snakeboard,
     "snakeboard_bkmm": snakeboard_bkmm,
@@ -341,4 +388,5 @@ EXAMPLES: dict[str, Any] = {
     "rolling_disk": rolling_disk,
     "geared_body": geared_body,
     "kinematic_car": kinematic_car,
+    "chaplygin_ball": chaplygin_ball,
 }
