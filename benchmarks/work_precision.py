@@ -357,35 +357,37 @@ def run_heyoka(hy: Any, prob: Problem, tol: float, T: float, ref: np.ndarray, re
     }
 
 
+def _propagator_record(prob: Problem, build, method: str, tol: float, T: float, ref: np.ndarray, repeats: int,
+                       compile_time: float) -> tuple[dict, Any]:
+    """Time ``build()`` plus the state at T (a new initial condition needs a new build, so that is the cost),
+    then one evaluation alone, and the energy along a grid of the built propagator."""
+
+    def run() -> tuple[Any, np.ndarray]:
+        prop = build()
+        return prop, prop.state(T)
+
+    wall, (prop, final) = best_of(run, repeats)
+    t = time.perf_counter()
+    for _ in range(1000):
+        prop.state(T)
+    eval_time = (time.perf_counter() - t) / 1000
+    Y = prop.state(np.linspace(0.0, T, N_ENERGY + 1))
+    record = {
+        "solver": "geomech", "method": method, "param": "tol", "value": tol, "T": T,
+        "compile_time": compile_time, "status": "success", "wall": wall, "eval_time": eval_time,
+        "error": float(np.max(np.abs(final - ref))), "energy_error": energy_error(prob, Y),
+        "drift": drift_ratio(prob, Y), "period": prop.period,
+    }
+    return record, prop
+
+
 def run_quadrature(prob: Problem, tol: float, T: float, ref: np.ndarray, repeats: int) -> dict:
     """The exact propagator as a method: its whole cost (tracing the orbit, building the tables, evaluating
     at T) is the wall time, since each new initial condition needs a new build."""
-
-    def run() -> tuple[QuadraturePropagator, np.ndarray]:
-        qp = QuadraturePropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol)
-        return qp, qp.state(T)
-
-    wall, (qp, final) = best_of(run, repeats)
-    t = time.perf_counter()
-    for _ in range(1000):
-        qp.state(T)
-    eval_time = (time.perf_counter() - t) / 1000
-    Y = qp.state(np.linspace(0.0, T, N_ENERGY + 1))
-    return {
-        "solver": "geomech",
-        "method": "quadrature",
-        "param": "tol",
-        "value": tol,
-        "T": T,
-        "compile_time": 0.0,
-        "status": "success",
-        "wall": wall,
-        "eval_time": eval_time,
-        "error": float(np.max(np.abs(final - ref))),
-        "energy_error": energy_error(prob, Y),
-        "drift": drift_ratio(prob, Y),
-        "period": qp.period,
-    }
+    record, _ = _propagator_record(
+        prob, lambda: QuadraturePropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol), "quadrature", tol, T,
+        ref, repeats, 0.0)
+    return record
 
 
 def run_periodic(prob: Problem, tol: float, T: float, ref: np.ndarray, repeats: int) -> dict:
@@ -393,34 +395,11 @@ def run_periodic(prob: Problem, tol: float, T: float, ref: np.ndarray, repeats: 
     8th-order Runge-Kutta method, then the state at T) is the wall time; the first construction in the
     process (numba compiling or loading its cache) is the compile time."""
     compile_time = PeriodicOrbitPropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol).stats["compile_time"]
-
-    def run() -> tuple[PeriodicOrbitPropagator, np.ndarray]:
-        po = PeriodicOrbitPropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol)
-        return po, po.state(T)
-
-    wall, (po, final) = best_of(run, max(repeats, 20))
-    t = time.perf_counter()
-    for _ in range(1000):
-        po.state(T)
-    eval_time = (time.perf_counter() - t) / 1000
-    Y = po.state(np.linspace(0.0, T, N_ENERGY + 1))
-    return {
-        "solver": "geomech",
-        "method": "periodic_orbit",
-        "param": "tol",
-        "value": tol,
-        "T": T,
-        "compile_time": compile_time,
-        "status": "success",
-        "wall": wall,
-        "period_time": po.stats["run_time"],
-        "eval_time": eval_time,
-        "error": float(np.max(np.abs(final - ref))),
-        "energy_error": energy_error(prob, Y),
-        "drift": drift_ratio(prob, Y),
-        "period": po.period,
-        "n_mesh": po.n_mesh,
-    }
+    record, po = _propagator_record(
+        prob, lambda: PeriodicOrbitPropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol), "periodic_orbit",
+        tol, T, ref, max(repeats, 20), compile_time)
+    record.update(period_time=po.stats["run_time"], n_mesh=po.n_mesh)
+    return record
 
 
 def method_order(key: str) -> int:

@@ -76,3 +76,23 @@ def rotation_matrix(value: Any, name: str, *, atol: float = 1e-9) -> np.ndarray:
             f"got one off by {err:.3g}; re-orthonormalise it (e.g. geomech.lie.so3.project)."
         )
     return arr
+
+
+def positive_definite_along(I: np.ndarray, points: Any, what: str, consequence: str, *, rtol: float,
+                            global_scale: bool = False) -> None:
+    """Raise :class:`~geomech.errors.SingularityError` at the first point where the symmetric matrices ``I``
+    (``(n, k, k)``) are not positive definite, naming the point, the eigenvalues and ``consequence``.
+
+    The threshold is ``rtol`` times the largest eigenvalue at that point, or over all points with
+    ``global_scale`` (a 1 x 1 matrix is otherwise its own scale)."""
+    from .errors import SingularityError
+
+    eig = np.linalg.eigvalsh(0.5 * (I + np.swapaxes(I, -1, -2)))
+    scale = (max(float(np.abs(eig).max()), 1e-300) if global_scale
+             else np.maximum(np.abs(eig).max(-1), 1e-300))
+    bad = eig.min(-1) <= rtol * scale
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise SingularityError(f"The {what} is singular (or not positive) at r = "
+                               f"{np.round(np.atleast_2d(points)[i], 6).tolist()} (eigenvalues "
+                               f"{np.round(eig[i], 12).tolist()}): {consequence}.")

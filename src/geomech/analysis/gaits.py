@@ -135,16 +135,9 @@ class GaitModel:
         I = self.locked_inertia(np.atleast_2d(r))
         if self.m == 0:
             return I
-        eig = np.linalg.eigvalsh(0.5 * (I + np.swapaxes(I, -1, -2)))
-        # The scale is the largest eigenvalue over all points: a 1 x 1 inertia is its own scale pointwise.
-        scale = max(float(np.abs(eig).max()), 1e-300)
-        bad = eig.min(-1) <= 1e-10 * scale
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise SingularityError(
-                f"The locked inertia of {self.name} is singular at r = {np.round(np.atleast_2d(r)[i], 6).tolist()} "
-                f"(eigenvalues {np.round(eig[i], 12).tolist()}): I^-1 p in the reconstruction g^-1 g' = -A r' + "
-                "I^-1 p is undefined there; keep the gait away from it.")
+        V.positive_definite_along(I, r, f"locked inertia of {self.name}",
+                                  "I^-1 p in the reconstruction g^-1 g' = -A r' + I^-1 p is undefined there; keep the "
+                                  "gait away from it", rtol=1e-10, global_scale=True)
         return I
 
     # -- numeric objects ---------------------------------------------------------------------------

@@ -34,7 +34,7 @@ import sympy as sp
 
 from .. import _validate as V
 from .._symbolic import bind_expression, compile_vector
-from ..errors import InputError, ShapeError, SingularityError, SymbolicError
+from ..errors import InputError, ShapeError, SymbolicError
 from ..lie import euler as _euler
 from ..lie import se2 as _se2
 from ..lie import so3 as _so3
@@ -578,16 +578,9 @@ class HolonomicSystem:
         """The locked inertia at ``r`` (shape ``(n_r, k, k)``), or :class:`SingularityError` where it is
         singular (the connection :math:`A = \\mathbb I^{-1}J` is undefined there)."""
         I, _, _ = self.shape_matrix(np.atleast_2d(r))
-        eig = np.linalg.eigvalsh(0.5 * (I + np.swapaxes(I, -1, -2)))
-        scale = np.maximum(np.abs(eig).max(-1), 1e-300)
-        bad = eig.min(-1) <= 1e-12 * scale
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise SingularityError(
-                f"The locked inertia of {self.name} is singular (or not positive) at r = "
-                f"{np.round(np.atleast_2d(r)[i], 6).tolist()} (eigenvalues {np.round(eig[i], 12).tolist()}): "
-                "the mechanical connection I^{-1} J is undefined there; keep the shape away from it."
-            )
+        V.positive_definite_along(I, r, f"locked inertia of {self.name}",
+                                  "the mechanical connection I^{-1} J is undefined there; keep the shape away from it",
+                                  rtol=1e-12)
         return I
 
     def __repr__(self) -> str:
