@@ -210,7 +210,10 @@ def test_stability_map_linear_control_matches_theorem5():
     control = one_rotor()
     ks = np.linspace(0.05, 0.95, 10)
     lam2s = np.linspace(1.15, 2.85, 7)
-    ds = stability_map(control.family(), ("k", ks), ("lambda2", lam2s), closed_form=theorem5_margin(control))
+    seen: list[int] = []
+    ds = stability_map(control.family(), ("k", ks), ("lambda2", lam2s), closed_form=theorem5_margin(control),
+                       progress=seen.append)
+    assert seen == list(range(70)) + [70]  # before each grid point, and once at the end
     margin = (ks[None, :] - (1 - 1.0 / lam2s[:, None]))
     np.testing.assert_allclose(ds["closed_form_margin"].values, margin, atol=1e-14)
     verdict = ds["verdict"].values

@@ -64,8 +64,9 @@ def test_three_rotors(capsys):
 
 def test_stability_map_writes_figure_and_data(capsys, tmp_path):
     xr = pytest.importorskip("xarray")
-    code, out, err = run(capsys, "stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param",
-                         "k=0.5", "--x", "k=0.05:0.95:8", "--y", "lambda2=1.2:2.8:5", "--out", str(tmp_path), "--json")
+    # k is swept: it needs no --param value
+    code, out, err = run(capsys, "stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v",
+                         "--x", "k=0.05:0.95:8", "--y", "lambda2=1.2:2.8:5", "--out", str(tmp_path), "--json")
     assert code == 0, err
     s = json.loads(out)
     assert s["counts"]["stable"] > 0 and s["counts"]["unstable"] > 0

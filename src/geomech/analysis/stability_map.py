@@ -45,6 +45,7 @@ def stability_map(
     closed_form: Callable[[Mapping[str, float]], float] | None = None,
     description: str = "",
     n_points: int = 600,
+    progress: Callable[[int], None] | None = None,
 ):
     """The three verdicts on the relative equilibrium near ``near`` over a grid of two parameters.
 
@@ -60,6 +61,8 @@ def stability_map(
     fixed : values of the other parameters.
     closed_form : optional ``f(values) -> float`` whose zero level is a predicted boundary (e.g.
         :func:`theorem5_margin`); stored as ``closed_form_margin``.
+    progress : optional ``progress(n)``, called with the number of grid points done before each point and
+        once at the end (a progress bar; the command line draws one on a terminal).
 
     Returns
     -------
@@ -91,9 +94,13 @@ def stability_map(
     complete = np.zeros((ny, nx), dtype=np.int8)
     prev = None
     last: np.ndarray | None = None
+    done = 0
     for j in range(ny):
         order = range(nx) if j % 2 == 0 else range(nx - 1, -1, -1)
         for i in order:
+            if progress is not None:
+                progress(done)
+            done += 1
             values = {**fixed, xname: float(xs[i]), yname: float(ys[j])}
             if margin is not None:
                 margin[j, i] = float(closed_form(values))
@@ -125,6 +132,8 @@ def stability_map(
             hev[j, i] = np.linalg.eigvalsh(eq.hessian)
             growth[j, i] = float(np.max(np.real(rep.linearisation.eigenvalues)))
             ecdet[j, i] = _ec_determinant(system, eq.m)
+    if progress is not None:
+        progress(done)
     flags = {"flag_values": np.array(sorted(VERDICT_CODES.values()), dtype=np.int8),
              "flag_meanings": " ".join(k for k, _ in sorted(VERDICT_CODES.items(), key=lambda kv: kv[1]))}
     dims = (yname, xname)

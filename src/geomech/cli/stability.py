@@ -7,6 +7,8 @@ paper). The lead registers them with ``cli.add_command(stability_cmd)`` and
 from __future__ import annotations
 
 import json
+import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -196,9 +198,16 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     from ..analysis import stability_map, theorem5_margin
     from ..plot.stability import stability_map_plot
 
-    control = _control(lambdas, I3, phis, parse_params(params), p, G)
     xname, xs = _range(xspec, "'--x'")
     yname, ys = _range(yspec, "'--y'")
+    given = parse_params(params)
+    # a swept parameter of phi needs no --param: its first grid value stands in while the model is built
+    body_names = {"lambda1", "lambda2", "lambda3", "I3", "p"}
+    for name, values in ((xname, xs), (yname, ys)):
+        if name not in body_names and name not in given and any(re.search(rf"\b{re.escape(name)}\b", phi)
+                                                                for phi in phis):
+            given[name] = float(values[0])
+    control = _control(lambdas, I3, phis, given, p, G)
     known = set(control.parameters)
     for name, hint in ((xname, "'--x'"), (yname, "'--y'")):
         if name not in known:
@@ -208,8 +217,16 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
         raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
     closed = theorem5_margin(control) if control.kind == "one-rotor" else None
     desc = f"phi = {', '.join(str(e) for e in control.phi_expression)}" if control.phi_expression is not None else ""
-    ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
-                       description=desc)
+    if sys.stderr.isatty():  # a progress bar for a person at a terminal, nothing in scripts and logs
+        with click.progressbar(length=xs.size * ys.size, label="grid points", file=sys.stderr) as bar:
+            def advance(done: int) -> None:
+                bar.update(done - bar.pos)
+
+            ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
+                               description=desc, progress=advance)
+    else:
+        ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
+                           description=desc)
     out.mkdir(parents=True, exist_ok=True)
     ds.to_netcdf(out / "stability_map.nc")
     ax = stability_map_plot(ds)
