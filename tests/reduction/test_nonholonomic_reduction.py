@@ -177,6 +177,8 @@ def test_user_basis_is_validated_and_scales_the_momentum():
         bkmm_reduction(s, basis=[1, 0, 0])
     with pytest.raises(InputError, match="3 rows"):
         bkmm_reduction(s, basis=[[1, 0], [0, 1]])
+    with pytest.raises(InputError, match="k x m matrix"):
+        bkmm_reduction(s, basis="hello")
     red1 = bkmm_reduction(s, basis=[-r * sp.cos(phi), 0, sp.sin(phi)])
     assert red1.normalization == "given by the caller"
     red2 = bkmm_reduction(s)

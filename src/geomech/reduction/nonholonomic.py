@@ -753,5 +753,9 @@ def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> Nonholonomi
     if basis is None and system.body_basis is not None:
         key = ("model", system.body_basis)
     else:
-        key = None if basis is None else ("caller", sp.ImmutableMatrix(sp.Matrix(basis)))
+        try:
+            key = None if basis is None else ("caller", sp.ImmutableMatrix(sp.Matrix(basis)))
+        except (TypeError, ValueError, sp.SympifyError) as exc:
+            raise InputError(f"Expected `basis` to be a k x m matrix (k = {system.k}) of expressions in the shape "
+                             f"variables, got {basis!r}.") from exc
     return NonholonomicReduction(system, *_bkmm_fields(system, key))
