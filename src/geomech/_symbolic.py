@@ -35,6 +35,10 @@ def bind_expression(
             f"Expected `{argname}` to be a sympy expression or a string, got {type(expression).__name__}."
         )
     expr = sp.sympify(expression)
+    undefined = sorted({str(f.func) for f in expr.atoms(sp.Function) if isinstance(f, sp.core.function.AppliedUndef)})
+    if undefined:
+        raise SymbolicError(f"`{argname}` calls unknown function(s) {undefined}; use sympy's functions (sin, exp, "
+                            "sqrt, tanh, ...), or build the system from a Python callable instead of a formula.")
     names = {str(v): v for v in variables}
     rename = {}
     params_in_expr = set()

@@ -94,6 +94,8 @@ def test_input_errors_name_the_problem():
         LeftInvariantSystem.from_expression(m1**2, {"b": 1.0})
     with pytest.raises(SymbolicError, match="finite"):
         LeftInvariantSystem.from_expression(H_NONQUAD, {"a": float("nan"), "c": 1.0})
+    with pytest.raises(SymbolicError, match=r"unknown function\(s\) \['foo'\]"):
+        LeftInvariantSystem.from_expression("m1**2 + foo(m2)")
     with pytest.raises(ShapeError, match=r"Expected `m` to have shape \(\.\.\., 3\), got \(4,\)"):
         nonquad().hamiltonian([1.0, 2.0, 3.0, 4.0])
     with pytest.raises(InputError, match="finite"):
