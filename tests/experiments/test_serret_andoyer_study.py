@@ -38,6 +38,42 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     assert per["reduced_gauss3"]["max_energy_error"] < 1e-13
     first = ds.m.isel(time=0).values
     np.testing.assert_allclose(first, np.broadcast_to(first[0], first.shape), atol=1e-12)
+    # the data behind figure 7: (l, L) of every reduced approach on the level H_c, and the h_p grid
+    reduced = [str(k) for k in ds.reduced_approach.values]
+    assert set(reduced) == {"reduced_adams", "reduced_generating", "reduced_midpoint", "reduced_gauss2",
+                            "reduced_gauss3"}
+    assert ds.h_p.dims == ("L_grid", "l_grid") and ds.lL.attrs["units"]
+    l0, L0 = ds.lL.sel(reduced_approach="reduced_midpoint").isel(time=0).values
+    hp_at = ds.h_p.interp(l_grid=l0, L_grid=L0).item()
+    assert hp_at == pytest.approx(0.47, abs=2e-3)  # bilinear on the grid: the level is the study's H_c
+    # compile time is apart: the run time of a numba method is its loop, not the compiler's
+    for a in per.values():
+        assert a["wall_time_s"] >= 0 and a["compile_time_s"] >= 0
+    np.testing.assert_allclose(ds.compile_time.values, [per[k]["compile_time_s"] for k in ds.approach.values])
+    # "whatever the method": the midpoint rule also runs on Euler's equations
+    assert "reduced_midpoint vs euler_midpoint" in summary["claims"]["reduced_form_better_whatever_the_method"][
+        "evidence"]
+
+
+def test_cli_lambda_sets_the_inertias(tmp_path, capsys):
+    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path), "--t-final", "0.05", "--lambda", "1.3",
+                 "1.0", "--no-extras", "--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert json.loads(out)["parameters"]["lambda1"] == 1.3
+    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path), "--lambda", "1.3"])
+    assert code == 2 and "expected 2 numbers" in capsys.readouterr().err
+
+
+def test_cli_refuses_an_unwritable_directory_and_an_oversized_run_before_any_work(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    code = main(["reproduce", "serret-andoyer", "--out", str(blocker / "sub"), "--t-final", "0.01"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Cannot write into `--out`" in err
+    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path / "big"), "--t-final", "1e9"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "raise save_every (--save-every) to at least 200000" in err
 
 
 def test_midpoint_energy_error_is_second_order():
@@ -71,6 +107,23 @@ def test_inadmissible_inertias_and_interrupted_runs(tmp_path, monkeypatch):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(study, "figure7", boom)
+    with pytest.raises(KeyboardInterrupt):
+        study.write_study(tmp_path, ds, summary, model, cfg)
+    assert list(tmp_path.iterdir()) == []
+    # interrupted in the middle of writing a file: the partial file is removed too
+    original = study.figure6
+
+    def half_written(ds_, G):
+        fig = original(ds_, G)
+
+        def savefig(path, **_k):
+            open(path, "wb").write(b"\x89PNG half")
+            raise KeyboardInterrupt
+
+        fig.savefig = savefig
+        return fig
+
+    monkeypatch.setattr(study, "figure6", half_written)
     with pytest.raises(KeyboardInterrupt):
         study.write_study(tmp_path, ds, summary, model, cfg)
     assert list(tmp_path.iterdir()) == []

@@ -54,3 +54,27 @@ def test_a_users_system_at_t_1000_against_a_quadruple_precision_reference():
     reference = np.array([1.06372235899792973734668062106347905, 0.139836427795311357602754631055249157])
     sol = solve(hp, PeriodicOrbit(tol=1e-15), y0=[0.3, 0.2], h=100.0, t_final=1000.0)
     np.testing.assert_allclose(sol.states[-1], reference, atol=1e-12)
+
+
+def test_solve_by_quadrature_matches_the_elliptic_solution_and_the_periodic_orbit():
+    body = gm.RigidBody([1.0, 2.0, 3.0])
+    m0 = np.array([0.3, 0.5, 0.8])
+    G = float(np.linalg.norm(m0))
+    red = GeneralizedSerretAndoyer(body).reduced_system(G)
+    sol = solve(red, gm.integrators.Quadrature(L_bounds=(-G, G)), y0=CHART.forward(m0), h=250.0, t_final=1000.0)
+    assert sol.status == "success" and "time-of-flight" in sol.message
+    np.testing.assert_allclose(CHART.inverse(sol.states, G), body.exact_solution(m0).momentum(sol.t), atol=1e-10)
+    assert np.abs(sol.energy_error).max() < 1e-13
+    by_period = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m0), h=250.0, t_final=1000.0)
+    np.testing.assert_allclose(sol.states, by_period.states, atol=1e-10)
+
+
+def test_quadrature_reports_a_separatrix_as_status_data():
+    body = gm.RigidBody([1.0, 2.0, 3.0])
+    red = GeneralizedSerretAndoyer(body).reduced_system(1.0)
+    a = np.sqrt((1 / 2.0 - 1 / 3.0) / (1 / 1.0 - 1 / 3.0))
+    m_sep = np.array([a, 0.0, np.sqrt(1 - a * a)])
+    sol = solve(red, gm.integrators.Quadrature(L_bounds=(-1.0, 1.0)), y0=CHART.forward(m_sep), h=1.0,
+                t_final=5.0, raise_on_failure=False)
+    assert sol.status == "not_periodic" and "separatrix" in sol.message
+    assert np.all(np.isnan(sol.states[1:])) and np.all(sol.states[0] == CHART.forward(m_sep))

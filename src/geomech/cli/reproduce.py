@@ -9,6 +9,8 @@ from pathlib import Path
 
 import click
 
+from ._args import FloatVector
+
 __all__ = ["reproduce"]
 
 
@@ -25,7 +27,7 @@ def reproduce() -> None:
 @click.option("--h", "h", type=float, default=1e-3, show_default=True, help="Step, and Adams' output interval [s].")
 @click.option("--save-every", type=click.IntRange(1, None), default=10, show_default=True,
               help="Keep every n-th step in the data file and the figures.")
-@click.option("--lambda", "lambdas", type=click.Tuple([float, float]), default=(1.2, 1.0), show_default=True,
+@click.option("--lambda", "lambdas", type=FloatVector(2), default="1.2,1.0", show_default=True,
               help="lambda1 lambda2: locked inertias about axes 1 and 2 (the seed gives none).")
 @click.option("--I3", "I3", type=float, default=0.6, show_default=True, help="The body's own moment about axis 3.")
 @click.option("--J3", "J3", type=float, default=0.2, show_default=True, help="The rotor's axial moment.")
@@ -35,12 +37,20 @@ def reproduce() -> None:
 def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, no_extras, as_json) -> None:
     """Section 8.1 of the Serret-Andoyer paper: five simulations of the controlled rigid body with one rotor
     (phi(v) = 2 tan(v/G), p = 0, G = 1, H_c = 0.47), and geomech's Lie-Poisson and Gauss-Legendre methods."""
-    from ..experiments.serret_andoyer_study import StudyConfig, run_study, terminal_progress, write_study
+    from ..experiments.serret_andoyer_study import (
+        StudyConfig,
+        prepare_output,
+        run_study,
+        terminal_progress,
+        write_study,
+    )
 
     cfg = StudyConfig(lambda1=lambdas[0], lambda2=lambdas[1], I3=I3, J3=J3, h=h, t_final=t_final,
                       save_every=save_every, extras=not no_extras)
     argv = (ctx.obj or {}).get("argv", sys.argv[1:])
     command = "geomech " + " ".join(shlex.quote(a) for a in argv)
+    cfg.validate()
+    prepare_output(out)
     ds, summary, model = run_study(cfg, progress=terminal_progress, command=command)
     written = write_study(out, ds, summary, model, cfg)
     if as_json:

@@ -33,13 +33,19 @@ def _summary(key: str) -> str:
     return (m.group(1) if m else text).rstrip(".")
 
 
+def _order(row: dict) -> str:
+    if row["variable_order"]:
+        return f"1-{row['order']} (variable)"
+    return "exact" if row["order"] == 0 else str(row["order"])
+
+
 def table_markdown() -> str:
     rows = ["| key | method | order | structure needed | explicit | symplectic | symmetric | keeps Casimirs |",
             "|---|---|---|---|---|---|---|---|"]
     yes = {True: "yes", False: "no"}
     for r in methods_table():
         rows.append(
-            f"| `{r['key']}` | {_summary(r['key'])} | {r['order']} | {r['structure']} | {yes[r['explicit']]} | "
+            f"| `{r['key']}` | {_summary(r['key'])} | {_order(r)} | {r['structure']} | {yes[r['explicit']]} | "
             f"{yes[r['symplectic']]} | {yes[r['symmetric']]} | {yes[r['preserves_casimirs']]} |"
         )
     return "\n".join(rows) + "\n"

@@ -75,6 +75,8 @@ class Method:
     symmetric: ClassVar[bool] = False
     preserves_casimirs: ClassVar[bool] = False
     needs_expression: ClassVar[bool] = False
+    variable_order: ClassVar[bool] = False
+    """True when the method changes its order as it goes; ``order`` is then the largest."""
     kernel: ClassVar[str | None] = None
     features: ClassVar[frozenset[str]] = frozenset({"rhs"})
     """Model functions the compiled loop calls."""
@@ -102,6 +104,7 @@ class Method:
             "key": self.key,
             "method": repr(self),
             "order": self.order,
+            "variable_order": self.variable_order,
             "structure": self.structure.value,
             "explicit": self.explicit,
             "symplectic": self.symplectic,
@@ -160,8 +163,9 @@ class AdaptiveAdams(Method):
 
     Wraps the well-kept Fortran solvers of scipy: ``solver="vode"`` (VODE in its non-stiff Adams mode,
     orders 1-12; the closest to MATLAB's ``ode113`` that the Serret-Andoyer paper used) or
-    ``solver="lsoda"`` (Adams switching to BDF where the problem is stiff). Order: variable (up to 12);
-    explicit in the sense of needing no Jacobian; not structure-preserving. Structure: any ODE. Cost: as
+    ``solver="lsoda"`` (Adams switching to BDF where the problem is stiff). Order: variable, 1 to 12
+    (``order`` is the largest); implicit (Adams-Moulton correctors solved by fixed-point iteration, so no
+    Jacobian is needed); not structure-preserving. Structure: any ODE. Cost: as
     many evaluations as the tolerances require; runs through Python (not compiled).
     Reference: [HNW] III.7; Brown, Byrne & Hindmarsh, VODE, SIAM J. Sci. Stat. Comput. 10 (1989).
 
@@ -179,7 +183,8 @@ class AdaptiveAdams(Method):
     solver: str = "vode"
     max_steps: int = 100_000
     structure: ClassVar[Structure] = Structure.ODE
-    explicit: ClassVar[bool] = True
+    explicit: ClassVar[bool] = False
+    variable_order: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         for name in ("rtol", "atol"):
@@ -578,14 +583,7 @@ class PeriodicOrbit(Method):
     def __post_init__(self) -> None:
         if not (isinstance(self.tol, (int, float)) and 1e-15 <= self.tol <= 1e-6):
             raise InputError(f"Expected `tol` in [1e-15, 1e-6], got {self.tol!r}.")
-        if self.L_bounds is not None:
-            try:
-                lo, hi = (float(v) for v in self.L_bounds)
-            except (TypeError, ValueError):
-                raise InputError(f"Expected `L_bounds` to be a pair (p_min, p_max), got {self.L_bounds!r}.") from None
-            if not lo < hi:
-                raise InputError(f"Expected `L_bounds` to be increasing, got {self.L_bounds!r}.")
-            object.__setattr__(self, "L_bounds", (lo, hi))
+        object.__setattr__(self, "L_bounds", _bounds(self.L_bounds))
 
     @property
     def order(self) -> int:
@@ -594,6 +592,58 @@ class PeriodicOrbit(Method):
     @property
     def key(self) -> str:
         return "periodic_orbit"
+
+
+@dataclass(frozen=True)
+class Quadrature(Method):
+    """Exact propagation of a one-degree-of-freedom orbit by quadrature (eq. (11) of [SA] for any H).
+
+    The period is the integral :math:`T = \\oint dq / (\\partial H/\\partial p)` along the level curve of
+    :math:`H(y_0)`, the state at t is found from the time-of-flight integral at ``t mod T`` and periodicity
+    (:class:`~geomech.integrators.QuadraturePropagator`): no time stepping, so the cost does not grow with
+    t and the energy error is that of the level curve, bounded for all t. ``h`` is only the output
+    interval. Order: none (exact up to ``tol``; ``order`` reports 0). Structure: canonical with n = 1.
+    Cost per trajectory: tracing the level curve and building Chebyshev tables (tens of ms), then a table
+    look-up per output. A separatrix, an equilibrium or a level curve that leaves ``L_bounds`` is a failure
+    (``not_periodic``) with the reason in the message. Reference: eq. (11) of the Serret-Andoyer paper.
+
+    Parameters
+    ----------
+    tol : float
+        Relative accuracy of the period and the state (in [1e-15, 1e-3]).
+    L_bounds : (p_min, p_max), optional
+        The open interval of ``p`` where ``H`` is defined (``(-G, G)`` for a Serret-Andoyer chart).
+    """
+
+    tol: float = 1e-12
+    L_bounds: tuple[float, float] | None = None
+    structure: ClassVar[Structure] = Structure.ONE_DOF
+    explicit: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.tol, (int, float)) and 1e-15 <= self.tol <= 1e-3):
+            raise InputError(f"Expected `tol` in [1e-15, 1e-3], got {self.tol!r}.")
+        object.__setattr__(self, "L_bounds", _bounds(self.L_bounds))
+
+    @property
+    def order(self) -> int:
+        return 0
+
+    @property
+    def key(self) -> str:
+        return "quadrature"
+
+
+def _bounds(L_bounds: Any) -> tuple[float, float] | None:
+    if L_bounds is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in L_bounds)
+    except (TypeError, ValueError):
+        raise InputError(f"Expected `L_bounds` to be a pair (p_min, p_max), got {L_bounds!r}.") from None
+    if not lo < hi:
+        raise InputError(f"Expected `L_bounds` to be increasing, got {L_bounds!r}.")
+    return lo, hi
 
 
 REGISTRY: dict[str, Method] = {
@@ -617,6 +667,7 @@ REGISTRY: dict[str, Method] = {
         LieGroupVariational("cayley"),
         LieGroupVariational("exp"),
         PeriodicOrbit(),
+        Quadrature(),
     )
 }
 

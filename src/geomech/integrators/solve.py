@@ -14,7 +14,15 @@ from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
 from ._adaptive import run_adaptive
 from ._problem import Problem, make_problem
-from .methods import REGISTRY, AdaptiveAdams, IncompatibleMethodError, Method, PeriodicOrbit, get_method
+from .methods import (
+    REGISTRY,
+    AdaptiveAdams,
+    IncompatibleMethodError,
+    Method,
+    PeriodicOrbit,
+    Quadrature,
+    get_method,
+)
 from .solution import STATUS, Failure, Solution
 
 __all__ = ["solve", "compatible_methods"]
@@ -117,21 +125,30 @@ def _run_compiled(
             fut.result()
 
 
-def _run_periodic(core: Any, method: PeriodicOrbit, Y0: np.ndarray, times: np.ndarray, OUT: np.ndarray,
-                  INFO: np.ndarray, reasons: dict[int, str]) -> tuple[int, float]:
-    """Each row of ``Y0`` by :class:`PeriodicOrbitPropagator`; returns (mesh steps, compile time)."""
-    from ..errors import SingularityError
+def _run_periodic(core: Any, method: PeriodicOrbit | Quadrature, Y0: np.ndarray, times: np.ndarray,
+                  OUT: np.ndarray, INFO: np.ndarray, reasons: dict[int, str]) -> tuple[int, float]:
+    """Each row of ``Y0`` by :class:`PeriodicOrbitPropagator` or :class:`QuadraturePropagator`; returns
+    (mesh steps or quadrature nodes, compile time)."""
+    from ..errors import NumericalError, SingularityError
     from .periodic import PeriodicOrbitPropagator
+    from .quadrature import QuadraturePropagator
 
     steps, compile_time = 0, 0.0
     for b in range(Y0.shape[0]):
         try:
-            orbit = PeriodicOrbitPropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
-            compile_time += orbit.stats["compile_time"]
-            OUT[b] = orbit.state(times)
-            steps += orbit.n_mesh
+            if isinstance(method, Quadrature):
+                orbit = QuadraturePropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
+                if not np.isfinite(orbit.period):
+                    raise SingularityError(f"The orbit of y0 = {Y0[b].tolist()} is a {orbit.kind}: it has no "
+                                           "period; use an integrator.")
+                OUT[b] = orbit.state(times)
+            else:
+                orbit = PeriodicOrbitPropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
+                compile_time += orbit.stats["compile_time"]
+                OUT[b] = orbit.state(times)
+                steps += orbit.n_mesh
             INFO[b, 4] = orbit.nfev
-        except SingularityError as exc:
+        except NumericalError as exc:
             OUT[b] = np.nan
             OUT[b, 0] = Y0[b]
             INFO[b, 0], INFO[b, 1], INFO[b, 2] = 5, 1, np.nan
@@ -224,7 +241,7 @@ def solve(
     if isinstance(method, AdaptiveAdams):
         with np.errstate(all="ignore"):
             internal = run_adaptive(module, method, Y0, t0, h, nsteps, save_every, OUT, INFO)
-    elif isinstance(method, PeriodicOrbit):
+    elif isinstance(method, (PeriodicOrbit, Quadrature)):
         internal, compile_time = _run_periodic(problem.core, method, Y0, h * save_steps, OUT, INFO, reasons)
         t_start += compile_time
     else:
@@ -277,7 +294,10 @@ def solve(
             )
     else:
         message = f"{type(method).__name__}: {nsteps} steps of h = {abs(h):g} from t = {t0:g}."
-        if isinstance(method, PeriodicOrbit):
+        if isinstance(method, Quadrature):
+            message = (f"Quadrature: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from the "
+                       "time-of-flight integral along the level curve.")
+        elif isinstance(method, PeriodicOrbit):
             message = (f"PeriodicOrbit: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from one stored "
                        f"period ({internal} mesh steps in all).")
     if reasons:
