@@ -51,8 +51,31 @@ def table_markdown() -> str:
     return "\n".join(rows) + "\n"
 
 
+FOOTER = """
+## The generating-function method: its h^2 term
+
+Section 8.1 of the Serret-Andoyer paper steps the reduced system by `l_k = dS/dL_k`,
+`L_{k+1} = dS/dl_{k+1}` with `S(L_k, l_{k+1}) = l_{k+1} L_k - h H(l_{k+1}, L_k) + O(h^2)` and does not print
+the `h^2` term. Write `Q = l_{k+1}`, `p = L_k` and `S = p Q + h S1(Q, p) + h^2 S2(Q, p) + O(h^3)`. The map
+`q = dS/dp`, `P = dS/dQ` is the flow of `H` for time `h` exactly when `S` solves the Hamilton-Jacobi equation
+
+    dS/dh (Q, p, h) = -H(Q, dS/dQ(Q, p, h)).
+
+Expanding the right side, `-H(Q, p + h dS1/dQ + ...) = -H(Q, p) - h H_p(Q, p) dS1/dQ + O(h^2)`, and matching
+powers of `h`: `S1 = -H` and `2 S2 = -H_p dS1/dQ = H_q H_p`, so
+
+    S(p, Q) = p Q - h H(Q, p) + (h^2 / 2) H_q(Q, p) H_p(Q, p)      (a dot product for n > 1).
+
+Without the `h^2` term the method is symplectic Euler (order 1); with it the map agrees with the flow to
+`O(h^3)` per step (order 2). It is not the implicit midpoint rule: it is not symmetric, and one step of the
+two differs at `O(h^3)`. Tests: `tests/integrators/test_canonical_methods.py` derives `S2` from the equation
+above with sympy, checks the map against the Taylor series of the exact flow, and measures the order and the
+asymmetry.
+"""
+
+
 def document() -> str:
-    return HEADER + table_markdown()
+    return HEADER + table_markdown() + FOOTER
 
 
 if __name__ == "__main__":  # pragma: no cover
