@@ -366,8 +366,17 @@ def test_plots_draw_and_shade(chain, tmp_path):
     ax = curvature_map(chain, loop=loop, n=161)
     label = [t.get_text() for t in ax.texts if "iint" in t.get_text()][0]
     # the shaded grid estimate of -iint B agrees with the exact geometric phase to the grid's accuracy
-    assert abs(float(label.split()[-1]) - phases(chain, loop).geometric) < 1e-4
+    assert abs(float(label.split("approx$")[1].split()[0]) - phases(chain, loop).geometric) < 1e-4
+    assert "geometric phase" in label  # SE(2)'s rotation: the grid value is the phase
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["enclosed counterclockwise (winding +1)"]
     assert connection_field(chain, loop=loop, component="theta") is not None
+    # a loop run backwards is clockwise; on SO(3) the default is the component that does not vanish
+    ax = curvature_map(chain, loop=ShapeLoop.ellipse([0.4, -0.2], [0.9, -0.6], 2.0), n=81)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["enclosed clockwise (winding -1)"]
+    craft = spacecraft_with_rotors()
+    ax = curvature_map(craft, loop=loop, n=41)
+    assert "omega_1" not in ax.get_title() and "leading order" in ax.texts[-1].get_text()
     ax = group_path(reconstruct(chain, loop, [0.0, 0.0, 0.5]))
     assert ax.get_xlabel() == "$x$"
     ax = momentum_solid_angle(rigid_body_phase(RigidBody([3, 2, 1]), [1, 0.3, 0.2], direct=False))

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .phases import _component, _draw_loop, _grid, _labels, group_path, winding_numbers
+from .phases import _component, _curvature_panel, _draw_loop, _grid, _labels, group_path
 
 __all__ = ["gait_paths", "gait_momentum", "gait_connection_field", "gait_curvature_map"]
 
@@ -31,7 +31,8 @@ def _model(system: Any) -> Any:
 
 def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool = True) -> Any:
     """The reconstructed path of a :class:`~geomech.analysis.gaits.GaitAnalysis` (SE(2): position with
-    headings), with the paths the connection term and the momentum term give alone drawn beside it.
+    headings), with the paths the connection term and the momentum term give alone drawn over it (same
+    axes, same start, dashed and dotted).
 
     The parts are integrated from the same start; they do not compose to the full path (SE(2) is not
     abelian), which the picture shows.
@@ -51,7 +52,9 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
     idx = analysis.boundary_indices
     xy = analysis.path.coordinates[idx, :2]
     ax.plot(xy[:, 0], xy[:, 1], "s", color="C0", ms=4, label="full motion (period ends)")
-    ax.legend(loc="best", fontsize=8)
+    ax.plot([], [], color="C3", marker=r"$\rightarrow$", ls="none", ms=10, label="heading (full motion)")
+    ax.margins(0.12)  # the heading arrows stick out of the path's bounding box
+    ax.legend(loc="best", fontsize=7, framealpha=0.85)
     d = analysis.net_displacement
     ax.set_title(f"{analysis.system.name}: {analysis.periods} period(s), net g(0)$^{{-1}}$g(NT) = "
                  f"({d[0]:.3g}, {d[1]:.3g}, {d[2]:.3g})", fontsize=9)
@@ -95,9 +98,10 @@ def gait_connection_field(system: Any, *, component: Any = None, loop: Any = Non
     if loop is None and hasattr(system, "loop"):
         loop = system.loop
     model = _model(system)
-    c = _component(model, component)
     X, Y, _ = _grid(model, bounds, loop, n)
-    A = model.connection(np.stack([X, Y], -1))[..., c, :]
+    A_all = model.connection(np.stack([X, Y], -1))
+    c = _component(model, component, np.moveaxis(A_all, -2, -1))
+    A = A_all[..., c, :]
     if ax is None:
         _, ax = plt.subplots(figsize=(5.2, 4.8))
     mag = np.hypot(A[..., 0], A[..., 1])
@@ -111,7 +115,7 @@ def gait_connection_field(system: Any, *, component: Any = None, loop: Any = Non
     if loop is not None:
         _draw_loop(ax, loop)
     _labels(ax, model)
-    ax.set_title(f"{model.name}: $-\\mathcal{{A}}^{{nh}}$, {name} component", fontsize=10)
+    ax.set_title(f"{model.name}:\n$-\\mathcal{{A}}^{{nh}}$, {name} component", fontsize=10)
     return ax
 
 
@@ -128,25 +132,13 @@ def gait_curvature_map(system: Any, *, component: Any = None, loop: Any = None, 
     if loop is None and hasattr(system, "loop"):
         loop = system.loop
     model = _model(system)
-    c = _component(model, component)
     X, Y, b = _grid(model, bounds, loop, n)
-    B = model.curvature(np.stack([X, Y], -1))[..., c, 0, 1]
+    B_all = model.curvature(np.stack([X, Y], -1))[..., 0, 1]
+    c = _component(model, component, B_all)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.8))
-    vmax = float(np.abs(B).max()) or 1.0
-    im = ax.pcolormesh(X, Y, B, cmap="RdBu_r", vmin=-vmax, vmax=vmax, shading="auto")
-    name = model.group.algebra_names[c]
-    ax.figure.colorbar(im, ax=ax, label=f"$B_{{12}}$ ({name})")
-    if loop is not None:
-        pts = _draw_loop(ax, loop)
-        w = winding_numbers(pts, np.stack([X, Y], -1))
-        if shade and np.any(w != 0):
-            levels = np.arange(w.min() - 0.5, w.max() + 1.5)
-            ax.contourf(X, Y, np.where(w == 0, np.nan, w), levels=levels, cmap="bwr", vmin=-2, vmax=2, alpha=0.25,
-                        hatches=["//"])
-            dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
-            ax.text(0.02, 0.02, f"$-\\iint w B \\approx$ {-float((w * B).sum() * dA):.4g}", transform=ax.transAxes,
-                    fontsize=9, bbox=dict(facecolor="white", alpha=0.8, lw=0))
+    _curvature_panel(ax, model, X, Y, B_all[..., c], b, c, loop, shade, "the connection-alone turn")
     _labels(ax, model)
-    ax.set_title(f"{model.name}: curvature of $\\mathcal{{A}}^{{nh}}$, {name} component", fontsize=10)
+    ax.set_title(f"{model.name}:\ncurvature of $\\mathcal{{A}}^{{nh}}$, {model.group.algebra_names[c]} component",
+                 fontsize=10)
     return ax

@@ -28,11 +28,18 @@ def winding_numbers(loop_points: Any, points: Any) -> np.ndarray:
     return w.reshape(X.shape[:-1]).astype(int)
 
 
-def _component(system: Any, component: Any) -> int:
+def _component(system: Any, component: Any, field: Any = None) -> int:
+    """The algebra component to draw: ``component`` by index or name; by default the rotation of S^1 and
+    SE(2), and on other groups the component where ``field`` (``(..., k, ...)`` over the grid, component on
+    axis ``-1`` after moving) is largest, so that the default picture is not of a vanishing component."""
     names = system.group.algebra_names
     coords = system.group.coordinate_names
     if component is None:
-        return system.group.angle_component if system.group.angle_component is not None else 0
+        if system.group.angle_component is not None:
+            return system.group.angle_component
+        if field is None:
+            return 0
+        return int(np.argmax(np.abs(np.asarray(field)).reshape(-1, system.group.dim).max(0)))
     if isinstance(component, str):
         for seq in (names, coords):
             if component in seq:
@@ -86,6 +93,44 @@ def _draw_loop(ax: Any, loop: Any, color: str = "k") -> np.ndarray:
     return pts
 
 
+def _curvature_panel(ax: Any, system: Any, X: np.ndarray, Y: np.ndarray, B: np.ndarray, b: tuple, c: int,
+                     loop: Any, shade: bool, what: str) -> None:
+    """Heat map of ``B`` (diverging, centred on 0), the loop, and the region it encloses hatched by its
+    winding number (``//`` counterclockwise, ``\\\\`` clockwise, outlined, with a legend) and annotated with
+    :math:`-\\iint w B`, which is the phase only for abelian components (S^1, the rotation of SE(2))."""
+    from matplotlib.patches import Patch
+
+    n = X.shape[0]
+    vmax = float(np.abs(B).max()) or 1.0
+    # purple-orange for the curvature, so the hatching of the enclosed region reads apart from it
+    im = ax.pcolormesh(X, Y, B, cmap="PuOr_r", vmin=-vmax, vmax=vmax, shading="auto")
+    name = system.group.algebra_names[c]
+    ax.figure.colorbar(im, ax=ax, label=f"$B_{{12}}$ ({name})")
+    if loop is None:
+        return
+    pts = _draw_loop(ax, loop)
+    w = winding_numbers(pts, np.stack([X, Y], -1))
+    if not (shade and np.any(w != 0)):
+        return
+    handles = []
+    for sign, hatch, color, text in ((1, "//", "tab:red", "counterclockwise"), (-1, "\\\\", "tab:blue", "clockwise")):
+        mask = np.sign(w) == sign
+        if not mask.any():
+            continue
+        ax.contourf(X, Y, mask.astype(float), levels=[0.5, 1.5], colors="none", hatches=[hatch])
+        ax.contour(X, Y, mask.astype(float), levels=[0.5], colors=color, linewidths=1.0)
+        wins = sorted(set(w[mask].tolist()), key=abs)
+        handles.append(Patch(facecolor="none", edgecolor=color, hatch=hatch,
+                             label=f"enclosed {text} (winding {', '.join(f'{k:+d}' for k in wins)})"))
+    dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
+    value = -float((w * B).sum() * dA)
+    exact = system.group.abelian or c == system.group.angle_component
+    note = what if exact else "a phase only to leading order (non-abelian)"
+    ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.85)
+    ax.text(0.02, 0.02, f"$-\\iint w\\,B \\approx$ {value:.4g}\n({note})", transform=ax.transAxes, fontsize=8,
+            bbox=dict(facecolor="white", alpha=0.85, lw=0))
+
+
 def connection_field(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21,
                      ax: Any = None) -> Any:
     """The row ``component`` of :math:`-A_{loc}(r)` as a vector field on a 2-D shape space.
@@ -99,9 +144,10 @@ def connection_field(system: Any, *, component: Any = None, loop: Any = None, bo
 
     from ..reduction.connections import MechanicalConnection
 
-    c = _component(system, component)
     X, Y, _ = _grid(system, bounds, loop, n)
-    A = MechanicalConnection(system).connection(np.stack([X, Y], -1))[..., c, :]
+    A_all = MechanicalConnection(system).connection(np.stack([X, Y], -1))
+    c = _component(system, component, np.moveaxis(A_all, -2, -1))
+    A = A_all[..., c, :]
     if ax is None:
         _, ax = plt.subplots(figsize=(5.2, 4.8))
     mag = np.hypot(A[..., 0], A[..., 1])
@@ -110,41 +156,29 @@ def connection_field(system: Any, *, component: Any = None, loop: Any = None, bo
     if loop is not None:
         _draw_loop(ax, loop)
     _labels(ax, system)
-    ax.set_title(f"{system.name}: $-A_{{loc}}$, {system.group.algebra_names[c]} component")
+    ax.set_title(f"{system.name}:\n$-A_{{loc}}$, {system.group.algebra_names[c]} component", fontsize=10)
     return ax
 
 
 def curvature_map(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 121,
                   ax: Any = None, shade: bool = True) -> Any:
     """The curvature :math:`B_{12}` (component ``component``) as a heat map on a 2-D shape space, with
-    the gait ``loop`` drawn and the region it encloses shaded by its signed winding number (red
-    counterclockwise, blue clockwise), annotated with :math:`-\\iint B` (the geometric phase for the
-    abelian components)."""
+    the gait ``loop`` drawn and the region it encloses hatched by its signed winding number (``//`` and a
+    red outline counterclockwise, ``\\\\`` and a blue outline clockwise, with a legend), annotated with
+    :math:`-\\iint w B` (the geometric phase for the abelian components). By default the rotation
+    component (S^1, SE(2)), else the component of largest curvature."""
     import matplotlib.pyplot as plt
 
     from ..reduction.connections import MechanicalConnection
 
-    c = _component(system, component)
     X, Y, b = _grid(system, bounds, loop, n)
-    B = MechanicalConnection(system).curvature_2d(np.stack([X, Y], -1))[..., c]
+    B_all = MechanicalConnection(system).curvature_2d(np.stack([X, Y], -1))
+    c = _component(system, component, B_all)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.8))
-    vmax = float(np.abs(B).max()) or 1.0
-    im = ax.pcolormesh(X, Y, B, cmap="RdBu_r", vmin=-vmax, vmax=vmax, shading="auto")
-    ax.figure.colorbar(im, ax=ax, label=f"$B_{{12}}$ ({system.group.algebra_names[c]})".replace("_{12}", "_{12}"))
-    if loop is not None:
-        pts = _draw_loop(ax, loop)
-        if shade:
-            w = winding_numbers(pts, np.stack([X, Y], -1))
-            levels = np.arange(w.min() - 0.5, w.max() + 1.5)
-            if np.any(w != 0):
-                ax.contourf(X, Y, np.where(w == 0, np.nan, w), levels=levels, cmap="bwr", vmin=-2, vmax=2,
-                            alpha=0.25, hatches=["//"])
-                dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
-                ax.text(0.02, 0.02, f"$-\\iint w B \\approx$ {-float((w * B).sum() * dA):.4g}",
-                        transform=ax.transAxes, fontsize=9, bbox=dict(facecolor="white", alpha=0.8, lw=0))
+    _curvature_panel(ax, system, X, Y, B_all[..., c], b, c, loop, shade, "the geometric phase")
     _labels(ax, system)
-    ax.set_title(f"{system.name}: curvature, {system.group.algebra_names[c]} component")
+    ax.set_title(f"{system.name}:\ncurvature, {system.group.algebra_names[c]} component", fontsize=10)
     return ax
 
 
