@@ -354,6 +354,9 @@ def test_bad_loops_and_groups(chain, bodies, pinned):
     # the pinned bodies' hinge angle is an angle: whole turns are closed, half turns are not
     with pytest.raises(InputError, match="closed"):
         phases(pinned, ShapeLoop.from_expressions(["pi*t"], 1.0))
+    # a pole passes a closure test that is scaled by the loop's size: refused by where it is
+    with pytest.raises(InputError, match="non-finite one at t = 0.5"):
+        phases(pinned, ShapeLoop.from_expressions(["1/(t - 1/2) - 1/(t + 1/2) + 1/(t - 3/2)"], 1.0))
 
 
 # -- pictures -------------------------------------------------------------------------------------

@@ -212,7 +212,17 @@ def bind_loop(system: Any, loop: Any, *, atol: float = 1e-9) -> np.ndarray:
         raise ShapeError(f"Expected the shape loop's coordinates to be ({', '.join(names)}), got "
                          f"({', '.join(loop.names)}).")
     d = loop.r(loop.period) - loop.r(0.0)
-    scale = max(1.0, float(np.abs(loop.r(np.linspace(0, loop.period, 33))).max()))
+    t_check = np.linspace(0.0, loop.period, 257)
+    with np.errstate(all="ignore"):
+        samples = np.asarray(loop.r(t_check), dtype=float)
+        rates = np.asarray(loop.rdot(t_check), dtype=float)
+    bad = ~(np.all(np.isfinite(samples.reshape(t_check.size, -1)), axis=1)
+            & np.all(np.isfinite(rates.reshape(t_check.size, -1)), axis=1))
+    if np.any(bad) or not np.all(np.isfinite(d)):
+        t_bad = float(t_check[np.argmax(bad)]) if np.any(bad) else loop.period
+        raise InputError(f"Expected a shape loop with finite values and rates, got a non-finite one at t = {t_bad:.6g} "
+                         f"(of T = {loop.period:g}); a loop must be a smooth closed curve.")
+    scale = max(1.0, float(np.abs(samples).max()))
     turns = np.zeros(loop.dim)
     for i in range(loop.dim):
         if i in system.angle_shapes:
