@@ -81,3 +81,47 @@ def test_bad_input_is_one_line_and_status_2(capsys, args, match):
     code, out, err = run(capsys, *args)
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("geomech: error:") and match in err
+
+
+MODEL_FILE = '''
+from geomech.systems import HolonomicSystem
+
+def build(I1=1.0, I2=3.0):
+    return HolonomicSystem.from_lagrangian("I1*theta_dot**2/2 + I2*(theta_dot + psi_dot)**2/2", "S1", ["psi"],
+                                           parameters={"I1": I1, "I2": I2}, angle_shapes=[0], name="my bodies")
+'''
+
+
+def test_loop_on_a_users_holonomic_model_file(tmp_path, capsys):
+    f = tmp_path / "bodies.py"
+    f.write_text(MODEL_FILE)
+    code, out, err = run(capsys, "phase", "loop", str(f), "--shape", "psi=-2*pi*t/T", "--period", "5.5", "--mu", "-2.5",
+                         "--param", "I1=2", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    # body 1 turns by (mu T - 2 pi turns I2) / (I1 + I2) with I1 = 2 from --param, I2 = 3, turns = -1
+    want = (-2.5 * 5.5 + 2 * math.pi * 3) / 5
+    assert abs(s["phase"]["total"] - want) < 1e-10 and abs(s["net_motion_coordinates"]["theta"] - want) < 1e-9
+    code, _, err = run(capsys, "phase", "loop", str(f), "--shape", "psi=t", "--param", "I9=2")
+    assert code == 2 and err.count("\n") == 1 and "I9" in err
+    nonholonomic = tmp_path / "nh.py"
+    nonholonomic.write_text("from geomech.systems.nonholonomic_examples import chaplygin_sleigh\n"
+                            "system = chaplygin_sleigh()\n")
+    code, _, err = run(capsys, "phase", "loop", str(nonholonomic), "--shape", "psi=t")
+    assert code == 2 and "expected `system` to be a HolonomicSystem" in err
+
+
+def test_loop_on_the_spacecraft_reconstructs_on_so3(capsys):
+    shape = ("--shape", "varphi1=0.05*cos(2*pi*t/T)", "--shape", "varphi2=0.05*sin(2*pi*t/T)")
+    code, out, err = run(capsys, "phase", "loop", "spacecraft", *shape, "--mu", "0", "0", "0", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["phase"]["available"] is False  # SO(3) with a shape space: no phase formula
+    # a small loop at zero momentum: the holonomy is exp(-iint B) to leading order in the loop's size
+    rot = [s["net_motion_coordinates"][f"rotvec_{i}"] for i in (1, 2, 3)]
+    B = s["curvature_integral"]
+    assert abs(rot[2] + B[2]) < 1e-3 * abs(B[2]) and abs(rot[0]) + abs(rot[1]) < 1e-2 * abs(B[2])
+    code, _, err = run(capsys, "phase", "loop", "spacecraft", *shape, "--mu", "0.1")
+    assert code == 2 and "3 component(s) for SO3" in err
+    code, _, err = run(capsys, "phase", "loop", "no-such-model", *shape)
+    assert code == 2 and "Unknown MODEL" in err

@@ -8,7 +8,7 @@ import click
 
 #: Options that take a vector of numbers, written either as separate words (--inertia 3 2 1) or
 #: comma-separated (--inertia 3,2,1).
-VECTOR_OPTIONS = ("--inertia", "--momentum", "--attitude", "--lambda", "--p", "--near")
+VECTOR_OPTIONS = ("--inertia", "--momentum", "--attitude", "--lambda", "--p", "--near", "--mu")
 
 
 def _is_number(token: str) -> bool:

@@ -37,10 +37,13 @@ def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]
     return out
 
 
-def load_model(path: str | Path, params: dict[str, float] | None = None):
-    """Load a model file: it defines ``system`` (a NonholonomicSystem) or ``build(**params)`` returning one."""
+def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind: Any = None):
+    """Load a model file: it defines ``system`` or ``build(**params)`` returning one, a NonholonomicSystem
+    (or, with ``kind=HolonomicSystem``, a holonomic system with symmetry)."""
     from ..systems.nonholonomic import NonholonomicSystem
 
+    kind = NonholonomicSystem if kind is None else kind
+    how = f"{kind.__name__}.from_lagrangian(...)"
     path = Path(path)
     if not path.is_file():
         raise InputError(f"Model file {str(path)!r} does not exist.")
@@ -64,11 +67,11 @@ def load_model(path: str | Path, params: dict[str, float] | None = None):
     elif hasattr(module, "system"):
         system = module.system
     else:
-        raise InputError(f"Model file {str(path)!r} defines neither `system` (a NonholonomicSystem) nor a function "
-                         "`build(**params)` returning one; see docs/nonholonomic.md.")
-    if not isinstance(system, NonholonomicSystem):
-        raise InputError(f"{path.name}: expected `system` to be a NonholonomicSystem "
-                         f"(NonholonomicSystem.from_lagrangian(...)), got {type(system).__name__}.")
+        raise InputError(f"Model file {str(path)!r} defines neither `system` (a {kind.__name__}) nor a function "
+                         "`build(**params)` returning one; see docs/nonholonomic.md and docs/phases.md.")
+    if not isinstance(system, kind):
+        raise InputError(f"{path.name}: expected `system` to be a {kind.__name__} ({how}), got "
+                         f"{type(system).__name__}.")
     return system.with_parameters(**params) if params else system
 
 

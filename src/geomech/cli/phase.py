@@ -19,7 +19,7 @@ import click
 import numpy as np
 
 from ..errors import InputError
-from ._args import FloatVector, parse_shape_loop
+from ._args import FloatVector, parse_params, parse_shape_loop
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
 
@@ -164,6 +164,12 @@ def _planar_three_body():
     return planar_point_masses([1.0, 1.0, 1.0])
 
 
+def _spacecraft():
+    from ..systems.holonomic_examples import spacecraft_with_rotors
+
+    return spacecraft_with_rotors()
+
+
 def _two_bodies():
     from ..systems.holonomic_examples import two_pinned_bodies
 
@@ -176,21 +182,43 @@ HOLONOMIC_MODELS: dict[str, tuple[Any, str]] = {
     "three-link": (_three_link("com"), "unit three-link chain, centre-of-mass frame; shape alpha1, alpha2; SE(2)"),
     "three-link-middle": (_three_link("middle"), "unit three-link chain, middle-link frame; SE(2)"),
     "planar-3-body": (_planar_three_body, "three unit point masses with gravity; shape rho, a2, b2; SE(2)"),
+    "spacecraft": (_spacecraft, "rigid body (3, 2, 1) with rotors (J = 0.2) on body axes 1 and 2; shape the "
+                                "rotor angles; SO(3)"),
 }
 
 
+def _holonomic_system(model: str, params: dict[str, float]) -> Any:
+    """A built-in model of ``phase loop`` or a model file defining a HolonomicSystem."""
+    from ..systems.holonomic import HolonomicSystem
+    from .nonholonomic import load_model
+
+    if model in HOLONOMIC_MODELS:
+        if params:
+            raise InputError(f"--param applies to model files; the built-in {model!r} has fixed parameters.")
+        return HOLONOMIC_MODELS[model][0]()
+    if model.endswith(".py") or Path(model).is_file():
+        return load_model(model, params, kind=HolonomicSystem)
+    raise InputError(f"Unknown MODEL {model!r}: give one of {', '.join(sorted(HOLONOMIC_MODELS))} or a model file "
+                     "(.py) that defines a HolonomicSystem (docs/phases.md).")
+
+
 @phase.command("loop")
-@click.argument("model", type=click.Choice(sorted(HOLONOMIC_MODELS)))
+@click.argument("model")
 @click.option("--shape", "shapes", multiple=True, metavar="NAME=EXPR", required=True,
               help="A shape coordinate as a formula in t (and T, the period), e.g. 'alpha1=0.8*cos(2*pi*t/T)'.")
 @click.option("--period", type=float, default=1.0, show_default=True, help="Period T of the loop.")
-@click.option("--mu", type=FloatVector(1, 3), default="0", show_default=True,
-              help="Spatial momentum: one number for S^1, 'px,py,L' for SE(2).")
+@click.option("--mu", type=FloatVector(1, 3), default=None,
+              help="Spatial momentum: one number for S^1, 'px,py,L' for SE(2), three for SO(3) (default 0).")
+@click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
+              help="A parameter value for a model file (repeatable).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Directory for loop.json and figures (connection, curvature with the loop, path).")
-def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple, as_json: bool, out: Path | None) -> None:
-    """Phases and reconstruction for a closed shape loop of a built-in holonomic MODEL.
+def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params: tuple, as_json: bool,
+             out: Path | None) -> None:
+    """Phases and reconstruction for a closed shape loop of a holonomic MODEL: a built-in one (two-bodies,
+    three-link, three-link-middle, planar-3-body, spacecraft) or a model file (.py) that defines ``system``
+    (a HolonomicSystem) or ``build(**params)`` returning one (docs/phases.md).
 
     Prints the geometric, dynamic and total phase (eq. 2.3) of the rotation where the formula holds,
     the curvature integral over the enclosed area (Stokes) on a 2-D shape space, and the net motion
@@ -200,11 +228,14 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple, as_json: bool,
 
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
-    system = HOLONOMIC_MODELS[model][0]()
+    system = _holonomic_system(model, parse_params(params))
     names = [str(s) for s in system.shape_coordinates]
     given = parse_shape_loop(shapes, names, "--shape", model)
     loop = ShapeLoop.from_expressions({n: given[n] for n in names}, period, parameters={"T": period})
-    mu_arr = np.asarray(mu, dtype=float)
+    mu_arr = np.zeros(1 if system.group.dim == 1 else system.group.dim) if mu is None else np.asarray(mu, float)
+    if mu_arr.size != (1 if system.group.dim == 1 else system.group.dim):
+        raise InputError(f"Expected `--mu` with {system.group.dim} component(s) for {system.group.name}, got "
+                         f"{mu_arr.size}: {mu_arr.tolist()}.")
     summary: dict[str, Any] = {"model": model, "shape": {n: given[n] for n in names}, "period": period,
                                "mu": mu_arr.tolist(), "group": system.group.name}
     try:
@@ -219,8 +250,15 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple, as_json: bool,
         B = curvature_integral(system, loop) if not np.any(_winding(system, loop)) else None
         summary["curvature_integral"] = None if B is None else B.tolist()
     rec = reconstruct(system, loop, mu_arr)
-    disp = rec.path.coordinates[-1] - rec.path.coordinates[0]
-    summary["net_motion_coordinates"] = dict(zip(system.group.coordinate_names, disp.tolist()))
+    if system.group.name == "SO3":
+        from ..lie import so3
+
+        # Euler-angle differences are not a motion on SO(3): the rotation vector of g(0)^-1 g(T) is
+        disp = so3.log(rec.path.displacement())
+        summary["net_motion_coordinates"] = dict(zip(("rotvec_1", "rotvec_2", "rotvec_3"), disp.tolist()))
+    else:
+        disp = rec.path.coordinates[-1] - rec.path.coordinates[0]
+        summary["net_motion_coordinates"] = dict(zip(system.group.coordinate_names, disp.tolist()))
     summary["note"] = _WRAP_NOTE
     if out is not None:
         from ..plot.phases import connection_field, curvature_map, group_path

@@ -24,6 +24,7 @@ planar chain, the falling-cat mechanism in the plane), :func:`spacecraft_with_ro
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
@@ -418,6 +419,18 @@ class HolonomicSystem:
         names = {str(a): str(v) for a, v in zip(alpha + r, ad + rd)}
         return cls.from_lagrangian(full, G, r, group_coordinates=alpha, velocities=names, parameters=values,
                                    angle_shapes=angle_shapes, name=name, check_invariance=False)
+
+    def with_parameters(self, **values: float) -> HolonomicSystem:
+        """The same system with other parameter values (every parameter already has one)."""
+        unknown = sorted(set(values) - set(self.parameters))
+        if unknown:
+            raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are "
+                             f"{sorted(self.parameters) or 'none'}.")
+        bad = {k: v for k, v in values.items() if not np.isfinite(float(v))}
+        if bad:
+            raise InputError(f"Expected finite parameter values, got {bad}.")
+        merged = {**self.parameters, **{k: float(v) for k, v in values.items()}}
+        return dataclasses.replace(self, parameters=merged)
 
     def _check_invariance(self, samples: int = 4, rtol: float = 1e-9) -> None:
         """Compare the reduced mass matrix at random group coordinates with the one at the reference."""
