@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shlex
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -198,8 +200,10 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
     """Simulate an example or --model FILE.py with gaits (--shape) and torques (--tau).
 
     Prints the final configuration, the nonholonomic momentum, the constraint residual and the work done by
-    the shape inputs. Unless told otherwise the group starts at the identity with the nonholonomic momentum
-    zero (for the snakeboard at phi = 0: x' = y' = theta' = 0) while the shapes follow their gaits.
+    the shape inputs. Unless told otherwise (--p0, --q0) the group starts at the identity and at rest
+    (for the snakeboard x' = y' = theta' = 0) while the shapes follow their gaits; where rest violates
+    the constraints (constraints on the shape velocities) it starts with nonholonomic momentum 0 instead,
+    and the summary says so.
     """
     from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
 
@@ -208,18 +212,34 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
               q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True),
               p0=None if p0 is None else list(p0))
     require_values(system)
+    start = "momentum p0 as given"
+    if p0 is None:
+        from ..integrators.nonholonomic import initial_state
+
+        try:
+            initial_state(system, kw["shapes"], q0=kw["q0"], rdot0=kw["rdot0"], qd0="rest")
+            kw["qd0"], start = "rest", "at rest (group velocity 0)"
+        except InputError as exc:
+            if "cannot start at rest" not in str(exc):
+                raise
+            start = "nonholonomic momentum 0 (rest violates the constraints)"
     if method == "discrete":
         traj = simulate_discrete(system, t_final, step, **kw)
     else:
         sim = simulate_full if method == "full" else simulate_reduced
         traj = sim(system, t_final, samples=samples, **kw)
-    summary = traj.summary()
+    summary = {"initial_state": start, **traj.summary()}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         traj.to_csv(out / "trajectory.csv")
+        ds = traj.to_dataset()
+        argv = (click.get_current_context().obj or {}).get("argv", sys.argv[1:])
+        ds.attrs["command"] = "geomech " + " ".join(shlex.quote(a) for a in argv)
+        ds.attrs["initial_state"] = start
+        ds.to_netcdf(out / "trajectory.nc")
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         _plot_path(traj, out / "path.png")
-        summary["files"] = [str(out / f) for f in ("trajectory.csv", "summary.json", "path.png")]
+        summary["files"] = [str(out / f) for f in ("trajectory.nc", "trajectory.csv", "summary.json", "path.png")]
     if as_json:
         click.echo(json.dumps(summary, indent=2))
         return

@@ -29,6 +29,7 @@ prescribed shapes the torques that realise the gait are computed, and the work t
 from __future__ import annotations
 
 import csv
+import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -202,7 +203,9 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
     shape velocities from the gait, else ``rdot0``, else 0; the group velocity from the reconstruction
     equation (1.1) with nonholonomic momentum ``p0`` (default 0), so that the constraints hold. For the
     snakeboard starting at :math:`\phi = 0` this is :math:`\dot x = \dot y = \dot\theta = 0`. An explicit ``qd0``
-    is used as given after checking the constraints.
+    is used as given after checking the constraints; ``qd0="rest"`` is the group at rest (:math:`\dot g = 0`)
+    with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
+    constraints (when they involve the shape velocities).
     """
     setup = _setup(system, shapes, None)
     names = [s.name for s in system.q]
@@ -213,6 +216,17 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
         q[system.k + i] = r_p[j]
     lda = lagrange_dalembert(system).numeric(parameters)
     _require_positive_kinetic_energy(system, lda, q, parameters)
+    if isinstance(qd0, str):
+        if qd0 != "rest":
+            raise InputError(f"Expected `qd0` to be velocities or 'rest', got {qd0!r}.")
+        if p0 is not None:
+            raise InputError("Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape velocities.")
+        qd = np.r_[np.zeros(system.k), _shape_rates(system, setup, rdot0, rd_p)]
+        res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
+        if res > 1e-9 * max(1.0, np.abs(qd).max()):
+            raise InputError(f"{system.name} cannot start at rest with these shape velocities: |A(q0) qd0| = {res:.3g} "
+                             "(its constraints involve the shape velocities); give `p0` instead.")
+        return q, qd
     if qd0 is not None:
         qd = np.array([_by_name(qd0, [s.name for s in system.qdot], "qd0").get(s.name, 0.0)
                        for s in system.qdot]) if isinstance(qd0, Mapping) else V.finite(qd0, "qd0").ravel()
@@ -224,12 +238,7 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
                              "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1).")
         return q, qd
     red = bkmm_reduction(system)
-    rd = np.zeros(system.sigma)
-    rd_given = _by_name(rdot0, [r.name for r in system.shape], "rdot0")
-    for i, r in enumerate(system.shape):
-        rd[i] = rd_given.get(r.name, 0.0)
-    for j, i in enumerate(setup.prescribed):
-        rd[i] = rd_p[j]
+    rd = _shape_rates(system, setup, rdot0, rd_p)
     p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
     if p.size != red.m:
         raise InputError(f"Expected `p0` to have {red.m} entries (the nonholonomic momentum of {system.name}, basis: "
@@ -239,6 +248,17 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
     lam_inv = _group_rates(system)
     qd = np.r_[lam_inv(q[: system.k]) @ xi, rd]
     return q, qd
+
+
+def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.ndarray) -> np.ndarray:
+    """Shape velocities at the start: the gait's where prescribed, else ``rdot0``, else 0."""
+    rd = np.zeros(system.sigma)
+    rd_given = _by_name(rdot0, [r.name for r in system.shape], "rdot0")
+    for i, r in enumerate(system.shape):
+        rd[i] = rd_given.get(r.name, 0.0)
+    for j, i in enumerate(setup.prescribed):
+        rd[i] = rd_p[j]
+    return rd
 
 
 def _require_positive_kinetic_energy(system: NonholonomicSystem, lda: Any, q: np.ndarray,
@@ -319,6 +339,8 @@ class NonholonomicTrajectory:
             "system": s.name,
             "method": self.method,
             "t_final": float(self.t[-1]),
+            "initial_velocity": {v.name: float(x) for v, x in zip(s.qdot, self.qd[0])},
+            "initial_momentum": [float(x) for x in self.p[0]],
             "final_configuration": self.final(),
             "final_velocity": {v.name: float(x) for v, x in zip(s.qdot, self.qd[-1])},
             "nonholonomic_momentum": [float(x) for x in self.p[-1]],
@@ -331,6 +353,31 @@ class NonholonomicTrajectory:
             "status": self.status,
             "message": self.message,
         }
+
+    def to_dataset(self) -> Any:
+        """The trajectory as a self-describing :class:`xarray.Dataset` (write it with ``.to_netcdf``)."""
+        import xarray as xr
+
+        from .._version import __version__
+
+        s = self.system
+        return xr.Dataset(
+            {
+                "q": (("t", "coordinate"), self.q, {"long_name": "generalized coordinates (group, then shape)"}),
+                "qdot": (("t", "coordinate"), self.qd, {"long_name": "generalized velocities"}),
+                "p": (("t", "momentum_index"), self.p, {"long_name": "nonholonomic momentum (BKMM basis)"}),
+                "tau": (("t", "shape"), self.tau, {"long_name": "generalized force on each shape variable"}),
+                "energy": ("t", self.energy, {"long_name": "energy (kinetic plus potential)"}),
+                "work": ("t", self.work, {"long_name": "work done by the shape inputs since the start"}),
+                "constraint_residual": (("t", "constraint"), self.residual, {"long_name": "A(q) qdot"}),
+            },
+            coords={"t": ("t", self.t, {"long_name": "time"}), "coordinate": [x.name for x in s.q],
+                    "shape": [r.name for r in s.shape], "momentum_index": np.arange(self.p.shape[1]) + 1,
+                    "constraint": np.arange(s.c) + 1},
+            attrs={"system": s.name, "group": s.group.name, "method": self.method, "status": self.status,
+                   "message": self.message, "geomech_version": __version__,
+                   "parameters": json.dumps({str(k): float(v) for k, v in s.parameters.items()})},
+        )
 
     def to_csv(self, path: str | Path) -> Path:
         """Write the trajectory (one row per time) to ``path``."""

@@ -511,7 +511,7 @@ class NonholonomicSystem:
         dyn = _dynamic_map(q, qd)
         params: dict[str, sp.Symbol] = {}
         L = _parse(lagrangian, names, params, "lagrangian", dyn)
-        rows = []
+        parsed_constraints = []
         for i, con in enumerate(constraints):
             if isinstance(con, (list, tuple, sp.MatrixBase, np.ndarray)):
                 coeffs = [_parse(cf, names, params, f"constraints[{i}][{j}]", dyn) for j, cf in enumerate(list(con))]
@@ -520,15 +520,17 @@ class NonholonomicSystem:
                                      f"{qnames}), got {len(coeffs)}.")
                 if any(c.free_symbols & set(qd) for c in coeffs):
                     raise InputError(f"Constraint #{i}: the coefficients of a one-form must not contain velocities.")
-                rows.append(coeffs)
+                parsed_constraints.append(coeffs)
             else:
-                expr = _parse(con, names, params, f"constraints[{i}]", dyn)
-                rows.append(_one_form(expr, qd, i))
+                parsed_constraints.append(_parse(con, names, params, f"constraints[{i}]", dyn))
+        # before the constraints' form is judged: an undeclared velocity there would read as a parameter, and the
+        # constraint as "not homogeneous", when the real fault is the shape/group split
         stray = sorted(p for p in params if p.endswith("_dot") or p.endswith("_ddot"))
         if stray:
             raise InputError(f"{name}: the formulas use {stray}, velocities of coordinates that are neither group "
                              f"coordinates of {group.name} {[s.name for s in group.coordinates]} nor shape variables "
                              f"{[s.name for s in r]}; declare them (a shape/group split that does not match L).")
+        rows = [c if isinstance(c, list) else _one_form(c, qd, i) for i, c in enumerate(parsed_constraints)]
         pvals = dict(parameters or {})
         unknown = sorted(set(pvals) - set(params))
         if unknown:
@@ -716,9 +718,13 @@ class NonholonomicSystem:
         X = vt[int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0)))):].T
         MD = X.T @ M @ X
         if X.size and (np.linalg.eigvalsh(MD).min() <= 1e-12 * max(1.0, np.abs(MD).max())):
+            absent = [v.name for v, c in zip(self.qdot, self.q) if not self.lagrangian.has(v) and not self.lagrangian.has(c)]
+            hint = (f" The coordinates {[v[:-4] if v.endswith('_dot') else v for v in absent]} appear nowhere in the "
+                    "Lagrangian: is the shape/group split right (a group factor or shape variable L does not "
+                    "depend on)?" if absent else "")
             raise SymbolicError(f"{self.name}: the kinetic energy is not positive definite on the constraint "
                                 "distribution D at a random configuration; every allowed motion must carry kinetic "
-                                "energy.")
+                                "energy." + hint)
         if self.c:
             if np.linalg.matrix_rank(A, tol=1e-10 * max(1.0, np.abs(A).max())) < self.c:
                 raise InputError(f"{self.name}: the {self.c} constraint one-forms are linearly dependent at a random "

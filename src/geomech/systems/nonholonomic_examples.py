@@ -366,15 +366,15 @@ def chaplygin_ball(**values: float) -> NonholonomicSystem:
     r"""Chaplygin's ball: a sphere of radius ``r`` and mass ``m`` whose centre of mass is its geometric centre,
     with principal moments ``I1, I2, I3``, rolling without slipping on a horizontal plane.
 
-    Attitude :math:`R = R_z(\phi)R_x(	heta)R_z(\psi)` (3-1-3), centre at :math:`(x, y, r)`;
-    :math:`L = 	frac m2(\dot x^2 + \dot y^2) + 	frac12\sum_i I_i\omega_i^2` with :math:`\omega` the body angular
+    Attitude :math:`R = R_z(\phi)R_x(\theta)R_z(\psi)` (3-1-3), centre at :math:`(x, y, r)`;
+    :math:`L = \tfrac m2(\dot x^2 + \dot y^2) + \tfrac12\sum_i I_i\omega_i^2` with :math:`\omega` the body angular
     velocity; no slip at the contact point, :math:`\dot x = r\Omega_y`, :math:`\dot y = -r\Omega_x`
     (:math:`\Omega = R\omega`, spatial). Rotating the ball about the vertical and translating it, SE(2) acts on
-    :math:`(x, y, \phi)`, leaving the shape :math:`(	heta, \psi)`; :math:`S_q` is the spin about the vertical,
+    :math:`(x, y, \phi)`, leaving the shape :math:`(\theta, \psi)`; :math:`S_q` is the spin about the vertical,
     and its momentum is conserved. Chaplygin (1903) showed the angular momentum about the contact point,
     :math:`K = R\,\mathbb I\omega + m r^2(\Omega - \Omega_z e_3)`, is constant in space, and the system integrable
     (Borisov and Mamaev, Regul. Chaotic Dyn. 7 (2002)); the tests check :math:`K`. The 3-1-3 chart is singular
-    at :math:`	heta = 0, \pi` (a body axis vertical).
+    at :math:`\theta = 0, \pi` (a body axis vertical).
     """
     return _ball().with_parameters(**values) if values else _ball()
 
