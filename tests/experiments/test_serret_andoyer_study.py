@@ -46,6 +46,10 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     l0, L0 = ds.lL.sel(reduced_approach="reduced_midpoint").isel(time=0).values
     hp_at = ds.h_p.interp(l_grid=l0, L_grid=L0).item()
     assert hp_at == pytest.approx(0.47, abs=2e-3)  # bilinear on the grid: the level is the study's H_c
+    # the seed's "output every h": maxima over every step, the data file keeps every save_every-th
+    for k, a in per.items():
+        assert a["errors_sampled_every_s"] == pytest.approx(1e-3)
+        assert a["max_energy_error"] >= float(ds.energy_error.sel(approach=k).max())
     # compile time is apart: the run time of a numba method is its loop, not the compiler's
     for a in per.values():
         assert a["wall_time_s"] >= 0 and a["compile_time_s"] >= 0
