@@ -41,7 +41,8 @@ def test_text_and_files(capsys, tmp_path):
                          "--period", "1", "--samples", "41", "--g0", "theta=0.5", "--out", str(tmp_path))
     assert code == 0, err
     assert "net displacement" in out and "connection term" in out and "momentum term" in out
-    for f in ("gait_path.png", "gait_momentum.png", "curvature.png", "connection_omega.png", "gait.nc", "gait.json"):
+    for f in ("gait_path.png", "gait_momentum.png", "curvature.png", "connection_omega.png", "curvature_v_x.png",
+              "curvature_v_y.png", "gait.nc", "gait.json"):
         assert (tmp_path / f).stat().st_size > 0
     ds = xr.load_dataset(tmp_path / "gait.nc")
     assert ds["g"].shape == (41, 3) and abs(float(ds["g"][0, 2]) - 0.5) < 1e-15

@@ -96,7 +96,8 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
         for c in range(analysis.model.k):
             name = analysis.model.group.algebra_names[c]
             save(gait_connection_field(analysis, component=c), f"connection_{name}.png")
-        save(gait_curvature_map(analysis), "curvature.png")
+            save(gait_curvature_map(analysis, component=c), f"curvature_{name}.png")
+        save(gait_curvature_map(analysis), "curvature.png")  # the default component (the rotation on SE(2))
     analysis.to_dataset().to_netcdf(out / "gait.nc")
     files.append(str(out / "gait.nc"))
     files.append(str(out / "gait.json"))
