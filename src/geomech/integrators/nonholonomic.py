@@ -220,7 +220,8 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
         if qd0 != "rest":
             raise InputError(f"Expected `qd0` to be velocities or 'rest', got {qd0!r}.")
         if p0 is not None:
-            raise InputError("Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape velocities.")
+            raise InputError("Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape "
+                             "velocities.")
         qd = np.r_[np.zeros(system.k), _shape_rates(system, setup, rdot0, rd_p)]
         res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
