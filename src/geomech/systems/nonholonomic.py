@@ -718,7 +718,8 @@ class NonholonomicSystem:
         X = vt[int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0)))):].T
         MD = X.T @ M @ X
         if X.size and (np.linalg.eigvalsh(MD).min() <= 1e-12 * max(1.0, np.abs(MD).max())):
-            absent = [c.name for v, c in zip(self.qdot, self.q) if not (self.lagrangian.has(v) or self.lagrangian.has(c))]
+            L = self.lagrangian
+            absent = [c.name for v, c in zip(self.qdot, self.q) if not (L.has(v) or L.has(c))]
             hint = (f" The coordinates {absent} appear nowhere in the "
                     "Lagrangian: is the shape/group split right (a group factor or shape variable L does not "
                     "depend on)?" if absent else "")
