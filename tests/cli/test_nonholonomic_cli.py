@@ -131,3 +131,32 @@ def test_simulate_with_initial_momentum(capsys):
     assert abs(summary["nonholonomic_momentum"][0] - (2 * summary["energy_initial"]) ** 0.5) < 1e-3
     code, _, err = _run(capsys, *base, "--p0", "1")
     assert code == 2 and "Expected `p0` to have 2 entries" in err and err.count("\n") == 1
+
+
+def test_derive_latex_prints_the_system_as_latex(capsys):
+    code, out, err = _run(capsys, "derive", "snakeboard_bkmm", "--latex", "--section", "system")
+    assert code == 0, err
+    lagrangian = next(line for line in out.splitlines() if line.startswith("L = "))
+    assert r"\dot{\theta}" in lagrangian and "theta_dot" not in lagrangian
+    constraints = next(line for line in out.splitlines() if line.startswith(r"\text{constraints: }"))
+    assert constraints.count("= 0") == 2 and r"\cos{\left(\phi \right)}" in constraints
+    code, out, _ = _run(capsys, "derive", "snakeboard_bkmm", "--section", "system")
+    assert code == 0 and "lagrangian: " in out and "theta_dot" in out and r"\dot" not in out
+
+
+def test_derive_json_exports_the_short_forms(capsys):
+    """Multipliers on D and the projected (multiplier-free) equations instead of the expanded forms valid off D;
+    Jacobiators by their indices; the system in LaTeX too."""
+    code, out, err = _run(capsys, "derive", "chaplygin_sleigh", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    lda = data["lagrange_dalembert"]
+    assert set(lda["text"]) >= {"multipliers lambda on D", "projected equations X^T(M qddot - f - B tau) (= 0)",
+                                "basis of D X(q) (columns)"}
+    assert "multipliers lambda" not in lda["text"] and "accelerations qddot" not in lda["text"]
+    assert list(lda["text"]["multipliers lambda on D"]) == ["lambda1(q, rdot, p, tau)"]
+    assert r"\lambda_{1} = " in lda["latex"]["multipliers lambda on D"]
+    jac = data["almost_poisson"]["text"]["Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"]
+    assert list(jac) == ["Jac(x, pt1, pt2)", "Jac(y, pt1, pt2)", "Jac(theta, pt1, pt2)"]
+    assert data["system"]["latex"]["constraints"] == [r"- \dot{x} \sin{\left(\theta \right)} + \dot{y} "
+                                                      r"\cos{\left(\theta \right)}"]

@@ -159,3 +159,34 @@ def test_structures_print_as_json_and_latex():
     assert r"J_{\mathcal M}" in ap.to_latex()
     pr = poisson_reduction(EXAMPLES["snakeboard_bkmm"]())
     assert "Hamilton equations (Thm 1.1)" in json.loads(pr.to_json())["text"]
+
+
+@pytest.mark.parametrize("name", ["snakeboard_bkmm", "simplified_bicycle", "chaplygin_sleigh"])
+def test_jacobiators_are_printed_with_their_indices_all_types_simplified(name, rng):
+    """Every Jacobiator of coordinate functions, (q^i, pt_a, pt_b) and (pt_a, pt_b, pt_c), is printed under its
+    label; the simplified values equal the unsimplified curvature formula and the Jacobiator of J_M itself."""
+    ap = almost_poisson(EXAMPLES[name]())
+    s, z, d = ap.system, ap.z, ap.X.cols
+    printed = json.loads(ap.to_json())["text"][
+        "Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"]
+    keys = ap._keys()
+    assert list(printed) == [f"Jac({z[i]}, {z[j]}, {z[k]})" for i, j, k in keys]
+    assert len(keys) == s.n * d * (d - 1) // 2 + d * (d - 1) * (d - 2) // 6
+    if d >= 3:
+        assert "Jac(pt1, pt2, pt3)" in printed
+        assert r"\mathrm{Jac}(\tilde p_{1}, \tilde p_{2}, \tilde p_{3})" in ap.to_latex()
+    syms = z + list(s.parameter_symbols)
+    f = sp.lambdify(syms, [[ap.jacobiators[k] for k in keys], [ap.jacobiator_curvature[k] for k in keys]])
+    numeric = ap.jacobiator_numeric(points=2, seed=4)
+    rng2 = np.random.default_rng(4)
+    for j in range(2):
+        pv = s._random_point(rng2, z)
+        simplified, curvature = (np.asarray(v, dtype=float) for v in f(*[pv[v] for v in syms]))
+        scale = max(1.0, np.abs(curvature).max())
+        np.testing.assert_allclose(simplified, curvature, atol=1e-12 * scale)
+        np.testing.assert_allclose(numeric[j], curvature, atol=1e-10 * scale)
+    # the (q, pt, pt) Jacobiators depend on q only, with no group coordinate in a denominator
+    for (i, _, _), v in ap.jacobiators.items():
+        if i < s.n:
+            assert not v.free_symbols & set(ap.pt)
+            assert not sp.fraction(sp.together(v))[1].free_symbols & set(s.group.coordinates)

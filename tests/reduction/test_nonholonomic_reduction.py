@@ -248,3 +248,139 @@ def test_multipliers_on_the_distribution():
                **dict(zip(lda.tau, tau))}
         full = np.array([float(e.subs(sub)) for e in lda.multipliers])
         np.testing.assert_allclose([float(e.subs(sub)) for e in short], full, rtol=1e-10, atol=1e-12)
+
+
+# --------------------------------------------------------------------------------------------------
+# The kinetic-orthogonal right inverse Z, the on-disk cache, and the whole derivation of the heavy examples
+# --------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", [n for n in EXAMPLES if EXAMPLES[n]().c])
+def test_constraint_complement_is_the_kinetic_orthogonal_right_inverse(name, rng):
+    """A Z = I and X^T M Z = 0 (X the null-space basis of A), at random points; no group coordinate in a
+    denominator (the route through body velocities avoids the right inverse's sin(theta + phi) and the like)."""
+    s = EXAMPLES[name]()
+    lda = lagrange_dalembert(s)
+    Z, X = sp.Matrix(lda.constraint_complement), sp.Matrix(lda.projected_equations[1])
+    f = sp.lambdify(list(s.q) + list(s.parameter_symbols),
+                    [sp.Matrix(s.constraint_matrix) * Z, X.T * sp.Matrix(s.mass_matrix) * Z])
+    for _ in range(3):
+        AZ, XMZ = (np.asarray(v, dtype=float) for v in f(*rng.uniform(0.3, 1.3, s.n + len(s.parameter_symbols))))
+        np.testing.assert_allclose(AZ, np.eye(s.c), atol=1e-12)
+        assert np.abs(XMZ).max() < 1e-12
+    dens = set().union(*[sp.fraction(sp.together(e))[1].free_symbols for e in Z])
+    assert not dens & set(s.group.coordinates)
+
+
+def _fresh_memory(monkeypatch, tmp_path):
+    """A new process as far as the caches go: empty in-memory store, disk cache in tmp_path."""
+    from geomech.reduction import nonholonomic_symbolic as ns
+
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(ns, "_SHARED", {})
+    return ns
+
+
+def test_a_second_derivation_loads_from_the_disk_cache(monkeypatch, tmp_path):
+    ns = _fresh_memory(monkeypatch, tmp_path)
+    s = rolling_disk()
+    first = bkmm_reduction(s).to_dict()
+    files = sorted(tmp_path.rglob("*.pkl"))
+    assert files and ns.DISK_CACHE.misses > 0
+    monkeypatch.setattr(ns, "_SHARED", {})
+    hits, misses = ns.DISK_CACHE.hits, ns.DISK_CACHE.misses
+    again = bkmm_reduction(s)
+    assert again.to_dict() == first
+    assert again.momentum_rhs == sp.Matrix([0]) and again.shape_mass[0, 0] == bkmm_reduction(s).shape_mass[0, 0]
+    assert ns.DISK_CACHE.hits > hits and ns.DISK_CACHE.misses == misses
+    # the key holds the symbolic content: other parameter values share the files, another system does not
+    monkeypatch.setattr(ns, "_SHARED", {})
+    hits = ns.DISK_CACHE.hits
+    assert bkmm_reduction(rolling_disk(m=2.0)).to_dict() == first
+    assert ns.DISK_CACHE.misses == misses and ns.DISK_CACHE.hits > hits
+    monkeypatch.setattr(ns, "_SHARED", {})
+    bkmm_reduction(chaplygin_sleigh()).to_dict()
+    assert ns.DISK_CACHE.misses > misses
+
+
+def test_a_new_process_reads_the_disk_cache(monkeypatch, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    _fresh_memory(monkeypatch, tmp_path)
+    expected = bkmm_reduction(chaplygin_sleigh()).to_dict()
+    code = ("import json; from geomech.reduction.nonholonomic import bkmm_reduction; "
+            "from geomech.reduction import nonholonomic_symbolic as ns; "
+            "from geomech.systems.nonholonomic_examples import chaplygin_sleigh; "
+            "d = bkmm_reduction(chaplygin_sleigh()).to_dict(); "
+            "print(json.dumps([d, ns.DISK_CACHE.hits, ns.DISK_CACHE.misses]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "GEOMECH_CACHE_DIR": str(tmp_path)})
+    data, hits, misses = json.loads(out.stdout)
+    assert data == expected and hits > 0 and misses == 0
+
+
+def test_a_corrupted_cache_file_is_ignored_and_rewritten(monkeypatch, tmp_path):
+    ns = _fresh_memory(monkeypatch, tmp_path)
+    s = snakeboard_bkmm()
+    expected = bkmm_reduction(s).momentum_rhs
+    files = sorted(tmp_path.rglob("*.pkl"))
+    for i, f in enumerate(files):  # garbage, truncated pickles, empty files
+        data = f.read_bytes()
+        f.write_bytes([b"not a pickle", data[: len(data) // 2], b""][i % 3])
+    monkeypatch.setattr(ns, "_SHARED", {})
+    hits = ns.DISK_CACHE.hits
+    assert simplify_expr(bkmm_reduction(s).momentum_rhs[0] - expected[0]) == 0
+    assert ns.DISK_CACHE.hits == hits  # nothing was read from the damaged files
+    monkeypatch.setattr(ns, "_SHARED", {})
+    assert bkmm_reduction(s).momentum_rhs == expected and ns.DISK_CACHE.hits > hits  # rewritten, readable
+
+
+def test_disk_cache_can_be_switched_off(monkeypatch, tmp_path):
+    ns = _fresh_memory(monkeypatch, tmp_path)
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", "off")
+    assert ns.cache_dir() is None
+    assert bkmm_reduction(rolling_disk()).momentum_rhs == sp.Matrix([0])
+    assert not list(tmp_path.rglob("*.pkl"))
+
+
+@pytest.mark.parametrize("name", ["roller_racer", "simplified_bicycle"])
+def test_the_whole_derivation_of_the_heavy_examples_is_produced(name, monkeypatch, tmp_path):
+    """Every section of `geomech derive`, derived from scratch (empty caches): the objects exist, have their
+    shapes, and the printed forms are short (the expanded multipliers used to take megabytes)."""
+    from geomech.cli.nonholonomic import derivation
+
+    _fresh_memory(monkeypatch, tmp_path)
+    s = EXAMPLES[name]()
+    data = derivation(s)
+    assert set(data) == {"system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction"}
+    lda, red = lagrange_dalembert(s), bkmm_reduction(s)
+    lam = lda.multipliers_on_distribution()
+    assert lam.shape == (s.c, 1) and not lam.free_symbols & set(s.qdot[: s.k])
+    assert lda.projected_equations[0].shape == (s.n - s.c, 1)
+    text = data["lagrange_dalembert"]["text"]
+    assert set(text["multipliers lambda on D"]) == {f"lambda{a + 1}(q, rdot, p, tau)" for a in range(s.c)}
+    assert len(text["projected equations X^T(M qddot - f - B tau) (= 0)"]) == s.n - s.c
+    assert len(red.momentum_rhs) == red.m and red.shape_forces.shape == (s.sigma, 1)
+    jac = data["almost_poisson"]["text"]["Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"]
+    d = s.n - s.c
+    assert len(jac) == s.n * d * (d - 1) // 2 + d * (d - 1) * (d - 2) // 6
+    assert data["almost_poisson"]["text"]["Jacobi identity holds"] == "False"
+    assert len(json.dumps(data)) < 500_000
+
+
+@pytest.mark.parametrize("name", ["chaplygin_sleigh", "rolling_disk", "snakeboard_bkmm"])
+def test_the_coordinate_route_agrees_with_the_body_velocity_route(name, monkeypatch, tmp_path):
+    """Z and the multipliers on D without the body-velocity route (the fallback for systems where it fails)."""
+    from geomech.reduction import nonholonomic as nh
+
+    ns = _fresh_memory(monkeypatch, tmp_path)
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", "off")
+    s = EXAMPLES[name]()
+    lda = lagrange_dalembert(s)
+    Z, lam = lda.constraint_complement, lda.multipliers_on_distribution()
+    monkeypatch.setattr(ns, "_SHARED", {})
+    monkeypatch.setattr(nh, "_complement_in_body_frame", lambda system: None)
+    lda = lagrange_dalembert(s)
+    assert lda._body_complement is None
+    assert all(simplify_expr(e) == 0 for e in lda.constraint_complement - Z)
+    assert all(simplify_expr(e) == 0 for e in lda.multipliers_on_distribution() - lam)

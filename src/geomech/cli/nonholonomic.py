@@ -119,13 +119,17 @@ def derivation(system, sections: tuple[str, ...] = ("system", "lagrange_dalember
 
     out: dict[str, Any] = {}
     if "system" in sections:
+        constraints = list(system.constraint_matrix * sp.Matrix(system.qdot))
+        names = system.latex_names
         out["system"] = {
             "name": system.name, "description": system.description, "group": system.group.name,
             "group_coordinates": [c.name for c in system.group.coordinates],
             "shape": [r.name for r in system.shape], "velocities": [v.name for v in system.qdot],
             "lagrangian": str(system.lagrangian),
-            "constraints": [str(e) for e in system.constraint_matrix * sp.Matrix(system.qdot)],
+            "constraints": [str(e) for e in constraints],
             "parameters": [p.name for p in system.parameter_symbols], "invariance": system.check_invariance().to_dict(),
+            "latex": {"lagrangian": sp.latex(system.lagrangian, symbol_names=names),
+                      "constraints": [sp.latex(e, symbol_names=names) for e in constraints]},
         }
     if "lagrange_dalembert" in sections:
         out["lagrange_dalembert"] = lagrange_dalembert(system).to_dict()
@@ -153,10 +157,12 @@ _SECTIONS = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_
 def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     """Derive the nonholonomic structure of an example (snakeboard, roller_racer, ...) or of --model FILE.py.
 
-    The Lagrange-d'Alembert equations with their multipliers; the BKMM reduction (body-fixed basis,
+    The Lagrange-d'Alembert equations, their projection on D (no multipliers) and the multipliers along D, in
+    (q, rdot, p, tau); the BKMM reduction (body-fixed basis,
     nonholonomic momentum, connection, locked inertia, reconstruction eq. 1.1, momentum equation 1.2 with
-    H, K, D, shape equations 1.3); the almost-Poisson bracket on FL(D) with its Jacobiator and the curvature
-    of D; the Poisson reduction of Theorems 1.1-1.2.
+    H, K, D, shape equations 1.3); the almost-Poisson bracket on FL(D) with the curvature of D and every
+    Jacobiator of coordinate functions by its indices; the Poisson reduction of Theorems 1.1-1.2. Derivations
+    are cached on disk ($GEOMECH_CACHE_DIR, default ~/.cache/geomech; "off" disables it).
     """
     system = _system(name, model, _pairs(params, "--param", True))
     data = derivation(system, tuple(sections) or _SECTIONS)
@@ -166,8 +172,16 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     for key, val in data.items():
         click.echo(f"== {key} ==")
         if key == "system":
+            tex = val["latex"]
             for k, v in val.items():
-                click.echo(f"{k}: {v}")
+                if k == "latex":
+                    continue
+                if as_latex and k == "lagrangian":
+                    click.echo(f"L = {tex['lagrangian']}")
+                elif as_latex and k == "constraints":
+                    click.echo(r"\text{constraints: } " + r",\; ".join(f"{c} = 0" for c in tex["constraints"]))
+                else:
+                    click.echo(f"{k}: {v}")
             continue
         items = val["latex"] if as_latex else val["text"]
         for k, v in items.items():

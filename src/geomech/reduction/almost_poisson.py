@@ -66,8 +66,10 @@ from ..systems.nonholonomic import NonholonomicSystem
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, lagrange_dalembert
 from .nonholonomic_symbolic import (
     Derived,
+    Labelled,
     NumericCache,
     clear_denominators,
+    inverse,
     shared_property,
     simplify_expr,
     simplify_matrix,
@@ -153,9 +155,11 @@ class AlmostPoissonStructure(Derived, NumericCache):
     @shared_property
     def metric_inverse(self) -> sp.ImmutableMatrix:
         if self.blocks is not None:
-            return sp.ImmutableMatrix(sp.diag(*[simplify_matrix(sp.Matrix(b).inv(method="LU"))
-                                                for b in self.blocks if b.rows]))
-        return simplify_matrix(sp.Matrix(self.metric).inv(method="LU"))
+            # diag(I(r), M(r)) of the BKMM reduction, whose inverses it has already
+            red = bkmm_reduction(self.system)
+            return sp.ImmutableMatrix(sp.diag(*[sp.Matrix(b) for b in (red.locked_inertia_inverse,
+                                                                       red.shape_mass_inverse) if b.rows]))
+        return simplify_matrix(inverse(self.metric))
 
     @shared_property
     def momentum(self) -> sp.ImmutableMatrix:
@@ -225,13 +229,11 @@ class AlmostPoissonStructure(Derived, NumericCache):
         A = sp.Matrix(self.system.constraint_matrix)
         return tuple(simplify_matrix(A * sp.Matrix(v)) for v in self.brackets)
 
-    @shared_property
+    @property
     def _Z(self) -> sp.Matrix:
-        s = self.system
-        X, M = sp.Matrix(self.X), sp.Matrix(s.mass_matrix)
-        Y = sp.Matrix(lagrange_dalembert(s)._right_inverse()) if s.c else sp.zeros(s.n, 0)
-        Pi = X * sp.Matrix(self.metric_inverse) * X.T * M
-        return (sp.eye(s.n) - Pi) * Y
+        # (I - Pi) Y depends on neither the basis X of D nor the right inverse Y: it is the kinetic-orthogonal
+        # right inverse of A, derived (simplified) once for the system
+        return sp.Matrix(lagrange_dalembert(self.system).constraint_complement)
 
     def _keys(self) -> list[tuple[int, int, int]]:
         n, d = self.system.n, self.X.cols
@@ -284,10 +286,61 @@ class AlmostPoissonStructure(Derived, NumericCache):
         return out
 
     @shared_property
+    def jacobiators(self) -> dict:
+        r"""The Jacobiators of coordinate functions by the curvature formula, simplified (keys as in
+        :attr:`jacobiator_curvature`): :math:`\mathrm{Jac}(q^i, \tilde p_\alpha, \tilde p_\beta) = (ZK_{\alpha\beta})^i`
+        is a function of :math:`q`; :math:`\mathrm{Jac}(\tilde p_\alpha, \tilde p_\beta, \tilde p_\gamma)` is linear in
+        :math:`\tilde p`, each coefficient simplified. Built from simplified pieces (:math:`ZK_{\alpha\beta}`, the
+        brackets, :math:`\mathbb M X G^{-1}`), so that no large expression is differentiated or simplified."""
+        s = self.system
+        n, d, q = s.n, self.X.cols, list(s.q)
+        X, Z = sp.Matrix(self.X), self._Z
+        out, ZK = {}, {}
+        for idx, (a, b) in enumerate(combinations(range(d), 2)):
+            ZK[(a, b)] = simplify_matrix(Z * sp.Matrix(self.curvature[idx]))
+            ZK[(b, a)] = -ZK[(a, b)]
+            for i in range(n):
+                out[(i, n + a, n + b)] = ZK[(a, b)][i]
+        if d >= 3:
+            # p = M X G^{-1} pt: the coefficient of pt_e in -<p, cyc> is -(M X G^{-1})[:, e] . cyc
+            P = simplify_matrix(simplify_matrix(sp.Matrix(s.mass_matrix) * X) * sp.Matrix(self.metric_inverse))
+            for a, b, c in combinations(range(d), 3):
+                cyc = simplify_matrix(_lie_bracket(X[:, a], ZK[(b, c)], q) + _lie_bracket(X[:, b], ZK[(c, a)], q)
+                                      + _lie_bracket(X[:, c], ZK[(a, b)], q))
+                out[(n + a, n + b, n + c)] = sp.Add(*[simplify_expr(-(P[:, e].T * cyc)[0, 0]) * pt
+                                                      for e, pt in enumerate(self.pt)])
+        return out
+
+    def jacobiator_numeric(self, points: int = 3, seed: int = 0, parameters: dict | None = None) -> np.ndarray:
+        r"""The Jacobiators of coordinate functions (keys of :attr:`jacobiator_direct`) at random points, computed
+        from :math:`J_{\mathcal M}` alone: :math:`\sum_l J^{il}\partial_l J^{jk} + \text{cyclic}` with the
+        derivatives of the compiled tensor by complex step (exact to round-off). Shape ``(points, number of keys)``.
+        """
+        s, keys, z = self.system, self._keys(), self.z
+        rng = np.random.default_rng(seed)
+        syms = z + list(s.parameter_symbols)
+        f = sp.lambdify(syms, sp.Matrix(self.tensor), "numpy")
+        N, h = len(z), 1e-30
+        out = np.empty((points, len(keys)))
+        for j in range(points):
+            pv = s._random_point(rng, z)
+            if parameters:
+                pv.update({p: float(parameters[p.name]) for p in s.parameter_symbols if p.name in parameters})
+            args = np.array([pv[v] for v in syms], dtype=complex)
+            J = np.asarray(f(*args), dtype=complex).real.reshape(N, N)
+            dJ = np.empty((N, N, N))
+            for l in range(N):
+                a = args.copy()
+                a[l] += 1j * h
+                dJ[l] = np.asarray(f(*a), dtype=complex).imag.reshape(N, N) / h
+            out[j] = [J[a, :] @ dJ[:, b, c] + J[b, :] @ dJ[:, c, a] + J[c, :] @ dJ[:, a, b] for a, b, c in keys]
+        return out
+
+    @shared_property
     def satisfies_jacobi(self) -> bool:
-        """Whether every Jacobiator of coordinate functions vanishes: exactly (simplification to 0) for small
-        expressions, else at random points (the formulas are exact, so a value beyond round-off is decisive)."""
-        vals = self.jacobiator_values()
+        """Whether every Jacobiator of coordinate functions vanishes, decided at random points from the tensor
+        itself (:meth:`jacobiator_numeric`; the formulas are exact, so a value beyond round-off is decisive)."""
+        vals = self.jacobiator_numeric()
         scale = max(1.0, float(np.abs(vals).max(initial=0.0)))
         return bool(np.abs(vals).max(initial=0.0) < 1e-9 * scale) if vals.size else True
 
@@ -298,16 +351,20 @@ class AlmostPoissonStructure(Derived, NumericCache):
         return names
 
     def items(self):
-        n = self.system.n
-        jac = [simplify_expr(v) for (i, j, k), v in self.jacobiator_curvature.items() if i < n]
-        jac = [v for v in jac if v != 0]
+        z, names = self.z, self._latex_names()
+        tex = [names.get(v, sp.latex(v)) for v in z]
+        jac = Labelled((f"Jac({z[i]}, {z[j]}, {z[k]})", rf"\mathrm{{Jac}}({tex[i]}, {tex[j]}, {tex[k]})", v)
+                       for (i, j, k), v in self.jacobiators.items())
+        d = self.X.cols
+        pairs = [(a, b) for a in range(d) for b in range(a + 1, d)]
+        curv = Labelled((f"K_{a + 1}{b + 1}", rf"K_{{{a + 1}{b + 1}}}", K) for (a, b), K in zip(pairs, self.curvature))
         return [("basis of D (columns)", r"X(q)", self.X), ("basis note", r"\mathrm{basis}", self.basis_note),
                 ("coordinates z", "z", self.z), ("momentum on M", r"p(q, \tilde p)", self.momentum),
                 ("H_M", r"H_{\mathcal M}", self.hamiltonian), ("J_M", r"J_{\mathcal M}", self.tensor),
-                ("curvature of D", r"K_{\alpha\beta}", list(self.curvature)),
+                ("curvature of D", r"K_{\alpha\beta} = A[X_\alpha, X_\beta]", curv),
                 ("Jacobi identity holds", r"\mathrm{Jacobi}", str(self.satisfies_jacobi)),
-                ("Jac(q^i, pt_a, pt_b) = (Z K_ab)^i, nonzero", r"\mathrm{Jac}(q^i, \tilde p_\alpha, \tilde p_\beta)",
-                 jac or "none")]
+                ("Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)",
+                 r"\mathrm{Jac}", jac if jac else "none (dim D < 2)")]
 
     def numeric(self, parameters: dict | None = None) -> dict:
         """Compiled ``J(z)``, ``grad H(z)``, ``p(z)`` (the point of M) and ``pt(q, qdot) = X^T M qdot``."""
@@ -372,7 +429,7 @@ class PoissonReduction(Derived, NumericCache):
     def hamiltonian(self) -> sp.Expr:
         r""":math:`h = \tfrac12\tilde p_r^T M^{-1}\tilde p_r + \tfrac12 p^T\mathbb I^{-1}p + V(r)`."""
         red = self.reduction
-        Minv = simplify_matrix(sp.Matrix(red.shape_mass).inv(method="LU")) if red.r else sp.zeros(0, 0)
+        Minv = sp.Matrix(red.shape_mass_inverse) if red.r else sp.zeros(0, 0)
         a, p = sp.Matrix(self.ptr), sp.Matrix(len(red.p), 1, list(red.p))
         h = red.potential
         if red.r:

@@ -57,9 +57,12 @@ from ..errors import InputError, SymbolicError
 from ..systems.nonholonomic import NonholonomicSystem
 from .nonholonomic_symbolic import (
     Derived,
+    Labelled,
     NumericCache,
     clear_denominators,
+    inverse,
     shared_property,
+    shared_value,
     simplify_expr,
     simplify_matrix,
     stack_last,
@@ -150,7 +153,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         F = sp.Matrix(self.forces) + self.input_matrix * _col(self.tau)
         X = sp.Matrix(self.projected_equations[1])
         G = _simp_matrix(X.T * M * X)
-        Ginv = _simp_matrix(G.inv(method="LU"))
+        Ginv = _simp_matrix(inverse(G))
         if s.c == 0:
             qdd = (X * Ginv * X.T * F).applyfunc(sp.expand)
             return sp.ImmutableMatrix(sp.zeros(0, 1)), sp.ImmutableMatrix(qdd)
@@ -165,26 +168,54 @@ class LagrangeDAlembert(Derived, _NumericMixin):
     def _right_inverse(self) -> sp.Matrix:
         """A right inverse :math:`Y` of :math:`A` (:math:`AY = I`) supported on c coordinates: the columns of A with
         the best-conditioned (and shortest) c x c block, inverted symbolically."""
-        from itertools import combinations
+        return sp.Matrix(self._right_inverse_matrix)
 
+    @shared_property
+    def _right_inverse_matrix(self) -> sp.ImmutableMatrix:
         s = self.system
-        A = sp.Matrix(self.constraint_matrix)
-        pt = s._random_point(np.random.default_rng(3), s.q)
-        An = np.array(A.subs(pt).evalf(), dtype=float)
-        best = None
-        for cols in combinations(range(s.n), s.c):
-            cond = np.linalg.cond(An[:, cols])
-            if cond > 1e8:
-                continue
-            cost = (sum(sp.count_ops(A[i, j]) for i in range(s.c) for j in cols), cond)
-            if best is None or cost < best[0]:
-                best = (cost, cols)
-        cols = best[1]
-        block_inv = _simp_matrix(A[:, list(cols)].inv(method="LU"))
-        Y = sp.zeros(s.n, s.c)
-        for a, j in enumerate(cols):
-            Y[j, :] = block_inv[a, :]
-        return Y
+        return sp.ImmutableMatrix(_block_right_inverse(sp.Matrix(self.constraint_matrix), s, s.q))
+
+    @shared_property
+    def constraint_complement(self) -> sp.ImmutableMatrix:
+        r""":math:`Z(q)` (n x c), the right inverse of :math:`A` whose columns are kinetic-orthogonal to
+        :math:`\mathcal D`: :math:`AZ = I`, :math:`X^T\mathbb M Z = 0` for a basis :math:`X` of :math:`\mathcal D`
+        (simplified).
+
+        :math:`Z = (I - \Pi)Y` for any right inverse :math:`Y` of :math:`A`, with :math:`\Pi = XG^{-1}X^T\mathbb M`
+        the kinetic projector onto :math:`\mathcal D` (:math:`G = X^T\mathbb M X`); it does not depend on the
+        choice of :math:`Y` or :math:`X`. It carries the constraint forces, :math:`\lambda = Z^T(\mathbb M\ddot q - f
+        - B\tau)`, and the Jacobiator of the almost-Poisson bracket (:mod:`geomech.reduction.almost_poisson`).
+
+        Computed in body velocities, where :math:`\mathbb M`, the constraints and the BKMM-adapted basis of
+        :math:`\mathcal D` depend on the shape only (:math:`G = \mathrm{diag}(\mathbb I, M)` is block diagonal),
+        then carried to coordinates: with :math:`T(g) = \mathrm{diag}(\Lambda(g)^{-1}, I)` and
+        :math:`A T = R(g, r)\,(A_\xi, A_r)` (G-invariance of :math:`\mathcal D`), :math:`Z = T Z_{body} R^{-1}`. That
+        avoids the spurious denominators of a right inverse in coordinates (e.g. :math:`\sin(\theta + \phi)`). A
+        system for which that route fails a numeric check is done in coordinates.
+        """
+        s = self.system
+        if s.c == 0:
+            return sp.ImmutableMatrix(sp.zeros(s.n, 0))
+        Z = None
+        if self._body_complement is not None:
+            Zb, R = (sp.Matrix(x) for x in self._body_complement)
+            T = sp.diag(sp.Matrix(s.group.body_velocity_inverse), sp.eye(s.sigma))
+            Z = _simp_matrix(T * Zb * (sp.eye(s.c) if R == sp.eye(s.c) else _simp_matrix(inverse(R))))
+        if Z is None or not _is_complement(s, Z, sp.Matrix(self.projected_equations[1])):
+            X = sp.Matrix(self.projected_equations[1])
+            M, Y = sp.Matrix(s.mass_matrix), self._right_inverse()
+            V = _simp_matrix(inverse(_simp_matrix(X.T * M * X)) * _simp_matrix(X.T * M * Y))
+            Z = _simp_matrix(Y - X * V)
+        return sp.ImmutableMatrix(Z)
+
+    @shared_property
+    def _body_complement(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None:
+        r"""``(Z_body(r), R(g, r))`` with :math:`Z = T Z_{body} R^{-1}` (:attr:`constraint_complement`), or ``None``
+        when the route through body velocities does not apply."""
+        try:
+            return _complement_in_body_frame(self.system)
+        except (ValueError, ZeroDivisionError, SymbolicError):  # e.g. a singular block: coordinates instead
+            return None
 
     @property
     def multipliers(self) -> sp.ImmutableMatrix:
@@ -196,14 +227,76 @@ class LagrangeDAlembert(Derived, _NumericMixin):
 
     def multipliers_on_distribution(self, basis: Any = None) -> sp.ImmutableMatrix:
         r""":math:`\lambda` along motions that satisfy the constraints, in the reduced variables
-        :math:`(q, \dot r, p, \tau)`: the group velocities eliminated with the reconstruction equation (1.1)
-        (:func:`bkmm_reduction` with ``basis``) and simplified. :attr:`multipliers` is defined off
-        :math:`\mathcal D` too and is much longer; the two agree on :math:`\mathcal D`."""
+        :math:`(q, \dot r, p, \tau)` (:func:`bkmm_reduction` with ``basis`` for :math:`p`), simplified.
+        :attr:`multipliers` is defined off :math:`\mathcal D` too and is much longer; the two agree on
+        :math:`\mathcal D`.
+
+        .. math::
+
+            \lambda = Z^T(\mathbb M\ddot q - f - B\tau) = -N\,\dot A\dot q - Z^T(f + B\tau), \qquad
+            N = Z^T\mathbb M Z,
+
+        with :math:`Z` the :attr:`constraint_complement` (:math:`Z^T\mathbb M` annihilates :math:`\mathcal D`, so
+        only the constraint part :math:`-Z\dot A\dot q` of :math:`\ddot q` enters), evaluated at
+        :math:`\dot q = T_w(q)\,w` on :math:`\mathcal D`, :math:`w = (\dot r, p)` (eq. 1.1): a quadratic form in
+        :math:`w`, plus terms in :math:`\tau` and the potential, each coefficient a simplified function of
+        :math:`q`.
+        """
+        red = bkmm_reduction(self.system, basis)
+        return shared_value(self, "multipliers_on_distribution", lambda: self._multipliers_on_d(red),
+                            extra=red._cache_key)
+
+    def _multipliers_on_d(self, red: NonholonomicReduction) -> sp.ImmutableMatrix:
+        # In body velocities v = (xi, rdot), where everything depends on the shape only: the Lagrange-d'Alembert
+        # equations read EP = M_b vdot + h(r, v) = A_b^T lambda_b + B tau (Euler-Poincare form; T^T A^T = A_b^T R^T,
+        # so lambda = R^{-T} lambda_b), and lambda_b = Z_b^T (EP - B tau) = -N_b Adot_b v + Z_b^T h - Z_b^T B tau
+        # with N_b = Z_b^T M_b Z_b, because Z_b^T M_b kills the component of vdot in D and A_b vdot = -Adot_b v.
         s = self.system
-        red = bkmm_reduction(s, basis)
+        if s.c == 0:
+            return sp.ImmutableMatrix(sp.zeros(0, 1))
+        if self._body_complement is None:
+            return self._multipliers_on_d_coordinates(red)
+        Zb, R = (sp.Matrix(x) for x in self._body_complement)
+        k, sig, m = s.k, s.sigma, red.m
+        l, xi, r, rd = s.body_lagrangian, list(s.xi), list(s.shape), list(s.shape_dot)
+        v = xi + rd
+        Mb = sp.hessian(l, v)
+        Nb = _simp_matrix(Zb.T * Mb * Zb)
+        mu = sp.Matrix([sp.diff(l, x) for x in xi])
+        pr = sp.Matrix(sig, 1, [sp.diff(l, x) for x in rd])
+        C = s.group.structure_constants
+        ad_star = sp.Matrix(k, 1, [sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k))
+                                   for d in range(k)])
+        h = sp.Matrix.vstack(_dt(mu, r, rd) - ad_star,
+                             _dt(pr, r, rd) - sp.Matrix(sig, 1, [sp.diff(l, x) for x in r]))
+        Ab = sp.Matrix.hstack(*(sp.Matrix(a) for a in s.body_constraints))
+        e = -Nb * (_dt(Ab, r, rd) * _col(v)) + Zb.T * h
+        Tb = sp.Matrix.vstack(sp.Matrix.hstack(-sp.Matrix(red.connection), sp.Matrix(red._mu_parts[2])),
+                              sp.Matrix.hstack(sp.eye(sig), sp.zeros(sig, m)))
+        ftau = -Zb[k:, :].T * _col(self.tau)
+        if R != sp.eye(s.c):
+            Rinv_T = _simp_matrix(inverse(R)).T
+            e, ftau = Rinv_T * e, Rinv_T * ftau
+        w = list(red.rdot) + list(red.p)
+        zero_v = {x: 0 for x in v}
+        out = []
+        for a in range(s.c):
+            # a quadratic form in v, then in w = (rdot, p); every coefficient depends on q only
+            S = _simp_matrix(sp.hessian(e[a], v) / 2)
+            Cw = Tb.T * S * Tb
+            terms = [simplify_expr(e[a].xreplace(zero_v))]
+            for i in range(len(w)):
+                for j in range(i, len(w)):
+                    terms.append(simplify_expr(Cw[i, j] + Cw[j, i] if i != j else Cw[i, i]) * w[i] * w[j])
+            terms += [simplify_expr(sp.diff(ftau[a], t)) * t for t in self.tau]
+            out.append(sp.Add(*terms))
+        return sp.ImmutableMatrix(sp.Matrix(len(out), 1, out))
+
+    def _multipliers_on_d_coordinates(self, red: NonholonomicReduction) -> sp.ImmutableMatrix:
+        # the general multipliers with the group velocities of eq. (1.1) inserted (slow: a large simplification)
+        s = self.system
         qd_group = sp.Matrix(s.group.body_velocity_inverse) * sp.Matrix(red.reconstruction)
-        on_d = sp.Matrix(self.multipliers).subs(dict(zip(s.qdot[: s.k], qd_group)))
-        return _simp_matrix(on_d)
+        return _simp_matrix(sp.Matrix(self.multipliers).subs(dict(zip(s.qdot[: s.k], qd_group))))
 
     @property
     def accelerations(self) -> sp.ImmutableMatrix:
@@ -238,10 +331,19 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         return names
 
     def items(self):
+        # The multipliers and accelerations valid off D (attributes `multipliers`, `accelerations`) are long
+        # expanded forms (megabytes for the roller racer): printed are their forms on D, which read.
+        s = self.system
+        lhs, X = self.projected_equations
+        lam = self.multipliers_on_distribution()
         return [("equations (= 0)", r"\mathbb M\ddot q - f - A^T\lambda - B\tau", self.equations),
-                ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * _col(self.system.qdot)),
-                ("multipliers lambda", r"\lambda", self.multipliers),
-                ("accelerations qddot", r"\ddot q", self.accelerations)]
+                ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * _col(s.qdot)),
+                ("basis of D X(q) (columns)", r"X(q)", X),
+                ("projected equations X^T(M qddot - f - B tau) (= 0)",
+                 r"X^T(\mathbb M\ddot q - f - B\tau)", lhs),
+                ("multipliers lambda on D", r"\lambda|_{\mathcal D}",
+                 Labelled((f"lambda{a + 1}(q, rdot, p, tau)", rf"\lambda_{{{a + 1}}}", lam[a])
+                          for a in range(s.c)))]
 
     # ---------------- numeric ----------------
     def numeric(self, parameters: Mapping[str, float] | None = None) -> LagrangeDAlembertNumeric:
@@ -394,7 +496,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
 
     @shared_property
     def locked_inertia_inverse(self) -> sp.ImmutableMatrix:
-        return _simp_matrix(sp.Matrix(self.locked_inertia).inv(method="LU")) if self.m else sp.ImmutableMatrix(0, 0, [])
+        return _simp_matrix(inverse(self.locked_inertia)) if self.m else sp.ImmutableMatrix(0, 0, [])
 
     @shared_property
     def connection(self) -> sp.ImmutableMatrix:
@@ -517,6 +619,11 @@ class NonholonomicReduction(Derived, _NumericMixin):
         A = sp.Matrix(self.connection)
         G, Il, mrr = sp.Matrix(self.coupling), sp.Matrix(self.locked_inertia_full), sp.Matrix(self.shape_metric)
         return _simp_matrix(mrr - G.T * A - A.T * G + A.T * Il * A)
+
+    @shared_property
+    def shape_mass_inverse(self) -> sp.ImmutableMatrix:
+        r""":math:`M(r)^{-1}` (simplified)."""
+        return _simp_matrix(inverse(self.shape_mass)) if self.system.sigma else sp.ImmutableMatrix(0, 0, [])
 
     @shared_property
     def shape_coefficients(self) -> tuple[tuple[sp.ImmutableMatrix, ...], ...]:
@@ -672,6 +779,71 @@ class ReducedNumeric:
         r""":math:`p(q, \\dot q)` from the full state."""
         x = stack_last(q, qd)
         return self._column(self.momentum_fn(x), x, self.reduction.m)
+
+
+def _block_right_inverse(A: sp.Matrix, system: NonholonomicSystem, variables: Sequence[sp.Symbol]) -> sp.Matrix:
+    """A right inverse of ``A`` (c x n) supported on c of its columns: the best-conditioned (and shortest)
+    c x c block at a random point, inverted symbolically and simplified."""
+    from itertools import combinations
+
+    c, n = A.shape
+    pt = system._random_point(np.random.default_rng(3), variables)
+    An = np.array(A.subs(pt).evalf(), dtype=float).reshape(c, n)
+    best = None
+    for cols in combinations(range(n), c):
+        cond = np.linalg.cond(An[:, cols])
+        if cond > 1e8:
+            continue
+        cost = (sum(sp.count_ops(A[i, j]) for i in range(c) for j in cols), cond)
+        if best is None or cost < best[0]:
+            best = (cost, cols)
+    if best is None:
+        raise SymbolicError(f"{system.name}: no invertible {c} x {c} block of the constraint matrix at a random point.")
+    cols = best[1]
+    block_inv = _simp_matrix(inverse(A[:, list(cols)]))
+    Y = sp.zeros(n, c)
+    for a, j in enumerate(cols):
+        Y[j, :] = block_inv[a, :]
+    return Y
+
+
+def _complement_in_body_frame(s: NonholonomicSystem) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None:
+    r"""``(Z_body, R)``: :math:`Z = T(g) Z_{body}(r) R^{-1}` (see :attr:`LagrangeDAlembert.constraint_complement`).
+
+    :math:`Z_{body} = (I - X_b G^{-1}X_b^T\mathbb M_b)Y_b` in body velocities, with the BKMM-adapted basis
+    :math:`X_b = \begin{pmatrix} e & -\mathcal A^{nh}\\ 0 & I\end{pmatrix}` (so :math:`G = \mathrm{diag}(\mathbb I,
+    M)`) and :math:`Y_b` a right inverse of :math:`A_\xi` (rank c); :math:`R = A\,T\,Y_b`."""
+    red = bkmm_reduction(s)
+    sig, m = s.sigma, red.m
+    Axi = sp.Matrix(s.body_constraints[0])
+    Mb = sp.Matrix.vstack(sp.Matrix.hstack(red.locked_inertia_full, red.coupling),
+                          sp.Matrix.hstack(sp.Matrix(red.coupling).T, red.shape_metric))
+    Xb = sp.Matrix.vstack(sp.Matrix.hstack(red.basis, -sp.Matrix(red.connection)),
+                          sp.Matrix.hstack(sp.zeros(sig, m), sp.eye(sig)))
+    Ginv = sp.diag(*[sp.Matrix(b) for b in (red.locked_inertia_inverse, red.shape_mass_inverse) if b.rows])
+    # A_xi has rank c (checked when the system is built): a right inverse on the group columns
+    Yb = sp.Matrix.vstack(_block_right_inverse(Axi, s, s.shape), sp.zeros(sig, s.c))
+    V = _simp_matrix(Ginv * _simp_matrix(Xb.T * Mb * Yb))
+    Zb = _simp_matrix(Yb - Xb * V)
+    T = sp.diag(sp.Matrix(s.group.body_velocity_inverse), sp.eye(sig))
+    R = _simp_matrix(sp.Matrix(s.constraint_matrix) * T * Yb)
+    if any(e.free_symbols & set(s.qdot) for e in R):
+        return None
+    return sp.ImmutableMatrix(Zb), sp.ImmutableMatrix(R)
+
+
+def _is_complement(s: NonholonomicSystem, Z: sp.Matrix, X: sp.Matrix) -> bool:
+    """``A Z = I`` and ``X^T M Z = 0`` at two random points (parameters random too)."""
+    rng = np.random.default_rng(5)
+    f = sp.lambdify(list(s.q) + list(s.parameter_symbols),
+                    [sp.Matrix(s.constraint_matrix) * Z, X.T * sp.Matrix(s.mass_matrix) * Z, Z], "numpy")
+    for _ in range(2):
+        pt = s._random_point(rng, s.q)
+        AZ, XMZ, Zn = (np.asarray(v, dtype=float) for v in f(*[pt[v] for v in list(s.q) + list(s.parameter_symbols)]))
+        scale = max(1.0, float(np.abs(Zn).max(initial=0.0)))
+        if not (np.allclose(AZ, np.eye(s.c), atol=1e-9 * scale) and np.abs(XMZ).max(initial=0.0) < 1e-9 * scale):
+            return False
+    return True
 
 
 def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, str]:
