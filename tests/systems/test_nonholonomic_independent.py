@@ -237,12 +237,11 @@ def test_symbolic_multipliers_and_accelerations_against_the_reference(name, kw, 
 
 
 #: multipliers_on_distribution simplifies the substituted multipliers: minutes for these.
-#: Simplifying the multipliers on D takes one to two and a half minutes for these (sympy's simplify on the
-#: eliminated forms): left out of the suite until that derivation is made fast; the other examples run.
+#: The heaviest derivations of the multipliers on D (1-20 s each): marked slow.
 SLOW_ON_D = SLOW | {"snakeboard"}
 
 
-@pytest.mark.parametrize("name, kw", [c for c in _cases() if c.values[0] not in SLOW_ON_D])
+@pytest.mark.parametrize("name, kw", _cases(SLOW_ON_D))
 def test_multipliers_on_the_distribution_against_the_reference(name, kw, rng):
     """lambda(q, r', p, tau) with p computed here as <M q', (e_i)_Q>."""
     s = _system(name, kw, rng)
