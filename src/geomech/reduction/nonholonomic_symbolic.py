@@ -351,7 +351,8 @@ _SHARED: dict = {}
 _CACHE_FORMAT = "1"
 #: The modules whose code determines the derived objects: their source is part of every on-disk key, so that an
 #: edited derivation never reads results of the code before it.
-_SOURCES = ("reduction/nonholonomic.py", "reduction/nonholonomic_symbolic.py", "reduction/almost_poisson.py",
+_SOURCES = ("reduction/nonholonomic.py", "reduction/lagrange_dalembert.py",
+            "reduction/nonholonomic_symbolic.py", "reduction/almost_poisson.py",
             "systems/nonholonomic.py")
 
 
