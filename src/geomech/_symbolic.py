@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ._formula import parse_formula
 from .errors import SymbolicError
 
 #: Body angular momentum components, the variables of a left-invariant Hamiltonian H(m).
@@ -26,15 +27,12 @@ def bind_expression(
     Returns the expression (with parameters still symbolic) and the parameter values by name.
     """
     if isinstance(expression, str):
-        try:
-            expression = sp.sympify(expression)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise SymbolicError(f"Could not parse `{argname}` {expression!r}: {exc}.") from exc
+        expression = parse_formula(expression, argname)
     if not isinstance(expression, sp.Basic):
         raise SymbolicError(
             f"Expected `{argname}` to be a sympy expression or a string, got {type(expression).__name__}."
         )
-    expr = sp.sympify(expression)
+    expr = expression
     undefined = sorted({str(f.func) for f in expr.atoms(sp.Function) if isinstance(f, sp.core.function.AppliedUndef)})
     if undefined:
         raise SymbolicError(f"`{argname}` calls unknown function(s) {undefined}; use sympy's functions (sin, exp, "

@@ -38,6 +38,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
+from .._formula import to_expression
 from ..errors import ConvergenceError, InputError, NumericalError, ShapeError
 from ..lie._common import wrap_angle
 
@@ -102,11 +103,8 @@ class ShapeLoop:
             expressions = list(expressions.values())
         exprs = []
         for i, e in enumerate(expressions):
-            try:
-                ex = sp.sympify(e, locals={"t": T_SYMBOL}) if isinstance(e, str) else sp.sympify(e)
-            except (sp.SympifyError, SyntaxError, TypeError) as exc:
-                raise InputError(f"Could not parse shape-loop expression {i + 1} {e!r}: {exc}.") from exc
-            ex = ex.xreplace({s: T_SYMBOL for s in ex.free_symbols if s.name == "t"})
+            label = f"expressions[{names[i]!r}]" if names is not None and i < len(names) else f"expressions[{i}]"
+            ex = to_expression(e, label, {"t": T_SYMBOL})
             sub = {s: float(parameters[s.name]) for s in ex.free_symbols if parameters and s.name in parameters}
             ex = ex.subs(sub)
             extra = sorted(str(s) for s in ex.free_symbols if s != T_SYMBOL)

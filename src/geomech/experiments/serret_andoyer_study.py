@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 import time
 from collections.abc import Callable, Iterable
@@ -34,6 +33,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from .._storage import check_output_dir, dumps_json, write_set
 from .._version import __version__
 from ..errors import InputError
 
@@ -449,40 +449,22 @@ def write_study(out: Path, ds: Any, summary: dict[str, Any], model: _Model, cfg:
     under a temporary name and renamed into place only when every one is complete."""
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
     final = {
-        "figure5_errors.png": lambda p: figure5(ds).savefig(p, dpi=130),
-        "figure6_trajectories.png": lambda p: figure6(ds, cfg.G).savefig(p, dpi=130),
-        "figure7_reduced_flow.png": lambda p: figure7(ds, cfg).savefig(p, dpi=130),
+        "figure5_errors.png": lambda p: figure5(ds).savefig(p, dpi=130, format="png"),
+        "figure6_trajectories.png": lambda p: figure6(ds, cfg.G).savefig(p, dpi=130, format="png"),
+        "figure7_reduced_flow.png": lambda p: figure7(ds, cfg).savefig(p, dpi=130, format="png"),
         "serret_andoyer_study.nc": lambda p: ds.to_netcdf(p),
-        "summary.json": lambda p: p.write_text(json.dumps(summary, indent=2) + "\n"),
+        "summary.json": lambda p: p.write_text(dumps_json(summary) + "\n"),
     }
-    tmp: dict[Path, Path] = {}
     try:
-        for name, write in final.items():
-            target = out / name
-            t = out / f".{name}.partial{target.suffix}"
-            tmp[t] = target  # before writing: an interrupted write leaves a partial file to remove
-            write(t)
-        for t, target in tmp.items():
-            os.replace(t, target)
+        return write_set(out, final)
     finally:
         plt.close("all")
-        for t in tmp:
-            if t.exists():
-                t.unlink()
-    return list(tmp.values())
 
 
 def prepare_output(out: Path) -> None:
-    """Create ``out`` and check that files can be written there, before any work is done."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".geomech-write-test"
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise InputError(f"Cannot write into `--out` {str(out)!r}: {exc.strerror or exc}.") from None
+    """Check that ``out`` can be written, before any work is done (nothing is created until the end)."""
+    check_output_dir(out, "--out")
 
 
 def terminal_progress(items: list[Approach]) -> Iterable[Approach]:

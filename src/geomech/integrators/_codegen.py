@@ -18,7 +18,6 @@ import hashlib
 import importlib.util
 import os
 import sys
-import tempfile
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -28,6 +27,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
+
+from .._storage import cache_subdir, scratch_dir, write_atomic
 
 __all__ = ["FunctionSpec", "model_source", "compiled_module", "python_module", "numba_available", "cache_dir"]
 
@@ -48,26 +49,14 @@ def numba_available() -> bool:
 
 
 def cache_dir() -> Path:
-    """Directory of the generated kernel sources (and numba's cache of their machine code).
-
-    ``$GEOMECH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/geomech/kernels`` (``~/.cache/...``), else a
-    per-user directory under the system's temporary directory when the home cache is not writable.
-    """
-    env = os.environ.get("GEOMECH_CACHE_DIR")
-    if env:
-        base = Path(env)
-    else:
-        base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "geomech" / "kernels"
-    for candidate in (base, Path(tempfile.gettempdir()) / f"geomech-kernels-{os.getuid()}"):
-        try:
-            candidate.mkdir(parents=True, exist_ok=True)
-            probe = candidate / ".write-probe"
-            probe.write_text("")
-            probe.unlink()
-            return candidate
-        except OSError:
-            continue
-    raise OSError(f"No writable directory for compiled kernels (tried {base}); set GEOMECH_CACHE_DIR.")
+    """Directory of the generated kernel sources (and numba's cache of their machine code): ``kernels`` in
+    the cache (:mod:`geomech._storage`), or, with the cache disabled or not private, this process's scratch
+    directory (kernels then compile anew in each process)."""
+    directory = cache_subdir("kernels")
+    if directory is None:
+        directory = scratch_dir() / "kernels"
+        directory.mkdir(exist_ok=True)
+    return directory
 
 
 class _Printer(PythonCodePrinter):
@@ -184,10 +173,7 @@ def compiled_module(model_src: str, tag: str) -> Any:
         directory = cache_dir()
         path = directory / f"gm_{tag}_{digest}.py"
         if not path.exists() or path.read_text() != source:
-            fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
-            with os.fdopen(fd, "w") as fh:
-                fh.write(source)
-            os.replace(tmp, path)  # atomic: concurrent processes never import a half-written file
+            write_atomic(path, source)  # concurrent processes never import a half-written file
         name = f"geomech_kernels_{tag}_{digest}"
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)

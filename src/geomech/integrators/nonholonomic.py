@@ -40,6 +40,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
+from .._formula import to_expression
 from .._symbolic import compile_vector
 from ..errors import ConvergenceError, InputError, NumericalError
 from ..reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
@@ -76,12 +77,7 @@ class Gait:
         shapes = dict(shapes or {})
         names, exprs = [], []
         for name, e in shapes.items():
-            if isinstance(e, str):
-                try:
-                    e = sp.sympify(e, locals={"t": T_SYMBOL})
-                except (sp.SympifyError, SyntaxError, TypeError) as exc:
-                    raise InputError(f"Could not parse the gait of `{name}`: {e!r} ({exc}).") from exc
-            e = sp.sympify(e).xreplace({s: T_SYMBOL for s in sp.sympify(e).free_symbols if s.name == "t"})
+            e = to_expression(e, f"shapes[{name!r}]", {"t": T_SYMBOL})
             extra = sorted(s.name for s in e.free_symbols - {T_SYMBOL})
             if extra:
                 raise InputError(f"Expected the gait of `{name}` to be a formula in t only, got symbols {extra} "
@@ -125,10 +121,7 @@ class _Torques:
             if callable(spec):
                 fn = spec
             else:
-                try:
-                    e = sp.sympify(spec, locals=local) if isinstance(spec, str) else sp.sympify(spec)
-                except (sp.SympifyError, SyntaxError, TypeError) as exc:
-                    raise InputError(f"Could not parse the torque on `{name}`: {spec!r} ({exc}).") from exc
+                e = to_expression(spec, f"tau[{name!r}]", local)
                 undefined = sorted(str(f.func) for f in e.atoms(sp.Function)
                                    if isinstance(f, sp.core.function.AppliedUndef))
                 if undefined:

@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .._formula import to_expression
 from ..errors import InputError
 from ..systems.nonholonomic import NonholonomicSystem
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, lagrange_dalembert
@@ -211,8 +212,10 @@ class AlmostPoissonStructure(Derived, NumericCache):
         r""":math:`\{F, G\}_{\mathcal M} = \nabla F^T J_{\mathcal M}\nabla G` of two functions of
         :math:`(q, \tilde p)`."""
         z = self.z
-        gF = sp.Matrix([sp.diff(sp.sympify(F), v) for v in z])
-        gG = sp.Matrix([sp.diff(sp.sympify(G), v) for v in z])
+        names = {v.name: v for v in z}
+        F, G = to_expression(F, "F", names), to_expression(G, "G", names)
+        gF = sp.Matrix([sp.diff(F, v) for v in z])
+        gG = sp.Matrix([sp.diff(G, v) for v in z])
         return simplify_expr((gF.T * sp.Matrix(self.tensor) * gG)[0, 0])
 
     @shared_property

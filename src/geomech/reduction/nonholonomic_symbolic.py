@@ -8,9 +8,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
-import os
 import pickle
-import tempfile
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
@@ -20,6 +18,7 @@ import numpy as np
 import sympy as sp
 from sympy.simplify.fu import TR2
 
+from .._storage import cache_subdir, write_atomic
 from .._symbolic import compile_vector
 
 __all__ = ["Derived", "Labelled", "shared_property", "shared_value", "simplify_expr", "simplify_matrix",
@@ -357,13 +356,10 @@ _SOURCES = ("reduction/nonholonomic.py", "reduction/lagrange_dalembert.py",
 
 
 def cache_dir() -> Path | None:
-    """Directory of the on-disk cache: ``$GEOMECH_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomech``, else
-    ``~/.cache/geomech``; ``None`` (no disk cache) when ``GEOMECH_CACHE_DIR`` is ``off``, ``0`` or empty."""
-    env = os.environ.get("GEOMECH_CACHE_DIR")
-    if env is not None:
-        return None if env.strip().lower() in ("", "0", "off", "none", "false") else Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "geomech"
+    """Directory of the derivation cache: ``derivations`` in the cache (:mod:`geomech._storage`:
+    ``$GEOMECH_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomech``, else ``~/.cache/geomech``); ``None`` (no disk
+    cache) when ``GEOMECH_CACHE_DIR`` is ``off``, ``0`` or empty, or the directory is not private."""
+    return cache_subdir("derivations")
 
 
 @lru_cache(maxsize=1)
@@ -403,7 +399,7 @@ class DiskCache:
         h.update(b"\0")
         h.update(sp.srepr(key).encode())
         digest = h.hexdigest()
-        return root / "derivations" / digest[:2] / f"{digest}.pkl"
+        return root / digest[:2] / f"{digest}.pkl"
 
     def load(self, system_key: Any, key: Any) -> Any:
         """The stored value, or :data:`MISSING`."""
@@ -428,15 +424,8 @@ class DiskCache:
             return
         try:
             data = pickle.dumps((sp.srepr(key), value), protocol=pickle.HIGHEST_PROTOCOL)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".pkl")
-            try:
-                with os.fdopen(fd, "wb") as fh:
-                    fh.write(data)
-                os.replace(tmp, path)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
+            path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+            write_atomic(path, data)
         except (OSError, pickle.PicklingError, TypeError, AttributeError, RecursionError):
             pass
 

@@ -14,6 +14,7 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
+from .._formula import to_expression
 from .._symbolic import compile_scalar, compile_vector
 
 __all__ = ["CanonicalSystem"]
@@ -52,7 +53,8 @@ class CanonicalSystem:
         substitutions: Mapping[sp.Symbol, Any] | None = None,
     ) -> CanonicalSystem:
         """Build from a sympy Hamiltonian; gradient and Hessian are exact (differentiated symbolically)."""
-        expr = sp.sympify(expression).subs(dict(substitutions or {}))
+        names = {s.name: s for s in (*q_symbols, *p_symbols)}
+        expr = to_expression(expression, "expression", names).subs(dict(substitutions or {}))
         y = list(q_symbols) + list(p_symbols)
         grad = [sp.diff(expr, s) for s in y]
         hess = [[sp.diff(g, s) for s in y] for g in grad]

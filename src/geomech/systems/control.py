@@ -60,6 +60,7 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
+from .._formula import parse_formula
 from .._symbolic import M_SYMBOLS, compile_scalar, compile_vector
 from ..errors import InputError, SymbolicError
 from ._symbolic_tools import SympyTimeout, integral_from_zero, quadrature_from_zero, ray_quadrature, time_limit
@@ -147,10 +148,7 @@ def _parse(expressions: Sequence[Any], variables: Sequence[str], argname: str, r
     for k, e in enumerate(expressions):
         name = argname if len(expressions) == 1 else f"{argname}[{k}]"
         if isinstance(e, str):
-            try:
-                e = sp.sympify(e)
-            except (sp.SympifyError, SyntaxError, TypeError, AttributeError, ValueError, NameError) as exc:
-                raise SymbolicError(f"Could not parse `{name}` {e!r}: {exc}.") from exc
+            e = parse_formula(e, name)
         if isinstance(e, (int, float)):
             e = sp.Float(e) if isinstance(e, float) else sp.Integer(e)
         if not isinstance(e, sp.Basic):

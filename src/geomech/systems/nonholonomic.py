@@ -21,7 +21,6 @@ Groups: :func:`SE2`, :func:`SE3`, :func:`SO3`, :func:`Rn`, :func:`S1` and their 
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .._formula import parse_formula
 from ..errors import InputError, ShapeError, SymbolicError
 
 __all__ = [
@@ -317,21 +317,14 @@ def S1(*names: Any) -> MatrixGroup:
 # --------------------------------------------------------------------------------------------------
 # Parsing user formulas
 # --------------------------------------------------------------------------------------------------
-_FUNCTIONS = {"sin", "cos", "tan", "cot", "sec", "csc", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
-              "exp", "log", "sqrt", "Abs", "sign", "pi", "Rational", "Integer", "Float"}
 def _parse(expr: Any, names: dict[str, sp.Symbol], params: dict[str, sp.Symbol], argname: str,
            dyn: dict | None = None) -> sp.Expr:
     if isinstance(expr, str):
         local = dict(names)
         local.update(params)
-        # Every identifier that is not a known function or pi is a symbol: I (an inertia) and E (a modulus) must
-        # not become the imaginary unit and Euler's number.
-        for ident in set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", expr)) - set(local) - _FUNCTIONS:
-            local[ident] = params.setdefault(ident, sp.Symbol(ident, real=True))
-        try:
-            parsed = sp.sympify(expr, locals=local)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise SymbolicError(f"Could not parse `{argname}` {expr!r}: {exc}.") from exc
+        # Every identifier that is not a known function or pi is a symbol: I (an inertia) and E (a modulus)
+        # are not the imaginary unit and Euler's number.
+        parsed = parse_formula(expr, argname, local)
     elif isinstance(expr, (sp.Basic, int, float)):
         parsed = sp.sympify(expr)
     else:
