@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
 import click
+import numpy as np
 
 #: Options that take a vector of numbers, written either as separate words (--inertia 3 2 1) or
 #: comma-separated (--inertia 3,2,1).
@@ -61,22 +64,30 @@ class FloatVector(click.ParamType):
 
 
 def parse_params(items: Sequence[str], option: str = "--param") -> dict[str, float]:
-    """Parse repeated ``NAME=VALUE`` options into a dict of floats, with one-line errors."""
+    """Parse repeated ``NAME=VALUE`` options into a dict of finite floats, with one-line errors."""
     values: dict[str, float] = {}
     for item in items:
         name, sep, val = item.partition("=")
-        if not sep or not name.strip():
+        name = name.strip()
+        if not sep or not name:
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint=f"'{option}'")
+        if name in values:
+            raise click.BadParameter(f"{name} is given twice", param_hint=f"'{option}'")
         try:
-            values[name.strip()] = float(val)
+            value = float(val)
         except ValueError:
-            raise click.BadParameter(f"{name.strip()} = {val!r} is not a number", param_hint=f"'{option}'") from None
+            raise click.BadParameter(f"{name} = {val!r} is not a number", param_hint=f"'{option}'") from None
+        if not np.isfinite(value):
+            raise click.BadParameter(f"{name} = {val.strip()} is not a finite number", param_hint=f"'{option}'")
+        values[name] = value
     return values
 
 
-def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, owner: str) -> dict[str, str]:
-    """``NAME=EXPR`` items, one for each shape variable in ``names`` (in that order); bad or missing ones
-    are an error naming ``option`` and the variables ``owner`` has."""
+def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, owner: str) -> dict[str, Any]:
+    """``NAME=EXPR`` items, one for each shape variable in ``names`` (in that order), each formula parsed
+    (:func:`~geomech._formula.parse_formula`); bad or missing ones are an error naming ``option`` and the
+    variables ``owner`` has."""
+    from .._formula import parse_formula
     from ..errors import InputError, ShapeError
 
     given: dict[str, str] = {}
@@ -90,8 +101,67 @@ def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, ow
                              f"({', '.join(names) or 'none'}).")
         if name in given:
             raise InputError(f"`{option}` gives {name!r} twice.")
-        given[name] = expr.strip()
+        given[name] = parse_formula(expr, f"{option} {name}")
     if len(given) != len(names):
         raise ShapeError(f"Expected one `{option}` for each of the {len(names)} shape variables "
                          f"({', '.join(names)}) of {owner}, got {len(given)} ({', '.join(given) or 'none'}).")
     return {n: given[n] for n in names}
+
+
+class OutDir(click.ParamType):
+    """``--out DIR``: checked when the command line is read, before any work (nothing is created then)."""
+
+    name = "directory"
+
+    def convert(self, value, param, ctx):
+        from .._storage import check_output_dir
+        from ..errors import InputError
+
+        option = param.opts[0] if param is not None and param.opts else "--out"
+        try:
+            return check_output_dir(value, option)
+        except InputError as exc:
+            raise click.UsageError(str(exc), ctx) from None
+
+
+class Outputs:
+    """The files of one command's ``--out``, written all together at the end, all or nothing
+    (:func:`geomech._storage.write_set`): an interrupted or failed run leaves no half set behind."""
+
+    def __init__(self, out: Path):
+        self.out = Path(out)
+        self._writers: dict[str, Any] = {}
+
+    def figure(self, name: str, ax_or_fig: Any, **savefig: Any) -> None:
+        """Render a matplotlib figure (or the figure of axes) now, close it, keep the PNG for the commit."""
+        import io
+
+        import matplotlib.pyplot as plt
+
+        fig = ax_or_fig.figure if hasattr(ax_or_fig, "get_figure") and ax_or_fig.figure is not None else ax_or_fig
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", **savefig)
+        plt.close(fig)
+        data = buf.getvalue()
+        self._writers[name] = lambda p: p.write_bytes(data)
+
+    def json(self, name: str, obj: Any) -> None:
+        from .._storage import dumps_json
+
+        text = dumps_json(obj) + "\n"
+        self._writers[name] = lambda p: p.write_text(text)
+
+    def dataset(self, name: str, ds: Any) -> None:
+        self._writers[name] = lambda p: ds.to_netcdf(p)
+
+    def file(self, name: str, writer: Any) -> None:
+        """``writer(path)`` writes the file at commit time."""
+        self._writers[name] = writer
+
+    def paths(self, *extra: str) -> list[str]:
+        return [str(self.out / n) for n in (*self._writers, *extra)]
+
+    def commit(self) -> list[Path]:
+        from .._storage import write_set
+
+        return write_set(self.out, self._writers)

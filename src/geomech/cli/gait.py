@@ -11,15 +11,15 @@ exit status 2.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 import click
 
+from .._storage import dumps_json
 from ..errors import InputError
-from ._args import FloatVector, parse_params, parse_shape_loop
+from ._args import FloatVector, OutDir, Outputs, parse_params, parse_shape_loop
 
 __all__ = ["gait_cmd"]
 
@@ -82,13 +82,10 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
 
     from ..plot.gaits import gait_connection_field, gait_curvature_map, gait_momentum, gait_paths
 
-    out.mkdir(parents=True, exist_ok=True)
-    files = []
+    outputs = Outputs(out)
 
     def save(ax: Any, name: str) -> None:
-        ax.figure.savefig(out / name, dpi=120, bbox_inches="tight")
-        plt.close(ax.figure)
-        files.append(str(out / name))
+        outputs.figure(name, ax, dpi=120, bbox_inches="tight")
 
     save(gait_paths(analysis), "gait_path.png")
     save(gait_momentum(analysis), "gait_momentum.png")
@@ -98,10 +95,11 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
             save(gait_connection_field(analysis, component=c), f"connection_{name}.png")
             save(gait_curvature_map(analysis, component=c), f"curvature_{name}.png")
         save(gait_curvature_map(analysis), "curvature.png")  # the default component (the rotation on SE(2))
-    analysis.to_dataset().to_netcdf(out / "gait.nc")
-    files.append(str(out / "gait.nc"))
-    files.append(str(out / "gait.json"))
-    (out / "gait.json").write_text(json.dumps({**summary, "files": files}, indent=2) + "\n")
+    outputs.dataset("gait.nc", analysis.to_dataset())
+    files = outputs.paths("gait.json")
+    outputs.json("gait.json", {**summary, "files": files})
+    outputs.commit()
+    plt.close("all")
     return files
 
 
@@ -120,7 +118,7 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
 @click.option("--samples", type=click.IntRange(3, 10**5), default=201, show_default=True,
               help="Output times per period.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).")
 def gait_cmd(model: str, shape_loop: tuple, period: float, periods: int, p0: tuple | None, g0: tuple,
              params: tuple, samples: int, as_json: bool, out: Path | None) -> None:
@@ -144,4 +142,4 @@ def gait_cmd(model: str, shape_loop: tuple, period: float, periods: int, p0: tup
     summary["model"] = model
     if out is not None:
         summary["files"] = _write(analysis, summary, out)
-    click.echo(json.dumps(summary, indent=2) if as_json else _text(summary))
+    click.echo(dumps_json(summary) if as_json else _text(summary))

@@ -6,16 +6,20 @@ and exits with status 2.
 
 from __future__ import annotations
 
-import json
+import contextlib
+import os
 import sys
+import traceback
+import warnings
 from collections.abc import Sequence
-from pathlib import Path
 
 import click
 
+from .._formula import parse_formula
+from .._storage import dumps_json
 from .._version import __version__
-from ..errors import GeomechError
-from ._args import FloatVector, gather_vectors, parse_params
+from ..errors import GeomechError, NumericalError, SingularityError
+from ._args import FloatVector, OutDir, Outputs, gather_vectors, parse_params
 from .gait import gait_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
 from .phase import phase
@@ -33,11 +37,12 @@ def cli() -> None:
     """
 
 
-def _emit(summary: dict, as_json: bool, text: str, out: Path | None, name: str) -> None:
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / f"{name}.json").write_text(json.dumps(summary, indent=2) + "\n")
-    click.echo(json.dumps(summary, indent=2) if as_json else text)
+def _emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
+    body = dumps_json(summary) if as_json else text
+    if outputs is not None:
+        outputs.json(f"{name}.json", summary)
+        outputs.commit()
+    click.echo(body)
 
 
 @cli.command("rigid-body")
@@ -49,7 +54,7 @@ def _emit(summary: dict, as_json: bool, text: str, out: Path | None, name: str) 
               help="Times at which invariants are checked.")
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Relative tolerance of the integration.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for rigid_body.json and a figure of the momentum on its sphere.")
 def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, as_json, out) -> None:
     """The free rigid body: exact elliptic solution vs the integrated Serret-Andoyer reduced system.
@@ -60,13 +65,14 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, as_json, out) -> N
     from ..experiments.rigid_body import run_rigid_body, summary_text
 
     summary, traj = run_rigid_body(inertia, momentum, t_final=t_final, samples=samples, rtol=rtol)
+    outputs = None
     if out is not None:
         from ..plot import momentum_sphere
 
+        outputs = Outputs(out)
         fig_ax = momentum_sphere(traj.m, title=f"I = {summary['inertia']['principal_moments']}")
-        out.mkdir(parents=True, exist_ok=True)
-        fig_ax.figure.savefig(out / "rigid_body_momentum.png", dpi=120)
-    _emit(summary, as_json, summary_text(summary), out, "rigid_body")
+        outputs.figure("rigid_body_momentum.png", fig_ax, dpi=120)
+    _emit(summary, as_json, summary_text(summary), outputs, "rigid_body")
 
 
 @cli.command("reduce")
@@ -90,7 +96,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
     from ..systems import LeftInvariantSystem
 
     values = parse_params(params)
-    system = LeftInvariantSystem.from_expression(hamiltonian, values)
+    system = LeftInvariantSystem.from_expression(parse_formula(hamiltonian, "--hamiltonian"), values)
     sa = GeneralizedSerretAndoyer(system)
     h = sa.reduced_expression(axis - 1)
     ldot, Ldot = sp.simplify(sp.diff(h, L_SYM)), sp.simplify(-sp.diff(h, l_SYM))
@@ -105,7 +111,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
         "hyperregular": system.hyperregularity(),
     }
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(dumps_json(summary))
     elif as_latex:
         click.echo(f"h_p(l, L) = {summary['latex']['h_p']}\n\\dot l = {summary['latex']['l_dot']}\n"
                    f"\\dot L = {summary['latex']['L_dot']}")
@@ -124,26 +130,80 @@ cli.add_command(stability_cmd)
 cli.add_command(stability_map_cmd)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point: run the command line, turning input errors into one line on stderr and status 2."""
-    args = gather_vectors(list(sys.argv[1:] if argv is None else argv))
+def _say(kind: str, message: str) -> None:
+    """One line on stderr."""
+    line = " ".join(str(message).split())
+    click.echo(f"geomech: {kind}: {line}" if kind else f"geomech: {line}", err=True)
+
+
+def _run(args: list[str]) -> int:
     try:
-        cli.main(args=args, prog_name="geomech", standalone_mode=False, obj={"argv": list(args)})
+        with cli.make_context("geomech", args, obj={"argv": list(args)}) as ctx:
+            cli.invoke(ctx)
     except click.exceptions.NoArgsIsHelpError as exc:
         click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
-        return 0
     except click.exceptions.Exit as exc:
         return int(exc.exit_code or 0)
-    except click.exceptions.Abort:
-        click.echo("geomech: aborted", err=True)
-        return 1
     except click.ClickException as exc:
-        click.echo(f"geomech: error: {exc.format_message()}", err=True)
-        return 2
-    except GeomechError as exc:
-        click.echo(f"geomech: error: {exc}".replace("\n", " "), err=True)
+        _say("error", exc.format_message())
         return 2
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: run the command line with every failure as one line on stderr.
+
+    Exit status: 0 success; 2 bad input (the line names the option and the fix; a singular point the input
+    reaches is one); 1 a numerical failure
+    (where and why) or an internal error; 130 interrupted (Ctrl-C). ``--debug`` anywhere on the command
+    line also prints the traceback. Warnings raised during a successful run are printed one line each;
+    after a failure only the error is.
+    """
+    args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args
+    args = [a for a in args if a != "--debug"]
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            code = _run(gather_vectors(args))
+        if code == 0:
+            for message in dict.fromkeys(str(w.message) for w in caught):
+                _say("warning", message)
+        return code
+    except KeyboardInterrupt:
+        _debug(debug)
+        _say("", "interrupted")
+        return 130
+    except NumericalError as exc:
+        _debug(debug)
+        if isinstance(exc, SingularityError):  # the input reaches a singular point: the input must change
+            _say("error", exc)
+            return 2
+        _say("numerical failure", exc)
+        return 1
+    except GeomechError as exc:
+        _debug(debug)
+        _say("error", exc)
+        return 2
+    except BrokenPipeError:
+        # stdout closed early (| head): nothing more to say, and Python must not complain at exit
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except MemoryError:
+        _debug(debug)
+        _say("error", "out of memory; reduce the problem's size (samples, steps, grid)")
+        return 1
+    except (Exception, SystemExit) as exc:  # a bug of geomech's: still one line, the traceback on request
+        _debug(debug)
+        what = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+        _say("internal error", f"{what} (run again with --debug for the traceback, and please report it)")
+        return 1
+
+
+def _debug(debug: bool) -> None:
+    if debug:
+        traceback.print_exc(file=sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -7,8 +7,8 @@ Both print readable text, or JSON with ``--json``; bad input is one line on stde
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
-import json
 import shlex
 import sys
 from pathlib import Path
@@ -16,8 +16,10 @@ from typing import Any
 
 import click
 
+from .._formula import parse_formula
+from .._storage import dumps_json
 from ..errors import GeomechError, InputError
-from ._args import FloatVector
+from ._args import FloatVector, OutDir, Outputs
 
 __all__ = ["derive_cmd", "simulate_cmd", "load_model"]
 
@@ -28,6 +30,8 @@ def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]
         name, sep, val = item.partition("=")
         if not sep or not name.strip() or not val.strip():
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint=f"'{option}'")
+        if name.strip() in out:
+            raise click.BadParameter(f"{name.strip()} is given twice", param_hint=f"'{option}'")
         if numeric:
             try:
                 out[name.strip()] = float(val)
@@ -35,7 +39,7 @@ def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]
                 raise click.BadParameter(f"{name.strip()} = {val!r} is not a number",
                                          param_hint=f"'{option}'") from None
         else:
-            out[name.strip()] = val.strip()
+            out[name.strip()] = parse_formula(val, f"{option} {name.strip()}")
     return out
 
 
@@ -47,34 +51,51 @@ def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind
     kind = NonholonomicSystem if kind is None else kind
     how = f"{kind.__name__}.from_lagrangian(...)"
     path = Path(path)
+    if path.suffix != ".py":
+        raise InputError(f"Expected a model file to be Python source ending in .py, got {str(path)!r}.")
     if not path.is_file():
         raise InputError(f"Model file {str(path)!r} does not exist.")
     spec = importlib.util.spec_from_file_location(f"geomech_model_{abs(hash(str(path)))}", path)
     module = importlib.util.module_from_spec(spec)
-    try:
-        spec.loader.exec_module(module)  # type: ignore[union-attr]
-    except GeomechError:
-        raise
-    except Exception as exc:  # the user's file: report any failure in one line
-        raise InputError(f"Could not run model file {str(path)!r}: {type(exc).__name__}: {exc}") from exc
-    params = dict(params or {})
-    if hasattr(module, "build") and callable(module.build):
+    # A model file is code by design; what it prints goes to stderr (stdout may be --json), and neither an
+    # exception nor sys.exit inside it escapes as anything but one error naming the file.
+    with contextlib.redirect_stdout(sys.stderr):
         try:
-            system = module.build(**params)
+            spec.loader.exec_module(module)  # type: ignore[union-attr]
         except GeomechError:
             raise
-        except TypeError as exc:
-            raise InputError(f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}") from exc
-        params = {}
-    elif hasattr(module, "system"):
-        system = module.system
-    else:
-        raise InputError(f"Model file {str(path)!r} defines neither `system` (a {kind.__name__}) nor a function "
-                         "`build(**params)` returning one; see docs/nonholonomic.md and docs/phases.md.")
+        except (Exception, SystemExit) as exc:
+            raise InputError(f"Could not run model file {str(path)!r}: {_describe(exc)} (--debug shows where)."
+                             ) from exc
+        params = dict(params or {})
+        if hasattr(module, "build") and callable(module.build):
+            try:
+                system = module.build(**params)
+            except GeomechError:
+                raise
+            except TypeError as exc:
+                raise InputError(f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}"
+                                 ) from exc
+            except (Exception, SystemExit) as exc:
+                raise InputError(f"{path.name}: build(**params) failed: {_describe(exc)} (--debug shows where)."
+                                 ) from exc
+            params = {}
+        elif hasattr(module, "system"):
+            system = module.system
+        else:
+            raise InputError(f"Model file {str(path)!r} defines neither `system` (a {kind.__name__}) nor a "
+                             "function `build(**params)` returning one; see docs/nonholonomic.md and docs/phases.md.")
     if not isinstance(system, kind):
         raise InputError(f"{path.name}: expected `system` to be a {kind.__name__} ({how}), got "
                          f"{type(system).__name__}.")
     return system.with_parameters(**params) if params else system
+
+
+def _describe(exc: BaseException) -> str:
+    if isinstance(exc, SystemExit):
+        return f"it called sys.exit({exc.code!r})"
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
 def _system(name: str | None, model: str | None, params: dict[str, float]):
@@ -167,7 +188,7 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     system = _system(name, model, _pairs(params, "--param", True))
     data = derivation(system, tuple(sections) or _SECTIONS)
     if as_json:
-        click.echo(json.dumps(data, indent=2))
+        click.echo(dumps_json(data))
         return
     for key, val in data.items():
         click.echo(f"== {key} ==")
@@ -207,7 +228,7 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
 @click.option("--h", "step", type=float, default=1e-3, show_default=True, help="Step of the discrete method.")
 @click.option("--samples", type=click.IntRange(2, 10**6), default=201, show_default=True, help="Output times.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for trajectory.csv, summary.json and path.png (the path in the plane).")
 def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, method, step, samples, as_json,
                  out) -> None:
@@ -244,18 +265,19 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
         traj = sim(system, t_final, samples=samples, **kw)
     summary = {"initial_state": start, **traj.summary()}
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        traj.to_csv(out / "trajectory.csv")
+        outputs = Outputs(out)
+        outputs.file("trajectory.csv", traj.to_csv)
         ds = traj.to_dataset()
         argv = (click.get_current_context().obj or {}).get("argv", sys.argv[1:])
         ds.attrs["command"] = "geomech " + " ".join(shlex.quote(a) for a in argv)
         ds.attrs["initial_state"] = start
-        ds.to_netcdf(out / "trajectory.nc")
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        _plot_path(traj, out / "path.png")
-        summary["files"] = [str(out / f) for f in ("trajectory.nc", "trajectory.csv", "summary.json", "path.png")]
+        outputs.dataset("trajectory.nc", ds)
+        outputs.json("summary.json", summary)
+        outputs.figure("path.png", _plot_path(traj), dpi=110)
+        summary["files"] = outputs.paths()
+        outputs.commit()
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(dumps_json(summary))
         return
     fc = ", ".join(f"{k} = {v:.6g}" for k, v in summary["final_configuration"].items())
     click.echo(f"{summary['system']} by {summary['method']} to t = {summary['t_final']:g}\n"
@@ -267,7 +289,7 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
                f"(energy change {summary['energy_final'] - summary['energy_initial']:.6g})")
 
 
-def _plot_path(traj, path: Path) -> None:
+def _plot_path(traj) -> Any:
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -293,6 +315,5 @@ def _plot_path(traj, path: Path) -> None:
         ax.legend()
     ax.set_title(f"{s.name}: {traj.method}")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 

@@ -10,7 +10,6 @@ exit status 2.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -18,8 +17,9 @@ from typing import Any
 import click
 import numpy as np
 
+from .._storage import dumps_json
 from ..errors import InputError
-from ._args import FloatVector, parse_params, parse_shape_loop
+from ._args import FloatVector, OutDir, Outputs, parse_params, parse_shape_loop
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
 
@@ -27,18 +27,16 @@ _WRAP_NOTE = ("geometric, dynamic and total are unwrapped real numbers; '*_wrapp
               "(-pi, pi]; an angle read off an attitude matrix is defined only modulo 2 pi and is wrapped")
 
 
-def _emit(summary: dict, as_json: bool, text: str, out: Path | None, name: str) -> None:
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / f"{name}.json").write_text(json.dumps(summary, indent=2) + "\n")
-    click.echo(json.dumps(summary, indent=2) if as_json else text)
+def _emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
+    body = dumps_json(summary) if as_json else text
+    if outputs is not None:
+        outputs.json(f"{name}.json", summary)
+        outputs.commit()
+    click.echo(body)
 
 
-def _save(ax: Any, path: Path) -> None:
-    import matplotlib.pyplot as plt
-
-    ax.figure.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(ax.figure)
+def _save(outputs: Outputs, ax: Any, name: str) -> None:
+    outputs.figure(name, ax, dpi=120, bbox_inches="tight")
 
 
 @click.group("phase", context_settings={"help_option_names": ["-h", "--help"]})
@@ -55,7 +53,7 @@ def phase() -> None:
 @click.option("--turns", type=int, default=1, show_default=True,
               help="Signed turns of body 2 relative to body 1 during the period (counterclockwise positive).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for two_bodies.json and a figure of theta(t).")
 def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, as_json: bool, out: Path | None) -> None:
     """Two planar bodies pinned at their centres of mass (section 2.2 of the nonholonomic paper).
@@ -86,18 +84,19 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
         "angles_wrapped": False,
         "note": _WRAP_NOTE,
     }
+    outputs = None
     if out is not None:
         from ..plot.phases import group_path
 
-        out.mkdir(parents=True, exist_ok=True)
-        _save(group_path(rec), out / "two_bodies_theta.png")
+        outputs = Outputs(out)
+        _save(outputs, group_path(rec), "two_bodies_theta.png")
     text = (f"two pinned bodies, I1 = {I1:g}, I2 = {I2:g}, mu = {mu:g}, T = {period:g}, turns = {turns}\n"
             f"geometric phase  -oint A dpsi      = {split.geometric:.12g}\n"
             f"dynamic phase    mu int 1/I dt     = {split.dynamic:.12g}\n"
             f"total phase of body 1 (unwrapped)  = {split.total:.12g}   (wrapped: {split.total_wrapped:.12g})\n"
             f"closed form                        = {closed:.12g}\n"
             f"reconstructed on the group         = {summary['reconstructed']:.12g}")
-    _emit(summary, as_json, text, out, "two_bodies")
+    _emit(summary, as_json, text, outputs, "two_bodies")
 
 
 @phase.command("rigid-body")
@@ -108,7 +107,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
               help="Initial attitude as a rotation vector (default the identity).")
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Tolerance of the direct integration.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for rigid_body_phase.json and a figure of the enclosed solid angle.")
 def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol: float, as_json: bool,
                    out: Path | None) -> None:
@@ -133,11 +132,12 @@ def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol
                                   "total_wrapped": True, "direct_wrapped": True},
                "note": _WRAP_NOTE}
     summary.pop("wrapped", None)
+    outputs = None
     if out is not None:
         from ..plot.phases import momentum_solid_angle
 
-        out.mkdir(parents=True, exist_ok=True)
-        _save(momentum_solid_angle(res), out / "rigid_body_solid_angle.png")
+        outputs = Outputs(out)
+        _save(outputs, momentum_solid_angle(res), "rigid_body_solid_angle.png")
     text = (f"free rigid body, {res.family} orbit about principal axis {res.axis + 1}, |mu| = {res.momentum:.12g}\n"
             f"period T                            = {res.period:.12g}\n"
             f"solid angle Lambda (oriented)       = {res.solid_angle:.12g}\n"
@@ -147,7 +147,7 @@ def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol
             f"total, wrapped to (-pi, pi]         = {res.total_wrapped:.12g}\n"
             f"direct integration, wrapped         = {res.direct_wrapped:.12g}\n"
             f"difference (wrapped)                = {res.difference:.3g}")
-    _emit(summary, as_json, text, out, "rigid_body_phase")
+    _emit(summary, as_json, text, outputs, "rigid_body_phase")
 
 
 def _three_link(origin: str):
@@ -212,7 +212,7 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
               help="A parameter value for a model file (repeatable).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for loop.json and figures (connection, curvature with the loop, path).")
 def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params: tuple, as_json: bool,
              out: Path | None) -> None:
@@ -236,7 +236,7 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
     if mu_arr.size != (1 if system.group.dim == 1 else system.group.dim):
         raise InputError(f"Expected `--mu` with {system.group.dim} component(s) for {system.group.name}, got "
                          f"{mu_arr.size}: {mu_arr.tolist()}.")
-    summary: dict[str, Any] = {"model": model, "shape": {n: given[n] for n in names}, "period": period,
+    summary: dict[str, Any] = {"model": model, "shape": {n: str(given[n]) for n in names}, "period": period,
                                "mu": mu_arr.tolist(), "group": system.group.name}
     try:
         split = phases(system, loop, mu_arr)
@@ -260,14 +260,15 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
         disp = rec.path.coordinates[-1] - rec.path.coordinates[0]
         summary["net_motion_coordinates"] = dict(zip(system.group.coordinate_names, disp.tolist()))
     summary["note"] = _WRAP_NOTE
+    outputs = None
     if out is not None:
         from ..plot.phases import connection_field, curvature_map, group_path
 
-        out.mkdir(parents=True, exist_ok=True)
+        outputs = Outputs(out)
         if system.shape_dim == 2:
-            _save(connection_field(system, loop=loop), out / "connection.png")
-            _save(curvature_map(system, loop=loop), out / "curvature.png")
-        _save(group_path(rec), out / "path.png")
+            _save(outputs, connection_field(system, loop=loop), "connection.png")
+            _save(outputs, curvature_map(system, loop=loop), "curvature.png")
+        _save(outputs, group_path(rec), "path.png")
     lines = [f"{model}: {system.name}, G = {system.group.name}, T = {period:g}, mu = {mu_arr.tolist()}"]
     ph = summary["phase"]
     if ph.get("available", True):
@@ -280,7 +281,7 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
         lines.append(f"iint B over the enclosed area = {summary['curvature_integral']}")
     lines.append("net motion (reconstructed)   = " + ", ".join(
         f"{k} {v:.12g}" for k, v in summary["net_motion_coordinates"].items()))
-    _emit(summary, as_json, "\n".join(lines), out, "loop")
+    _emit(summary, as_json, "\n".join(lines), outputs, "loop")
 
 
 def _winding(system: Any, loop: Any) -> np.ndarray:

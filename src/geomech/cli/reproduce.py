@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import shlex
 import sys
-from pathlib import Path
 
 import click
 
-from ._args import FloatVector
+from .._storage import dumps_json
+from ._args import FloatVector, OutDir
 
 __all__ = ["reproduce"]
 
@@ -20,7 +19,7 @@ def reproduce() -> None:
 
 
 @reproduce.command("serret-andoyer")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), required=True,
+@click.option("--out", type=OutDir(), required=True,
               help="Directory for figure5_errors.png, figure6_trajectories.png, figure7_reduced_flow.png, "
                    "serret_andoyer_study.nc and summary.json.")
 @click.option("--t-final", type=float, default=100.0, show_default=True, help="Duration [s] (the seed gives none).")
@@ -54,7 +53,7 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, no_ext
     ds, summary, model = run_study(cfg, progress=terminal_progress, command=command)
     written = write_study(out, ds, summary, model, cfg)
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(dumps_json(summary))
         return
     click.echo(f"{'approach':<52} {'max energy err':>15} {'max |m| err':>12} {'time [s]':>9}")
     for a in summary["approaches"].values():

@@ -6,16 +6,15 @@ paper). The lead registers them with ``cli.add_command(stability_cmd)`` and
 
 from __future__ import annotations
 
-import json
-import re
 import sys
-from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
-from ._args import FloatVector, parse_params
+from .._formula import parse_formula
+from .._storage import dumps_json
+from ._args import FloatVector, OutDir, Outputs, parse_params
 
 __all__ = ["stability_cmd", "stability_map_cmd"]
 
@@ -24,6 +23,7 @@ def _control(lambdas: tuple[float, ...], I3: float | None, phis: tuple[str, ...]
     from ..systems.control import StructurePreservingControl
     from ..systems.rotors import RotorBody
 
+    phis = tuple(parse_formula(f, "--phi") for f in phis)
     if not np.isfinite(G) or G <= 0:
         raise click.BadParameter(f"expected a positive momentum magnitude, got {G}", param_hint="'--G'")
     if len(lambdas) == 2:
@@ -53,10 +53,8 @@ def _control(lambdas: tuple[float, ...], I3: float | None, phis: tuple[str, ...]
     pv = (0.0, 0.0, 0.0) if p is None else p
     if len(pv) != 3:
         raise click.BadParameter(f"three rotors take three --p values, got {len(pv)}", param_hint="'--p'")
-    import re
-
-    # Proposition 5 (phi of m1, m2, m3) or Corollary 2 (each phi_i of v); the parser reports bad formulas.
-    uses_m = any(re.search(r"\bm[123]\b", f) for f in phis)
+    # Proposition 5 (phi of m1, m2, m3) or Corollary 2 (each phi_i of v).
+    uses_m = any({"m1", "m2", "m3"} & {s.name for s in f.free_symbols} for f in phis)
     if uses_m:
         return StructurePreservingControl.three_rotors(body, list(phis), p=pv, parameters=params, probe_radius=G)
     return StructurePreservingControl.diagonal(body, list(phis), p=pv, parameters=params, probe_radius=G)
@@ -105,7 +103,7 @@ def _model_options(f):
 @click.command("stability")
 @_model_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutDir(), default=None,
               help="Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.")
 def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
     """Relative equilibria of a rotor control's closed loop and three stability verdicts on each.
@@ -129,13 +127,13 @@ def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
 
         from ..plot.stability import equilibria_phase_portrait
 
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "stability.json").write_text(json.dumps(summary, indent=2) + "\n")
-        ax = equilibria_phase_portrait(system, G, analysis)
-        ax.figure.savefig(out / "stability_phase_portrait.png", dpi=120)
-        plt.close(ax.figure)
+        outputs = Outputs(out)
+        outputs.json("stability.json", summary)
+        outputs.figure("stability_phase_portrait.png", equilibria_phase_portrait(system, G, analysis), dpi=120)
+        plt.close("all")
+        outputs.commit()
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(dumps_json(summary))
         return
     lines = [f"closed loop H_c(m) = {summary['closed_loop_hamiltonian']}",
              f"hyperregular: {summary['hyperregularity']['status']} ({summary['hyperregularity']['where'] or 'ok'})",
@@ -178,7 +176,7 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
 @click.option("--near", type=FloatVector(3), default=None,
               help="Reference body momentum: the equilibrium nearest to it is assessed; default (0, G, 0), the "
                    "intermediate-axis spin.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), required=True,
+@click.option("--out", type=OutDir(), required=True,
               help="Directory for stability_map.png, stability_map.nc and stability_map.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, as_json) -> None:
@@ -204,8 +202,8 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     # a swept parameter of phi needs no --param: its first grid value stands in while the model is built
     body_names = {"lambda1", "lambda2", "lambda3", "I3", "p"}
     for name, values in ((xname, xs), (yname, ys)):
-        if name not in body_names and name not in given and any(re.search(rf"\b{re.escape(name)}\b", phi)
-                                                                for phi in phis):
+        if name not in body_names and name not in given and any(
+                name in {s.name for s in parse_formula(phi, "--phi").free_symbols} for phi in phis):
             given[name] = float(values[0])
     control = _control(lambdas, I3, phis, given, p, G)
     known = set(control.parameters)
@@ -227,19 +225,19 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     else:
         ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
                            description=desc)
-    out.mkdir(parents=True, exist_ok=True)
-    ds.to_netcdf(out / "stability_map.nc")
-    ax = stability_map_plot(ds)
-    ax.figure.savefig(out / "stability_map.png", dpi=120)
-    plt.close(ax.figure)
+    outputs = Outputs(out)
+    outputs.dataset("stability_map.nc", ds)
+    outputs.figure("stability_map.png", stability_map_plot(ds), dpi=120)
+    plt.close("all")
     counts = {k: int((ds["verdict"].values == v).sum()) for k, v in
               (("stable", 1), ("inconclusive", 0), ("unstable", -1), ("none", -9))}
     summary = {**_model_json(control, G), "x": {"name": xname, "values": xs.tolist()},
                "y": {"name": yname, "values": ys.tolist()}, "counts": counts,
                "files": {"figure": str(out / "stability_map.png"), "data": str(out / "stability_map.nc")}}
-    (out / "stability_map.json").write_text(json.dumps(summary, indent=2) + "\n")
+    outputs.json("stability_map.json", summary)
+    outputs.commit()
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(dumps_json(summary))
     else:
         click.echo(f"stability map over {xname} x {yname} ({xs.size} x {ys.size}): {counts}\n"
                    f"written {out / 'stability_map.png'} and {out / 'stability_map.nc'}")
