@@ -68,10 +68,21 @@ def bind_expression(
         raise SymbolicError(f"`parameters` names {unused}, which do not appear in `{argname}`.")
     if expr.has(sp.I) or expr.has(sp.zoo, sp.oo, sp.nan):
         raise SymbolicError(f"`{argname}` must be a finite real expression, got {expr}.")
+    if values:
+        with_values = expr.subs({sp.Symbol(k, real=True): v for k, v in values.items()})
+        if with_values.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+            shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
+            raise SymbolicError(f"`{argname}` is not finite at the parameter values {shown} (a division by zero "
+                                "or a pole there); choose other values.")
     return expr, values
 
 
 def _lambdify(exprs: Any, variables: Sequence[sp.Symbol]):
+    flat = exprs if isinstance(exprs, list) else [exprs]
+    if any(isinstance(e, sp.Basic) and e.has(sp.zoo, sp.oo, -sp.oo, sp.nan) for e in flat):
+        raise SymbolicError("A formula to compile is not finite (it holds a division by zero or a pole at the "
+                            "given parameter values): " + ", ".join(str(e) for e in flat if isinstance(e, sp.Basic)
+                                                                     and e.has(sp.zoo, sp.oo, sp.nan))[:300] + ".")
     return sp.lambdify(list(variables), exprs, modules="numpy", cse=True)
 
 

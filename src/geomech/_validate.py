@@ -96,3 +96,25 @@ def positive_definite_along(I: np.ndarray, points: Any, what: str, consequence: 
         raise SingularityError(f"The {what} is singular (or not positive) at r = "
                                f"{np.round(np.atleast_2d(points)[i], 6).tolist()} (eigenvalues "
                                f"{np.round(eig[i], 12).tolist()}): {consequence}.")
+
+
+#: Default ceilings of work decided before it starts; each is an argument (or option) a user can raise.
+MAX_STEPS = 10**9
+MEMORY_LIMIT = 2 * 2**30
+
+
+def work_budget(count: float, limit: float, what: str, knob: str, fix: str, *, seconds_each: float = 0.0) -> None:
+    """Refuse, before any work, ``count`` units of ``what`` above ``limit``: the error gives the estimate,
+    the argument ``knob`` that raises the ceiling and the other ``fix``."""
+    if not count <= limit:  # also catches NaN
+        cost = f" (about {count * seconds_each:.2g} s)" if seconds_each else ""
+        raise InputError(f"{what} is {count:.3g}{cost}, above the limit `{knob}` = {limit:.3g}; "
+                         f"{fix}, or raise `{knob}`.")
+
+
+def memory_budget(n_values: float, limit: float, what: str, knob: str, fix: str) -> None:
+    """Refuse an output of ``n_values`` float64 values above ``limit`` bytes, before allocating it."""
+    size = 8.0 * n_values
+    if not size <= limit:
+        raise InputError(f"{what} would hold {n_values:.3g} numbers ({size / 2**30:.3g} GiB), above the limit "
+                         f"`{knob}` = {limit / 2**30:.3g} GiB; {fix}, or raise `{knob}`.")

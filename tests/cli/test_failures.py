@@ -57,7 +57,8 @@ def test_a_numerical_failure_is_status_1_and_an_unexpected_one_is_reported_not_r
 
     monkeypatch.setattr("geomech.experiments.rigid_body.run_rigid_body", diverge)
     code, _, err = run(capsys, *RIGID)
-    assert code == 1 and err == "geomech: numerical failure: Newton did not converge at t = 3.2 (step 41): residual 1e3\n"
+    assert code == 1 and err == ("geomech: numerical failure: Newton did not converge at t = 3.2 (step 41): "
+                                 "residual 1e3\n")
 
     def bug(*a, **k):
         raise KeyError("oops")

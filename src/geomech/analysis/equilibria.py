@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError, InputError, NumericalError
 from ..reduction import SerretAndoyerChart
 from ..systems import as_left_invariant
 
@@ -104,6 +104,9 @@ class Equilibrium:
     @property
     def index(self) -> int:
         """Poincare-Hopf index: +1 at an extremum of :math:`h_p`, -1 at a saddle, 0 if degenerate."""
+        if not np.all(np.isfinite(self.hessian)):
+            raise NumericalError(f"The Hessian of h_p at the equilibrium m = {np.round(self.m, 6).tolist()} is not "
+                                 "finite (an overflow: parameter values too large for double precision?).")
         ev = np.linalg.eigvalsh(self.hessian)
         scale = max(np.abs(ev).max(), 1e-300)
         if np.abs(ev).min() <= 1e-9 * scale:
@@ -256,6 +259,11 @@ def find_equilibria(system: Any, G: float = 1.0, *, n_points: int = 1500, tol: f
         r = np.where(np.isfinite(r), r, np.inf)
         _, nbr = cKDTree(pts).query(pts, k=9)
         minima = np.nonzero(r <= r[nbr[:, 1:]].min(axis=1))[0]
+        if len(minima) > max(200, n // 20):
+            # a smooth H has a few equilibria; this many local minima of |m x grad H| is round-off noise
+            raise NumericalError(f"|m x grad H| has {len(minima)} local minima over {n} points of the sphere "
+                                 f"|m| = {G:g}: H is not resolved in double precision there (parameters spanning "
+                                 "too many orders of magnitude?).")
         seeds = ([G * e for e in np.vstack([np.eye(3), -np.eye(3)])] if not tried else []) + [pts[i] for i in minima]
         tried += 1
         for s in seeds:

@@ -53,10 +53,12 @@ def _emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name
 @click.option("--samples", type=click.IntRange(2, 10**6), default=1001, show_default=True,
               help="Times at which invariants are checked.")
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Relative tolerance of the integration.")
+@click.option("--max-turns", type=float, default=2000.0, show_default=True,
+              help="Refuse runs of more turns of the body (t_final |omega| / 2 pi), about 60 ms each.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @click.option("--out", type=OutDir(), default=None,
               help="Directory for rigid_body.json and a figure of the momentum on its sphere.")
-def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, as_json, out) -> None:
+def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json, out) -> None:
     """The free rigid body: exact elliptic solution vs the integrated Serret-Andoyer reduced system.
 
     Prints the momentum at the final time from both, the energy and Casimir drift of the integration,
@@ -64,7 +66,8 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, as_json, out) -> N
     """
     from ..experiments.rigid_body import run_rigid_body, summary_text
 
-    summary, traj = run_rigid_body(inertia, momentum, t_final=t_final, samples=samples, rtol=rtol)
+    summary, traj = run_rigid_body(inertia, momentum, t_final=t_final, samples=samples, rtol=rtol,
+                                   max_turns=max_turns)
     outputs = None
     if out is not None:
         from ..plot import momentum_sphere

@@ -98,6 +98,9 @@ def _steps(h: Any, t0: Any, t_final: Any, n_steps: Any) -> tuple[float, float, i
         return h, t0, int(n_steps)
     span = float(V.finite(t_final, "t_final")) - t0
     ratio = abs(span) / h
+    if not math.isfinite(ratio):
+        raise InputError(f"`t_final - t0` = {span:g} over h = {h:g} is not a finite number of steps; take a "
+                         "larger h or a shorter span.")
     n = round(ratio)
     if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
         raise InputError(
@@ -168,6 +171,8 @@ def solve(
     n_steps: int | None = None,
     t0: float = 0.0,
     save_every: int = 1,
+    max_steps: int = V.MAX_STEPS,
+    memory_limit: float = V.MEMORY_LIMIT,
     newton_tol: float = 1e-14,
     max_newton: int = 20,
     raise_on_failure: bool = True,
@@ -196,6 +201,12 @@ def solve(
     t0 : float
     save_every : int
         Keep every ``save_every``-th state (and always the first and the last).
+    max_steps : int
+        Ceiling on steps times trajectories (default 1e9, tens of seconds to minutes of compiled work):
+        a larger run is refused before it starts, with its estimated cost; raise it to run one.
+    memory_limit : float
+        Ceiling in bytes (default 2 GiB) on the saved states: more is refused before any allocation; raise
+        ``save_every`` or this limit.
     newton_tol : float
         Implicit methods: Newton stops when its correction (or the error its contraction rate
         predicts) is below ``newton_tol * max(1, |y|)``.
@@ -228,10 +239,17 @@ def solve(
         raise InputError(f"Expected `max_newton` to be a positive integer, got {max_newton!r}.")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise InputError(f"Expected `threads` to be a positive integer or None, got {threads!r}.")
+    B, d = Y0.shape
+    if not isinstance(method, (PeriodicOrbit, Quadrature)):  # those cost per output, not per step
+        V.work_budget(float(B) * nsteps, float(max_steps), f"The number of steps ({nsteps:.3g} of {B} trajectory(ies))",
+                      "max_steps", "take a larger h or a shorter span", seconds_each=1e-7)
+    n_saved = nsteps // save_every + 2
+    V.memory_budget(float(B) * n_saved * (d + 1), float(memory_limit), f"Keeping every {save_every}-th of "
+                    f"{nsteps:.3g} states of {B} trajectory(ies)", "memory_limit",
+                    f"raise `save_every` (to at least {max(1, int(nsteps * B * (d + 1) * 8 / memory_limit) + 1)})")
     save_steps = np.arange(0, nsteps + 1, save_every)
     if save_steps[-1] != nsteps:
         save_steps = np.append(save_steps, nsteps)
-    B, d = Y0.shape
     OUT = np.empty((B, len(save_steps), d))
     INFO = np.zeros((B, 5))
     module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)

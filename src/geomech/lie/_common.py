@@ -116,6 +116,21 @@ def vector(value: Any, name: str, n: int) -> np.ndarray:
     return trailing_shape(value, name, (n,))
 
 
+#: Largest rotation angle (radians) taken by the exponential maps: beyond it the spacing of floats near
+#: the angle is above 0.1 rad, so the angle modulo 2 pi, hence the rotation, is not determined by the input.
+MAX_ANGLE = 1e15
+
+
+def angles(value: np.ndarray, name: str) -> np.ndarray:
+    """``value`` (rotation vectors or angles) if no component exceeds :data:`MAX_ANGLE` in size."""
+    big = np.abs(value) > MAX_ANGLE
+    if np.any(big):
+        raise InputError(f"Expected the rotation part of `{name}` to be below {MAX_ANGLE:g} rad in size, got "
+                         f"{np.abs(value).max():.3g}{_where(big)}: there the angle modulo 2 pi is lost to "
+                         "round-off; reduce it modulo 2 pi first.")
+    return value
+
+
 def matrix(value: Any, name: str, n: int) -> np.ndarray:
     return trailing_shape(value, name, (n, n))
 

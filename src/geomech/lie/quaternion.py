@@ -286,7 +286,7 @@ def from_rotvec(v: Any, *, scalar_first: bool = True) -> np.ndarray:
     -------
     ndarray, shape (..., 4)
     """
-    return _from_wxyz(_from_rotvec(c.vector(v, "v", 3)), scalar_first)
+    return _from_wxyz(_from_rotvec(c.angles(c.vector(v, "v", 3), "v")), scalar_first)
 
 
 def as_rotvec(q: Any, *, scalar_first: bool = True, atol: float = UNIT_ATOL) -> np.ndarray:

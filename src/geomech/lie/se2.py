@@ -138,7 +138,7 @@ def exp(xi: Any) -> np.ndarray:
     ndarray, shape (..., 3, 3)
     """
     xi = c.vector(xi, "xi", 3)
-    w = xi[..., 2]
+    w = c.angles(xi[..., 2], "xi")
     t = np.einsum("...ij,...j->...i", _V(w), xi[..., :2])
     return _assemble(_rot2(w), t)
 

@@ -130,7 +130,7 @@ def exp(xi: Any) -> np.ndarray:
     ndarray, shape (..., 4, 4)
     """
     xi = c.vector(xi, "xi", 6)
-    w = xi[..., 3:]
+    w = c.angles(xi[..., 3:], "xi")
     t = np.einsum("...ij,...j->...i", so3._left_jacobian(w), xi[..., :3])
     return _assemble(so3._exp(w), t)
 

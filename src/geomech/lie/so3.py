@@ -148,7 +148,7 @@ def exp(v: Any) -> np.ndarray:
     -------
     ndarray, shape (..., 3, 3)
     """
-    return _exp(c.vector(v, "v", 3))
+    return _exp(c.angles(c.vector(v, "v", 3), "v"))
 
 
 def _log(R: np.ndarray) -> np.ndarray:
