@@ -81,3 +81,25 @@ def test_an_overflowing_hessian_is_a_numerical_error_not_nan():
     sys = gm.LeftInvariantSystem.from_expression("k*m1**2 + m2**2/4 + m3**2/2", {"k": -1e308})
     with pytest.raises(NumericalError, match="not resolved in double precision|not finite"):
         find_equilibria(sys, 1.0)
+
+
+@pytest.mark.parametrize("method", ["rk4", "implicit_midpoint", "adams"])
+def test_a_trajectory_that_reaches_the_end_of_its_chart_is_a_failure_where_it_does(method):
+    """H = -l drives L' = 1: from L = 0 the chart L in (-1, 1) ends at t = 1."""
+    import sympy as sp
+
+    from geomech.systems import CanonicalSystem
+
+    l, L = sp.symbols("l L", real=True)
+    sys = CanonicalSystem.from_expression(-l + 0 * L, (l,), (L,), chart=((1, -1.0, 1.0),))
+    sol = gm.solve(sys, method, y0=[0.0, 0.0], h=0.01, t_final=2.0, raise_on_failure=False)
+    assert sol.status == "left_chart" and "end of its chart" in sol.message
+    assert abs(sol.failures[0].time - 1.0) <= 0.011
+    with pytest.raises(NumericalError, match="end of its chart"):
+        gm.solve(sys, method, y0=[0.0, 0.0], h=0.01, t_final=2.0)
+    assert gm.solve(sys, method, y0=[0.0, 0.0], h=0.01, t_final=0.5).status == "success"
+
+
+def test_the_serret_andoyer_reduced_system_knows_its_chart():
+    sys = gm.LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2)
+    assert gm.GeneralizedSerretAndoyer(sys).reduced_system(G=2.0).chart == ((1, -2.0, 2.0),)

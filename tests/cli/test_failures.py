@@ -133,8 +133,9 @@ def test_ctrl_c_at_any_moment_is_one_line_and_status_130(delay, tmp_path):
     """Early (while numpy, sympy and numba load) and late (integrating)."""
     exe = os.path.join(os.path.dirname(sys.executable), "geomech")
     p = subprocess.Popen([exe, "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2",
-                          "--t-final", "1e6", "--out", str(tmp_path / "out")], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                          "--t-final", "1e6", "--max-turns", "1e9", "--out", str(tmp_path / "out")],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)

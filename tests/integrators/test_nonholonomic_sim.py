@@ -185,7 +185,13 @@ def test_bad_torques_and_unphysical_parameters_are_reported():
         simulate_full(s, 0.1, shapes={"phi": "0"}, tau={"psi": "foo(t)"})
     with pytest.raises(InputError, match="unknown symbols"):
         simulate_full(s, 0.1, shapes={"phi": "0"}, tau={"psi": "k*t"})
-    # a negative mass makes the kinetic energy indefinite on D: refused before integrating
-    bad = snakeboard(**{**SNAKE, "m": -1.0})
+    # the example declares its mass positive: a negative one is refused when given
+    with pytest.raises(InputError, match="`m` of snakeboard to be positive"):
+        snakeboard(**{**SNAKE, "m": -1.0})
+    # where a model does not declare it (parameters as plain real symbols), the kinetic energy, indefinite on D,
+    # is refused before integrating
+    import dataclasses
+
+    bad = dataclasses.replace(s, parameters={**s.parameters, "m": -1.0})
     with pytest.raises(InputError, match="not positive definite.*m=-1"):
         simulate_reduced(bad, 0.1, shapes=GAIT)

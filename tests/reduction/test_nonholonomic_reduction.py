@@ -302,22 +302,28 @@ def test_a_second_derivation_loads_from_the_disk_cache(monkeypatch, tmp_path):
     assert ns.DISK_CACHE.misses > misses
 
 
-def test_a_new_process_reads_the_disk_cache(monkeypatch, tmp_path):
+def test_a_new_process_reads_the_disk_cache(tmp_path):
+    """Two fresh processes (this one's in-memory state, whatever earlier tests left, plays no part): the first
+    derives and writes, the second reads everything back and derives nothing."""
     import os
     import subprocess
     import sys
 
-    _fresh_memory(monkeypatch, tmp_path)
-    expected = bkmm_reduction(chaplygin_sleigh()).to_dict()
     code = ("import json; from geomech.reduction.nonholonomic import bkmm_reduction; "
             "from geomech.reduction import nonholonomic_symbolic as ns; "
             "from geomech.systems.nonholonomic_examples import chaplygin_sleigh; "
             "d = bkmm_reduction(chaplygin_sleigh()).to_dict(); "
             "print(json.dumps([d, ns.DISK_CACHE.hits, ns.DISK_CACHE.misses]))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         env={**os.environ, "GEOMECH_CACHE_DIR": str(tmp_path)})
-    data, hits, misses = json.loads(out.stdout)
-    assert data == expected and hits > 0 and misses == 0
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                             env={**os.environ, "GEOMECH_CACHE_DIR": str(tmp_path)})
+        return json.loads(out.stdout)
+
+    first, hits1, misses1 = run()
+    assert misses1 > 0 and hits1 == 0 and sorted(tmp_path.rglob("*.pkl"))
+    data, hits, misses = run()
+    assert data == first and hits > 0 and misses == 0
 
 
 def test_a_corrupted_cache_file_is_ignored_and_rewritten(monkeypatch, tmp_path):

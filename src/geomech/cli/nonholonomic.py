@@ -170,7 +170,8 @@ _SECTIONS = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_
 @click.argument("name", required=False)
 @click.option("--model", type=click.Path(dir_okay=False), default=None,
               help="A Python model file defining `system` or `build(**params)` (docs/nonholonomic.md).")
-@click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
+@click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
+              help="A parameter of a --model file's build(**params) (repeatable); derivations are symbolic.")
 @click.option("--section", "sections", multiple=True, type=click.Choice(_SECTIONS),
               help="Derive only these parts (repeatable; default all).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (text and LaTeX of every object).")
@@ -185,7 +186,12 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     Jacobiator of coordinate functions by its indices; the Poisson reduction of Theorems 1.1-1.2. Derivations
     are cached on disk ($GEOMECH_CACHE_DIR, default ~/.cache/geomech; "off" disables it).
     """
-    system = _system(name, model, _pairs(params, "--param", True))
+    values = _pairs(params, "--param", True)
+    if values and model is None:
+        raise click.BadParameter("the derivation is symbolic in every parameter of a built-in example, so values "
+                                 "would not change it; drop --param (it applies to simulate and gait, and to a "
+                                 "--model file's build(**params))", param_hint="'--param'")
+    system = _system(name, model, values)
     data = derivation(system, tuple(sections) or _SECTIONS)
     if as_json:
         click.echo(dumps_json(data))

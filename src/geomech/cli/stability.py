@@ -153,6 +153,25 @@ def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
     click.echo("\n".join(lines))
 
 
+def _check_swept_body(control: Any, lambdas: tuple[float, ...], *sweeps: tuple[str, np.ndarray, str]) -> None:
+    """The swept model parameters stay where `stability` accepts them: inertias positive and, for one rotor,
+    lambda1 > lambda2 at every grid point (section 6.3's labelling)."""
+    for name, values, hint in sweeps:
+        if name in ("lambda1", "lambda2", "lambda3", "I3") and values.min() <= 0:
+            raise click.BadParameter(f"{name} must stay positive, but the sweep reaches {values.min():g}",
+                                     param_hint=hint)
+    if control.kind != "one-rotor":
+        return
+    grid = {name: values for name, values, _ in sweeps}
+    l1 = grid.get("lambda1", np.array([lambdas[0]]))
+    l2 = grid.get("lambda2", np.array([lambdas[1]]))
+    if l1.min() <= l2.max():
+        hint = sweeps[0][2] if sweeps[0][0] in ("lambda1", "lambda2") else sweeps[1][2]
+        raise click.BadParameter(f"the sweep reaches lambda1 = {l1.min():g} <= lambda2 = {l2.max():g}; keep lambda1 "
+                                 "> lambda2 over the whole grid (axis 1 the major, axis 2 the intermediate axis of "
+                                 "the locked body, as `stability` requires)", param_hint=hint)
+
+
 def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
     name, sep, rng = spec.partition("=")
     parts = rng.split(":")
@@ -213,6 +232,7 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
                                      param_hint=hint)
     if xname == yname:
         raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
+    _check_swept_body(control, lambdas, (xname, xs, "'--x'"), (yname, ys, "'--y'"))
     closed = theorem5_margin(control) if control.kind == "one-rotor" else None
     desc = f"phi = {', '.join(str(e) for e in control.phi_expression)}" if control.phi_expression is not None else ""
     if sys.stderr.isatty():  # a progress bar for a person at a terminal, nothing in scripts and logs

@@ -96,6 +96,12 @@ def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
         arr = np.array(out, dtype=object)
         shapes.append(arr.shape)
         flat.extend(sp.sympify(e).xreplace(alias) for e in arr.ravel())
+    bad = [e for e in flat if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan)]
+    if bad:
+        from ..errors import SymbolicError
+
+        raise SymbolicError(f"{spec.name}: the formula is not finite at the given parameter values (a division by "
+                            f"zero or a pole there): {str(bad[0])[:200]}; choose other values.")
     stray = set().union(*(e.free_symbols for e in flat)) - set(alias.values()) if flat else set()
     if stray:
         raise ValueError(f"{spec.name}: symbols {sorted(map(str, stray))} are not variables of the model")

@@ -110,6 +110,23 @@ def _steps(h: Any, t0: Any, t_final: Any, n_steps: Any) -> tuple[float, float, i
     return math.copysign(h, span), t0, n
 
 
+def _left_chart(system: Any, OUT: np.ndarray, INFO: np.ndarray, save_steps: np.ndarray, t0: float, h: float,
+                batch_shape: tuple[int, ...]) -> list[Failure]:
+    """A failure for each trajectory whose saved states reach the end of the system's chart."""
+    failures = []
+    for i, lo, hi in getattr(system, "chart", ()):
+        x = OUT[:, :, i]
+        outside = ~((x > lo) & (x < hi)) & np.isfinite(x)
+        for b in np.flatnonzero(outside.any(axis=1) & (INFO[:, 0] == 0)):
+            k = int(np.argmax(outside[b]))
+            INFO[b, 0] = 6
+            failures.append(Failure(kind="left_chart",
+                                    batch_index=tuple(int(j) for j in np.unravel_index(b, batch_shape))
+                                    if batch_shape else (), step=int(save_steps[k]),
+                                    time=t0 + float(save_steps[k]) * h, residual=float("nan")))
+    return failures
+
+
 def _run_compiled(
     kern: Any, Y0: np.ndarray, h: float, nsteps: int, save_every: int, OUT: np.ndarray, INFO: np.ndarray,
     tol: float, maxit: int, P: np.ndarray, threads: int,
@@ -299,6 +316,7 @@ def solve(
                 residual=float(INFO[b, 2]),
             )
         )
+    failures += _left_chart(system, OUT, INFO, save_steps, t0, h, batch_shape)
     states = OUT.reshape(batch_shape + OUT.shape[1:])
     inv = problem.invariants(states)
     status = failures[0].kind if failures else "success"

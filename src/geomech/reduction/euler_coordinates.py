@@ -409,12 +409,18 @@ class EulerCoordinates:
 
     def compiled_vector_field(self):
         """:meth:`hamilton_equations` compiled to ``f(q)`` with ``q`` of shape ``(..., 6)`` (parameters
-        substituted); equal to :meth:`vector_field` up to round-off."""
+        substituted); equal to :meth:`vector_field` up to round-off, and like it raises
+        :class:`~geomech.errors.SingularityError` at the chart's gimbal lock instead of returning inf or NaN."""
         key = "compiled"
         if key not in self._cache:
-            self._cache[key] = compile_vector(
-                list(self.hamilton_equations(substitute_parameters=True)), self.symbols
-            )
+            f = compile_vector(list(self.hamilton_equations(substitute_parameters=True)), self.symbols)
+
+            def field(q: Any) -> np.ndarray:
+                q = _coordinates(q)
+                _sin_theta(q[..., 1])
+                return f(q)
+
+            self._cache[key] = field
         return self._cache[key]
 
     # -- the Lagrangian side (H hyperregular) --------------------------------------------------------

@@ -257,6 +257,7 @@ class GeneralizedSerretAndoyer:
                 name=f"h_p (axis {axis + 1})",
                 angle_coordinates=(0,),
                 substitutions={G_SYM: G},
+                chart=((1, -G, G),),
             )
 
         def ham(y: np.ndarray) -> np.ndarray:
@@ -267,7 +268,8 @@ class GeneralizedSerretAndoyer:
             return np.stack([-f[..., 1], f[..., 0]], -1)
 
         return CanonicalSystem(
-            n=1, name=f"h_p (axis {axis + 1})", _hamiltonian=ham, _gradient=grad, angle_coordinates=(0,)
+            n=1, name=f"h_p (axis {axis + 1})", _hamiltonian=ham, _gradient=grad, angle_coordinates=(0,),
+            chart=((1, -G, G),),
         )
 
     # -- reconstruction ------------------------------------------------------------------------------

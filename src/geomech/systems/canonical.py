@@ -39,6 +39,11 @@ class CanonicalSystem:
     q_symbols: tuple[sp.Symbol, ...] = ()
     p_symbols: tuple[sp.Symbol, ...] = ()
     angle_coordinates: tuple[int, ...] = ()
+    chart: tuple[tuple[int, float, float], ...] = ()
+    """Open intervals ``(index, low, high)`` of state components outside which the coordinates are not a
+    chart (the Serret-Andoyer ``L`` in ``(-G, G)``, the Euler angle ``theta`` in ``(0, pi)``): a trajectory
+    that reaches their ends is reported as failed (``left_chart``), not continued with a formula that has
+    lost its meaning."""
     """Indices of the q that are angles (defined modulo 2 pi)."""
 
     @classmethod
@@ -50,6 +55,7 @@ class CanonicalSystem:
         *,
         name: str = "H(q, p)",
         angle_coordinates: Sequence[int] = (),
+        chart: Sequence[tuple[int, float, float]] = (),
         substitutions: Mapping[sp.Symbol, Any] | None = None,
     ) -> CanonicalSystem:
         """Build from a sympy Hamiltonian; gradient and Hessian are exact (differentiated symbolically)."""
@@ -68,6 +74,7 @@ class CanonicalSystem:
             q_symbols=tuple(q_symbols),
             p_symbols=tuple(p_symbols),
             angle_coordinates=tuple(angle_coordinates),
+            chart=tuple((int(i), float(lo), float(hi)) for i, lo, hi in chart),
         )
 
     def _y(self, y: Any) -> np.ndarray:

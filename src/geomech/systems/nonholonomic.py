@@ -349,6 +349,24 @@ def _parse(expr: Any, names: dict[str, sp.Symbol], params: dict[str, sp.Symbol],
     return parsed
 
 
+def _checked_values(symbols: Mapping[str, sp.Symbol], values: Mapping[str, Any], owner: str) -> dict[str, float]:
+    """Parameter values as finite floats; a symbol declared positive (a mass, a length) takes only values > 0."""
+    out: dict[str, float] = {}
+    for k, v in values.items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"Expected parameter `{k}` of {owner} to be a number, got {v!r}.") from exc
+        if not np.isfinite(x):
+            raise InputError(f"Expected parameter `{k}` of {owner} to be finite, got {x}.")
+        symbol = symbols.get(k)
+        if symbol is not None and symbol.is_positive and not x > 0:
+            raise InputError(f"Expected parameter `{k}` of {owner} to be positive (it is a mass, length or inertia "
+                             f"declared positive), got {x:g}.")
+        out[k] = x
+    return out
+
+
 # --------------------------------------------------------------------------------------------------
 # The system
 # --------------------------------------------------------------------------------------------------
@@ -529,14 +547,7 @@ class NonholonomicSystem:
         if unknown:
             raise InputError(f"`parameters` names {unknown}, which appear neither in the Lagrangian nor in the "
                              f"constraints (parameters found: {sorted(params)}).")
-        for k, v in pvals.items():
-            try:
-                v = float(v)
-            except (TypeError, ValueError) as exc:
-                raise InputError(f"Expected parameter `{k}` to be a number, got {v!r}.") from exc
-            if not np.isfinite(v):
-                raise InputError(f"Expected parameter `{k}` to be finite, got {v}.")
-            pvals[k] = v
+        pvals = _checked_values(params, pvals, name)
         if shape_angles is None:
             greek = set("alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron pi rho "
                         "sigma tau upsilon phi chi psi omega varphi vartheta".split())
@@ -569,7 +580,7 @@ class NonholonomicSystem:
         if unknown:
             raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {sorted(names)}.")
         merged = dict(self.parameters)
-        merged.update({k: float(v) for k, v in values.items()})
+        merged.update(_checked_values({s.name: s for s in self.parameter_symbols}, values, self.name))
         return NonholonomicSystem(self.name, self.group, self.shape, self.qdot, self.lagrangian,
                                   self.constraint_matrix, self.parameter_symbols, merged, self.shape_angles,
                                   self.description, self.body_basis, self.basis_note)

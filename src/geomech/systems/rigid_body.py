@@ -17,11 +17,13 @@ __all__ = ["RigidBody"]
 
 def _check_triangle(moments: np.ndarray, shown: Any) -> None:
     # A rigid body's principal moments satisfy I_i <= I_j + I_k (equality for a planar lamina); a small
-    # relative slack absorbs the round-off of a diagonalised tensor.
-    total = moments.sum()
-    worst = np.max(2 * moments - total)
+    # relative slack absorbs the round-off of a diagonalised tensor. Compared relative to the largest
+    # moment, so that moments near the top of the float range do not overflow the sum and pass.
+    scaled = moments / moments.max()
+    total = scaled.sum()
+    worst = np.max(2 * scaled - total)
     if worst > 1e-12 * total:
-        i = int(np.argmax(2 * moments - total))
+        i = int(np.argmax(2 * scaled - total))
         j, k = [a for a in range(3) if a != i]
         raise InputError(
             f"Expected `inertia` to satisfy the triangle inequality I_i <= I_j + I_k of a rigid body, got "
