@@ -130,7 +130,7 @@ def test_simulate_with_initial_momentum(capsys):
     # p1 = m v -> sqrt(2 m E); here E = 0.931 (v0 = 1, omega0 = 0.5 / (I_c + m a^2))
     assert abs(summary["nonholonomic_momentum"][0] - (2 * summary["energy_initial"]) ** 0.5) < 1e-3
     code, _, err = _run(capsys, *base, "--p0", "1")
-    assert code == 2 and "Expected `p0` to have 2 entries" in err and err.count("\n") == 1
+    assert code == 2 and "Expected `--p0` to have 2 entries" in err and err.count("\n") == 1
 
 
 def test_derive_latex_prints_the_system_as_latex(capsys):

@@ -20,6 +20,7 @@ import click
 from .._storage import dumps_json
 from ..errors import InputError
 from ._args import FloatVector, OutDir, Outputs, parse_params, parse_shape_loop
+from ._progress import activity
 
 __all__ = ["gait_cmd"]
 
@@ -136,8 +137,9 @@ def gait_cmd(model: str, shape_loop: tuple, period: float, periods: int, p0: tup
         raise InputError(f"Expected `--period` to be positive, got {period}.")
     system = _system(model, parse_params(params))
     loop = _shape_loop(system, shape_loop)
-    analysis = analyse_gait(system, loop, period=period, periods=periods, p0=p0, g0=_named(system, g0, "--g0"),
-                            samples_per_period=samples)
+    with activity(f"gait of {system.name}: deriving and integrating"):
+        analysis = analyse_gait(system, loop, period=period, periods=periods, p0=p0,
+                                g0=_named(system, g0, "--g0"), samples_per_period=samples)
     summary = analysis.summary()
     summary["model"] = model
     if out is not None:

@@ -20,6 +20,7 @@ from .._storage import dumps_json
 from .._version import __version__
 from ..errors import GeomechError, NumericalError, SingularityError
 from ._args import FloatVector, OutDir, Outputs, gather_vectors, parse_params
+from ._progress import activity
 from .gait import gait_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
 from .phase import phase
@@ -66,8 +67,9 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
     """
     from ..experiments.rigid_body import run_rigid_body, summary_text
 
-    summary, traj = run_rigid_body(inertia, momentum, t_final=t_final, samples=samples, rtol=rtol,
-                                   max_turns=max_turns)
+    with activity(f"integrating the reduced system to t = {t_final:g}"):
+        summary, traj = run_rigid_body(inertia, momentum, t_final=t_final, samples=samples, rtol=rtol,
+                                       max_turns=max_turns)
     outputs = None
     if out is not None:
         from ..plot import momentum_sphere
@@ -139,10 +141,59 @@ def _say(kind: str, message: str) -> None:
     click.echo(f"geomech: {kind}: {line}" if kind else f"geomech: {line}", err=True)
 
 
+#: API argument names that a command's option spells differently (used only where the command has that option).
+_ALIASES = {"expression": "--hamiltonian", "hamiltonian": "--hamiltonian", "parameters": "--param",
+            "m0": "--momentum", "momentum": "--momentum", "shapes": "--shape", "tau": "--tau", "phi": "--phi",
+            "period": "--period", "expressions": "--shape"}
+
+
+def _options_of(args: list[str]) -> set[str]:
+    """The long options of the (sub)command that ``args`` invoke."""
+    command: click.Command = cli
+    ctx = click.Context(cli)
+    for word in args:
+        if not isinstance(command, click.Group):
+            break
+        sub = command.get_command(ctx, word)
+        if sub is None:
+            continue
+        command = sub
+    return {opt for p in command.params for opt in p.opts if opt.startswith("--")}
+
+
+def _with_option_names(exc: GeomechError, args: list[str]) -> None:
+    """Rewrite the API argument names in ``exc``'s message as the command's options: `t_final` is
+    `--t-final`, `expression` is `--hamiltonian`, `parameters={'I1': ...}` is --param I1=VALUE."""
+    import re
+
+    options = _options_of(args)
+    text = str(exc)
+
+    def option(name: str) -> str | None:
+        base = name.split("[", 1)[0]
+        for candidate in (_ALIASES.get(base), "--" + base.replace("_", "-")):
+            if candidate in options:
+                return candidate + name[len(base):]
+        return None
+
+    text = re.sub(r"`([A-Za-z_][A-Za-z0-9_]*(?:\[[^\]`]*\])?)`",
+                  lambda m: f"`{option(m.group(1))}`" if option(m.group(1)) else m.group(0), text)
+    if "--param" in options:
+        text = re.sub(r"pass(?: them as)? parameters=\{([^}]*)\}",
+                      lambda m: "add " + " ".join(f"--param {k.strip(chr(39))}=VALUE"
+                                                  for k in re.findall(r"'[^']+'", m.group(1))), text)
+    if text != str(exc):
+        exc.args = (text,)
+
+
 def _run(args: list[str]) -> int:
     try:
         with cli.make_context("geomech", args, obj={"argv": list(args)}) as ctx:
-            cli.invoke(ctx)
+            try:
+                cli.invoke(ctx)
+            except GeomechError as exc:
+                _with_option_names(exc, args)
+                raise
     except click.exceptions.NoArgsIsHelpError as exc:
         click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
     except click.exceptions.Exit as exc:

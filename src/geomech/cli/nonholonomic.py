@@ -20,6 +20,7 @@ from .._formula import parse_formula
 from .._storage import dumps_json
 from ..errors import GeomechError, InputError
 from ._args import FloatVector, OutDir, Outputs
+from ._progress import activity
 
 __all__ = ["derive_cmd", "simulate_cmd", "load_model"]
 
@@ -192,7 +193,8 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
                                  "would not change it; drop --param (it applies to simulate and gait, and to a "
                                  "--model file's build(**params))", param_hint="'--param'")
     system = _system(name, model, values)
-    data = derivation(system, tuple(sections) or _SECTIONS)
+    with activity(f"deriving {system.name}"):
+        data = derivation(system, tuple(sections) or _SECTIONS)
     if as_json:
         click.echo(dumps_json(data))
         return
@@ -264,11 +266,12 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
             if "cannot start at rest" not in str(exc):
                 raise
             start = "nonholonomic momentum 0 (rest violates the constraints)"
-    if method == "discrete":
-        traj = simulate_discrete(system, t_final, step, **kw)
-    else:
-        sim = simulate_full if method == "full" else simulate_reduced
-        traj = sim(system, t_final, samples=samples, **kw)
+    with activity(f"simulating {system.name} ({method}) to t = {t_final:g}"):
+        if method == "discrete":
+            traj = simulate_discrete(system, t_final, step, **kw)
+        else:
+            sim = simulate_full if method == "full" else simulate_reduced
+            traj = sim(system, t_final, samples=samples, **kw)
     summary = {"initial_state": start, **traj.summary()}
     if out is not None:
         outputs = Outputs(out)

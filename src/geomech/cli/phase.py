@@ -20,6 +20,7 @@ import numpy as np
 from .._storage import dumps_json
 from ..errors import InputError
 from ._args import FloatVector, OutDir, Outputs, parse_params, parse_shape_loop
+from ._progress import activity
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
 
@@ -239,7 +240,8 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
     summary: dict[str, Any] = {"model": model, "shape": {n: str(given[n]) for n in names}, "period": period,
                                "mu": mu_arr.tolist(), "group": system.group.name}
     try:
-        split = phases(system, loop, mu_arr)
+        with activity("phases over the loop"):
+            split = phases(system, loop, mu_arr)
         summary["phase"] = split.to_json()
     except InputError as exc:
         # A phase formula needs an abelian rotation; say why not and still reconstruct.
@@ -249,7 +251,8 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
     if system.shape_dim == 2:
         B = curvature_integral(system, loop) if not np.any(_winding(system, loop)) else None
         summary["curvature_integral"] = None if B is None else B.tolist()
-    rec = reconstruct(system, loop, mu_arr)
+    with activity("reconstruction on the group"):
+        rec = reconstruct(system, loop, mu_arr)
     if system.group.name == "SO3":
         from ..lie import so3
 
