@@ -103,3 +103,23 @@ def test_a_trajectory_that_reaches_the_end_of_its_chart_is_a_failure_where_it_do
 def test_the_serret_andoyer_reduced_system_knows_its_chart():
     sys = gm.LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2)
     assert gm.GeneralizedSerretAndoyer(sys).reduced_system(G=2.0).chart == ((1, -2.0, 2.0),)
+
+
+SNAKE = {"m": 1.0, "r": 0.5, "J": 0.18, "J0": 0.05, "J1": 0.01}
+GAIT = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+
+
+def test_nonholonomic_simulations_are_bounded_by_their_projected_cost():
+    from geomech.integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
+    from geomech.systems.nonholonomic_examples import snakeboard
+
+    s = snakeboard(**SNAKE)
+    for sim in (simulate_full, simulate_reduced):
+        with pytest.raises(InputError, match=r"needs about .* evaluations .* above `max_evaluations` = 200000"):
+            sim(s, 1e6, shapes=GAIT)
+    # a run just past its budget is stopped where it is, and says so
+    with pytest.raises(NumericalError, match=r"stopped after 3000 evaluations of the equations at t = .* raise"):
+        simulate_reduced(s, 10.0, shapes=GAIT, max_evaluations=3000)
+    assert simulate_reduced(s, 1.0, shapes=GAIT, max_evaluations=50_000).t[-1] == 1.0
+    with pytest.raises(InputError, match=r"above the limit `max_steps` = 1e\+06"):
+        simulate_discrete(s, 1e9, 1e-3, shapes=GAIT)

@@ -235,11 +235,15 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
               help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA.")
 @click.option("--h", "step", type=float, default=1e-3, show_default=True, help="Step of the discrete method.")
 @click.option("--samples", type=click.IntRange(2, 10**6), default=201, show_default=True, help="Output times.")
+@click.option("--max-evaluations", type=click.IntRange(1, None), default=200_000, show_default=True,
+              help="Stop the full and reduced methods past this many evaluations of the equations.")
+@click.option("--max-steps", type=click.IntRange(1, None), default=1_000_000, show_default=True,
+              help="Refuse discrete runs of more steps ((t_final) / h).")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @click.option("--out", type=OutDir(), default=None,
-              help="Directory for trajectory.csv, summary.json and path.png (the path in the plane).")
-def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, method, step, samples, as_json,
-                 out) -> None:
+              help="Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
+def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, method, step, samples,
+                 max_evaluations, max_steps, as_json, out) -> None:
     """Simulate an example or --model FILE.py with gaits (--shape) and torques (--tau).
 
     Prints the final configuration, the nonholonomic momentum, the constraint residual and the work done by
@@ -268,10 +272,10 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
             start = "nonholonomic momentum 0 (rest violates the constraints)"
     with activity(f"simulating {system.name} ({method}) to t = {t_final:g}"):
         if method == "discrete":
-            traj = simulate_discrete(system, t_final, step, **kw)
+            traj = simulate_discrete(system, t_final, step, max_steps=max_steps, **kw)
         else:
             sim = simulate_full if method == "full" else simulate_reduced
-            traj = sim(system, t_final, samples=samples, **kw)
+            traj = sim(system, t_final, samples=samples, max_evaluations=max_evaluations, **kw)
     summary = {"initial_state": start, **traj.summary()}
     if out is not None:
         outputs = Outputs(out)

@@ -407,7 +407,13 @@ def _time_grid(t_final: float, t_eval: Any, samples: int, t0: float) -> np.ndarr
     tf = float(t_final)
     if not np.isfinite(tf) or tf <= t0:
         raise InputError(f"Expected `t_final` > t0 = {t0}, got {t_final!r}.")
-    return np.linspace(t0, tf, int(samples))
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 2 <= samples <= 10**7:
+        raise InputError(f"Expected `samples` to be an integer from 2 to 1e7, got {samples!r}.")
+    te = np.linspace(t0, tf, int(samples))
+    if np.any(np.diff(te) <= 0):
+        raise InputError(f"Expected `t_final` - t0 = {tf - t0:.3g} to be resolvable into {samples} distinct times "
+                         "in double precision; take a longer span or fewer samples.")
+    return te
 
 
 # --------------------------------------------------------------------------------------------------
@@ -441,11 +447,66 @@ def _accelerations(setup: _Setup, funcs: dict, t: float, q: np.ndarray, qd: np.n
     return z[:nf], z[nf: nf + c], tau
 
 
+#: Default ceiling on right-hand-side evaluations of the adaptive simulators (tens of seconds of work).
+MAX_EVALUATIONS = 200_000
+
+
+#: Evaluations after which the pace of the integration is measured and the whole run's cost projected.
+_PILOT = 2_000
+
+
+class _OverBudget(Exception):
+    def __init__(self, t: float, count: int, projected: float | None = None):
+        self.t, self.count, self.projected = t, count, projected
+
+
+def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) -> Callable:
+    """``rhs`` that stops the integration (raising :class:`_OverBudget`) past ``max_evaluations`` calls, or
+    early, after a pilot of :data:`_PILOT` calls, when the pace so far projects a total far above it."""
+    limit = int(V.positive_scalar(max_evaluations, "max_evaluations"))
+    t_start, t_end = t_span
+    count = 0
+    t_max = t_start
+
+    def counted(t: float, y: np.ndarray) -> np.ndarray:
+        nonlocal count, t_max
+        count += 1
+        t_max = max(t_max, t)
+        if count == _PILOT and limit > _PILOT and t_max > t_start:
+            projected = count * (t_end - t_start) / (t_max - t_start)
+            if projected > 2.0 * limit:
+                raise _OverBudget(t, count, projected)
+        if count > limit:
+            raise _OverBudget(t, count - 1)
+        return rhs(t, y)
+
+    return counted
+
+
+def _integrate(name: str, rhs: Callable, te: np.ndarray, y0: np.ndarray, max_evaluations: Any, **kw: Any) -> Any:
+    """solve_ivp within a budget of evaluations; a failure or an exhausted budget says where and why."""
+    try:
+        sol = solve_ivp(_budgeted(rhs, max_evaluations, (te[0], te[-1])), (te[0], te[-1]), y0, t_eval=te, **kw)
+    except _OverBudget as stop:
+        if stop.projected is not None:
+            raise InputError(
+                f"{name}: at the pace of its first {stop.count} evaluations (to t = {stop.t:.6g}) the run to "
+                f"{te[-1]:.6g} needs about {min(stop.projected, 1e300):.3g} evaluations of the equations, above "
+                f"`max_evaluations` = {int(max_evaluations)}; shorten t_final or raise `max_evaluations`.") from None
+        raise NumericalError(
+            f"{name}: stopped after {stop.count} evaluations of the equations at t = {stop.t:.6g} of "
+            f"{te[-1]:.6g} (`max_evaluations`): the motion is faster, or the time span longer, than the budget "
+            "allows; shorten t_final or raise `max_evaluations`.") from None
+    if sol.status < 0:
+        raise NumericalError(f"{name}: the integrator failed at t = {sol.t[-1]:.6g}: {sol.message}")
+    return sol
+
+
 def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, shapes: Any = None, tau: Any = None,
                   q0: Any = None, qd0: Any = None, rdot0: Any = None, p0: Any = None, t0: float = 0.0,
                   t_eval: Any = None, samples: int = 201, parameters: Mapping[str, float] | None = None,
                   method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12,
-                  baumgarte: float = 0.0) -> NonholonomicTrajectory:
+                  baumgarte: float = 0.0, max_evaluations: int = MAX_EVALUATIONS) -> NonholonomicTrajectory:
     """Integrate the Lagrange-d'Alembert equations with multipliers (the index-reduced DAE), method (a).
 
     Parameters
@@ -465,6 +526,9 @@ def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, s
         Passed to :func:`scipy.integrate.solve_ivp`.
     baumgarte : float
         :math:`\\alpha \\ge 0` of the stabilised constraint :math:`A\\ddot q + \\dot A\\dot q + 2\\alpha A\\dot q = 0`.
+    max_evaluations : int
+        Ceiling on evaluations of the equations (default 200,000, tens of seconds): past it the integration
+        stops with a :class:`~geomech.errors.NumericalError` saying at which time.
 
     Returns
     -------
@@ -491,9 +555,7 @@ def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, s
         return np.r_[qd[fr], a, tau_v @ qd[system.k:]]
 
     y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
-    sol = solve_ivp(rhs, (te[0], te[-1]), y0, method=method, t_eval=te, rtol=rtol, atol=atol)
-    if sol.status < 0:
-        raise NumericalError(f"simulate_full: the integrator failed at t = {sol.t[-1]:.6g}: {sol.message}")
+    sol = _integrate("simulate_full", rhs, te, y0, max_evaluations, method=method, rtol=rtol, atol=atol)
     Q, QD, TAU = [], [], []
     for t, y in zip(sol.t, sol.y.T):
         q, qd, rdd_p = full_state(t, y)
@@ -511,7 +573,7 @@ def simulate_reduced(system: NonholonomicSystem, t_final: float | None = None, *
                      tau: Any = None, q0: Any = None, qd0: Any = None, rdot0: Any = None, p0: Any = None,
                      t0: float = 0.0, t_eval: Any = None, samples: int = 201,
                      parameters: Mapping[str, float] | None = None, method: str = "DOP853", rtol: float = 1e-10,
-                     atol: float = 1e-12) -> NonholonomicTrajectory:
+                     atol: float = 1e-12, max_evaluations: int = MAX_EVALUATIONS) -> NonholonomicTrajectory:
     """Integrate the BKMM equations (1.1)-(1.3): momentum, shape and reconstruction, method (b).
 
     Same arguments as :func:`simulate_full`. The state is ``(g, r_free, rdot_free, p, W)``; the group
@@ -562,9 +624,7 @@ def simulate_reduced(system: NonholonomicSystem, t_final: float | None = None, *
 
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
-    sol = solve_ivp(rhs, (te[0], te[-1]), y0, method=method, t_eval=te, rtol=rtol, atol=atol)
-    if sol.status < 0:
-        raise NumericalError(f"simulate_reduced: the integrator failed at t = {sol.t[-1]:.6g}: {sol.message}")
+    sol = _integrate("simulate_reduced", rhs, te, y0, max_evaluations, method=method, rtol=rtol, atol=atol)
     Q, QD, TAU = [], [], []
     for t, y in zip(sol.t, sol.y.T):
         q, qd, _, _, tau_v, _ = evaluate(t, y)
@@ -603,7 +663,7 @@ class _DiscreteKernels:
 def simulate_discrete(system: NonholonomicSystem, t_final: float, h: float, *, shapes: Any = None,
                       tau: Any = None, q0: Any = None, qd0: Any = None, rdot0: Any = None, p0: Any = None,
                       t0: float = 0.0, parameters: Mapping[str, float] | None = None, tol: float = 1e-12,
-                      max_iter: int = 30) -> NonholonomicTrajectory:
+                      max_iter: int = 30, max_steps: int = 1_000_000) -> NonholonomicTrajectory:
     r"""The discrete Lagrange-d'Alembert integrator with the midpoint rule, method (c); second order.
 
     Fixed step ``h`` (``t_final - t0`` is rounded to a whole number of steps). The velocity reported at a node
@@ -615,7 +675,10 @@ def simulate_discrete(system: NonholonomicSystem, t_final: float, h: float, *, s
     h = float(h)
     if not np.isfinite(h) or h <= 0:
         raise InputError(f"Expected the step `h` to be positive, got {h!r}.")
-    nsteps = int(round((float(t_final) - t0) / h))
+    span = (float(V.finite(t_final, "t_final")) - float(V.finite(t0, "t0"))) / h
+    V.work_budget(span, float(max_steps), f"The number of steps (t_final - t0 = {span * h:.3g} over h = {h:.3g})",
+                  "max_steps", "take a larger h or a shorter span", seconds_each=2e-4)
+    nsteps = int(round(span))
     if nsteps < 1:
         raise InputError(f"Expected t_final - t0 >= h, got t_final = {t_final}, t0 = {t0}, h = {h}.")
     h = (float(t_final) - t0) / nsteps
