@@ -24,6 +24,10 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q -m "not slow"
 
+fuzz: $(STAMP)
+	GEOMECH_FUZZ_EXAMPLES=$${GEOMECH_FUZZ_EXAMPLES:-300} MPLBACKEND=Agg $(PY) -m pytest -q -s -p no:xdist \
+		tests/cli/test_fuzz.py tests/test_api_fuzz.py
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks examples
 
