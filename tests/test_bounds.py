@@ -123,3 +123,17 @@ def test_nonholonomic_simulations_are_bounded_by_their_projected_cost():
     assert simulate_reduced(s, 1.0, shapes=GAIT, max_evaluations=50_000).t[-1] == 1.0
     with pytest.raises(InputError, match=r"above the limit `max_steps` = 1e\+06"):
         simulate_discrete(s, 1e9, 1e-3, shapes=GAIT)
+
+
+def test_a_stability_map_grid_is_bounded_before_any_work():
+    from geomech.analysis import stability_map
+
+    calls = []
+
+    def family(**kw):
+        calls.append(kw)
+        raise AssertionError("no model should be built")
+
+    with pytest.raises(InputError, match=r"1000 x 1000 points\) is 1e\+06 .*`max_points`"):
+        stability_map(family, ("k", np.linspace(0, 1, 1000)), ("c", np.linspace(0, 1, 1000)))
+    assert not calls

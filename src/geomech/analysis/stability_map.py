@@ -46,6 +46,7 @@ def stability_map(
     description: str = "",
     n_points: int = 600,
     progress: Callable[[int], None] | None = None,
+    max_points: int = 10_000,
 ):
     """The three verdicts on the relative equilibrium near ``near`` over a grid of two parameters.
 
@@ -63,6 +64,8 @@ def stability_map(
         :func:`theorem5_margin`); stored as ``closed_form_margin``.
     progress : optional ``progress(n)``, called with the number of grid points done before each point and
         once at the end (a progress bar; the command line draws one on a terminal).
+    max_points : int
+        A larger grid (10-15 ms a point) is refused before any work; raise it to run one.
 
     Returns
     -------
@@ -79,6 +82,8 @@ def stability_map(
     yname, ys = _axis_values(y, "y")
     if xname == yname:
         raise InputError(f"Expected two different parameters for `x` and `y`, got {xname!r} twice.")
+    V.work_budget(float(xs.size) * ys.size, float(max_points), f"The grid ({xs.size} x {ys.size} points)",
+                  "max_points", "take fewer points", seconds_each=0.015)
     G = V.positive_scalar(G, "G")
     near = np.array([0.0, G, 0.0]) if near is None else V.exact_shape(near, "near", (3,))
     fixed = dict(fixed or {})

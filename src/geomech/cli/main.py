@@ -219,6 +219,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("default")
+            # numpy's overflow and invalid-value warnings mean the numbers that follow are not to be trusted:
+            # the run stops there (the package silences them with errstate where they are expected).
+            warnings.simplefilter("error", RuntimeWarning)
             code = _run(gather_vectors(args))
         if code == 0:
             for message in dict.fromkeys(str(w.message) for w in caught):
@@ -239,6 +242,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         _debug(debug)
         _say("error", exc)
         return 2
+    except RuntimeWarning as exc:
+        _debug(debug)
+        _say("numerical failure", f"{exc}: a value left the range of double precision (an input too large or too "
+                                  "small for this computation)")
+        return 1
     except BrokenPipeError:
         # stdout closed early (| head): nothing more to say, and Python must not complain at exit
         with contextlib.suppress(OSError):

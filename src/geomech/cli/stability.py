@@ -197,8 +197,10 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
                    "intermediate-axis spin.")
 @click.option("--out", type=OutDir(), required=True,
               help="Directory for stability_map.png, stability_map.nc and stability_map.json.")
+@click.option("--max-points", type=click.IntRange(1, None), default=10_000, show_default=True,
+              help="Refuse larger grids (10-15 ms a point).")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
-def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, as_json) -> None:
+def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, max_points, as_json) -> None:
     """Stability verdicts over a grid of two parameters, on the relative equilibrium nearest to --near.
 
     At each grid point all relative equilibria are found (continued from the neighbouring point, searched
@@ -241,10 +243,10 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
                 bar.update(done - bar.pos)
 
             ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
-                               description=desc, progress=advance)
+                               description=desc, progress=advance, max_points=max_points)
     else:
         ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
-                           description=desc)
+                           description=desc, max_points=max_points)
     outputs = Outputs(out)
     outputs.dataset("stability_map.nc", ds)
     outputs.figure("stability_map.png", stability_map_plot(ds), dpi=120)
