@@ -107,8 +107,11 @@ def work_budget(count: float, limit: float, what: str, knob: str, fix: str, *, s
     """Refuse, before any work, ``count`` units of ``what`` above ``limit``: the error gives the estimate,
     the argument ``knob`` that raises the ceiling and the other ``fix``."""
     if not count <= limit:  # also catches NaN
-        cost = f" (about {count * seconds_each:.2g} s)" if seconds_each else ""
-        raise InputError(f"{what} is {count:.3g}{cost}, above the limit `{knob}` = {limit:.3g}; "
+        if not np.isfinite(count):
+            shown, cost = "beyond the range of double precision", ""
+        else:
+            shown, cost = f"{count:.3g}", f" (about {count * seconds_each:.2g} s)" if seconds_each else ""
+        raise InputError(f"{what} is {shown}{cost}, above the limit `{knob}` = {limit:.3g}; "
                          f"{fix}, or raise `{knob}`.")
 
 

@@ -75,9 +75,13 @@ def test_cli_refuses_an_unwritable_directory_and_an_oversized_run_before_any_wor
     code = main(["reproduce", "serret-andoyer", "--out", str(blocker / "sub"), "--t-final", "0.01"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Cannot write into `--out`" in err
-    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path / "big"), "--t-final", "1e9"])
+    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path / "big"), "--t-final", "1e5"])
     err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "raise save_every (--save-every) to at least 200000" in err
+    assert code == 2 and err.count("\n") == 1 and "raise save_every (--save-every) to at least 20" in err
+    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path / "big"), "--t-final", "1e308"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "beyond the range of double precision" in err and "--max-steps" in err
+    assert not (tmp_path / "big").exists()
 
 
 def test_midpoint_energy_error_is_second_order():

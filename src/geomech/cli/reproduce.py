@@ -30,10 +30,12 @@ def reproduce() -> None:
               help="lambda1 lambda2: locked inertias about axes 1 and 2 (the seed gives none).")
 @click.option("--I3", "I3", type=float, default=0.6, show_default=True, help="The body's own moment about axis 3.")
 @click.option("--J3", "J3", type=float, default=0.2, show_default=True, help="The rotor's axial moment.")
+@click.option("--max-steps", type=float, default=1e8, show_default=True,
+              help="Refuse runs of more steps (t_final / h) per approach.")
 @click.option("--no-extras", is_flag=True, help="Only the seed's five approaches.")
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json to stdout.")
 @click.pass_context
-def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, no_extras, as_json) -> None:
+def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_steps, no_extras, as_json) -> None:
     """Section 8.1 of the Serret-Andoyer paper: five simulations of the controlled rigid body with one rotor
     (phi(v) = 2 tan(v/G), p = 0, G = 1, H_c = 0.47), and geomech's Lie-Poisson and Gauss-Legendre methods."""
     from ..experiments.serret_andoyer_study import (
@@ -45,7 +47,7 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, no_ext
     )
 
     cfg = StudyConfig(lambda1=lambdas[0], lambda2=lambdas[1], I3=I3, J3=J3, h=h, t_final=t_final,
-                      save_every=save_every, extras=not no_extras)
+                      save_every=save_every, max_steps=max_steps, extras=not no_extras)
     argv = (ctx.obj or {}).get("argv", sys.argv[1:])
     command = "geomech " + " ".join(shlex.quote(a) for a in argv)
     cfg.validate()

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from .. import _validate as V
 from .._storage import check_output_dir, dumps_json, write_set
 from .._version import __version__
 from ..errors import InputError
@@ -61,6 +62,8 @@ class StudyConfig:
     adams_tol: float = 1e-6
     newton_tol: float = 1e-8
     save_every: int = 10
+    max_steps: float = 1e8
+    """Ceiling on the steps of each approach, t_final / h: a longer run is refused before it starts."""
     extras: bool = True
     tilt: float = math.pi / 6
     """Angle between the spatial momentum and s3 in the frame of the 6-D Euler-angle dynamics (the
@@ -84,6 +87,10 @@ class StudyConfig:
                 f"orbit about the intermediate axis, got Hc = {self.Hc}."
             )
         n = self.t_final / self.h
+        # every approach takes n steps (a few hundred ns each in the compiled loops, far more for Adams)
+        V.work_budget(n, float(self.max_steps), f"The number of steps (t_final = {self.t_final:g} over h = {self.h:g})",
+                      "max_steps (--max-steps)", "shorten t_final (--t-final) or take a larger h (--h)",
+                      seconds_each=1e-6)
         if abs(n - round(n)) > 1e-9 * n:
             raise InputError(f"Expected `t_final` to be a whole number of steps h = {self.h}, got {self.t_final}.")
         if not (isinstance(self.save_every, int) and self.save_every >= 1):
