@@ -21,8 +21,8 @@ import numpy as np
 
 from geomech.analysis import analyse_stability, perturbation_growth, stability_boundary
 from geomech.reduction import GeneralizedSerretAndoyer
+from geomech.reduction.rotor_closed_forms import locked_rotor_control, theorem5_boundary
 from geomech.systems.control import StructurePreservingControl
-from geomech.systems.rotor_closed_forms import locked_rotor_control, theorem5_boundary
 from geomech.systems.rotors import RotorBody
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-settings.register_profile("geomech", max_examples=40, deadline=None, derandomize=True)
+settings.register_profile("geomech", max_examples=40, deadline=None, derandomize=True, database=None)
 settings.load_profile("geomech")
 
 #: Everything the tests (and the processes they start) cache goes under one temporary directory per run,

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from geomech._formula import parse_formula, to_expression
 from geomech.errors import SymbolicError
+from geomech.symbolic import parse_formula, to_expression
 
 ATTACKS = [
     "m1**2 + 0*len(open('PWNED','w').name)",

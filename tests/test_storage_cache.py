@@ -10,7 +10,7 @@ import pytest
 from geomech import _storage
 from geomech.errors import InputError, NumericalError
 from geomech.integrators import _codegen
-from geomech.reduction import nonholonomic_symbolic as ns
+from geomech.symbolic import cache as ns
 
 
 def test_the_tests_never_use_the_users_cache():

@@ -5,11 +5,11 @@ Describe a system once (:mod:`geomech.systems`), move it between representations
 """
 
 from . import analysis, errors, integrators, lie
-from ._symbolic import M_SYMBOLS
 from ._version import __version__
 from .errors import GeomechError
 from .integrators import Solution, solve
 from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
+from .symbolic.compile import M_SYMBOLS
 from .systems import (
     CanonicalSystem,
     LeftInvariantSystem,

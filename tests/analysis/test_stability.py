@@ -27,8 +27,8 @@ from geomech.analysis import (
     theorem5_margin,
 )
 from geomech.errors import ConvergenceError, InputError
+from geomech.reduction.rotor_closed_forms import theorem5_boundary
 from geomech.systems.control import StructurePreservingControl as SPC
-from geomech.systems.rotor_closed_forms import theorem5_boundary
 from geomech.systems.rotors import RotorBody
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "spacecraft_control.py"

@@ -73,7 +73,7 @@ def test_three_dimensional_sleigh_on_se3():
     distance a ahead of the constrained point: the SE(3) analogue of the Chaplygin sleigh. No shape: the
     momentum equation is all the dynamics. Energy is conserved, the full and reduced simulators agree, and
     the centre of mass obeys Newton's law with the constraint forces as the only forces."""
-    from geomech.reduction.nonholonomic import lagrange_dalembert
+    from geomech.reduction import lagrange_dalembert
     from geomech.systems.nonholonomic import SE3
 
     G = SE3("x", "y", "z", "a1", "a2", "a3")

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from geomech.reduction import bkmm_reduction, lagrange_dalembert
 from geomech.reduction.almost_poisson import almost_poisson, jacobiator, poisson_reduction
-from geomech.reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
-from geomech.reduction.nonholonomic_symbolic import simplify_expr
+from geomech.symbolic import simplify_expr
 from geomech.systems.nonholonomic_examples import EXAMPLES, geared_body
 
 LIGHT = ["snakeboard_bkmm", "snakeboard", "chaplygin_sleigh", "rolling_disk"]

@@ -9,8 +9,8 @@ import pytest
 import sympy as sp
 
 from geomech.errors import InputError, SymbolicError
-from geomech.reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
-from geomech.reduction.nonholonomic_symbolic import simplify_expr
+from geomech.reduction import bkmm_reduction, lagrange_dalembert
+from geomech.symbolic import simplify_expr
 from geomech.systems.nonholonomic_examples import (
     EXAMPLES,
     chaplygin_sleigh,
@@ -273,7 +273,7 @@ def test_constraint_complement_is_the_kinetic_orthogonal_right_inverse(name, rng
 
 def _fresh_memory(monkeypatch, tmp_path):
     """A new process as far as the caches go: empty in-memory store, disk cache in tmp_path."""
-    from geomech.reduction import nonholonomic_symbolic as ns
+    from geomech.symbolic import cache as ns
 
     monkeypatch.setenv("GEOMECH_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(ns, "_SHARED", {})
@@ -310,7 +310,7 @@ def test_a_new_process_reads_the_disk_cache(tmp_path):
     import sys
 
     code = ("import json; from geomech.reduction.nonholonomic import bkmm_reduction; "
-            "from geomech.reduction import nonholonomic_symbolic as ns; "
+            "from geomech.symbolic import cache as ns; "
             "from geomech.systems.nonholonomic_examples import chaplygin_sleigh; "
             "d = bkmm_reduction(chaplygin_sleigh()).to_dict(); "
             "print(json.dumps([d, ns.DISK_CACHE.hits, ns.DISK_CACHE.misses]))")

@@ -11,8 +11,8 @@ import sympy as sp
 from geomech import GeneralizedSerretAndoyer, LeftInvariantSystem, RigidBody
 from geomech.errors import InputError, SymbolicError
 from geomech.lie import so3
+from geomech.reduction import rotor_closed_forms as cf
 from geomech.reduction.serret_andoyer import G_SYM, L_SYM, l_SYM
-from geomech.systems import rotor_closed_forms as cf
 from geomech.systems.control import StructurePreservingControl as SPC
 from geomech.systems.rotors import RotorBody
 
@@ -242,13 +242,14 @@ def test_hyperregularity_and_its_cost():
 
 def test_eq32_equals_h_p_and_eq34_differs_by_a_constant(rng):
     control = SPC.one_rotor(ONE, "k*v + a*v**3 + b*sin(v)", parameters={"k": 0.3, "a": 0.2, "b": 0.1}, p=0.07)
-    hp = control.reduced_expression()
+    hp = cf.closed_loop_reduced_expression(control)
     e32 = cf.eq32_reduced_hamiltonian(control)
     f = sp.lambdify([l_SYM, L_SYM, G_SYM], hp - e32)
     pts = rng.uniform([-3, -0.9, 1.0], [3, 0.9, 1.5], size=(20, 3))
     assert np.abs(f(*pts.T)).max() < 1e-13
     lin = SPC.one_rotor(ONE, "k*v + c", parameters={"k": 0.3, "c": 0.05}, p=0.07)
-    d = sp.lambdify([l_SYM, L_SYM, G_SYM], cf.eq34_reduced_hamiltonian(lin) - lin.reduced_expression())(*pts.T)
+    d = sp.lambdify([l_SYM, L_SYM, G_SYM],
+                    cf.eq34_reduced_hamiltonian(lin) - cf.closed_loop_reduced_expression(lin))(*pts.T)
     np.testing.assert_allclose(d, (0.07 + 0.05) ** 2 / (2 * 1.0 * 0.7), rtol=1e-12)
 
 
@@ -259,7 +260,7 @@ def test_locked_rotor_reproduces_the_free_rigid_body():
     control = cf.locked_rotor_control(ONE)
     rb = RigidBody([3.0, 2.0, 1.4])
     free = GeneralizedSerretAndoyer(rb).reduced_expression()
-    assert sp.simplify(control.reduced_expression() - free) == 0
+    assert sp.simplify(cf.closed_loop_reduced_expression(control) - free) == 0
     t = np.linspace(0.0, 30.0, 301)
     m0 = np.array([0.6, 0.5, 0.7])
     traj = simulate_closed_loop(ONE, control, m0, t)
@@ -269,7 +270,8 @@ def test_locked_rotor_reproduces_the_free_rigid_body():
 
 def test_eq43_equals_h_p():
     control = SPC.diagonal(THREE, ["0", "0", "k*v + a*v**3"], parameters={"k": 0.4, "a": 0.2}, p=[0.1, -0.2, 0.05])
-    d = sp.lambdify([l_SYM, L_SYM, G_SYM], control.reduced_expression() - cf.eq43_reduced_hamiltonian(control))
+    d = sp.lambdify([l_SYM, L_SYM, G_SYM],
+                    cf.closed_loop_reduced_expression(control) - cf.eq43_reduced_hamiltonian(control))
     pts = np.random.default_rng(2).uniform([-3, -0.9, 1.0], [3, 0.9, 1.5], size=(20, 3))
     assert np.abs(d(*pts.T)).max() < 1e-13
 
@@ -277,7 +279,7 @@ def test_eq43_equals_h_p():
 def test_eq42_as_printed_leaves_a_function_of_L_undetermined():
     control = SPC.diagonal(THREE, ["a*v", "b*v**2", "k*v"], parameters={"a": 0.2, "b": 0.3, "k": 0.4},
                            p=[0.1, 0.2, 0.05])
-    hp = control.reduced_expression()
+    hp = cf.closed_loop_reduced_expression(control)
     e42 = cf.eq42_reduced_hamiltonian(control)
     diff = hp - e42
     pts = np.random.default_rng(3).uniform([-3, -0.9, 1.0], [3, 0.9, 1.5], size=(20, 3))
@@ -341,9 +343,27 @@ def test_general_phi_with_no_elementary_potential_uses_the_ray_quadrature(rng):
     assert control.lemma4_check().passed(1e-9)
 
 
-def test_sympy_out_of_time_falls_back_to_quadrature(rng):
-    fast = SPC.one_rotor(ONE, "k*v + a*v**3", parameters={"k": 0.3, "a": 0.2}, integrate_timeout=1e-6)
+def test_quadrature_when_asked_agrees_with_the_symbolic_integral(rng):
+    """How the integral is done is the caller's choice (never a timer): quadrature gives the same H_c."""
+    fast = SPC.one_rotor(ONE, "k*v + a*v**3", parameters={"k": 0.3, "a": 0.2}, integral="quadrature")
     ref = SPC.one_rotor(ONE, "k*v + a*v**3", parameters={"k": 0.3, "a": 0.2})
     assert ref.hamiltonian_is_closed_form and not fast.hamiltonian_is_closed_form
     m = rng.normal(size=(10, 3))
     np.testing.assert_allclose(fast.closed_loop_hamiltonian(m), ref.closed_loop_hamiltonian(m), atol=1e-14)
+
+
+def test_the_integral_choice_is_a_rule_on_the_expression():
+    import sympy as sp
+
+    from geomech.errors import InputError
+    from geomech.symbolic.integrals import symbolic_friendly
+
+    v = sp.Symbol("v", real=True)
+    k, G = sp.symbols("k G", positive=True)
+    friendly = [k * v + v**3, 2 * sp.tan(v / G), sp.sin(v) ** 2 * sp.exp(v), v * sp.log(v), 1 / (1 + v**2)]
+    hard = [v * sp.tan(v), sp.exp(sp.sin(v)), sp.tan(v) * sp.exp(v), v**9, sp.sin(v**2)]
+    assert all(symbolic_friendly(e, v) for e in friendly)
+    assert not any(symbolic_friendly(e, v) for e in hard)
+    assert not SPC.three_rotors(THREE, ["3*exp(sin(m1 + m2))", "2*exp(sin(m1 + m2))", "0"]).hamiltonian_is_closed_form
+    with pytest.raises(InputError, match="`integral`"):
+        SPC.one_rotor(ONE, "k*v", parameters={"k": 0.3}, integral="fast")

@@ -6,7 +6,7 @@ import pytest
 import sympy as sp
 import sympy.physics.mechanics as me
 
-from geomech.reduction.nonholonomic import lagrange_dalembert
+from geomech.reduction import lagrange_dalembert
 from geomech.systems.nonholonomic_examples import (
     EXAMPLES,
     chaplygin_sleigh,

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from geomech.reduction import bkmm_reduction, lagrange_dalembert
 from geomech.reduction.almost_poisson import almost_poisson, poisson_reduction
-from geomech.reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
 from geomech.systems.nonholonomic_examples import EXAMPLES
 
 #: Derivations of more than ~5 s (the symbolic multipliers of the roller racer and the ball: 15-30 s).

@@ -41,9 +41,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from .. import _validate as V
-from .._symbolic import compile_vector
 from ..errors import InputError, NumericalError, ShapeError, SingularityError
-from ..reduction.nonholonomic_symbolic import stack_last
+from ..symbolic.compile import compile_vector, stack_last
 from .phases import GroupPath, ShapeLoop, _periodic_integral, bind_loop, decompose_displacement, stokes_integral
 
 __all__ = [

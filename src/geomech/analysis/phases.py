@@ -38,9 +38,9 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
-from .._formula import to_expression
 from ..errors import ConvergenceError, InputError, NumericalError, ShapeError
 from ..lie._common import wrap_angle
+from ..symbolic.formula import to_expression
 
 __all__ = [
     "ShapeLoop",

@@ -85,10 +85,10 @@ def parse_params(items: Sequence[str], option: str = "--param") -> dict[str, flo
 
 def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, owner: str) -> dict[str, Any]:
     """``NAME=EXPR`` items, one for each shape variable in ``names`` (in that order), each formula parsed
-    (:func:`~geomech._formula.parse_formula`); bad or missing ones are an error naming ``option`` and the
+    (:func:`~geomech.symbolic.parse_formula`); bad or missing ones are an error naming ``option`` and the
     variables ``owner`` has."""
-    from .._formula import parse_formula
     from ..errors import InputError, ShapeError
+    from ..symbolic.formula import parse_formula
 
     given: dict[str, str] = {}
     for item in items:

@@ -15,10 +15,10 @@ from collections.abc import Sequence
 
 import click
 
-from .._formula import parse_formula
 from .._storage import dumps_json
 from .._version import __version__
 from ..errors import GeomechError, NumericalError, SingularityError
+from ..symbolic.formula import parse_formula
 from ._args import FloatVector, OutDir, Outputs, gather_vectors, parse_params
 from ._progress import activity
 from .gait import gait_cmd

@@ -16,9 +16,9 @@ from typing import Any
 
 import click
 
-from .._formula import parse_formula
 from .._storage import dumps_json
 from ..errors import GeomechError, InputError
+from ..symbolic.formula import parse_formula
 from ._args import FloatVector, OutDir, Outputs
 from ._progress import activity
 
@@ -136,8 +136,8 @@ def derivation(system, sections: tuple[str, ...] = ("system", "lagrange_dalember
     """All derived objects of ``system`` as a JSON-ready dict (text and LaTeX of each)."""
     import sympy as sp
 
+    from ..reduction import bkmm_reduction, lagrange_dalembert
     from ..reduction.almost_poisson import almost_poisson, poisson_reduction
-    from ..reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
 
     out: dict[str, Any] = {}
     if "system" in sections:

@@ -12,8 +12,8 @@ from typing import Any
 import click
 import numpy as np
 
-from .._formula import parse_formula
 from .._storage import dumps_json
+from ..symbolic.formula import parse_formula
 from ._args import FloatVector, OutDir, Outputs, parse_params
 
 __all__ = ["stability_cmd", "stability_map_cmd"]

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .._symbolic import M_SYMBOLS
 from ..errors import InputError
+from ..symbolic.compile import M_SYMBOLS
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 from . import _codegen

@@ -40,10 +40,10 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
-from .._formula import to_expression
-from .._symbolic import compile_vector
 from ..errors import ConvergenceError, InputError, NumericalError
-from ..reduction.nonholonomic import bkmm_reduction, lagrange_dalembert
+from ..reduction import bkmm_reduction, lagrange_dalembert
+from ..symbolic.compile import compile_vector
+from ..symbolic.formula import to_expression
 from ..systems.nonholonomic import NonholonomicSystem
 
 __all__ = [

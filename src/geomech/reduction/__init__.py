@@ -1,5 +1,6 @@
 """Maps between representations: Euler-angle coordinates, Serret-Andoyer charts, reduction."""
 
+from . import rotor_closed_forms
 from .almost_poisson import AlmostPoissonStructure, PoissonReduction, almost_poisson, poisson_reduction
 from .classical import (
     ClassicalSerretAndoyer,
@@ -13,10 +14,12 @@ from .classical import (
 )
 from .connections import MechanicalConnection
 from .euler_coordinates import EulerCoordinates, body_angular_velocity
-from .nonholonomic import LagrangeDAlembert, NonholonomicReduction, bkmm_reduction, lagrange_dalembert
+from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
+from .nonholonomic import NonholonomicReduction, bkmm_reduction
 from .serret_andoyer import GeneralizedSerretAndoyer, ReducedTrajectory, SerretAndoyerChart, spatial_frame
 
 __all__ = [
+    "rotor_closed_forms",
     "AlmostPoissonStructure",
     "LagrangeDAlembert",
     "NonholonomicReduction",

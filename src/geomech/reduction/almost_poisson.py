@@ -61,20 +61,13 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .._formula import to_expression
 from ..errors import InputError
+from ..symbolic import NumericCache, clear_denominators, inverse, shared_property, simplify_expr, simplify_matrix
+from ..symbolic.formula import to_expression
 from ..systems.nonholonomic import NonholonomicSystem
-from .nonholonomic import NonholonomicReduction, bkmm_reduction, lagrange_dalembert
-from .nonholonomic_symbolic import (
-    Derived,
-    Labelled,
-    NumericCache,
-    clear_denominators,
-    inverse,
-    shared_property,
-    simplify_expr,
-    simplify_matrix,
-)
+from ._derived import Derived, Labelled
+from .lagrange_dalembert import lagrange_dalembert
+from .nonholonomic import NonholonomicReduction, bkmm_reduction
 
 __all__ = ["AlmostPoissonStructure", "PoissonReduction", "almost_poisson", "poisson_reduction", "jacobiator"]
 

@@ -27,9 +27,9 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._symbolic import M_SYMBOLS, compile_vector
 from ..errors import SingularityError
 from ..lie import euler
+from ..symbolic.compile import M_SYMBOLS, compile_vector
 from ..systems.left_invariant import as_left_invariant
 
 __all__ = ["EulerCoordinates", "body_angular_velocity"]

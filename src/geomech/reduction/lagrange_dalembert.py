@@ -18,20 +18,21 @@ import numpy as np
 import sympy as sp
 
 from ..errors import InputError, SymbolicError
-from ..systems.nonholonomic import NonholonomicSystem
-from .nonholonomic_symbolic import (
-    Derived,
-    Labelled,
+from ..symbolic import (
     NumericCache,
     clear_denominators,
+    column,
     inverse,
     shared_property,
     shared_value,
     simplify_expr,
     simplify_matrix,
     stack_last,
+    suffixed_symbols,
     time_derivative,
 )
+from ..systems.nonholonomic import NonholonomicSystem
+from ._derived import Derived, Labelled
 
 if TYPE_CHECKING:
     from .nonholonomic import NonholonomicReduction
@@ -42,15 +43,6 @@ _simp_matrix = simplify_matrix
 _dt = time_derivative
 _clear_denominators = clear_denominators
 _NumericMixin = NumericCache
-
-
-def _col(seq: Sequence[Any]) -> sp.Matrix:
-    """A column vector, also with no entries (``sp.Matrix(())`` would be 0 x 0)."""
-    return sp.Matrix(len(seq), 1, list(seq))
-
-
-def _symbols(prefix: str, names: Sequence[str]) -> tuple[sp.Symbol, ...]:
-    return tuple(sp.Symbol(f"{n}_{prefix}" if prefix else n, real=True) for n in names)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -99,7 +91,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
     def equations(self) -> sp.ImmutableMatrix:
         r"""Left-hand sides (= 0) of :math:`\mathbb M\ddot q - f - A^T\lambda - B\tau = 0`."""
         M, A = sp.Matrix(self.mass_matrix), sp.Matrix(self.constraint_matrix)
-        lhs = M * _col(self.qddot) - self.forces - A.T * _col(self.lam) - self.input_matrix * _col(self.tau)
+        lhs = M * column(self.qddot) - self.forces - A.T * column(self.lam) - self.input_matrix * column(self.tau)
         return sp.ImmutableMatrix(lhs.applyfunc(sp.expand))
 
     @shared_property
@@ -110,7 +102,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         # D (M itself may be singular, as for the point-mass bicycle), and it is smaller than M.
         s = self.system
         M = sp.Matrix(self.mass_matrix)
-        F = sp.Matrix(self.forces) + self.input_matrix * _col(self.tau)
+        F = sp.Matrix(self.forces) + self.input_matrix * column(self.tau)
         X = sp.Matrix(self.projected_equations[1])
         G = _simp_matrix(X.T * M * X)
         Ginv = _simp_matrix(inverse(G))
@@ -232,10 +224,10 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         h = sp.Matrix.vstack(_dt(mu, r, rd) - ad_star,
                              _dt(pr, r, rd) - sp.Matrix(sig, 1, [sp.diff(l, x) for x in r]))
         Ab = sp.Matrix.hstack(*(sp.Matrix(a) for a in s.body_constraints))
-        e = -Nb * (_dt(Ab, r, rd) * _col(v)) + Zb.T * h
+        e = -Nb * (_dt(Ab, r, rd) * column(v)) + Zb.T * h
         Tb = sp.Matrix.vstack(sp.Matrix.hstack(-sp.Matrix(red.connection), sp.Matrix(red._mu_parts[2])),
                               sp.Matrix.hstack(sp.eye(sig), sp.zeros(sig, m)))
-        ftau = -Zb[k:, :].T * _col(self.tau)
+        ftau = -Zb[k:, :].T * column(self.tau)
         if R != sp.eye(s.c):
             Rinv_T = _simp_matrix(inverse(R)).T
             e, ftau = Rinv_T * e, Rinv_T * ftau
@@ -278,8 +270,8 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         else:
             vecs = A.nullspace(simplify=True)
             X = sp.Matrix.hstack(*[_clear_denominators(v) for v in vecs])
-        lhs = X.T * (sp.Matrix(self.mass_matrix) * _col(self.qddot) - self.forces
-                     - self.input_matrix * _col(self.tau))
+        lhs = X.T * (sp.Matrix(self.mass_matrix) * column(self.qddot) - self.forces
+                     - self.input_matrix * column(self.tau))
         return _simp_matrix(lhs), sp.ImmutableMatrix(X)
 
     def _latex_names(self) -> dict:
@@ -299,7 +291,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         lhs, X = self.projected_equations
         lam = self.multipliers_on_distribution()
         return [("equations (= 0)", r"\mathbb M\ddot q - f - A^T\lambda - B\tau", self.equations),
-                ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * _col(s.qdot)),
+                ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * column(s.qdot)),
                 ("basis of D X(q) (columns)", r"X(q)", X),
                 ("projected equations X^T(M qddot - f - B tau) (= 0)",
                  r"X^T(\mathbb M\ddot q - f - B\tau)", lhs),
@@ -383,15 +375,15 @@ def lagrange_dalembert(system: NonholonomicSystem) -> LagrangeDAlembert:
 def _lda_fields(system: NonholonomicSystem) -> tuple:
     s = system
     names = [q.name for q in s.q]
-    qdd = _symbols("ddot", names)
+    qdd = suffixed_symbols("ddot", names)
     lam = tuple(sp.Symbol(f"lambda{i + 1}", real=True) for i in range(s.c))
-    tau = _symbols("", [f"tau_{r.name}" for r in s.shape])
+    tau = suffixed_symbols("", [f"tau_{r.name}" for r in s.shape])
     L = s.lagrangian
     M = sp.Matrix(s.mass_matrix)
     p = sp.Matrix([sp.diff(L, v) for v in s.qdot])
-    f = sp.Matrix([sp.diff(L, q) for q in s.q]) - p.jacobian(s.q) * _col(s.qdot)
+    f = sp.Matrix([sp.diff(L, q) for q in s.q]) - p.jacobian(s.q) * column(s.qdot)
     A = sp.Matrix(s.constraint_matrix)
-    Adq = _dt(A, s.q, s.qdot) * _col(s.qdot)
+    Adq = _dt(A, s.q, s.qdot) * column(s.qdot)
     return (qdd, lam, tau, sp.ImmutableMatrix(M), sp.ImmutableMatrix(f.applyfunc(sp.expand)), sp.ImmutableMatrix(A),
             sp.ImmutableMatrix(Adq.applyfunc(sp.expand)))
 

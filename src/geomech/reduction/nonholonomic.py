@@ -54,26 +54,24 @@ import numpy as np
 import sympy as sp
 
 from ..errors import InputError, SymbolicError
-from ..systems.nonholonomic import NonholonomicSystem
-from .lagrange_dalembert import LagrangeDAlembert, LagrangeDAlembertNumeric, _col, _symbols, lagrange_dalembert
-from .nonholonomic_symbolic import (
-    Derived,
+from ..symbolic import (
     NumericCache,
     clear_denominators,
+    column,
     inverse,
     shared_property,
     simplify_expr,
     simplify_matrix,
     stack_last,
+    suffixed_symbols,
     time_derivative,
 )
+from ..systems.nonholonomic import NonholonomicSystem
+from ._derived import Derived
 
 __all__ = [
-    "LagrangeDAlembert",
-    "LagrangeDAlembertNumeric",
     "NonholonomicReduction",
     "ReducedNumeric",
-    "lagrange_dalembert",
     "bkmm_reduction",
 ]
 
@@ -164,7 +162,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
     def reconstruction(self) -> sp.ImmutableMatrix:
         r""":math:`\xi = g^{-1}\dot g = -\mathcal A^{nh}(r)\dot r + e(r)\,\mathbb I^{-1}(r)\,p` (seed eq. 1.1)."""
         E = sp.Matrix(self.basis)
-        rd, p = _col(self.rdot), _col(self.p)
+        rd, p = column(self.rdot), column(self.p)
         xi = -sp.Matrix(self.connection) * rd
         if self.m:
             xi += E * sp.Matrix(self.locked_inertia_inverse) * p
@@ -175,7 +173,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         r""":math:`p_i(q, \dot q) = \langle\partial l/\partial\xi, e_i(r)\rangle`, :math:`\xi = \Lambda(g)\dot g`,
         in coordinates."""
         s = self.system
-        xi = s.group.body_velocity_matrix * _col(s.qdot[: s.k])
+        xi = s.group.body_velocity_matrix * column(s.qdot[: s.k])
         mu = sp.Matrix([sp.diff(s.body_lagrangian, x) for x in s.xi]).subs(dict(zip(s.xi, xi)), simultaneous=True)
         return _simp_matrix(sp.Matrix(self.basis).T * mu)
 
@@ -194,12 +192,12 @@ class NonholonomicReduction(Derived, _NumericMixin):
     def mu(self) -> sp.Matrix:
         r""":math:`\mu = \partial l/\partial\xi` (the body momentum, k components) in terms of ``(r, rdot, p)``."""
         mu_r, mu_p, _ = self._mu_parts
-        return sp.Matrix(mu_r) * _col(self.rdot) + sp.Matrix(mu_p) * _col(self.p)
+        return sp.Matrix(mu_r) * column(self.rdot) + sp.Matrix(mu_p) * column(self.p)
 
     @property
     def omega(self) -> sp.Matrix:
         r""":math:`\Omega = \mathbb I^{-1}(r)\,p`, the velocity along :math:`S_q` in the basis :math:`e_i`."""
-        return sp.Matrix(self.locked_inertia_inverse) * _col(self.p)
+        return sp.Matrix(self.locked_inertia_inverse) * column(self.p)
 
     @shared_property
     def curvature(self) -> tuple[sp.ImmutableMatrix, ...]:
@@ -239,7 +237,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         s = self.system
         mu_r, mu_p, EIinv = (sp.Matrix(x) for x in self._mu_parts)
         C, k, E = s.group.structure_constants, s.k, sp.Matrix(self.basis)
-        rd, p = _col(self.rdot), _col(self.p)
+        rd, p = column(self.rdot), column(self.p)
         mu = mu_r * rd + mu_p * p
         W = EIinv * p
         Hs, Ks, Ds = [], [], []
@@ -255,7 +253,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
     def momentum_rhs(self) -> sp.ImmutableMatrix:
         r"""Right-hand side of the momentum equation (1.2) in ``(r, rdot, p)``."""
         H, K, D = self.momentum_coefficients
-        rd, p = _col(self.rdot), _col(self.p)
+        rd, p = column(self.rdot), column(self.p)
         return sp.ImmutableMatrix([(rd.T * H[i] * rd + rd.T * K[i] * p + p.T * D[i] * p)[0, 0] for i in range(self.m)])
 
     # ---------------- shape equations ----------------
@@ -290,7 +288,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         (:attr:`curvature`) the sign is +, as the tests confirm against the full equations.
         """
         s = self.system
-        r, rd, p = list(self.r), _col(self.rdot), _col(self.p)
+        r, rd, p = list(self.r), column(self.rdot), column(self.p)
         M, Iinv = sp.Matrix(self.shape_mass), sp.Matrix(self.locked_inertia_inverse)
         mu = self.mu
         Om = Iinv * p
@@ -319,7 +317,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
     def shape_forces(self) -> sp.ImmutableMatrix:
         r""":math:`\delta(r, \dot r, p)` with :math:`M(r)\ddot r = \delta + \tau` (seed eq. 1.3)."""
         Q, R, S = self.shape_coefficients
-        rd, p = _col(self.rdot), _col(self.p)
+        rd, p = column(self.rdot), column(self.p)
         out = []
         for al, r in enumerate(self.r):
             e = (rd.T * Q[al] * rd + rd.T * R[al] * p)[0, 0] - simplify_expr(sp.diff(self.potential, r))
@@ -478,8 +476,8 @@ def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
     if any(e.free_symbols & set(s.group.coordinates) for e in list(Il) + list(Gam) + list(mrr)):
         raise SymbolicError(f"{s.name}: the body Lagrangian still depends on the group variables; check G-invariance.")
     p = tuple(sp.Symbol(f"p{i + 1}", real=True) for i in range(E.cols))
-    rdd = _symbols("ddot", [r.name for r in s.shape])
-    tau = _symbols("", [f"tau_{r.name}" for r in s.shape])
+    rdd = suffixed_symbols("ddot", [r.name for r in s.shape])
+    tau = suffixed_symbols("", [f"tau_{r.name}" for r in s.shape])
     return (E, normalization, p, rdd, tau, sp.ImmutableMatrix(Il), sp.ImmutableMatrix(Gam), sp.ImmutableMatrix(mrr),
             sp.simplify(V))
 

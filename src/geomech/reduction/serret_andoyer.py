@@ -38,10 +38,10 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
-from .._symbolic import M_SYMBOLS
 from ..errors import InputError, NumericalError, SingularityError
 from ..lie import euler as _euler
 from ..lie import so3 as _so3
+from ..symbolic.compile import M_SYMBOLS
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 

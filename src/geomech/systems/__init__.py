@@ -1,6 +1,6 @@
 """Immutable descriptions of mechanical systems."""
 
-from . import nonholonomic_examples, rotor_closed_forms
+from . import nonholonomic_examples
 from ._euler_top import EulerTopSolution
 from .canonical import CanonicalSystem
 from .control import ClosedLoopFamily, HyperregularityReport, StructurePreservingControl
@@ -45,5 +45,4 @@ __all__ = [
     "symmetry_group",
     "three_link_chain",
     "two_pinned_bodies",
-    "rotor_closed_forms",
 ]

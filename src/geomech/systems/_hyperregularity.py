@@ -2,15 +2,44 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import sympy as sp
 from scipy.optimize import brentq
 
-from .._symbolic import M_SYMBOLS
-from ._symbolic_tools import SympyTimeout, time_limit
-from .control import V_SYMBOL, HyperregularityReport
+from ..symbolic.compile import M_SYMBOLS
+from ..symbolic.integrals import symbolic_friendly
+
+#: The variable of a scalar phi(v) (v = m3 for the rotor on axis 3; v = m_i for phi_i of Corollary 2).
+V_SYMBOL = sp.Symbol("v", real=True)
+
+HYPERREGULARITY_COST = (
+    "Where H_c is not hyperregular, its fibre derivative m -> omega = grad H_c(m) is not invertible, so the "
+    "Lagrangian side is lost there: the closed-loop Lagrangian, the inverse Legendre transform omega -> m "
+    "(Lemma 1, eq. 14) and the 3-1-3 Euler-angle velocities. The Hamiltonian side uses grad H_c only and is "
+    "unaffected: Euler's equation m' = m x grad H_c, the attitude equation, the Serret-Andoyer reduction "
+    "h_p = H_c o U_p with its reconstruction, and the stability analysis."
+)
+
+
+@dataclass(frozen=True)
+class HyperregularityReport:
+    """Hyperregularity of :math:`H_c` (:math:`\\varphi'(v)\\ne 1`; :math:`\\det(I - A D\\varphi)\\ne 0`).
+
+    ``status`` is ``"yes"`` (proved), ``"no"`` (a point where it fails is known: ``where``, ``points``)
+    or ``"unknown"`` (no failure found on the probed region, nothing proved). ``cost`` says what is lost
+    where it fails and what still works.
+    """
+
+    status: str
+    where: str
+    points: tuple[float, ...]
+    cost: str = HYPERREGULARITY_COST
+
+    def to_json(self) -> dict[str, Any]:
+        return {"status": self.status, "where": self.where, "points": list(self.points), "cost": self.cost}
 
 
 def hyperregularity_report(c: Any, R: float) -> HyperregularityReport:
@@ -38,11 +67,13 @@ def _scalar(c: Any, i: int, R: float) -> tuple[str, str, list[float]]:
     if c._phi_1d_exprs is not None:
         th = dict(zip(c._psyms, c.theta()))
         d = sp.diff(c._phi_1d_exprs[i], V_SYMBOL).subs(th)
-        try:
-            with time_limit(c._integrate_timeout):
+        sol = None
+        # solved symbolically when phi' is in the class of symbolic_friendly (a rule, not a timer)
+        if c._integral != "quadrature" and symbolic_friendly(d, V_SYMBOL):
+            try:
                 sol = sp.solveset(sp.Eq(d, 1), V_SYMBOL, domain=sp.S.Reals)
-        except (SympyTimeout, NotImplementedError, ValueError, TypeError):
-            sol = None
+            except (NotImplementedError, ValueError, TypeError):
+                sol = None
         if sol is not None:
             if sol is sp.S.EmptySet:
                 return "yes", "", []

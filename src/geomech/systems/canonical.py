@@ -14,8 +14,8 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._formula import to_expression
-from .._symbolic import compile_scalar, compile_vector
+from ..symbolic.compile import compile_scalar, compile_vector
+from ..symbolic.formula import to_expression
 
 __all__ = ["CanonicalSystem"]
 

@@ -60,10 +60,11 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._formula import parse_formula
-from .._symbolic import M_SYMBOLS, compile_scalar, compile_vector
 from ..errors import InputError, SymbolicError
-from ._symbolic_tools import SympyTimeout, integral_from_zero, quadrature_from_zero, ray_quadrature, time_limit
+from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
+from ..symbolic.formula import parse_formula
+from ..symbolic.integrals import integral_choice, integral_from_zero, quadrature_from_zero, ray_quadrature
+from ._hyperregularity import V_SYMBOL, HyperregularityReport, hyperregularity_report
 from .left_invariant import LeftInvariantSystem
 from .rotors import RotorBody
 
@@ -76,16 +77,8 @@ __all__ = [
     "StructurePreservingControl",
 ]
 
-#: The variable of a scalar phi(v) (v = m3 for the rotor on axis 3; v = m_i for phi_i of Corollary 2).
-V_SYMBOL = sp.Symbol("v", real=True)
-
-HYPERREGULARITY_COST = (
-    "Where H_c is not hyperregular, its fibre derivative m -> omega = grad H_c(m) is not invertible, so the "
-    "Lagrangian side is lost there: the closed-loop Lagrangian, the inverse Legendre transform omega -> m "
-    "(Lemma 1, eq. 14) and the 3-1-3 Euler-angle velocities. The Hamiltonian side uses grad H_c only and is "
-    "unaffected: Euler's equation m' = m x grad H_c, the attitude equation, the Serret-Andoyer reduction "
-    "h_p = H_c o U_p with its reconstruction, and the stability analysis."
-)
+#: The asymmetry of Lambda^-1 A Dphi is simplified symbolically only up to this size (sympy operations).
+_SIMPLIFY_MAX_OPS = 400
 
 
 @dataclass(frozen=True)
@@ -101,24 +94,6 @@ class ClosedLoopCondition:
     method: str
     detail: str
     max_asymmetry: float
-
-
-@dataclass(frozen=True)
-class HyperregularityReport:
-    """Hyperregularity of :math:`H_c` (:math:`\\varphi'(v)\\ne 1`; :math:`\\det(I - A D\\varphi)\\ne 0`).
-
-    ``status`` is ``"yes"`` (proved), ``"no"`` (a point where it fails is known: ``where``, ``points``)
-    or ``"unknown"`` (no failure found on the probed region, nothing proved). ``cost`` says what is lost
-    where it fails and what still works.
-    """
-
-    status: str
-    where: str
-    points: tuple[float, ...]
-    cost: str = HYPERREGULARITY_COST
-
-    def to_json(self) -> dict[str, Any]:
-        return {"status": self.status, "where": self.where, "points": list(self.points), "cost": self.cost}
 
 
 @dataclass(frozen=True)
@@ -193,7 +168,7 @@ class StructurePreservingControl:
 
     def __init__(self, body: RotorBody, kind: str, *, phi_exprs: list[sp.Expr] | None, variables: str,
                  phi_params: Mapping[str, float], phi_callables: tuple[Any, ...] | None, p: Any,
-                 probe_radius: float, integrate_timeout: float | None):
+                 probe_radius: float, integral: str):
         if not isinstance(body, RotorBody):
             raise InputError(f"Expected `body` to be a RotorBody, got {type(body).__name__}.")
         self.body = body
@@ -201,7 +176,7 @@ class StructurePreservingControl:
         n = body.n_rotors
         self.n_rotors = n
         self.probe_radius = V.positive_scalar(probe_radius, "probe_radius")
-        self._integrate_timeout = integrate_timeout
+        self._integral = integral_choice(integral)
         p_arr = V.finite(p, "p")
         p_arr = np.broadcast_to(p_arr, (n,)).astype(float) if p_arr.ndim == 0 else p_arr
         if p_arr.shape != (n,):
@@ -263,7 +238,7 @@ class StructurePreservingControl:
     @classmethod
     def one_rotor(cls, body: RotorBody, phi: Any, *, p: float = 0.0, parameters: Mapping[str, float] | None = None,
                   dphi: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
-                  integrate_timeout: float | None = 10.0) -> StructurePreservingControl:
+                  integral: str = "auto") -> StructurePreservingControl:
         """The control of eq. (29a) for one rotor: :math:`u = \\varphi'(v)\\,\\dot v`, :math:`v = a\\cdot m`
         (:math:`m_3` for the seed's rotor on axis 3), which keeps :math:`p = \\Gamma - \\varphi(v)` constant.
 
@@ -275,30 +250,33 @@ class StructurePreservingControl:
         p : the conserved :math:`p = \\Gamma - \\varphi(m_3)`.
         parameters : values of the parameters of ``phi``.
         probe_radius : radius of the ball of momenta where numeric checks sample (use about |m|).
-        integrate_timeout : seconds allowed to sympy's integration before falling back to quadrature.
+        integral : ``"auto"`` (default), ``"symbolic"`` or ``"quadrature"``: how the closed-loop Hamiltonian's
+            integral is done. ``"auto"`` uses sympy for integrands in the class of
+            :func:`geomech.symbolic.integrals.symbolic_friendly` (a rule on the expression, the same on every
+            machine) and Gauss-Legendre quadrature otherwise; ``"symbolic"`` always tries sympy first.
         """
         if body.n_rotors != 1:
             raise InputError(f"Expected a body with one rotor for `one_rotor`, got {body.n_rotors}; use "
                              "`three_rotors`, `diagonal` or `general`.")
         return cls._build(body, "one-rotor", [phi], "v", parameters, None if dphi is None else [dphi], p,
-                          probe_radius, integrate_timeout, "dphi")
+                          probe_radius, integral, "dphi")
 
     @classmethod
     def diagonal(cls, body: RotorBody, phis: Sequence[Any], *, p: Any = 0.0,
                  parameters: Mapping[str, float] | None = None, derivatives: Sequence[Any] | None = None,
-                 probe_radius: float = 1.0, integrate_timeout: float | None = 10.0) -> StructurePreservingControl:
+                 probe_radius: float = 1.0, integral: str = "auto") -> StructurePreservingControl:
         """Corollary 2: :math:`u_i = \\varphi_i'(v_i)\\,\\dot v_i`, :math:`v_i = a_i\\cdot m` (:math:`m_i` for
         rotors on the principal axes); ``phis`` are expressions in ``v`` or callables with ``derivatives``."""
         phis = list(phis)
         if len(phis) != body.n_rotors:
             raise InputError(f"Expected one phi_i per rotor ({body.n_rotors}), got {len(phis)}.")
         return cls._build(body, "diagonal", phis, "v", parameters, derivatives, p, probe_radius,
-                          integrate_timeout, "derivatives")
+                          integral, "derivatives")
 
     @classmethod
     def three_rotors(cls, body: RotorBody, phi: Any, *, p: Any = 0.0, parameters: Mapping[str, float] | None = None,
                      jacobian: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
-                     integrate_timeout: float | None = 10.0) -> StructurePreservingControl:
+                     integral: str = "auto") -> StructurePreservingControl:
         """Proposition 5 for three rotors on the principal axes: :math:`u = D\\varphi(m)\\,\\dot m`.
 
         ``phi`` is three expressions in ``m1, m2, m3`` (with parameters), or a callable
@@ -307,26 +285,26 @@ class StructurePreservingControl:
         if body.n_rotors != 3:
             raise InputError(f"Expected a body with three rotors for `three_rotors`, got {body.n_rotors}.")
         return cls.general(body, phi, p=p, parameters=parameters, jacobian=jacobian, probe_radius=probe_radius,
-                           integrate_timeout=integrate_timeout, _kind="three-rotors")
+                           integral=integral, _kind="three-rotors")
 
     @classmethod
     def general(cls, body: RotorBody, phi: Any, *, p: Any = 0.0, parameters: Mapping[str, float] | None = None,
                 jacobian: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
-                integrate_timeout: float | None = 10.0, _kind: str = "general") -> StructurePreservingControl:
+                integral: str = "auto", _kind: str = "general") -> StructurePreservingControl:
         """:math:`u = D\\varphi(m)\\,\\dot m` for any rotor layout, :math:`\\varphi: \\mathbb R^3 \\to \\mathbb R^N`
         (N expressions in ``m1, m2, m3``, or a callable with ``jacobian(m) -> (..., N, 3)``)."""
         if callable(phi) and not isinstance(phi, (str, sp.Basic)):
             return cls._build(body, _kind, [phi], "m", parameters, None if jacobian is None else [jacobian], p,
-                              probe_radius, integrate_timeout, "jacobian")
+                              probe_radius, integral, "jacobian")
         if isinstance(phi, (str, sp.Basic)) and not isinstance(phi, sp.MatrixBase):
             phi = [phi]
         phi = list(phi)
         if len(phi) != body.n_rotors:
             raise InputError(f"Expected `phi` to have one component per rotor ({body.n_rotors}), got {len(phi)}.")
-        return cls._build(body, _kind, phi, "m", parameters, None, p, probe_radius, integrate_timeout, "jacobian")
+        return cls._build(body, _kind, phi, "m", parameters, None, p, probe_radius, integral, "jacobian")
 
     @classmethod
-    def _build(cls, body, kind, phis, variables, parameters, derivs, p, probe_radius, timeout, dname):
+    def _build(cls, body, kind, phis, variables, parameters, derivs, p, probe_radius, integral, dname):
         if all(callable(f) and not isinstance(f, (str, sp.Basic)) for f in phis):
             if derivs is None or len(list(derivs)) != len(phis) or not all(callable(d) for d in derivs):
                 raise InputError(f"A callable phi needs its derivative: pass `{dname}` "
@@ -335,7 +313,7 @@ class StructurePreservingControl:
                 raise InputError("`parameters` applies to a symbolic phi; a callable carries its own.")
             return cls(body, kind, phi_exprs=None, variables=variables, phi_params={},
                        phi_callables=(tuple(phis), tuple(derivs)), p=p, probe_radius=probe_radius,
-                       integrate_timeout=timeout)
+                       integral=integral)
         if any(callable(f) and not isinstance(f, (str, sp.Basic)) for f in phis):
             raise InputError("Expected every phi component to be symbolic, or every one a callable, not a mix.")
         n = body.n_rotors
@@ -364,7 +342,7 @@ class StructurePreservingControl:
             if not np.isfinite(values[k]):
                 raise SymbolicError(f"Expected parameter `{k}` to be finite, got {values[k]}.")
         return cls(body, kind, phi_exprs=exprs, variables=variables, phi_params=values, phi_callables=None, p=p,
-                   probe_radius=probe_radius, integrate_timeout=timeout)
+                   probe_radius=probe_radius, integral=integral)
 
     @property
     def phi_of_v(self) -> tuple[sp.Expr, ...] | None:
@@ -495,11 +473,9 @@ class StructurePreservingControl:
             for i in range(3):
                 for j in range(i + 1, 3):
                     d = M[i, j] - M[j, i]
-                    try:
-                        with time_limit(self._integrate_timeout):
-                            zero = sp.simplify(d.subs(subs)) == 0
-                    except SympyTimeout:
-                        zero = False
+                    # simplified only below a size bound (a rule, not a timer); larger ones are checked
+                    # numerically below
+                    zero = sp.count_ops(d) <= _SIMPLIFY_MAX_OPS and sp.simplify(d.subs(subs)) == 0
                     entries.append((i, j, d, zero))
             if all(z for *_, z in entries):
                 return ClosedLoopCondition(True, "symbolic", "Lambda^-1 A Dphi is symmetric (sympy, for these "
@@ -564,7 +540,7 @@ class StructurePreservingControl:
         for integrand, var in pieces:
             if integrand == 0:
                 continue
-            val = integral_from_zero(integrand, var, var, self._integrate_timeout)
+            val = integral_from_zero(integrand, var, var, self._integral)
             if val is None:
                 return None
             psi += val
@@ -724,20 +700,8 @@ class StructurePreservingControl:
         numerically on :math:`|m| \\le` ``scan_radius`` (default 3 x :attr:`probe_radius`), which can show
         failure but not prove success. The Hamiltonian side is never refused on this account.
         """
-        from ._hyperregularity import hyperregularity_report
-
         R = 3.0 * self.probe_radius if scan_radius is None else V.positive_scalar(scan_radius, "scan_radius")
         return hyperregularity_report(self, R)
-
-    def reduced_expression(self, axis: int = 2) -> sp.Expr:
-        """:math:`h_p(l, L) = H_c(U_p(l, L))` (Theorems 4 and 6) from the generic Serret-Andoyer machinery."""
-        from ..reduction import GeneralizedSerretAndoyer
-
-        if not self.hamiltonian_is_closed_form:
-            raise SymbolicError("The symbolic reduced Hamiltonian needs a closed-form H_c; sympy found no "
-                                "antiderivative of phi, so H_c is computed by quadrature. Use "
-                                "GeneralizedSerretAndoyer(control.closed_loop()).reduced_system(G) numerically.")
-        return GeneralizedSerretAndoyer(self.closed_loop()).reduced_expression(axis)
 
     def to_json(self) -> dict[str, Any]:
         return {

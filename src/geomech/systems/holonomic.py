@@ -34,11 +34,11 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._symbolic import bind_expression, compile_vector
 from ..errors import InputError, ShapeError, SymbolicError
 from ..lie import euler as _euler
 from ..lie import se2 as _se2
 from ..lie import so3 as _so3
+from ..symbolic.compile import bind_expression, compile_vector
 
 __all__ = ["SymmetryGroup", "HolonomicSystem", "symmetry_group"]
 

@@ -10,8 +10,8 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._symbolic import bind_expression
 from ..errors import InputError, ShapeError, SingularityError
+from ..symbolic.compile import bind_expression
 from .holonomic import HolonomicSystem, _rot2
 
 __all__ = [

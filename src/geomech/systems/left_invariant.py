@@ -21,8 +21,8 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._symbolic import M_SYMBOLS, bind_expression, compile_scalar, compile_vector
 from ..errors import InputError, SymbolicError
+from ..symbolic.compile import M_SYMBOLS, bind_expression, compile_scalar, compile_vector
 
 __all__ = ["LeftInvariantSystem", "as_left_invariant"]
 

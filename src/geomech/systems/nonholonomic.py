@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .._formula import parse_formula
 from ..errors import InputError, ShapeError, SymbolicError
+from ..symbolic.formula import parse_formula
 
 __all__ = [
     "MatrixGroup",
@@ -155,7 +155,7 @@ class MatrixGroup:
     @cached_property
     def body_velocity_matrix(self) -> sp.ImmutableMatrix:
         r""":math:`\Lambda(q_G)` with :math:`\xi = \Lambda(q_G)\,\dot q_G`."""
-        from ..reduction.nonholonomic_symbolic import simplify_expr  # deferred: reduction imports systems
+        from ..symbolic.simplify import simplify_expr
 
         cols = [self.vee((self.inverse * self.matrix.diff(c)).applyfunc(simplify_expr)) for c in self.coordinates]
         return sp.ImmutableMatrix(sp.Matrix.hstack(*cols).applyfunc(simplify_expr))
@@ -163,7 +163,7 @@ class MatrixGroup:
     @cached_property
     def body_velocity_inverse(self) -> sp.ImmutableMatrix:
         r""":math:`\Lambda(q_G)^{-1}`: coordinate rates from the body velocity."""
-        from ..reduction.nonholonomic_symbolic import simplify_expr
+        from ..symbolic.simplify import simplify_expr
 
         inv = sp.Matrix(self.body_velocity_matrix).inv(method="LU")
         return sp.ImmutableMatrix(inv.applyfunc(simplify_expr))
@@ -171,8 +171,8 @@ class MatrixGroup:
     def numeric(self):
         """The group for numerical work on it (:class:`~geomech.lie.matrix_group.MatrixLieGroup`): exp,
         composition, the inverse right Jacobian of exp, and this chart (compiled) to read coordinates back."""
-        from .._symbolic import compile_vector
         from ..lie.matrix_group import MatrixLieGroup
+        from ..symbolic.compile import compile_vector
 
         q = list(self.coordinates)
         chart = compile_vector(sp.Matrix(self.matrix).tolist(), q)
@@ -680,7 +680,7 @@ class NonholonomicSystem:
         Lam_inv = self.group.body_velocity_inverse.subs(self.reference_substitution)
         A = self.constraint_matrix.subs(self.reference_substitution)
         Ag = sp.Matrix(A[:, : self.k]) * Lam_inv
-        from ..reduction.nonholonomic_symbolic import simplify_expr
+        from ..symbolic.simplify import simplify_expr
 
         return (sp.ImmutableMatrix(Ag.applyfunc(simplify_expr)), sp.ImmutableMatrix(A[:, self.k:]))
 

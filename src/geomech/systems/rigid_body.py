@@ -8,8 +8,8 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
-from .._symbolic import M_SYMBOLS
 from ..errors import InputError
+from ..symbolic.compile import M_SYMBOLS
 from .left_invariant import LeftInvariantSystem
 
 __all__ = ["RigidBody"]

@@ -50,8 +50,8 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
-from .._symbolic import M_SYMBOLS
 from ..errors import InputError, NumericalError
+from ..symbolic.compile import M_SYMBOLS
 
 __all__ = ["RotorBody", "RotorTrajectory"]
 

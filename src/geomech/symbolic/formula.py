@@ -24,7 +24,7 @@ from collections.abc import Callable, Mapping
 
 import sympy as sp
 
-from .errors import SymbolicError
+from ..errors import SymbolicError
 
 __all__ = ["FUNCTIONS", "MAX_FORMULA_LENGTH", "parse_formula", "to_expression"]
 

@@ -33,11 +33,11 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from ..errors import InputError
-from ..reduction.serret_andoyer import G_SYM, L_SYM, l_SYM
-from ._symbolic_tools import integral_from_zero
-from .control import V_SYMBOL, StructurePreservingControl
-from .rotors import RotorBody
+from ..errors import InputError, SymbolicError
+from ..symbolic.integrals import integral_from_zero
+from ..systems.control import V_SYMBOL, StructurePreservingControl
+from ..systems.rotors import RotorBody
+from .serret_andoyer import G_SYM, L_SYM, GeneralizedSerretAndoyer, l_SYM
 
 __all__ = [
     "eq32_reduced_hamiltonian",
@@ -58,8 +58,8 @@ def _sym(name: str) -> sp.Symbol:
     return sp.Symbol(name, real=True)
 
 
-def _int0(f: sp.Expr, upper: sp.Expr, timeout: float = 10.0) -> sp.Expr:
-    val = integral_from_zero(f, V_SYMBOL, upper, timeout)
+def _int0(f: sp.Expr, upper: sp.Expr) -> sp.Expr:
+    val = integral_from_zero(f, V_SYMBOL, upper, "auto")
     if val is None:
         s = sp.Dummy("s", real=True)
         return sp.Integral(f.xreplace({V_SYMBOL: s}), (s, 0, upper))
@@ -168,3 +168,13 @@ def theorem5_boundary(lambda2: Any, I3: Any) -> Any:
     (when :math:`\\varphi(0) + p = 0`, :math:`\\lambda_1 > \\lambda_2`); for :math:`\\varphi = kv` the
     boundary is :math:`k = 1 - I_3/\\lambda_2`, unstable (a real pair) below it."""
     return 1 - I3 / lambda2
+
+
+def closed_loop_reduced_expression(control: StructurePreservingControl, axis: int = 2) -> sp.Expr:
+    """:math:`h_p(l, L) = H_c(U_p(l, L))` of a closed loop (Theorems 4 and 6), from the generic Serret-Andoyer
+    machinery."""
+    if not control.hamiltonian_is_closed_form:
+        raise SymbolicError("The symbolic reduced Hamiltonian needs a closed-form H_c; sympy found no "
+                            "antiderivative of phi, so H_c is computed by quadrature. Use "
+                            "GeneralizedSerretAndoyer(control.closed_loop()).reduced_system(G) numerically.")
+    return GeneralizedSerretAndoyer(control.closed_loop()).reduced_expression(axis)

@@ -1,4 +1,6 @@
-"""Symbolic helpers: canonical symbols, binding user formulas, compiling formulas to numpy kernels."""
+"""Formulas to numeric functions: canonical symbols, binding a user formula to its variables and parameters, and
+compiling expressions to vectorised numpy functions (the integrators' numba kernels are printed by
+:mod:`geomech.integrators._codegen` from the same expressions)."""
 
 from __future__ import annotations
 
@@ -8,8 +10,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from ._formula import parse_formula
-from .errors import SymbolicError
+from ..errors import SymbolicError
+from .formula import parse_formula
 
 #: Body angular momentum components, the variables of a left-invariant Hamiltonian H(m).
 M_SYMBOLS: tuple[sp.Symbol, sp.Symbol, sp.Symbol] = sp.symbols("m1 m2 m3", real=True)
@@ -114,3 +116,43 @@ def compile_vector(exprs: Any, variables: Sequence[sp.Symbol]):
         return out.reshape(batch + shape)
 
     return vector
+
+
+def stack_last(*arrays: Any) -> np.ndarray:
+    """Concatenate along the last axis after broadcasting the leading (batch) axes only."""
+    arrs = [np.asarray(a, dtype=float) for a in arrays]
+    arrs = [a[..., None] if a.ndim == 0 else a for a in arrs]
+    batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrs))
+    return np.concatenate([np.broadcast_to(a, batch + a.shape[-1:]) for a in arrs], axis=-1)
+
+
+def compile_matrix(e: sp.Matrix, variables: Sequence[sp.Symbol]):
+    """A sympy matrix to ``f(x)`` of shape ``(..., rows, cols)``, like :func:`compile_vector`, also for matrices with a
+    zero dimension."""
+    if e.rows == 0 or e.cols == 0:
+        shape = e.shape
+
+        def empty(x: np.ndarray) -> np.ndarray:
+            x = np.asarray(x, dtype=float)
+            return np.zeros(x.shape[:-1] + shape)
+
+        return empty
+    if not variables:
+        const = np.array(e.evalf(), dtype=float)
+
+        def constant(x: np.ndarray) -> np.ndarray:
+            x = np.asarray(x, dtype=float)
+            return np.broadcast_to(const, x.shape[:-1] + const.shape).copy()
+
+        return constant
+    return compile_vector(e.tolist(), variables)
+
+
+def column(seq: Sequence[Any]) -> sp.Matrix:
+    """A column vector, also with no entries (``sp.Matrix(())`` would be 0 x 0)."""
+    return sp.Matrix(len(seq), 1, list(seq))
+
+
+def suffixed_symbols(suffix: str, names: Sequence[str]) -> tuple[sp.Symbol, ...]:
+    """Real symbols ``name_suffix`` (or ``name`` with no suffix), e.g. the velocities ``x_dot`` of ``x``."""
+    return tuple(sp.Symbol(f"{n}_{suffix}" if suffix else n, real=True) for n in names)

@@ -1,0 +1,122 @@
+"""Derived objects of the reductions as text, LaTeX and JSON: the :class:`Derived` mixin and :class:`Labelled`
+values."""
+
+from __future__ import annotations
+
+import copy
+import json
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..symbolic.cache import shared_value
+
+__all__ = ["Derived", "Labelled"]
+
+
+class Labelled(tuple):
+    """Derived values with names: a tuple of ``(text_label, latex_label, value)``; printed as a JSON object
+    ``{text_label: value}``, as one ``label = value`` line each in text, and as ``latex_label = value`` in LaTeX."""
+
+    def as_dict(self) -> dict:
+        return {label: value for label, _, value in self}
+
+
+def _as_text(value: Any) -> Any:
+    if isinstance(value, Labelled):
+        return {label: _as_text(v) for label, _, v in value}
+    if isinstance(value, sp.MatrixBase):
+        return [[str(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
+    if isinstance(value, sp.Basic):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _as_text(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_as_text(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return value
+
+
+TEXT_LIMIT = 600  # characters of one expression in readable text; JSON and LaTeX always hold all of it
+
+
+def _short(expr: Any) -> str:
+    text = str(expr)
+    if len(text) <= TEXT_LIMIT:
+        return text
+    return f"<{len(text)} characters, {sp.count_ops(expr)} operations: see the JSON or LaTeX output or the attribute>"
+
+
+def _short_text(value: Any) -> Any:
+    if isinstance(value, sp.Basic):
+        return _short(value)
+    if isinstance(value, (list, tuple)):
+        return [_short_text(v) for v in value]
+    if isinstance(value, sp.MatrixBase):
+        return [[_short(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
+    return _as_text(value)
+
+
+class Derived:
+    """Mixin of every derived object: readable text, LaTeX and JSON. A subclass provides :meth:`items`, a list of
+    ``(name, latex_name, value)`` (sympy values or lists of them), and :meth:`_latex_names` for its symbols."""
+
+    title: str = ""
+
+    def items(self) -> list[tuple[str, str, Any]]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _latex_names(self) -> dict:
+        return {}
+
+    def _latex(self, value: Any) -> str:
+        names = self._latex_names()
+        if isinstance(value, Labelled):
+            return r",\; ".join(f"{tex} = {self._latex(v)}" for _, tex, v in value)
+        if isinstance(value, (list, tuple)):
+            return r",\; ".join(self._latex(v) for v in value)
+        if isinstance(value, (sp.Basic, sp.MatrixBase)):
+            return sp.latex(value, symbol_names=names)
+        return str(value)
+
+    def to_latex(self) -> str:
+        """LaTeX, one ``name = value`` line per derived object."""
+        return "\n".join(f"{tex} = {self._latex(v)}" for _, tex, v in self.items())
+
+    def to_text(self) -> str:
+        """Readable text, one ``name = value`` block per derived object; an expression longer than
+        ``TEXT_LIMIT`` characters is replaced by its size (the JSON and LaTeX outputs hold it in full)."""
+        lines = [self.title] if self.title else []
+        for name, _, value in self.items():
+            if isinstance(value, Labelled):
+                lines.append(f"{name}:")
+                lines += [f"  {label} = {_short_text(v)}" for label, _, v in value]
+            elif isinstance(value, sp.MatrixBase):
+                rows = ["[" + ", ".join(_short(value[i, j]) for j in range(value.cols)) + "]"
+                        for i in range(value.rows)]
+                lines.append(f"{name} = [" + (",\n" + " " * (len(name) + 4)).join(rows) + "]")
+            else:
+                lines.append(f"{name} = {_short_text(value)}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict: every value as text (sympy ``str``) and as LaTeX (cached with the derivation: printing
+        long expressions costs as much as deriving them)."""
+
+        def render() -> dict:
+            items = self.items()
+            return {"title": self.title,
+                    "text": {name: _as_text(v) for name, _, v in items},
+                    "latex": {name: self._latex(v) for name, _, v in items}}
+
+        return copy.deepcopy(shared_value(self, "to_dict", render))
+
+    def to_json(self, **kwargs: Any) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict(), **kwargs)
+
+    def __str__(self) -> str:
+        return self.to_text()

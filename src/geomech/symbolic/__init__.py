@@ -1,0 +1,22 @@
+"""The symbolic layer, below the mechanics: user formulas parsed by a whitelist (:mod:`.formula`), simplified
+(:mod:`.simplify`), compiled to numeric functions (:mod:`.compile`) and their derivations cached in memory and
+on disk (:mod:`.cache`)."""
+
+from .cache import DISK_CACHE, DiskCache, NumericCache, shared_property, shared_value
+from .compile import (
+           M_SYMBOLS,
+           bind_expression,
+           column,
+           compile_matrix,
+           compile_scalar,
+           compile_vector,
+           stack_last,
+           suffixed_symbols,
+)
+from .formula import FUNCTIONS, parse_formula, to_expression
+from .simplify import clear_denominators, inverse, simplify_expr, simplify_matrix, time_derivative
+
+__all__ = ["DISK_CACHE", "DiskCache", "NumericCache", "shared_property", "shared_value", "M_SYMBOLS",
+           "bind_expression", "column", "suffixed_symbols", "compile_matrix", "compile_scalar", "compile_vector",
+           "stack_last", "FUNCTIONS", "parse_formula", "to_expression", "clear_denominators", "inverse",
+           "simplify_expr", "simplify_matrix", "time_derivative"]
