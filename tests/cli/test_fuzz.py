@@ -15,6 +15,8 @@ from fuzz_harness import run_cli
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from geomech.cli._args import _is_number
+
 EXAMPLES = int(os.environ.get("GEOMECH_FUZZ_EXAMPLES", "20"))
 TIMEOUT = float(os.environ.get("GEOMECH_FUZZ_TIMEOUT", "60"))
 
@@ -51,14 +53,6 @@ OPTIONS = ["--inertia", "--momentum", "--t-final", "--samples", "--rtol", "--ham
 
 tokens = st.sampled_from(NUMBERS + WORDS + FORMULAS)
 RANGES = ["0:1:3", "0.05:0.95:1000", "nan:1:3", "0:inf:3", "1:1:3", "0:1:0", "0:1:100000", "1e308:-1e308:3"]
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
 
 
 @st.composite

@@ -165,3 +165,15 @@ class Outputs:
         from .._storage import write_set
 
         return write_set(self.out, self._writers)
+
+
+def emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
+    """Print the summary (JSON, checked finite, or ``text``) and, with ``--out``, commit the files with
+    ``name.json`` among them."""
+    from .._storage import dumps_json
+
+    body = dumps_json(summary) if as_json else text
+    if outputs is not None:
+        outputs.json(f"{name}.json", summary)
+        outputs.commit()
+    click.echo(body)

@@ -19,7 +19,7 @@ from .._storage import dumps_json
 from .._version import __version__
 from ..errors import GeomechError, NumericalError, SingularityError
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, OutDir, Outputs, gather_vectors, parse_params
+from ._args import FloatVector, OutDir, Outputs, emit, gather_vectors, parse_params
 from ._progress import activity
 from .gait import gait_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
@@ -36,14 +36,6 @@ def cli() -> None:
     Reduction, stability and structure-preserving simulation of mechanical systems with symmetry.
     Run `geomech COMMAND --help` for a command's options.
     """
-
-
-def _emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
-    body = dumps_json(summary) if as_json else text
-    if outputs is not None:
-        outputs.json(f"{name}.json", summary)
-        outputs.commit()
-    click.echo(body)
 
 
 @cli.command("rigid-body")
@@ -77,7 +69,7 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
         outputs = Outputs(out)
         fig_ax = momentum_sphere(traj.m, title=f"I = {summary['inertia']['principal_moments']}")
         outputs.figure("rigid_body_momentum.png", fig_ax, dpi=120)
-    _emit(summary, as_json, summary_text(summary), outputs, "rigid_body")
+    emit(summary, as_json, summary_text(summary), outputs, "rigid_body")
 
 
 @cli.command("reduce")

@@ -17,23 +17,14 @@ from typing import Any
 import click
 import numpy as np
 
-from .._storage import dumps_json
 from ..errors import InputError
-from ._args import FloatVector, OutDir, Outputs, parse_params, parse_shape_loop
+from ._args import FloatVector, OutDir, Outputs, emit, parse_params, parse_shape_loop
 from ._progress import activity
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
 
 _WRAP_NOTE = ("geometric, dynamic and total are unwrapped real numbers; '*_wrapped' values are reduced to "
               "(-pi, pi]; an angle read off an attitude matrix is defined only modulo 2 pi and is wrapped")
-
-
-def _emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
-    body = dumps_json(summary) if as_json else text
-    if outputs is not None:
-        outputs.json(f"{name}.json", summary)
-        outputs.commit()
-    click.echo(body)
 
 
 def _save(outputs: Outputs, ax: Any, name: str) -> None:
@@ -97,7 +88,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
             f"total phase of body 1 (unwrapped)  = {split.total:.12g}   (wrapped: {split.total_wrapped:.12g})\n"
             f"closed form                        = {closed:.12g}\n"
             f"reconstructed on the group         = {summary['reconstructed']:.12g}")
-    _emit(summary, as_json, text, outputs, "two_bodies")
+    emit(summary, as_json, text, outputs, "two_bodies")
 
 
 @phase.command("rigid-body")
@@ -148,7 +139,7 @@ def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol
             f"total, wrapped to (-pi, pi]         = {res.total_wrapped:.12g}\n"
             f"direct integration, wrapped         = {res.direct_wrapped:.12g}\n"
             f"difference (wrapped)                = {res.difference:.3g}")
-    _emit(summary, as_json, text, outputs, "rigid_body_phase")
+    emit(summary, as_json, text, outputs, "rigid_body_phase")
 
 
 def _three_link(origin: str):
@@ -284,7 +275,7 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
         lines.append(f"iint B over the enclosed area = {summary['curvature_integral']}")
     lines.append("net motion (reconstructed)   = " + ", ".join(
         f"{k} {v:.12g}" for k, v in summary["net_motion_coordinates"].items()))
-    _emit(summary, as_json, "\n".join(lines), outputs, "loop")
+    emit(summary, as_json, "\n".join(lines), outputs, "loop")
 
 
 def _winding(system: Any, loop: Any) -> np.ndarray:
