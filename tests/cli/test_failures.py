@@ -141,3 +141,13 @@ def test_ctrl_c_at_any_moment_is_one_line_and_status_130(delay, tmp_path):
     out, err = p.communicate(timeout=60)
     assert p.returncode == 130 and err.decode() == "geomech: interrupted\n"
     assert not (tmp_path / "out").exists()
+
+
+def test_an_option_is_never_taken_as_another_options_value(capsys, tmp_path, monkeypatch):
+    """`--out --json` once made a directory named --json and printed text."""
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, *RIGID, "--out", "--json")
+    assert code == 2 and out == "" and "--out takes a value, but the next word is the option --json" in err
+    assert not os.listdir(tmp_path)
+    code, out, _ = run(capsys, *RIGID, "--out=--json")  # spelled out, it is a name like any other
+    assert code == 0 and (tmp_path / "--json" / "rigid_body.json").is_file()

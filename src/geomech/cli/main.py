@@ -139,8 +139,8 @@ _ALIASES = {"expression": "--hamiltonian", "hamiltonian": "--hamiltonian", "para
             "period": "--period", "expressions": "--shape"}
 
 
-def _options_of(args: list[str]) -> set[str]:
-    """The long options of the (sub)command that ``args`` invoke."""
+def _command_of(args: list[str]) -> click.Command:
+    """The (sub)command that ``args`` invoke."""
     command: click.Command = cli
     ctx = click.Context(cli)
     for word in args:
@@ -150,7 +150,23 @@ def _options_of(args: list[str]) -> set[str]:
         if sub is None:
             continue
         command = sub
-    return {opt for p in command.params for opt in p.opts if opt.startswith("--")}
+    return command
+
+
+def _options_of(args: list[str]) -> set[str]:
+    """The long options of the (sub)command that ``args`` invoke."""
+    return {opt for p in _command_of(args).params for opt in p.opts if opt.startswith("--")}
+
+
+def _check_values_are_not_options(args: list[str]) -> None:
+    """``--out --json`` would take ``--json`` as the directory's name: an option's value that is another of the
+    command's options is refused."""
+    params = {opt: p for p in _command_of(args).params if isinstance(p, click.Option) for opt in p.opts}
+    for option, value in zip(args, args[1:]):
+        p = params.get(option)
+        if p is not None and not p.is_flag and not p.count and value in params:
+            raise click.UsageError(f"{option} takes a value, but the next word is the option {value}; give "
+                                   f"{option} its value (a value that starts with - can be written {option}=VALUE).")
 
 
 def _with_option_names(exc: GeomechError, args: list[str]) -> None:
@@ -180,6 +196,7 @@ def _with_option_names(exc: GeomechError, args: list[str]) -> None:
 
 def _run(args: list[str]) -> int:
     try:
+        _check_values_are_not_options(args)
         with cli.make_context("geomech", args, obj={"argv": list(args)}) as ctx:
             try:
                 cli.invoke(ctx)
