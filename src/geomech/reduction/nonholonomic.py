@@ -65,6 +65,7 @@ from ..symbolic import (
     stack_last,
     suffixed_symbols,
     time_derivative,
+    to_expression,
 )
 from ..systems.nonholonomic import NonholonomicSystem
 from ._derived import Derived
@@ -369,8 +370,31 @@ class NonholonomicReduction(Derived, _NumericMixin):
                 ("delta(r, rdot, p) (eq. 1.3)", r"\delta(r, \dot r, p)", self.shape_forces)]
 
     # ---------------- numeric ----------------
+    def _check_basis_at(self, parameters: Mapping[str, float] | None) -> None:
+        """The body-fixed basis, derived for generic parameter values, must still span S_q at these values (a
+        blade tilted by beta = 0 can make two of its vectors parallel while S_q keeps its dimension)."""
+        s = self.system
+        if not self.m:
+            return
+        pv = s.parameter_values(parameters)
+        E = sp.Matrix(self.basis).subs(pv)
+        A = sp.Matrix(s.body_constraints[0]).subs(pv)
+        rng = np.random.default_rng(0)
+        for _ in range(3):  # generic shape points: one that happens to be special is not held against the basis
+            pt = {r: float(rng.uniform(0.3, 1.2)) for r in s.shape}
+            rank_E, rank_A = _numeric_rank(E.subs(pt)), _numeric_rank(A.subs(pt))
+            if rank_E == self.m or rank_A is None or s.k - rank_A != self.m:
+                return
+        shown = ", ".join(f"{k.name} = {v:g}" for k, v in pv.items())
+        raise InputError(f"{s.name}: the body-fixed basis of S_q = D n T(orbit) derived for generic parameter values "
+                         f"(the null space of A_xi with denominators cleared) degenerates at {shown} (rank "
+                         f"{rank_E if rank_E is not None else 'undefined'} < {self.m}) though S_q keeps dimension "
+                         f"{self.m} there; give a basis valid at these values (`basis=` of "
+                         "NonholonomicSystem.from_lagrangian, or bkmm_reduction(system, basis)).")
+
     def numeric(self, parameters: Mapping[str, float] | None = None) -> ReducedNumeric:
         """Compiled reduced equations; variables ``x = (r, rdot, p)`` of shape ``(..., 2 sigma + m)``."""
+        self._check_basis_at(parameters)
         x = list(self.r) + list(self.rdot) + list(self.p)
         exprs = {"pdot": self.momentum_rhs, "M": self.shape_mass, "delta": self.shape_forces,
                  "xi": self.reconstruction, "A": self.connection, "E": self.basis, "I": self.locked_inertia}
@@ -378,6 +402,16 @@ class NonholonomicReduction(Derived, _NumericMixin):
         s = self.system
         mom = self._compile(parameters, {"p": self.momentum}, list(s.q) + list(s.qdot))["p"]
         return ReducedNumeric(self, funcs, mom)
+
+
+def _numeric_rank(M: sp.MatrixBase) -> int | None:
+    try:
+        arr = np.array(M.evalf(), dtype=float)
+    except (TypeError, ValueError):  # zoo or nan: a division by zero at these values
+        return None
+    if not np.all(np.isfinite(arr)):
+        return None
+    return int(np.linalg.matrix_rank(arr, tol=1e-9 * max(1.0, float(np.abs(arr).max(initial=0.0)))))
 
 
 @dataclass(frozen=True)
@@ -482,6 +516,20 @@ def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
             sp.simplify(V))
 
 
+def _basis_matrix(system: NonholonomicSystem, basis: Any) -> sp.ImmutableMatrix:
+    """A caller's basis as a sympy matrix, text entries parsed one by one by the whitelist (``sp.Matrix`` of
+    strings would sympify them)."""
+    if isinstance(basis, (str, bytes)) or not hasattr(basis, "__iter__"):
+        raise TypeError("not a matrix")
+    if isinstance(basis, sp.MatrixBase):
+        rows = basis.tolist()
+    else:
+        rows = [list(row) if isinstance(row, (list, tuple, np.ndarray)) else [row] for row in basis]
+    names = {s.name: s for s in (*system.q, *system.parameter_symbols)}
+    return sp.ImmutableMatrix([[to_expression(e, f"basis[{i}][{j}]", names) for j, e in enumerate(row)]
+                               for i, row in enumerate(rows)])
+
+
 def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> NonholonomicReduction:
     r"""The BKMM reduction of ``system``.
 
@@ -505,7 +553,7 @@ def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> Nonholonomi
         key = ("model", system.body_basis)
     else:
         try:
-            key = None if basis is None else ("caller", sp.ImmutableMatrix(sp.Matrix(basis)))
+            key = None if basis is None else ("caller", _basis_matrix(system, basis))
         except (TypeError, ValueError, sp.SympifyError) as exc:
             raise InputError(f"Expected `basis` to be a k x m matrix (k = {system.k}) of expressions in the shape "
                              f"variables, got {basis!r}.") from exc

@@ -556,7 +556,13 @@ class NonholonomicSystem:
             sp.ImmutableMatrix(sp.zeros(0, len(q)))
         E = None
         if basis is not None:
-            E = sp.Matrix(basis).applyfunc(lambda e: _parse(e, names, params, "basis", dyn))
+            # entries parsed one by one (sp.Matrix of strings would sympify them: eval)
+            rows = basis.tolist() if isinstance(basis, sp.MatrixBase) else [
+                list(row) if isinstance(row, (list, tuple)) else [row] for row in basis]
+            if not rows or len({len(row) for row in rows}) != 1:
+                raise ShapeError(f"Expected `basis` to be a matrix (a list of equal rows), got {basis!r}.")
+            E = sp.Matrix([[_parse(e, names, params, f"basis[{i}][{j}]", dyn) for j, e in enumerate(row)]
+                           for i, row in enumerate(rows)])
             if E.rows != group.dim and E.cols == group.dim:
                 E = E.T
             if E.rows != group.dim:
