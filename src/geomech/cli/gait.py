@@ -26,8 +26,9 @@ __all__ = ["gait_cmd"]
 
 
 def _system(model: str, params: dict[str, float]) -> Any:
+    from ..systems.models import example_system, load_model
     from ..systems.nonholonomic_examples import EXAMPLES
-    from .nonholonomic import example_system, load_model, require_values
+    from .nonholonomic import require_values
 
     if model in EXAMPLES:
         system = example_system(model, params)

@@ -182,7 +182,7 @@ HOLONOMIC_MODELS: dict[str, tuple[Any, str]] = {
 def _holonomic_system(model: str, params: dict[str, float]) -> Any:
     """A built-in model of ``phase loop`` or a model file defining a HolonomicSystem."""
     from ..systems.holonomic import HolonomicSystem
-    from .nonholonomic import load_model
+    from ..systems.models import load_model
 
     if model in HOLONOMIC_MODELS:
         if params:
