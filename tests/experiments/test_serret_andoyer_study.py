@@ -30,7 +30,7 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     assert set(per) >= {"full6d_adams", "euler_adams", "reduced_adams", "reduced_generating", "reduced_midpoint"}
     # the reduced representations keep |m| = G by construction; the splitting keeps it to round-off
     for k in ("reduced_adams", "reduced_generating", "reduced_midpoint", "reduced_gauss3"):
-        assert per[k]["max_momentum_error"] < 1e-15
+        assert per[k]["max_momentum_error"] < 1e-14  # G = 1: |m| = G to a few ulps, far below a drift
     assert per["euler_splitting4"]["max_momentum_error"] < 1e-13
     assert per["euler_adams"]["max_momentum_error"] > 1e-9  # Adams does not, at tolerance 1e-6
     # at h = 1 ms the symplectic second-order methods beat Adams at tolerance 1e-6 on energy

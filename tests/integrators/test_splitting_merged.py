@@ -42,7 +42,7 @@ def test_merged_equals_unmerged_to_round_off(closed_loop, m_start, composition, 
     steps = np.round((sol.t - sol.t[0]) / 0.05).astype(int)
     for b in range(m0.shape[0]):
         ref = _unmerged(closed_loop, m0[b], 0.05, 40, 4, composition, axis_order)[steps]
-        np.testing.assert_allclose(sol.m[b], ref, atol=2e-14, rtol=0)
+        np.testing.assert_allclose(sol.m[b], ref, atol=1e-13, rtol=0)  # 40 steps of |m| ~ 1: round-off, not O(h^p)
         # |m| is kept to round-off by both
         np.testing.assert_allclose(np.linalg.norm(sol.m[b], axis=-1), np.linalg.norm(m0[b]), rtol=1e-14)
 

@@ -467,7 +467,7 @@ def test_tiny_perturbation_of_the_unstable_spin():
         m0 = np.array([d, -d, 1.0])
         s = EulerTopSolution.from_initial(inertia, m0)
         assert s.family in ("major", "minor", "separatrix")
-        assert np.abs(s.momentum(0.0) - m0).max() < 1e-15
+        assert np.abs(s.momentum(0.0) - m0).max() < 4e-15  # |m0| = 1: a few ulps
         m = s.momentum(np.linspace(-800, 800, 101) / s.rate)
         assert np.all(np.isfinite(m))
         assert np.abs(np.sum(m**2, -1) - 1).max() < 1e-12
