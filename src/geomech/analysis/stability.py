@@ -40,6 +40,7 @@ from scipy.optimize import brentq
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
+from ..lie.so3 import hat
 from ..systems import as_left_invariant
 from .equilibria import Equilibrium, EquilibriumSet, find_equilibria, refine_equilibrium
 
@@ -172,10 +173,6 @@ def energy_casimir(system: Any, equilibrium: Equilibrium) -> Verdict:
     return Verdict("energy-casimir", "inconclusive", reason, Q, ev, extra)
 
 
-def _hat(w: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
 def linearisation(system: Any, equilibrium: Equilibrium) -> Verdict:
     """Eigenvalues of the linearised reduced flow, and of Euler's equation linearised in :math:`\\mathbb R^3`.
 
@@ -187,7 +184,7 @@ def linearisation(system: Any, equilibrium: Equilibrium) -> Verdict:
     Jlin = np.array([[H[1, 0], H[1, 1]], [-H[0, 0], -H[0, 1]]])
     ev = np.linalg.eigvals(Jlin).astype(complex)
     m = equilibrium.m
-    lp = _hat(m) @ system.hessian(m) - _hat(system.gradient(m))
+    lp = hat(m) @ system.hessian(m) - hat(system.gradient(m))
     lp_ev = np.linalg.eigvals(lp).astype(complex)
     det = float(np.linalg.det(H))
     scale = max(np.abs(H).max() ** 2, 1e-300)

@@ -17,6 +17,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import InputError
+from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
@@ -356,10 +357,6 @@ def _gf_python(core: CanonicalSystem) -> dict[str, Any]:
     return {"gf_all": gf_all, "gf_grads": gf_grads}
 
 
-def _hat(w: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
 def _lie_poisson_python(core: LeftInvariantSystem, expr: sp.Expr | None, features: frozenset[str]) -> dict[str, Any]:
     G, Hs = core._gradient, core._hessian
 
@@ -375,24 +372,24 @@ def _lie_poisson_python(core: LeftInvariantSystem, expr: sp.Expr | None, feature
         w = G(m)
         f[:3] = np.cross(m, w)
         if y.shape[0] == 12:
-            f[3:] = (np.asarray(y[3:]).reshape(3, 3) @ _hat(w)).ravel()
+            f[3:] = (np.asarray(y[3:]).reshape(3, 3) @ hat(w, check=False)).ravel()
 
     def fjac(y, f, jac):
         rhs(y, f)
         m = np.asarray(y[:3])
         w, hm = G(m), Hs(m)
         jac[:, :] = 0.0
-        jac[:3, :3] = -_hat(w) + _hat(m) @ hm
+        jac[:3, :3] = -hat(w, check=False) + hat(m, check=False) @ hm
         if y.shape[0] == 12:
             R = np.asarray(y[3:]).reshape(3, 3)
-            W = _hat(w)
+            W = hat(w, check=False)
             for a in range(3):
                 for b in range(3):
                     row = 3 + 3 * a + b
                     for c in range(3):
                         jac[row, 3 + 3 * a + c] = W[c, b]
                     for j in range(3):
-                        jac[row, j] = (R @ _hat(hm[:, j]))[a, b]
+                        jac[row, j] = (R @ hat(hm[:, j], check=False))[a, b]
 
     out = {"ham": ham, "ghess3": ghess3, "rhs": rhs, "fjac": fjac}
     if "split" in features and expr is not None:

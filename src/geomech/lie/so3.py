@@ -77,7 +77,7 @@ def _norm(v: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("...i,...i->...", v, v))
 
 
-def hat(v: Any) -> np.ndarray:
+def hat(v: Any, *, check: bool = True) -> np.ndarray:
     r"""Skew-symmetric matrix of a vector: the hat map of eq. (12) of the Serret-Andoyer paper.
 
     .. math::
@@ -88,12 +88,15 @@ def hat(v: Any) -> np.ndarray:
     Parameters
     ----------
     v : array_like, shape (..., 3)
+    check : bool
+        Validate ``v`` (finite, trailing shape 3). Inner loops of integrators whose state is checked
+        elsewhere pass ``False``.
 
     Returns
     -------
     ndarray, shape (..., 3, 3)
     """
-    return _hat(c.vector(v, "v", 3))
+    return _hat(c.vector(v, "v", 3) if check else np.asarray(v, dtype=float))
 
 
 def vee(W: Any) -> np.ndarray:

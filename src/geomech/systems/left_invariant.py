@@ -22,23 +22,12 @@ import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, SymbolicError
+from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS, bind_expression, compile_scalar, compile_vector
 
 __all__ = ["LeftInvariantSystem", "as_left_invariant"]
 
 ArrayFn = Callable[[np.ndarray], np.ndarray]
-
-
-def _hat(w: np.ndarray) -> np.ndarray:
-    z = np.zeros_like(w[..., 0])
-    return np.stack(
-        [
-            np.stack([z, -w[..., 2], w[..., 1]], -1),
-            np.stack([w[..., 2], z, -w[..., 0]], -1),
-            np.stack([-w[..., 1], w[..., 0], z], -1),
-        ],
-        -2,
-    )
 
 
 def _fd_hessian(gradient: ArrayFn) -> ArrayFn:
@@ -170,7 +159,7 @@ class LeftInvariantSystem:
         """The attitude equation :math:`\\dot R = R\\,\\widehat{\\nabla H(m)}` (first component of eq. 13)."""
         R = V.trailing_shape(R, "R", (3, 3))
         m = V.trailing_shape(m, "m", (3,))
-        return R @ _hat(np.asarray(self._gradient(m), dtype=float))
+        return R @ hat(np.asarray(self._gradient(m), dtype=float), check=False)
 
     def vector_field(self, R: Any, m: Any) -> tuple[np.ndarray, np.ndarray]:
         """The full vector field :math:`X_H(R, m) = (R\\,\\widehat{\\nabla H}, m \\times \\nabla H)`."""

@@ -51,6 +51,7 @@ from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError
+from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS
 
 __all__ = ["RotorBody", "RotorTrajectory"]
@@ -58,10 +59,6 @@ __all__ = ["RotorBody", "RotorTrajectory"]
 #: Elevation of the wheel axes above the base plane that makes the four-wheel pyramid isotropic,
 #: A A^T = (4/3) I: 2 cos^2(beta) = 4 sin^2(beta), i.e. tan(beta) = 1/sqrt(2) (35.26 degrees).
 ISOTROPIC_PYRAMID_ELEVATION = float(np.arctan(1.0 / np.sqrt(2.0)))
-
-
-def _hat(w: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
 @dataclass(frozen=True, eq=False)
@@ -294,7 +291,7 @@ class RotorBody:
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:math:`(\\dot R, \\dot m, \\dot\\gamma, \\dot\\Gamma)` of eqs. (26), (38) for one state and torque ``u``."""
         w = self.angular_velocity(m, Gamma)
-        return R @ _hat(w), np.cross(m, w), self.rotor_rates(m, Gamma), np.asarray(u, dtype=float)
+        return R @ hat(w, check=False), np.cross(m, w), self.rotor_rates(m, Gamma), np.asarray(u, dtype=float)
 
     def simulate(
         self,
