@@ -77,7 +77,8 @@ def test_an_automatic_basis_that_degenerates_at_the_given_values_is_named_and_a_
     error (once a KeyError 'ComplexInfinity'); the basis (cos b, sin b, 0), (0, -s, 1), valid for every beta, runs,
     and the reduced simulation agrees with the full one (an independent route)."""
     from geomech.integrators.nonholonomic import simulate_full, simulate_reduced
-    from geomech.systems.nonholonomic import SE2, NonholonomicSystem
+    from geomech.lie import SE2
+    from geomech.systems.nonholonomic import NonholonomicSystem
 
     values = dict(m=1.0, I=0.5, ms=0.3, beta=0.0)
     auto = NonholonomicSystem.from_lagrangian(SLIDER_L, SE2("x", "y", "theta"), ["s"], [SLIDER_BLADE],

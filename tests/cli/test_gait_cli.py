@@ -54,7 +54,7 @@ def test_model_file(capsys, tmp_path):
     f = tmp_path / "car.py"
     f.write_text(
         "import sympy as sp\n"
-        "from geomech.systems.nonholonomic import NonholonomicSystem, SE2\n"
+        "from geomech.lie import SE2\nfrom geomech.systems.nonholonomic import NonholonomicSystem\n"
         "x, y, th, psi, phi = sp.symbols('x y theta psi phi', real=True)\n"
         "xd, yd, thd, psid, phid = sp.symbols('x_dot y_dot theta_dot psi_dot phi_dot', real=True)\n"
         "L = (xd**2 + yd**2)/2 + thd**2/5 + psid**2/10 + phid**2/10\n"

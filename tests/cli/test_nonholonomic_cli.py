@@ -63,7 +63,8 @@ def test_derive_snakeboard_json_and_latex(capsys):
 
 
 MODEL = '''
-from geomech.systems.nonholonomic import NonholonomicSystem, SE2
+from geomech.lie import SE2
+from geomech.systems.nonholonomic import NonholonomicSystem
 
 def build(m=1.0, I=0.5, a=0.3):
     return NonholonomicSystem.from_lagrangian(
@@ -104,7 +105,8 @@ def test_derive_and_simulate_a_model_file(capsys, tmp_path):
 ])
 def test_bad_models_give_one_line_and_status_2(capsys, tmp_path, body, match):
     f = tmp_path / "bad.py"
-    f.write_text("from geomech.systems.nonholonomic import NonholonomicSystem, SE2\n" + body + "\n")
+    header = "from geomech.lie import SE2\nfrom geomech.systems.nonholonomic import NonholonomicSystem\n"
+    f.write_text(header + body + "\n")
     code, out, err = _run(capsys, "derive", "--model", str(f))
     assert code == 2 and match in err and len(err.strip().splitlines()) == 1
 

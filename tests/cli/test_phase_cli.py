@@ -118,10 +118,10 @@ def test_loop_on_the_spacecraft_reconstructs_on_so3(capsys):
     s = json.loads(out)
     assert s["phase"]["available"] is False  # SO(3) with a shape space: no phase formula
     # a small loop at zero momentum: the holonomy is exp(-iint B) to leading order in the loop's size
-    rot = [s["net_motion_coordinates"][f"rotvec_{i}"] for i in (1, 2, 3)]
+    rot = [s["net_motion_coordinates"][f"log_omega_{i}"] for i in (1, 2, 3)]
     B = s["curvature_integral"]
     assert abs(rot[2] + B[2]) < 1e-3 * abs(B[2]) and abs(rot[0]) + abs(rot[1]) < 1e-2 * abs(B[2])
     code, _, err = run(capsys, "phase", "loop", "spacecraft", *shape, "--mu", "0.1")
-    assert code == 2 and "3 component(s) for SO3" in err
+    assert code == 2 and "3 component(s) for SO(3)" in err
     code, _, err = run(capsys, "phase", "loop", "no-such-model", *shape)
     assert code == 2 and "Unknown MODEL" in err

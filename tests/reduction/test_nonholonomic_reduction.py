@@ -189,7 +189,8 @@ def test_user_basis_is_validated_and_scales_the_momentum():
 
 
 def test_default_basis_is_the_cleared_null_space():
-    from geomech.systems.nonholonomic import SE2, NonholonomicSystem
+    from geomech.lie import SE2
+    from geomech.systems.nonholonomic import NonholonomicSystem
 
     s = snakeboard()
     plain = NonholonomicSystem.from_lagrangian(s.lagrangian, SE2(*s.group.coordinates), s.shape,

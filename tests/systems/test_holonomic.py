@@ -5,13 +5,12 @@ import pytest
 import sympy as sp
 
 from geomech.errors import InputError, ShapeError, SingularityError, SymbolicError
-from geomech.lie import so3
+from geomech.lie import SE2, SE3, SO2, named_group
 from geomech.systems import (
     HolonomicSystem,
     planar_point_masses,
     planar_point_positions,
     spacecraft_with_rotors,
-    symmetry_group,
     three_link_chain,
     two_pinned_bodies,
 )
@@ -22,43 +21,12 @@ def three_bodies():
     return planar_point_masses([1.0, 2.0, 1.5])
 
 
-@pytest.mark.parametrize("name", ["S1", "SE2", "SO3"])
-def test_body_velocity_matrix_against_finite_differences(name, rng):
-    # xi = B(alpha) alpha_dot must equal (g^-1 dg/dt)^vee computed from the numeric group elements.
-    G = symmetry_group(name)
-    alpha = sp.symbols("a0:%d" % G.dim, real=True)
-    B = sp.lambdify(alpha, G.body_velocity_matrix(alpha))
-    for _ in range(5):
-        a = rng.uniform(-1, 1, G.dim)
-        if name == "SO3":
-            a[1] = rng.uniform(0.3, 2.8)
-        ad = rng.normal(size=G.dim)
-        h = 1e-6
-        gp, gm = G.from_coordinates(a + h * ad), G.from_coordinates(a - h * ad)
-        g = G.from_coordinates(a)
-        if name == "S1":
-            xi = (gp - gm) / (2 * h)
-        else:
-            dg = (gp - gm) / (2 * h)
-            X = np.linalg.solve(g, dg)
-            xi = np.array([X[0, 2], X[1, 2], X[1, 0]]) if name == "SE2" else so3.vee(0.5 * (X - X.T))
-        np.testing.assert_allclose(np.asarray(B(*a), float) @ ad, xi, atol=1e-8)
-
-
-def test_so3_body_velocity_is_the_textbook_313_formula():
-    phi, th, psi = sp.symbols("phi theta psi", real=True)
-    B = symmetry_group("SO3").body_velocity_matrix((phi, th, psi))
-    want = sp.Matrix([[sp.sin(th) * sp.sin(psi), sp.cos(psi), 0],
-                      [sp.sin(th) * sp.cos(psi), -sp.sin(psi), 0],
-                      [sp.cos(th), 0, 1]])
-    assert sp.simplify(B - want) == sp.zeros(3, 3)
-
-
 def test_group_names_and_errors():
-    assert symmetry_group("so(2)").name == "S1"
-    assert symmetry_group("se(2)").name == "SE2"
+    assert named_group("so(2)") == SO2() and named_group("se(2)") == SE2() and named_group("SE3") == SE3()
     with pytest.raises(InputError, match="one of"):
-        symmetry_group("SE3")
+        named_group("SE7")
+    with pytest.raises(ShapeError, match="group_coordinates"):
+        HolonomicSystem.from_lagrangian("theta_dot**2/2 + psi_dot**2/2", "S1", ["psi"], group_coordinates=["a", "b"])
 
 
 def test_two_pinned_bodies_reduced_mass_matrix():

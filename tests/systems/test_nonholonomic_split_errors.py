@@ -3,7 +3,8 @@
 import pytest
 
 from geomech.errors import InputError, SymbolicError
-from geomech.systems.nonholonomic import S1, SE2, NonholonomicSystem
+from geomech.lie import S1, SE2
+from geomech.systems.nonholonomic import NonholonomicSystem
 
 L = "m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2"
 BLADE = "-sin(theta)*x_dot + cos(theta)*y_dot"

@@ -58,10 +58,6 @@ _NOTE = ("The connection-alone and momentum-alone displacements integrate each t
          "itself; on a non-abelian group they do not compose (nor add) to the net displacement, and their split "
          "is not a geometric/dynamic phase decomposition (open for nonholonomic systems, section 2 of the seed).")
 
-#: The groups the Lie-group reconstruction supports, by the name of the system's group.
-_GROUPS = {"SE(2)": "SE2", "S^1": "S1"}
-
-
 # ---------------------------------------------------------------------------------------------------
 # The system's reduced objects, evaluated numerically
 # ---------------------------------------------------------------------------------------------------
@@ -101,14 +97,8 @@ class GaitModel:
             self._E = compile_vector(sp.Matrix(red.basis).subs(pv).tolist(), r)
             self._I = compile_vector(sp.Matrix(red.locked_inertia).subs(pv).tolist(), r)
             self._pdot = compile_vector(list(sp.Matrix(red.momentum_rhs).subs(pv)), r + list(red.rdot) + list(red.p))
-        gname = system.group.name
-        key = "SO3" if gname.startswith("SO(3)") else _GROUPS.get(gname)
-        from ..systems.holonomic import symmetry_group
-
-        # the closed forms where there are some (and the unwrapped angle of SE(2) and S^1); any other matrix
-        # group (SE(3), R^n, products) numerically, from its algebra and its chart
-        self.group = symmetry_group(key) if key is not None else system.group.numeric()
-        self._matrix = compile_vector(sp.Matrix(system.group.matrix).subs(pv).tolist(), list(system.group.coordinates))
+        # the group's twin: its chart, and (``.numeric``) the group with its closed forms where it has them
+        self.group = system.group
         self._curvature = None
 
     # -- what bind_loop asks ------------------------------------------------------------------------
@@ -184,10 +174,14 @@ class GaitModel:
         return self._pdot(stack_last(r, rdot, p))
 
     def element(self, coordinates: Any) -> np.ndarray:
-        """The group element (as :func:`~geomech.analysis.phases.integrate_on_group` holds it) at the system's
-        group coordinates ``(..., k)``: a matrix, or for S^1 the angle."""
-        c = np.asarray(coordinates, dtype=float)
-        return c[..., :1].copy() if self.group.name == "S1" else self._matrix(c)
+        """The group element (a matrix) at the system's group coordinates ``(..., k)``."""
+        return self.group.from_coordinates(np.asarray(coordinates, dtype=float))
+
+    @property
+    def exponential_coordinates(self) -> bool:
+        """Whether displacements are given in exponential coordinates (the log) rather than in the chart: when
+        the chart is singular at the identity (3-1-3 Euler angles of SO(3)), where displacements start."""
+        return not self.group.regular_at_identity
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -336,29 +330,26 @@ class GaitAnalysis:
         if not (0 <= start and 0 <= n and start + n <= self.periods):
             raise InputError(f"Expected 0 <= start and start + periods <= {self.periods}, got start = {start}, "
                              f"periods = {n}.")
-        G = self.model.group
+        G = self.model.group.numeric
         return G.compose(G.inverse(path.g[idx[start]]), path.g[idx[start + n]])
 
     def displacement_coordinates(self, periods: int | None = None, *, part: str = "total",
                                  start: int = 0) -> np.ndarray:
-        """:meth:`displacement` in coordinates: SE(2) ``(dx, dy, dtheta)`` with ``dtheta`` unwrapped (the turn
-        accumulated on the universal cover), S^1 the unwrapped angle, SO(3) the rotation vector (log), any
-        other group the system's chart coordinates of the displacement."""
-        G = self.model.group
+        """:meth:`displacement` in the system's chart coordinates, its angles unwrapped (SE(2) ``(dx, dy,
+        dtheta)`` with the turn accumulated on the universal cover, S^1 the unwrapped angle); where the chart is
+        singular at the identity (3-1-3 Euler angles of SO(3)), the exponential coordinates (log, for SO(3) the
+        rotation vector)."""
+        chart = self.model.group
         path = self._path(part)
         idx = self.boundary_indices
         n = self.periods - start if periods is None else int(periods)
         d = self.displacement(n, part=part, start=start)
-        if G.name == "SE2":
-            return np.array([d[0, 2], d[1, 2], path.angle[idx[start + n]] - path.angle[idx[start]]])
-        if G.name == "S1":
-            return np.asarray(d, dtype=float).reshape(1)
-        if G.name == "SO3":
-            from ..lie import so3
-
-            return so3.log(d)
-        # any other group: the chart coordinates of the displacement (angles in the branch nearest the reference)
-        return G.to_coordinates(d)
+        if self.model.exponential_coordinates:
+            return chart.numeric.log(d)
+        q = np.array(chart.to_coordinates(d), dtype=float)
+        if path.angles is not None:
+            q[list(chart.angle_components)] = path.angles[idx[start + n]] - path.angles[idx[start]]
+        return q
 
     @property
     def net_displacement(self) -> np.ndarray:
@@ -377,9 +368,8 @@ class GaitAnalysis:
 
     @property
     def coordinate_names(self) -> tuple[str, ...]:
-        G = self.model.group
-        if G.name == "SO3":
-            return ("rotation_vector_1", "rotation_vector_2", "rotation_vector_3")
+        if self.model.exponential_coordinates:
+            return tuple(f"log_{n}" for n in self.model.group.algebra_names)
         return tuple(c.name for c in self.system.group.coordinates)
 
     def summary(self) -> dict[str, Any]:
@@ -409,7 +399,7 @@ class GaitAnalysis:
             "momentum_at_period_starts": self.p[idx].tolist(),
             "momentum_change_per_period": self.momentum_change.tolist(),
             "displacement_frame": "body frame at the start: g(t0)^-1 g(t0 + n T)",
-            "angles_unwrapped": self.model.group.name in ("SE2", "S1"),
+            "angles_unwrapped": bool(self.model.group.angle_components),
             "note": _NOTE,
             "integrator": {"group": self.path.method, "steps": int(self.path.steps), "nfev": int(self.path.nfev),
                            "momentum_nfev": int(self.momentum_nfev)},
@@ -425,11 +415,9 @@ class GaitAnalysis:
                   "momentum": [f"p{i + 1}" for i in range(self.model.m)], "coordinate": list(self.coordinate_names)}
 
         def gcoords(path: GroupPath) -> np.ndarray:
-            G = self.model.group
-            if G.name == "SO3":
-                from ..lie import so3
-
-                return so3.log(G.compose(G.inverse(path.g[0])[None], path.g))
+            G = self.model.group.numeric
+            if self.model.exponential_coordinates:
+                return G.log(G.compose(G.inverse(path.g[0])[None], path.g))
             return path.coordinates
 
         data = {
@@ -440,9 +428,10 @@ class GaitAnalysis:
             "g_momentum_alone": (("t", "coordinate"), gcoords(self.alone["momentum"])),
         }
         attrs = {"system": s.name, "group": s.group.name, "period": self.period, "periods": self.periods,
-                 "note": _NOTE, "g_convention": ("SE(2): x, y and the unwrapped heading; S^1: unwrapped angle; "
-                                                 "SO(3): rotation vector of g(0)^-1 g(t); other groups: chart "
-                                                 "coordinates, continuous along the path")}
+                 "note": _NOTE, "g_convention": ("chart coordinates, continuous along the path, angles unwrapped "
+                                                 "(SE(2): x, y and the heading; S^1: the angle); where the chart "
+                                                 "is singular at the identity (SO(3) in 3-1-3 Euler angles): the "
+                                                 "exponential coordinates (rotation vector) of g(0)^-1 g(t)")}
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

@@ -40,6 +40,7 @@ from scipy.integrate import solve_ivp
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError, ShapeError
 from ..lie._common import wrap_angle
+from ..symbolic.charts import group_chart
 from ..symbolic.formula import to_expression
 
 __all__ = [
@@ -353,22 +354,23 @@ def phases(system: Any, loop: ShapeLoop, mu: Any = 0.0, *, g0: Any = None, rtol:
     conn = _connection(system)
     T = loop.period
     mu = _momentum(mu, G)
-    if G.name == "SO3":
+    if len(G.angle_components) != 1:
         raise InputError(
-            f"Theorem 2.2 (eq. 2.3) holds for abelian groups or G_mu = S^1; {system.name} has G = SO(3) with "
-            "a shape space: integrate the reconstruction equation with geomech.analysis.reconstruct instead."
+            f"Theorem 2.2 (eq. 2.3) gives the phase of one angle, the component of the algebra on which the group "
+            f"is a homomorphism to the circle (S^1, the rotation of SE(2)); {system.name} has G = {G.name} with "
+            f"{len(G.angle_components) or 'no'} such components: integrate the reconstruction equation with "
+            "geomech.analysis.reconstruct instead."
         )
-    c = G.angle_component
-    if G.name == "S1":
-        p_rot = float(mu[0])
+    (c,) = G.angle_components
+    others = [a for a in range(G.dim) if a != c]
+    # The angle component is a homomorphism: row c of Ad_g is e_c, so (Ad_g^T mu)_c = mu_c when the other
+    # components of mu vanish (and always on an abelian group, Ad = Id).
+    if G.abelian or float(np.abs(mu[others]).max(initial=0.0)) <= 1e-14 * max(1.0, abs(mu[c])):
+        p_rot = float(mu[c])
     else:
-        lin = float(np.hypot(mu[0], mu[1]))
-        if lin <= 1e-14 * max(1.0, abs(mu[2])):
-            p_rot = float(mu[2])
-        else:
-            _require_centre_of_mass_frame(system, conn, loop)
-            g = G.from_coordinates(np.zeros(3) if g0 is None else V.exact_shape(g0, "g0", (3,)))
-            p_rot = float((G.Ad(g).T @ mu)[c])
+        _require_centre_of_mass_frame(system, conn, loop, c)
+        g = G.from_coordinates(np.zeros(G.dim) if g0 is None else V.exact_shape(g0, "g0", (G.dim,)))
+        p_rot = float((G.numeric.Ad(g).T @ mu)[c])
 
     def integrand(t: np.ndarray) -> np.ndarray:
         r = loop.r(t)
@@ -378,19 +380,22 @@ def phases(system: Any, loop: ShapeLoop, mu: Any = 0.0, *, g0: Any = None, rtol:
 
     geo, inv_int = _periodic_integral(integrand, T, rtol=rtol, what="phase")
     dyn = p_rot * inv_int
-    return PhaseSplit(float(geo), float(dyn), float(geo + dyn), G.coordinate_names[c], p_rot, T,
+    return PhaseSplit(float(geo), float(dyn), float(geo + dyn), G.coordinates[c].name, p_rot, T,
                       tuple(int(x) for x in turns), G.name)
 
 
-def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, tol: float = 1e-10) -> None:
+def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, c: int, tol: float = 1e-10) -> None:
+    """The body frame is a centre-of-mass frame: no connection in the components other than the angle ``c``,
+    and a locked inertia ``M Id`` in them with no coupling to ``c``."""
     r = loop.r(np.linspace(0.0, loop.period, 33))
     I = conn.locked_inertia(r)
     A = conn.connection(r)
-    M = I[..., 0, 0]
+    o = [a for a in range(I.shape[-1]) if a != c]
+    Io = I[..., o, :][..., :, o]
+    M = Io[..., 0, 0]
     scale = max(1.0, float(np.abs(I).max()))
-    off = max(float(np.abs(A[..., :2, :]).max()), float(np.abs(I[..., :2, 2]).max()) / scale,
-              float(np.abs(I[..., 0, 1]).max()) / scale, float(np.abs(I[..., 1, 1] - M).max()) / scale,
-              float(np.ptp(M)) / scale)
+    off = max(float(np.abs(A[..., o, :]).max()), float(np.abs(I[..., o, c]).max()) / scale,
+              float(np.abs(Io - M[..., None, None] * np.eye(len(o))).max()) / scale, float(np.ptp(M)) / scale)
     if off > tol:
         raise InputError(
             f"The rotational phase formula (eq. 2.3) for {system.name} needs zero linear momentum or a "
@@ -462,25 +467,45 @@ class GroupPath:
 
     Attributes
     ----------
-    t : (n,) times. g : (n, ...) elements (S^1: ``(n, 1)`` angles on the universal cover, unwrapped;
-    SE(2), SO(3): matrices). angle : (n,) the unwrapped rotation angle (S^1, SE(2); None for SO(3)).
-    coordinates : (n, k) group coordinates (SE(2): ``x, y`` and the unwrapped angle; SO(3): 3-1-3 Euler
-    angles, wrapped). method, steps, nfev : the integrator, its steps and evaluations of the velocity.
+    group : the group's symbolic twin (:class:`~geomech.symbolic.GroupChart`; ``group.numeric`` the group).
+    t : (n,) times. g : (n, N, N) elements (matrices).
+    angles : (n, m) the unwrapped angles of the group's ``angle_components`` (the heading of SE(2), the angle
+        of S^1, on the universal cover: turns are not wrapped), None if it has none.
+    coordinates : (n, k) chart coordinates, with those angles unwrapped (SO(3): 3-1-3 Euler angles, wrapped).
+    method, steps, nfev : the integrator, its steps and evaluations of the velocity.
     """
 
     group: Any
     t: np.ndarray
     g: np.ndarray
-    angle: np.ndarray | None
+    angles: np.ndarray | None
     coordinates: np.ndarray
     method: str
     steps: int
     nfev: int
 
+    @property
+    def angle(self) -> np.ndarray | None:
+        """(n,): the unwrapped angle when the group has exactly one (S^1, SE(2)), else None."""
+        return self.angles[:, 0] if self.angles is not None and self.angles.shape[1] == 1 else None
+
     def displacement(self) -> np.ndarray:
         """:math:`g(t_0)^{-1} g(t_{end})` (the net motion in the body frame at the start)."""
-        G = self.group
+        G = self.group.numeric
         return G.compose(G.inverse(self.g[0]), self.g[-1])
+
+    def net_motion(self) -> dict[str, float]:
+        """The net motion by name: the change of each chart coordinate (angles unwrapped), or where the chart
+        is singular at the identity (SO(3) in 3-1-3 Euler angles, whose differences are no motion) the
+        exponential coordinates of :meth:`displacement` (``log_<algebra name>``: the rotation vector)."""
+        chart = self.group
+        if chart.regular_at_identity:
+            names = [c.name for c in chart.coordinates]
+            values = self.coordinates[-1] - self.coordinates[0]
+        else:
+            names = [f"log_{n}" for n in chart.algebra_names]
+            values = chart.numeric.log(self.displacement())
+        return {n: float(v) for n, v in zip(names, values)}
 
 
 def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray], g0: Any, t_eval: Any, *,
@@ -495,24 +520,27 @@ def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray]
     - ``"rkmk-dop853"`` (default): scipy's adaptive DOP853 (order 8) on :math:`u`, a new centre when
       :math:`|u|` reaches ``chart_radius`` (well inside the injectivity radius of exp).
 
+    The angles of the group's ``angle_components`` are integrated alongside, unwrapped.
+
     Parameters
     ----------
-    group : a :class:`~geomech.systems.holonomic.SymmetryGroup` (or its name).
+    group : a group of :mod:`geomech.lie`, its :class:`~geomech.symbolic.GroupChart`, or a group's name.
     xi : ``xi(t, g)`` -> ``(k,)`` body velocity.
-    g0 : initial element (S^1: angle, SE(2)/SO(3): matrix).
+    g0 : initial element, an ``(N, N)`` matrix.
     t_eval : increasing output times, the first being the initial time.
     """
-    from ..systems.holonomic import symmetry_group
-
-    G = symmetry_group(group)
+    chart = group_chart(group)
+    G = chart.numeric
     t_eval = V.finite(t_eval, "t_eval")
     if t_eval.ndim != 1 or t_eval.size < 2 or np.any(np.diff(t_eval) <= 0):
         raise InputError(f"Expected `t_eval` strictly increasing with at least 2 times, got shape {t_eval.shape}.")
-    g0 = np.atleast_1d(np.asarray(g0, dtype=float)) if G.name == "S1" else np.asarray(g0, dtype=float)
-    k, ac = G.dim, G.angle_component
-    angle0 = float(g0[0]) if G.name == "S1" else (float(np.arctan2(g0[1, 0], g0[0, 0])) if G.name == "SE2" else 0.0)
+    g0 = G.check(g0, "g0")
+    if g0.ndim != 2:
+        raise ShapeError(f"Expected one element `g0` of shape {(G.matrix_size,) * 2}, got {g0.shape}.")
+    k, ac = G.dim, list(G.angle_components)
+    angle0 = G.log(g0)[ac]
     out_g = np.empty((t_eval.size,) + g0.shape)
-    out_a = np.empty(t_eval.size)
+    out_a = np.empty((t_eval.size, len(ac)))
     out_g[0], out_a[0] = g0, angle0
     nfev = 0
     steps = 0
@@ -523,10 +551,10 @@ def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray]
         v = np.asarray(xi(t, G.compose(gc, G.exp(u))), dtype=float).reshape(k)
         if not np.all(np.isfinite(v)):
             raise NumericalError(f"The body velocity is not finite at t = {t:.6g}: {v.tolist()}.")
-        return G.dexpinv(u) @ v
+        return G.right_jacobian_inverse(u) @ v
 
-    gc, ac_angle, tc = g0.copy(), angle0, float(t_eval[0])
-    # exp is a global chart of S^1's cover: never recentre there.
+    gc, ac_angle, tc = g0.copy(), angle0.copy(), float(t_eval[0])
+    # exp is a global chart of an abelian group's cover: never recentre there.
     radius = np.inf if G.abelian else float(chart_radius)
     if method == "rkmk4":
         if step is None or not (step > 0):
@@ -543,8 +571,7 @@ def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray]
                 k4 = chart_rhs(t + h, h * k3, gc)
                 theta = h * (k1 + 2 * k2 + 2 * k3 + k4) / 6
                 gc = G.compose(gc, G.exp(theta))
-                if ac is not None:
-                    ac_angle += theta[ac]
+                ac_angle = ac_angle + theta[ac]
                 steps += 1
             out_g[i], out_a[i] = gc, ac_angle
     elif method == "rkmk-dop853":
@@ -565,19 +592,18 @@ def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray]
             while i < t_eval.size and (t_eval[i] < t_stop or (last and t_eval[i] <= t_stop)):
                 u = sol.sol(t_eval[i])
                 out_g[i] = G.compose(gc, G.exp(u))
-                out_a[i] = ac_angle + (u[ac] if ac is not None else 0.0)
+                out_a[i] = ac_angle + u[ac]
                 i += 1
             u = sol.y[:, -1]
             gc = G.compose(gc, G.exp(u))
-            if ac is not None:
-                ac_angle += u[ac]
+            ac_angle = ac_angle + u[ac]
             tc = t_stop
     else:
         raise InputError(f"Expected `method` to be 'rkmk-dop853' or 'rkmk4', got {method!r}.")
-    coords = G.to_coordinates(out_g)
-    if G.name == "SE2":
-        coords[:, 2] = out_a
-    return GroupPath(G, t_eval, out_g, None if ac is None else out_a, coords, method, steps, nfev)
+    coords = chart.to_coordinates(out_g)
+    # the chart coordinate of an angle component's index is that angle (SO(2), SE(2), their products)
+    coords[:, ac] = out_a
+    return GroupPath(chart, t_eval, out_g, out_a if ac else None, coords, method, steps, nfev)
 
 
 @dataclass(frozen=True, eq=False)
@@ -653,7 +679,7 @@ def reconstruct(system: Any, shape: Any, mu: Any = 0.0, *, g0: Any = None, t_eva
 
     def xi_mom(t: float, g: np.ndarray) -> np.ndarray:
         I = conn.locked_inertia(shape.r(t))
-        return np.linalg.solve(I, G.Ad(g).T @ mu)
+        return np.linalg.solve(I, G.numeric.Ad(g).T @ mu)
 
     opts = dict(method=method, rtol=rtol, atol=atol, step=step)
     t_eval = V.finite(t_eval, "t_eval")
@@ -668,7 +694,7 @@ def reconstruct(system: Any, shape: Any, mu: Any = 0.0, *, g0: Any = None, t_eva
     else:
         r = np.stack([np.asarray(shape.r(t), dtype=float) for t in t_eval])
         rd = np.stack([np.asarray(shape.rdot(t), dtype=float) for t in t_eval])
-    Ad = G.Ad(path.g)
+    Ad = G.numeric.Ad(path.g)
     p = np.einsum("nji,j->ni", Ad, mu)
     xc = -np.einsum("naj,nj->na", conn.connection(r), rd)
     xm = np.linalg.solve(conn.locked_inertia(r), p[..., None])[..., 0]

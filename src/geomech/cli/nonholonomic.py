@@ -15,6 +15,7 @@ import click
 
 from .._storage import dumps_json
 from ..errors import InputError
+from ..lie.groups import SE2
 from ..symbolic.formula import parse_formula
 from ..systems.models import example_system, load_model
 from ._args import FloatVector, OutDir, Outputs
@@ -242,7 +243,7 @@ def _plot_path(traj) -> Any:
 
     s = traj.system
     fig, ax = plt.subplots(figsize=(5, 5))
-    if s.group.name.startswith("SE(2)"):
+    if isinstance(s.group.numeric, SE2):  # the planar picture: the path with its headings
         x, y, th = traj.q[:, 0], traj.q[:, 1], traj.q[:, 2]
         ax.plot(x, y, lw=1.5)
         step = max(1, len(x) // 12)

@@ -244,15 +244,7 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
         summary["curvature_integral"] = None if B is None else B.tolist()
     with activity("reconstruction on the group"):
         rec = reconstruct(system, loop, mu_arr)
-    if system.group.name == "SO3":
-        from ..lie import so3
-
-        # Euler-angle differences are not a motion on SO(3): the rotation vector of g(0)^-1 g(T) is
-        disp = so3.log(rec.path.displacement())
-        summary["net_motion_coordinates"] = dict(zip(("rotvec_1", "rotvec_2", "rotvec_3"), disp.tolist()))
-    else:
-        disp = rec.path.coordinates[-1] - rec.path.coordinates[0]
-        summary["net_motion_coordinates"] = dict(zip(system.group.coordinate_names, disp.tolist()))
+    summary["net_motion_coordinates"] = rec.path.net_motion()
     summary["note"] = _WRAP_NOTE
     outputs = None
     if out is not None:

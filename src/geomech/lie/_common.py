@@ -7,6 +7,7 @@ from math import factorial
 from typing import Any, Callable, Sequence
 
 import numpy as np
+import sympy as sp
 
 from .._validate import rotation_matrix, trailing_shape
 from ..errors import InputError
@@ -222,3 +223,22 @@ def random_unit_quaternions(rng: np.random.Generator, size: Any) -> np.ndarray:
 def wrap_angle(a: np.ndarray) -> np.ndarray:
     """Wrap angles into (-pi, pi]."""
     return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
+
+
+def coordinate_names(names: Sequence[Any], default: Sequence[str], group: str, hint: str) -> tuple[str, ...]:
+    """Coordinate names as strings (identifiers, or sympy Symbols by their names), ``default`` if none."""
+    if len(names) == 1 and isinstance(names[0], (list, tuple)):
+        names = tuple(names[0])
+    names = tuple(names) or tuple(default)
+    out = []
+    for n in names:
+        if isinstance(n, sp.Symbol):
+            n = n.name
+        if not (isinstance(n, str) and n.isidentifier()):
+            raise InputError(f"Expected the coordinate names of {group} to be identifiers, got {n!r}.")
+        out.append(n)
+    if len(out) != len(default):
+        raise InputError(f"Expected {len(default)} coordinate names for {group} ({hint}), got {len(out)}: {out}.")
+    if len(set(out)) != len(out):
+        raise InputError(f"Expected distinct coordinate names for {group}, got {out}.")
+    return tuple(out)

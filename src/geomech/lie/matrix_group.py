@@ -1,183 +1,122 @@
-"""Any matrix Lie group, numerically: from a basis of its algebra (and, optionally, a coordinate chart).
+r"""Any matrix Lie group from a basis of its algebra: the fallback of the hierarchy.
 
-The closed-form modules (:mod:`~geomech.lie.so3`, :mod:`~geomech.lie.se2`, :mod:`~geomech.lie.se3`) are
-faster; this one serves the groups they do not cover (SE(3) in a user's chart, R^n, products such as
-SE(2) x S^1) with the same operations that Lie-group integrators need: ``exp``, ``compose``, ``inverse``,
-``ad`` and the inverse of the right Jacobian of ``exp``, computed exactly by matrix exponentials:
+Operations are matrix functions (``expm``, ``logm``, the block exponential for the Jacobians) inherited from
+:class:`~geomech.lie.group.LieGroup`; a chart, if given, is a sympy matrix of coordinate symbols, read back
+numerically by the group's symbolic twin (:class:`geomech.symbolic.GroupChart`)::
 
-.. math::
-
-    J_r(u) = \\int_0^1 e^{-s\\,\\mathrm{ad}_u}\\,ds
-           = \\Big[\\exp\\begin{pmatrix}-\\mathrm{ad}_u & I\\\\ 0 & 0\\end{pmatrix}\\Big]_{12},
-    \\qquad \\frac{d}{dt}\\exp(u) = \\exp(u)\\,\\widehat{J_r(u)\\dot u}
-
-(Van Loan 1978 for the block exponential; Iserles, Munthe-Kaas, Norsett, Zanna 2000 for :math:`J_r`).
+    >>> import sympy as sp
+    >>> from geomech.lie import MatrixGroup
+    >>> E = lambda i, j: sp.Matrix(3, 3, lambda a, b: int((a, b) == (i, j)))
+    >>> H = MatrixGroup("Heisenberg", [E(0, 1), E(1, 2), E(0, 2)])
+    >>> H.dim, H.abelian
+    (3, False)
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from scipy.linalg import expm
+import sympy as sp
 
-from ..errors import ConvergenceError, InputError
+from ..errors import InputError
+from . import _common as c
+from .group import LieGroup
 
-__all__ = ["MatrixLieGroup"]
+__all__ = ["MatrixGroup"]
 
 
-class MatrixLieGroup:
-    """A matrix Lie group given by a basis :math:`b_1, \\dots, b_k` of its algebra (``(k, n, n)``).
+class MatrixGroup(LieGroup):
+    """Any matrix Lie group, from a basis :math:`b_1, \\dots, b_k` of its algebra (``(k, n, n)``, checked to
+    be closed under the commutator), with an optional chart given as a sympy matrix of coordinate symbols.
 
     Parameters
     ----------
     name : str
-    basis : array_like, shape (k, n, n)
-        Linearly independent matrices, closed under the commutator (checked).
-    chart : callable, optional
-        ``chart(q) -> (n, n)``: the element at coordinates ``q`` (``(k,)``), for :meth:`to_coordinates`.
-    chart_jacobian : callable, optional
-        ``chart_jacobian(q) -> (n, n, k)``: its derivatives (Gauss-Newton in :meth:`to_coordinates`).
-    reference : array_like, optional
-        Coordinates of a regular point of the chart (default zeros), where the search for coordinates starts.
-    coordinate_names : sequence of str, optional
-        Names of the chart coordinates (for labels).
+    basis : array_like or sequence of sympy matrices, shape (k, n, n)
+    coordinates : sequence of str or Symbol, optional
+        The chart's coordinates (``k`` of them).
+    matrix, inverse : sympy Matrix, optional
+        :math:`g(q)` in those coordinates and its inverse (computed if not given).
+    identity, reference : sequence, optional
+        Coordinates of the identity, and of a regular point of the chart (default: the identity).
+    angles : sequence of int, optional
+        Indices of the coordinates that are angles.
 
-    Notes
-    -----
-    Elements are ``(n, n)`` matrices; algebra elements are coordinate vectors ``u`` with
-    :math:`\\hat u = \\sum_a u_a b_a`. ``angle_component`` is None: the unwrapped angles of SE(2) and S^1
-    are the closed-form groups' business; coordinates read off a path by :meth:`to_coordinates` are
-    continuous along it (angles not wrapped).
+    The numerical operations use matrix functions (``expm``, ``logm``, the block exponential for the
+    Jacobians); its chart is read numerically by its symbolic twin (:class:`geomech.symbolic.GroupChart`).
     """
 
-    angle_component = None
-
-    def __init__(self, name: str, basis: Any, *, chart: Callable[[np.ndarray], np.ndarray] | None = None,
-                 chart_jacobian: Callable[[np.ndarray], np.ndarray] | None = None, reference: Any = None,
-                 coordinate_names: Any = None):
-        B = np.asarray(basis, dtype=float)
+    def __init__(self, name: str, basis: Any, *, coordinates: Sequence[Any] | None = None, matrix: Any = None,
+                 inverse: Any = None, identity: Sequence[Any] | None = None, reference: Sequence[Any] | None = None,
+                 angles: Sequence[int] = (), algebra_names: Sequence[str] | None = None):
+        self.name = str(name)
+        try:
+            exact = tuple(sp.ImmutableMatrix(b) for b in basis)
+            B = np.array([np.asarray(b, dtype=float) for b in exact])
+        except (TypeError, ValueError, sp.SympifyError) as exc:
+            raise InputError(f"Expected the basis of {name} to be numbers of shape (k, n, n): {exc}") from exc
         if B.ndim != 3 or B.shape[1] != B.shape[2] or B.shape[0] < 1:
-            raise InputError(f"Expected `basis` of shape (k, n, n), got {B.shape}.")
-        self.name, self.dim, self.size = str(name), B.shape[0], B.shape[1]
-        self._B = B
-        flat = B.reshape(self.dim, -1).T  # (n*n, k)
+            raise InputError(f"Expected the basis of {name} of shape (k, n, n), got {B.shape}.")
+        if not np.all(np.isfinite(B)):
+            raise InputError(f"Expected the basis of {name} to be finite numbers.")
+        self.dim, self.matrix_size = B.shape[0], B.shape[1]
+        self.point_dim = self.matrix_size
+        flat = B.reshape(self.dim, -1).T
         if np.linalg.matrix_rank(flat) < self.dim:
             raise InputError(f"The basis of {name} is linearly dependent.")
-        self._vee = np.linalg.pinv(flat)
-        # structure constants [b_b, b_d] = C[a, b, d] b_a; a basis not closed under brackets is no algebra
+        self._B, self._exact = B, exact
         comm = np.einsum("bij,djk->bdik", B, B) - np.einsum("dij,bjk->bdik", B, B)
-        C = np.einsum("ap,bdp->abd", self._vee, comm.reshape(self.dim, self.dim, -1))
+        C = self.structure_constants
         resid = np.abs(np.einsum("abd,aij->bdij", C, B) - comm).max()
         if resid > 1e-10 * max(1.0, np.abs(B).max() ** 2):
             raise InputError(f"The basis of {name} is not closed under the commutator (residual {resid:.3g}): "
                              "it does not span a Lie algebra.")
-        self._C = C
         self.abelian = bool(np.abs(C).max() < 1e-14)
-        self._chart, self._chart_jacobian = chart, chart_jacobian
-        self.reference = np.zeros(self.dim) if reference is None else np.asarray(reference, dtype=float)
-        self.coordinate_names = None if coordinate_names is None else tuple(map(str, coordinate_names))
+        self._symbols: tuple[sp.Symbol, ...] = ()
+        if coordinates is not None:
+            self.coordinate_names = c.coordinate_names(tuple(coordinates), [""] * self.dim, name,
+                                                       "one name a dimension")
+            self._symbols = tuple(s if isinstance(s, sp.Symbol) else sp.Symbol(str(s), real=True)
+                                  for s in coordinates)
+        else:
+            self.coordinate_names = tuple(f"q{i + 1}" for i in range(self.dim))
+        self._matrix = None if matrix is None else sp.Matrix(matrix)
+        if self._matrix is not None and self._matrix.shape != (self.matrix_size, self.matrix_size):
+            raise InputError(f"Expected the chart `matrix` of {name} to be {self.matrix_size} x {self.matrix_size}, "
+                             f"got {self._matrix.shape}.")
+        if self._matrix is not None and not self._symbols:
+            raise InputError(f"Expected `coordinates` with the chart `matrix` of {name}.")
+        self._inverse = None if inverse is None else sp.Matrix(inverse)
+        self._identity = tuple(sp.sympify(v) for v in (identity if identity is not None else (0,) * self.dim))
+        self._reference = tuple(sp.sympify(v) for v in reference) if reference else self._identity
+        self.chart_angles = tuple(int(i) for i in angles)
+        self.algebra_names = (tuple(algebra_names) if algebra_names is not None
+                              else tuple(f"xi_{a + 1}" for a in range(self.dim)))
 
-    # -- algebra ------------------------------------------------------------------------------------
-    def hat(self, u: Any) -> np.ndarray:
-        return np.tensordot(np.asarray(u, dtype=float), self._B, axes=([-1], [0]))
+    @property
+    def basis(self) -> np.ndarray:
+        return self._B
 
-    def vee(self, X: Any) -> np.ndarray:
-        X = np.asarray(X, dtype=float)
-        return X.reshape(X.shape[:-2] + (-1,)) @ self._vee.T
+    def sympy_basis(self) -> tuple[sp.ImmutableMatrix, ...]:
+        return self._exact
 
-    def ad(self, u: Any) -> np.ndarray:
-        """Matrix of :math:`\\mathrm{ad}_u v = [u, v]`: ``ad(u)[a, d] = C[a, b, d] u_b``."""
-        return np.einsum("abd,...b->...ad", self._C, np.asarray(u, dtype=float))
+    def sympy_element(self, q: Sequence[sp.Expr]) -> tuple[sp.Matrix, sp.Matrix]:
+        if self._matrix is None:
+            return super().sympy_element(q)
+        sub = dict(zip(self._symbols, q))
+        g = self._matrix.xreplace(sub)
+        gi = self._inverse.xreplace(sub) if self._inverse is not None else g.inv(method="LU").applyfunc(sp.simplify)
+        return g, gi
 
-    # -- group --------------------------------------------------------------------------------------
-    def identity(self) -> np.ndarray:
-        return np.eye(self.size)
+    @property
+    def chart_identity(self) -> tuple[sp.Expr, ...]:
+        return self._identity
 
-    def exp(self, u: Any) -> np.ndarray:
-        u = np.asarray(u, dtype=float)
-        if u.ndim == 1:
-            return expm(self.hat(u))
-        return np.array([expm(X) for X in self.hat(u).reshape((-1, self.size, self.size))]).reshape(
-            u.shape[:-1] + (self.size, self.size))
-
-    def compose(self, g: Any, h: Any) -> np.ndarray:
-        return np.asarray(g, dtype=float) @ np.asarray(h, dtype=float)
-
-    def inverse(self, g: Any) -> np.ndarray:
-        return np.linalg.inv(np.asarray(g, dtype=float))
-
-    def Ad(self, g: Any) -> np.ndarray:
-        """Matrix of :math:`\\mathrm{Ad}_g`, :math:`(\\mathrm{Ad}_g u)^\\wedge = g\\hat u g^{-1}`."""
-        g = np.asarray(g, dtype=float)
-        conj = g[..., None, :, :] @ self._B @ np.linalg.inv(g)[..., None, :, :]  # (..., k, n, n)
-        return np.swapaxes(self.vee(conj), -1, -2)
-
-    def right_jacobian(self, u: Any) -> np.ndarray:
-        """:math:`J_r(u) = \\int_0^1 e^{-s\\,\\mathrm{ad}_u} ds`, by the exponential of a block matrix."""
-        u = np.asarray(u, dtype=float)
-        k = self.dim
-        out = np.empty(u.shape[:-1] + (k, k))
-        for idx in np.ndindex(u.shape[:-1]):
-            M = np.zeros((2 * k, 2 * k))
-            M[:k, :k] = -self.ad(u[idx])
-            M[:k, k:] = np.eye(k)
-            out[idx] = expm(M)[:k, k:]
-        return out
-
-    def dexpinv(self, u: Any) -> np.ndarray:
-        """:math:`J_r(u)^{-1}`: :math:`g = g_0\\exp(u)` has :math:`g^{-1}\\dot g = \\xi` iff
-        :math:`\\dot u = J_r(u)^{-1}\\xi` (singular where ``ad_u`` has an eigenvalue :math:`2\\pi i m`, ``m != 0``)."""
-        return np.linalg.inv(self.right_jacobian(u))
-
-    # -- coordinates --------------------------------------------------------------------------------
-    def from_coordinates(self, q: Any) -> np.ndarray:
-        """The element at chart coordinates ``q`` (``(..., k)``)."""
-        if self._chart is None:
-            raise InputError(f"{self.name} was built without a chart: give `chart`.")
-        return np.asarray(self._chart(np.asarray(q, dtype=float)), dtype=float)
-
-    def to_coordinates(self, g: Any, *, start: Any = None, tol: float = 1e-12, maxiter: int = 50) -> np.ndarray:
-        """Chart coordinates of the elements ``g`` (``(..., n, n)``), continuous along the leading axis.
-
-        Gauss-Newton on :math:`\\|chart(q) - g\\|_F`, each element started from the previous one's
-        coordinates (the first from ``start``, else the best of the reference and a few spread points), so
-        that angles along a path are not wrapped. Raises :class:`~geomech.errors.ConvergenceError` where the
-        chart does not reach an element (a singular point of the chart).
-        """
-        if self._chart is None or self._chart_jacobian is None:
-            raise InputError(f"{self.name} was built without a chart: give `chart` and `chart_jacobian`.")
-        g = np.asarray(g, dtype=float)
-        flat = g.reshape((-1, self.size, self.size))
-        out = np.empty((flat.shape[0], self.dim))
-        q = None if start is None else np.asarray(start, dtype=float)
-        for i, gi in enumerate(flat):
-            if q is None:
-                rng = np.random.default_rng(0)
-                starts = [self.reference] + [self.reference + rng.uniform(-np.pi, np.pi, self.dim) for _ in range(8)]
-                tries = [self._newton(gi, s, tol, maxiter) for s in starts]
-                q, res = min(tries, key=lambda pair: pair[1])
-            else:
-                q, res = self._newton(gi, q, tol, maxiter)
-            if res > 1e3 * tol * max(1.0, np.abs(gi).max()):
-                raise ConvergenceError(f"The chart of {self.name} does not reach element {i} of the path (residual "
-                                       f"{res:.3g} at coordinates {np.round(q, 6).tolist()}): a singular point of "
-                                       "the chart, such as gimbal lock of Euler angles.")
-            out[i] = q
-        return out.reshape(g.shape[:-2] + (self.dim,))
-
-    def _newton(self, g: np.ndarray, q0: np.ndarray, tol: float, maxiter: int) -> tuple[np.ndarray, float]:
-        q = np.array(q0, dtype=float)
-        for _ in range(maxiter):
-            r = (np.asarray(self._chart(q), dtype=float) - g).ravel()
-            J = np.asarray(self._chart_jacobian(q), dtype=float).reshape(-1, self.dim)
-            dq = np.linalg.lstsq(J, -r, rcond=None)[0]
-            q = q + dq
-            if np.abs(dq).max() <= tol * max(1.0, np.abs(q).max()):
-                break
-        return q, float(np.abs(np.asarray(self._chart(q), dtype=float) - g).max())
+    @property
+    def chart_reference(self) -> tuple[sp.Expr, ...]:
+        return self._reference
 
     def __repr__(self) -> str:
-        return f"MatrixLieGroup({self.name!r}, dim={self.dim}, n={self.size})"
-
+        return f"MatrixGroup({self.name!r}, dim={self.dim}, n={self.matrix_size})"

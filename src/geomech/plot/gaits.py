@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..lie.groups import SE2
 from .phases import _component, _curvature_panel, _draw_loop, _grid, _labels, group_path
 
 __all__ = ["gait_paths", "gait_momentum", "gait_connection_field", "gait_curvature_map"]
@@ -38,7 +39,7 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
     abelian), which the picture shows.
     """
     ax = group_path(analysis.path, ax=ax, arrows=arrows)
-    if analysis.model.group.name != "SE2":
+    if not isinstance(analysis.model.group.numeric, SE2):  # the planar picture with headings
         return ax
     if parts:
         span = float(np.ptp(analysis.path.coordinates[:, :2], axis=0).max()) or 1.0

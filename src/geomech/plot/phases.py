@@ -9,10 +9,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, ShapeError
 from ..lie._common import wrap_angle
+from ..lie.groups import SE2
 
 __all__ = ["connection_field", "curvature_map", "group_path", "momentum_solid_angle", "winding_numbers"]
 
@@ -33,10 +35,10 @@ def _component(system: Any, component: Any, field: Any = None) -> int:
     SE(2), and on other groups the component where ``field`` (``(..., k, ...)`` over the grid, component on
     axis ``-1`` after moving) is largest, so that the default picture is not of a vanishing component."""
     names = system.group.algebra_names
-    coords = system.group.coordinate_names
+    coords = tuple(c.name for c in system.group.coordinates)
     if component is None:
-        if system.group.angle_component is not None:
-            return system.group.angle_component
+        if len(system.group.angle_components) == 1:
+            return system.group.angle_components[0]
         if field is None:
             return 0
         return int(np.argmax(np.abs(np.asarray(field)).reshape(-1, system.group.dim).max(0)))
@@ -124,7 +126,7 @@ def _curvature_panel(ax: Any, system: Any, X: np.ndarray, Y: np.ndarray, B: np.n
                              label=f"enclosed {text} (winding {', '.join(f'{k:+d}' for k in wins)})"))
     dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
     value = -float((w * B).sum() * dA)
-    exact = system.group.abelian or c == system.group.angle_component
+    exact = system.group.abelian or c in system.group.angle_components
     note = what if exact else "a phase only to leading order (non-abelian)"
     ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.85)
     ax.text(0.02, 0.02, f"$-\\iint w\\,B \\approx$ {value:.4g}\n({note})", transform=ax.transAxes, fontsize=8,
@@ -183,23 +185,24 @@ def curvature_map(system: Any, *, component: Any = None, loop: Any = None, bound
 
 
 def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
-    """The reconstructed path in the group: for SE(2) the position with the heading drawn along it,
-    for S^1 the unwrapped angle against time, for SO(3) the 3-1-3 Euler angles against time."""
+    """The reconstructed path in the group: for SE(2) the position with the heading drawn along it, for any
+    other group its chart coordinates against time (angles unwrapped: S^1; SO(3): 3-1-3 Euler angles)."""
     import matplotlib.pyplot as plt
 
     path = getattr(reconstruction, "path", reconstruction)
     G = path.group
+    planar = isinstance(G.numeric, SE2)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.4))
     xy = path.coordinates[:, :2]
-    if G.name == "SE2" and float(np.ptp(xy, axis=0).max()) <= 1e-9 * max(1.0, float(np.abs(xy).max())):
+    if planar and float(np.ptp(xy, axis=0).max()) <= 1e-9 * max(1.0, float(np.abs(xy).max())):
         # the position does not move (centre-of-mass frame, zero linear momentum): show the rotation
         ax.plot(path.t, path.coordinates[:, 2], color="C0")
         ax.set_xlabel("$t$")
         ax.set_ylabel(r"$\theta$ (unwrapped)")
         ax.set_title(f"SE(2), position fixed at ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}): net rotation "
                      f"{path.coordinates[-1, 2] - path.coordinates[0, 2]:.4g} rad")
-    elif G.name == "SE2":
+    elif planar:
         th = path.coordinates[:, 2]
         ax.plot(xy[:, 0], xy[:, 1], color="C0", linewidth=1.6)
         idx = np.linspace(0, len(th) - 1, max(arrows, 2)).astype(int)
@@ -211,26 +214,18 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
         ax.set_ylabel("$y$")
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(f"path in SE(2): net rotation {th[-1] - th[0]:.4g} rad (unwrapped)")
-    elif G.name == "S1":
-        ax.plot(path.t, path.coordinates[:, 0], color="C0")
-        ax.set_xlabel("$t$")
-        ax.set_ylabel(r"$\theta$ (unwrapped)")
-        ax.set_title(f"path in $S^1$: net {path.coordinates[-1, 0] - path.coordinates[0, 0]:.4g} rad")
-    elif G.name == "SO3":
-        for i, lab in enumerate((r"$\varphi$", r"$\theta$", r"$\psi$")):
-            ax.plot(path.t, path.coordinates[:, i], label=lab)
-        ax.legend(loc="best")
-        ax.set_xlabel("$t$")
-        ax.set_ylabel("3-1-3 Euler angles (wrapped)")
-        ax.set_title("path in SO(3)")
-    else:  # any matrix group: its chart coordinates, continuous along the path
-        names = getattr(G, "coordinate_names", None) or [f"$q_{i + 1}$" for i in range(path.coordinates.shape[1])]
-        for i, lab in enumerate(names):
-            ax.plot(path.t, path.coordinates[:, i], label=lab)
+    else:  # any other group: its chart coordinates against time
+        q = path.coordinates
+        for i, c in enumerate(G.coordinates):
+            ax.plot(path.t, q[:, i], label=f"${sp.latex(c)}$")
         ax.legend(loc="best", fontsize=8)
         ax.set_xlabel("$t$")
-        ax.set_ylabel("group coordinates (continuous)")
-        ax.set_title(f"path in {G.name}")
+        unwrapped = set(G.angle_components)
+        wrapped = any(i not in unwrapped for i in G.angles)
+        ax.set_ylabel("group coordinates, angles " + ("wrapped" if wrapped else "unwrapped") if G.angles
+                      else "group coordinates")
+        net = f": net {q[-1, 0] - q[0, 0]:.4g}" if q.shape[1] == 1 else ""
+        ax.set_title(f"path in {G.name}{net}")
     return ax
 
 

@@ -50,6 +50,7 @@ import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, SingularityError
+from ..symbolic.simplify import simplify_expr, tidy_trig
 
 __all__ = ["MechanicalConnection"]
 
@@ -130,12 +131,9 @@ class MechanicalConnection:
         """Infinitesimal generators :math:`\\zeta_Q` of the basis of the algebra, as the columns of an
         ``(N, k)`` matrix in the coordinates :math:`(\\alpha, r)`: :math:`\\dot g = \\hat\\zeta g`, i.e.
         :math:`\\dot\\alpha = B(\\alpha)^{-1}\\mathrm{Ad}_{g^{-1}}\\zeta` and :math:`\\dot r = 0`."""
-        G, alpha = self.group, self.system.group_coordinates
-        g = G.matrix(alpha)
-        B = G.body_velocity_matrix(alpha)
-        Ad_inv = G.Ad_matrix(G.inverse_matrix(g))
-        top = B.inv() * Ad_inv
-        return sp.Matrix.vstack(top.applyfunc(sp.simplify), sp.zeros(self.n, self.k))
+        G = self.group
+        top = G.body_velocity_inverse * G.Ad_matrix(inverse=True)
+        return sp.Matrix.vstack(top.applyfunc(simplify_expr), sp.zeros(self.n, self.k))
 
     @cached_property
     def _direct_blocks(self) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
@@ -159,15 +157,13 @@ class MechanicalConnection:
         \\mathrm{Ad}_{g_0}` and :math:`\\mathbb I_{loc}A_{loc}\\dot r = \\mathrm{Ad}_{g_0}^T J(g_0, r; 0, \\dot r)`
         (from :math:`J(g, r; \\dot g, \\dot r) = \\mathrm{Ad}_{g^{-1}}^T\\mathbb I_{loc}(g^{-1}\\dot g +
         A_{loc}\\dot r)`)."""
-        from ..systems.holonomic import _tidy
-
         s, G = self.system, self.group
         sub = dict(zip(s.group_coordinates, G.reference))
-        Ad0 = G.Ad_matrix(G.matrix(G.reference))
+        Ad0 = G.Ad_matrix(G.matrix.subs(sub))
         I_sp = self.locked_inertia_spatial_expression().subs(sub)
         J = self.momentum_map_expression().subs(sub).subs({v: 0 for v in s.group_velocities})
         IA = sp.Matrix(self.k, self.n, lambda a, j: sp.diff(J[a], s.shape_velocities[j]))
-        return (Ad0.T * I_sp * Ad0).applyfunc(_tidy), (Ad0.T * IA).applyfunc(_tidy)
+        return (Ad0.T * I_sp * Ad0).applyfunc(tidy_trig), (Ad0.T * IA).applyfunc(tidy_trig)
 
     # -- numeric ---------------------------------------------------------------------------------
     @cached_property
@@ -231,7 +227,7 @@ class MechanicalConnection:
         B = dA - np.swapaxes(dA, -1, -2)  # d_i A_j - d_j A_i at [a, i, j]
         if not self.group.abelian:
             Ai = np.swapaxes(A, -1, -2)  # (..., n, k): A_i
-            ad = self.group.ad(Ai)  # (..., n, k, k)
+            ad = self.group.numeric.ad(Ai)  # (..., n, k, k)
             br = np.einsum("...iab,...jb->...aij", ad, Ai)
             B = B - br
         return B
@@ -279,7 +275,7 @@ class MechanicalConnection:
         B = np.asarray(self.system.body_velocity_matrix_function()(alpha))
         xi = np.einsum("...ij,...j->...i", B, alpha_dot)
         p = np.einsum("...ij,...j->...i", I, xi) + np.einsum("...ij,...j->...i", C, rdot)
-        Ad_inv = G.Ad(G.inverse(G.from_coordinates(alpha)))
+        Ad_inv = G.numeric.Ad(G.numeric.inverse(G.from_coordinates(alpha)))
         return np.einsum("...ji,...j->...i", Ad_inv, p)
 
     def __repr__(self) -> str:

@@ -4,7 +4,7 @@ from . import nonholonomic_examples
 from ._euler_top import EulerTopSolution
 from .canonical import CanonicalSystem
 from .control import ClosedLoopFamily, HyperregularityReport, StructurePreservingControl
-from .holonomic import HolonomicSystem, SymmetryGroup, symmetry_group
+from .holonomic import HolonomicSystem
 from .holonomic_examples import (
     planar_point_masses,
     planar_point_positions,
@@ -13,19 +13,13 @@ from .holonomic_examples import (
     two_pinned_bodies,
 )
 from .left_invariant import LeftInvariantSystem, as_left_invariant
-from .nonholonomic import S1, SE2, SE3, SO3, InvarianceReport, MatrixGroup, NonholonomicSystem, Rn
+from .nonholonomic import InvarianceReport, NonholonomicSystem
 from .rigid_body import RigidBody
 from .rotors import RotorBody, RotorTrajectory
 
 __all__ = [
-    "S1",
-    "SE2",
-    "SE3",
-    "SO3",
     "InvarianceReport",
-    "MatrixGroup",
     "NonholonomicSystem",
-    "Rn",
     "nonholonomic_examples",
     "CanonicalSystem",
     "ClosedLoopFamily",
@@ -37,12 +31,10 @@ __all__ = [
     "RotorBody",
     "RotorTrajectory",
     "StructurePreservingControl",
-    "SymmetryGroup",
     "as_left_invariant",
     "planar_point_masses",
     "planar_point_positions",
     "spacecraft_with_rotors",
-    "symmetry_group",
     "three_link_chain",
     "two_pinned_bodies",
 ]

@@ -11,8 +11,13 @@ import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, ShapeError, SingularityError
+from ..lie.groups import SO2
 from ..symbolic.compile import bind_expression
-from .holonomic import HolonomicSystem, _rot2
+from .holonomic import HolonomicSystem
+
+
+def _rot2(a: sp.Expr) -> sp.Matrix:
+    return SO2().sympy_element([a])[0]
 
 __all__ = [
     "two_pinned_bodies",

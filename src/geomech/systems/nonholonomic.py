@@ -15,8 +15,10 @@ so that a left-invariant Lagrangian is a function :math:`l(r, \xi, \dot r)` of t
 velocity only, and an invariant constraint distribution :math:`\mathcal D` is the kernel of one-forms
 whose body components :math:`A_\xi(r)\,\xi + A_r(r)\,\dot r = 0` do not depend on :math:`g`.
 
-Groups: :func:`SE2`, :func:`SE3`, :func:`SO3`, :func:`Rn`, :func:`S1` and their products
-(``SE2(...) * S1(...)``), or any :class:`MatrixGroup` given by a matrix parametrisation.
+Groups: any group of :mod:`geomech.lie` with its coordinate names, e.g. ``SE2("x", "y", "theta")``,
+``SO3(...)``, ``SE3(...)``, ``Rn(...)``, ``SO2(...)``, their products (``SE2(...) * SO2(...)``), or a
+:class:`~geomech.lie.MatrixGroup` given by a matrix parametrisation; the system holds its symbolic twin
+(:class:`~geomech.symbolic.GroupChart`).
 """
 
 from __future__ import annotations
@@ -30,15 +32,10 @@ import numpy as np
 import sympy as sp
 
 from ..errors import InputError, ShapeError, SymbolicError
+from ..symbolic.charts import GroupChart, group_chart
 from ..symbolic.formula import parse_formula
 
 __all__ = [
-    "MatrixGroup",
-    "SE2",
-    "SE3",
-    "SO3",
-    "Rn",
-    "S1",
     "NonholonomicSystem",
     "InvarianceReport",
 ]
@@ -47,9 +44,6 @@ __all__ = [
 _INVARIANCE_RTOL = 1e-9
 
 
-# --------------------------------------------------------------------------------------------------
-# Groups
-# --------------------------------------------------------------------------------------------------
 def _symbols(names: Sequence[Any], argname: str) -> tuple[sp.Symbol, ...]:
     out = []
     for n in names:
@@ -61,257 +55,6 @@ def _symbols(names: Sequence[Any], argname: str) -> tuple[sp.Symbol, ...]:
             raise InputError(f"Expected `{argname}` to hold coordinate names (identifiers or sympy Symbols), "
                              f"got {n!r}.")
     return tuple(out)
-
-
-def _rot2(a: sp.Expr) -> sp.Matrix:
-    return sp.Matrix([[sp.cos(a), -sp.sin(a)], [sp.sin(a), sp.cos(a)]])
-
-
-def _rot3(axis: int, a: sp.Expr) -> sp.Matrix:
-    c, s = sp.cos(a), sp.sin(a)
-    if axis == 0:
-        return sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == 1:
-        return sp.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-    return sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def _so3_basis() -> list[sp.Matrix]:
-    out = []
-    for k in range(3):
-        e = [0, 0, 0]
-        e[k] = 1
-        out.append(sp.Matrix([[0, -e[2], e[1]], [e[2], 0, -e[0]], [-e[1], e[0], 0]]))
-    return out
-
-
-def _euler_rotation(angles: Sequence[sp.Symbol], seq: str) -> sp.Matrix:
-    axes = {"x": 0, "y": 1, "z": 2}
-    if not (isinstance(seq, str) and len(seq) == 3 and seq.lower().strip("xyz") == "" and
-            seq.lower()[0] != seq.lower()[1] and seq.lower()[1] != seq.lower()[2] and (seq.isupper() or seq.islower())):
-        raise InputError(f"Expected `seq` to be an Euler sequence such as 'ZXZ' (intrinsic) or 'zyx' (extrinsic), "
-                         f"got {seq!r}.")
-    mats = [_rot3(axes[ch], a) for ch, a in zip(seq.lower(), angles)]
-    return mats[0] * mats[1] * mats[2] if seq.isupper() else mats[2] * mats[1] * mats[0]
-
-
-@dataclass(frozen=True, eq=False)
-class MatrixGroup:
-    r"""A matrix Lie group in coordinates: :math:`g(q_G)` with a basis :math:`\{b_a\}` of its algebra.
-
-    The body velocity is :math:`\hat\xi = g^{-1}\dot g = \sum_a \xi^a b_a`, so
-    :math:`\xi = \Lambda(q_G)\,\dot q_G` with columns :math:`\Lambda_{\cdot j} = (g^{-1}\partial_j g)^\vee`,
-    and the structure constants are :math:`[b_b, b_d] = C^a_{bd}\, b_a`.
-
-    Attributes
-    ----------
-    name : str
-    coordinates : tuple of Symbol
-    matrix, inverse : sympy ImmutableMatrix
-        :math:`g(q_G)` and its inverse in closed form.
-    basis : tuple of ImmutableMatrix
-        :math:`b_1, \dots, b_k` (the hat map of the unit vectors).
-    identity : tuple
-        Coordinate values of the identity.
-    angles : tuple of int
-        Indices of the coordinates that are angles.
-    reference : tuple
-        A regular point of the chart (exact values), where body-frame objects are read off: the identity,
-        unless the chart is singular there (proper Euler sequences such as 'ZXZ' at :math:`b = 0`). By
-        G-invariance the objects do not depend on the point.
-    """
-
-    name: str
-    coordinates: tuple[sp.Symbol, ...]
-    matrix: sp.ImmutableMatrix = field(repr=False)
-    inverse: sp.ImmutableMatrix = field(repr=False)
-    basis: tuple[sp.ImmutableMatrix, ...] = field(repr=False)
-    identity: tuple[sp.Expr, ...] = field(repr=False)
-    angles: tuple[int, ...] = ()
-    reference: tuple[sp.Expr, ...] = field(default=(), repr=False)
-
-    def __post_init__(self) -> None:
-        if not self.reference:
-            object.__setattr__(self, "reference", tuple(self.identity))
-
-    @property
-    def dim(self) -> int:
-        return len(self.basis)
-
-    @cached_property
-    def _vee_matrix(self) -> sp.Matrix:
-        return sp.Matrix.hstack(*[sp.Matrix(b).reshape(len(b), 1) for b in self.basis])
-
-    def vee(self, X: sp.MatrixBase) -> sp.Matrix:
-        """Components of an algebra element ``X`` in the basis (exact; raises if ``X`` is not in the span)."""
-        B = self._vee_matrix
-        x = sp.Matrix(X).reshape(B.rows, 1)
-        pivots = [next(i for i in range(B.rows) if B[i, a] != 0) for a in range(B.cols)]
-        comps = sp.Matrix([x[p] / B[p, a] for a, p in enumerate(pivots)])
-        if any(sp.simplify(e) != 0 for e in (B * comps - x)):
-            raise SymbolicError(f"{X} is not in the Lie algebra of {self.name}.")
-        return comps
-
-    @cached_property
-    def body_velocity_matrix(self) -> sp.ImmutableMatrix:
-        r""":math:`\Lambda(q_G)` with :math:`\xi = \Lambda(q_G)\,\dot q_G`."""
-        from ..symbolic.simplify import simplify_expr
-
-        cols = [self.vee((self.inverse * self.matrix.diff(c)).applyfunc(simplify_expr)) for c in self.coordinates]
-        return sp.ImmutableMatrix(sp.Matrix.hstack(*cols).applyfunc(simplify_expr))
-
-    @cached_property
-    def body_velocity_inverse(self) -> sp.ImmutableMatrix:
-        r""":math:`\Lambda(q_G)^{-1}`: coordinate rates from the body velocity."""
-        from ..symbolic.simplify import simplify_expr
-
-        inv = sp.Matrix(self.body_velocity_matrix).inv(method="LU")
-        return sp.ImmutableMatrix(inv.applyfunc(simplify_expr))
-
-    def numeric(self):
-        """The group for numerical work on it (:class:`~geomech.lie.matrix_group.MatrixLieGroup`): exp,
-        composition, the inverse right Jacobian of exp, and this chart (compiled) to read coordinates back."""
-        from ..lie.matrix_group import MatrixLieGroup
-        from ..symbolic.compile import compile_vector
-
-        q = list(self.coordinates)
-        chart = compile_vector(sp.Matrix(self.matrix).tolist(), q)
-        jac = sp.Array([[[sp.diff(self.matrix[i, j], c) for c in q] for j in range(self.matrix.cols)]
-                        for i in range(self.matrix.rows)])
-        chart_jacobian = compile_vector(jac.tolist(), q)
-        return MatrixLieGroup(self.name, [np.asarray(sp.Matrix(b), dtype=float) for b in self.basis], chart=chart,
-                              chart_jacobian=chart_jacobian, reference=[float(v) for v in self.reference],
-                              coordinate_names=[c.name for c in self.coordinates])
-
-    @cached_property
-    def structure_constants(self) -> tuple[tuple[tuple[sp.Expr, ...], ...], ...]:
-        """``C[a][b][d]`` with :math:`[b_b, b_d] = C^a_{bd} b_a`."""
-        k = self.dim
-        C = [[[sp.Integer(0)] * k for _ in range(k)] for _ in range(k)]
-        for b in range(k):
-            for d in range(k):
-                comps = self.vee(self.basis[b] * self.basis[d] - self.basis[d] * self.basis[b])
-                for a in range(k):
-                    C[a][b][d] = comps[a]
-        return tuple(tuple(tuple(row) for row in Ca) for Ca in C)
-
-    def bracket(self, xi: Sequence[sp.Expr], eta: Sequence[sp.Expr]) -> sp.Matrix:
-        r""":math:`[\xi, \eta]^a = C^a_{bd}\,\xi^b \eta^d`."""
-        C, k = self.structure_constants, self.dim
-        return sp.Matrix([sum(C[a][b][d] * xi[b] * eta[d] for b in range(k) for d in range(k)) for a in range(k)])
-
-    def __mul__(self, other: MatrixGroup) -> MatrixGroup:
-        if not isinstance(other, MatrixGroup):
-            return NotImplemented
-        n1 = self.matrix.rows
-        basis = [sp.ImmutableMatrix(sp.diag(b, sp.zeros(other.matrix.rows))) for b in self.basis]
-        basis += [sp.ImmutableMatrix(sp.diag(sp.zeros(n1), b)) for b in other.basis]
-        return MatrixGroup(
-            name=f"{self.name} x {other.name}",
-            coordinates=self.coordinates + other.coordinates,
-            matrix=sp.ImmutableMatrix(sp.diag(self.matrix, other.matrix)),
-            inverse=sp.ImmutableMatrix(sp.diag(self.inverse, other.inverse)),
-            basis=tuple(basis),
-            identity=self.identity + other.identity,
-            reference=self.reference + other.reference,
-            angles=self.angles + tuple(len(self.coordinates) + i for i in other.angles),
-        )
-
-    def __repr__(self) -> str:
-        return f"{self.name}({', '.join(map(str, self.coordinates))})"
-
-
-def _rigid(R: sp.Matrix, t: sp.Matrix) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
-    n = R.rows
-    g = sp.Matrix.vstack(sp.Matrix.hstack(R, t), sp.Matrix([[0] * n + [1]]))
-    Rt = R.T
-    gi = sp.Matrix.vstack(sp.Matrix.hstack(Rt, -Rt * t), sp.Matrix([[0] * n + [1]]))
-    return sp.ImmutableMatrix(g), sp.ImmutableMatrix(gi.applyfunc(sp.trigsimp))
-
-
-def _check_count(names: Sequence[Any], n: int, group: str, hint: str) -> None:
-    if len(names) != n:
-        raise InputError(f"Expected {n} coordinate names for {group} ({hint}), got {len(names)}: {list(names)}.")
-
-
-def SE2(*names: Any) -> MatrixGroup:
-    r"""The planar rigid motions, coordinates :math:`(x, y, \theta)`, :math:`g = [[R(\theta), (x, y)], [0, 1]]`.
-
-    Body velocity :math:`\xi = (v_x, v_y, \omega)` in the body frame (the ordering of
-    :mod:`geomech.lie.se2`): :math:`v_x = \cos\theta\,\dot x + \sin\theta\,\dot y`,
-    :math:`v_y = -\sin\theta\,\dot x + \cos\theta\,\dot y`, :math:`\omega = \dot\theta`.
-    """
-    _check_count(names or ("x", "y", "theta"), 3, "SE(2)", "x, y, theta")
-    X, Y, T = _symbols(names or ("x", "y", "theta"), "SE2")
-    g, gi = _rigid(_rot2(T), sp.Matrix([X, Y]))
-    basis = (sp.ImmutableMatrix([[0, 0, 1], [0, 0, 0], [0, 0, 0]]),
-             sp.ImmutableMatrix([[0, 0, 0], [0, 0, 1], [0, 0, 0]]),
-             sp.ImmutableMatrix([[0, -1, 0], [1, 0, 0], [0, 0, 0]]))
-    return MatrixGroup("SE(2)", (X, Y, T), g, gi, basis, (0, 0, 0), angles=(2,))
-
-
-def SO3(*names: Any, seq: str = "ZXZ") -> MatrixGroup:
-    r"""The rotations, Euler angles of ``seq`` (default 3-1-3, :math:`R = R_z(a) R_x(b) R_z(c)`).
-
-    Body velocity: the body angular velocity :math:`\omega` with :math:`\hat\omega = R^T\dot R`. The chart
-    is singular at gimbal lock (for 'ZXZ' at :math:`b = 0, \pi`).
-    """
-    _check_count(names or ("phi", "theta", "psi"), 3, "SO(3)", "three Euler angles")
-    A, B, C = _symbols(names or ("phi", "theta", "psi"), "SO3")
-    R = _euler_rotation((A, B, C), seq)
-    basis = tuple(sp.ImmutableMatrix(m) for m in _so3_basis())
-    return MatrixGroup(f"SO(3)[{seq}]", (A, B, C), sp.ImmutableMatrix(R),
-                       sp.ImmutableMatrix(R.T), basis, (0, 0, 0), angles=(0, 1, 2), reference=_euler_reference(seq))
-
-
-def _euler_reference(seq: str) -> tuple[sp.Expr, ...]:
-    # A proper Euler sequence ('ZXZ') is singular at the identity (middle angle 0); a Tait-Bryan one is not.
-    return (0, sp.pi / 2, 0) if seq[0].lower() == seq[2].lower() else (0, 0, 0)
-
-
-def SE3(*names: Any, seq: str = "ZYX") -> MatrixGroup:
-    r"""The rigid motions of space, position :math:`(x, y, z)` and Euler angles of ``seq``.
-
-    Body velocity :math:`\xi = (v, \omega)` (translational part first, as in :mod:`geomech.lie.se3`),
-    :math:`v = R^T \dot t`, :math:`\hat\omega = R^T\dot R`.
-    """
-    default = ("x", "y", "z", "phi", "theta", "psi")
-    _check_count(names or default, 6, "SE(3)", "x, y, z and three Euler angles")
-    X, Y, Z, A, B, C = _symbols(names or default, "SE3")
-    R = _euler_rotation((A, B, C), seq)
-    g, gi = _rigid(R, sp.Matrix([X, Y, Z]))
-    basis = []
-    for k in range(3):
-        m = sp.zeros(4)
-        m[k, 3] = 1
-        basis.append(sp.ImmutableMatrix(m))
-    basis += [sp.ImmutableMatrix(sp.diag(w, sp.zeros(1))) for w in _so3_basis()]
-    return MatrixGroup(f"SE(3)[{seq}]", (X, Y, Z, A, B, C), g, gi, tuple(basis), (0,) * 6, angles=(3, 4, 5),
-                       reference=(0, 0, 0) + _euler_reference(seq))
-
-
-def Rn(*names: Any) -> MatrixGroup:
-    """The translations of :math:`\\mathbb R^n` acting on ``n`` coordinates; body velocity = coordinate rates."""
-    if not names:
-        raise InputError("Expected at least one coordinate name for Rn, got none.")
-    X = _symbols(names, "Rn")
-    n = len(X)
-    g, gi = _rigid(sp.eye(n), sp.Matrix(X))
-    basis = []
-    for k in range(n):
-        m = sp.zeros(n + 1)
-        m[k, n] = 1
-        basis.append(sp.ImmutableMatrix(m))
-    return MatrixGroup(f"R^{n}", X, g, gi, tuple(basis), (0,) * n)
-
-
-def S1(*names: Any) -> MatrixGroup:
-    """The circle as rotations of the plane, one angle; body velocity = the angle's rate."""
-    _check_count(names or ("alpha",), 1, "S^1", "one angle")
-    (a,) = _symbols(names or ("alpha",), "S1")
-    R = _rot2(a)
-    return MatrixGroup("S^1", (a,), sp.ImmutableMatrix(R), sp.ImmutableMatrix(R.T),
-                       (sp.ImmutableMatrix([[0, -1], [1, 0]]),), (0,), angles=(0,))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -433,7 +176,7 @@ class NonholonomicSystem:
     """
 
     name: str
-    group: MatrixGroup
+    group: GroupChart
     shape: tuple[sp.Symbol, ...]
     qdot: tuple[sp.Symbol, ...]
     lagrangian: sp.Expr
@@ -450,7 +193,7 @@ class NonholonomicSystem:
     def from_lagrangian(
         cls,
         lagrangian: Any,
-        group: MatrixGroup,
+        group: Any,
         shape: Sequence[Any] = (),
         constraints: Sequence[Any] = (),
         *,
@@ -471,8 +214,8 @@ class NonholonomicSystem:
             :math:`L(q, \dot q)`, kinetic (quadratic in the velocities) minus potential, in the coordinate
             symbols and the velocity symbols (default ``<name>_dot``: ``x_dot``, ``theta_dot``); sympy
             ``dynamicsymbols`` of the coordinates are accepted too. Every other symbol is a parameter.
-        group : MatrixGroup
-            The symmetry group with the names of its coordinates, e.g. ``SE2("x", "y", "theta")``.
+        group : LieGroup or GroupChart
+            The symmetry group with the names of its coordinates, e.g. ``geomech.lie.SE2("x", "y", "theta")``.
         shape : sequence of str or Symbol
             The shape variables :math:`r`.
         constraints : sequence
@@ -503,8 +246,7 @@ class NonholonomicSystem:
             A Lagrangian that is not kinetic minus potential, or that (or the constraints) is not
             G-invariant.
         """
-        if not isinstance(group, MatrixGroup):
-            raise InputError(f"Expected `group` to be a MatrixGroup such as SE2('x', 'y', 'theta'), got {group!r}.")
+        group = group_chart(group)
         r = _symbols(list(shape), "shape")
         q = group.coordinates + r
         qnames = [s.name for s in q]
@@ -595,8 +337,8 @@ class NonholonomicSystem:
     @cached_property
     def key(self) -> tuple:
         """What the symbolic derivations depend on (the parameter values are not part of it)."""
-        return (self.group.name, self.group.coordinates, self.shape, self.qdot, self.lagrangian,
-                self.constraint_matrix, self.body_basis)
+        return (self.group.name, self.group.coordinates, self.group.matrix, self.group.basis, self.shape, self.qdot,
+                self.lagrangian, self.constraint_matrix, self.body_basis)
 
     def __hash__(self) -> int:
         return hash(self.key)

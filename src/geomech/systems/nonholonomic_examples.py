@@ -25,7 +25,8 @@ from typing import Any
 
 import sympy as sp
 
-from .nonholonomic import SE2, NonholonomicSystem
+from ..lie.groups import SE2, SO3
+from .nonholonomic import NonholonomicSystem
 
 __all__ = [
     "snakeboard",
@@ -339,7 +340,7 @@ def _ball() -> NonholonomicSystem:
     m, r, I1, I2, I3 = _params("m r I1 I2 I3")
     x, y, ph, th, ps = _q("x", "y", "phi", "theta", "psi")
     xd, yd, phd, thd, psd = _v("x", "y", "phi", "theta", "psi")
-    R = _rot3z(ph) * _rot3x(th) * _rot3z(ps)
+    R = SO3().sympy_element([ph, th, ps])[0]  # 3-1-3: Rz(phi) Rx(theta) Rz(psi)
     Rd = sum((R.diff(a) * b for a, b in zip((ph, th, ps), (phd, thd, psd))), sp.zeros(3))
     body = (R.T * Rd).applyfunc(sp.trigsimp)      # hat of the body angular velocity omega
     space = (Rd * R.T).applyfunc(sp.trigsimp)     # hat of the spatial angular velocity Omega = R omega
@@ -352,14 +353,6 @@ def _ball() -> NonholonomicSystem:
         sp.expand(L), SE2(x, y, ph), (th, ps), cons, name="chaplygin_ball",
         description="Chaplygin's ball: a sphere (radius r, mass m, centre of mass at its centre, principal moments "
                     "I1, I2, I3) rolling without slipping on a plane; attitude R = Rz(phi) Rx(theta) Rz(psi)")
-
-
-def _rot3z(a: sp.Expr) -> sp.Matrix:
-    return sp.Matrix([[sp.cos(a), -sp.sin(a), 0], [sp.sin(a), sp.cos(a), 0], [0, 0, 1]])
-
-
-def _rot3x(a: sp.Expr) -> sp.Matrix:
-    return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
 
 
 def chaplygin_ball(**values: float) -> NonholonomicSystem:
