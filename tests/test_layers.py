@@ -134,3 +134,19 @@ def test_the_checker_sees_an_upward_import(tmp_path, monkeypatch):
         assert "geomech.systems.model (systems) imports geomech.cli.main (cli)" in str(exc)
     else:
         raise AssertionError("the upward import was not seen")
+
+
+def test_one_compiler():
+    # Every formula-to-function step goes through geomech.symbolic.compile: no other module calls lambdify or
+    # prints code from sympy itself.
+    compiler = ROOT / "symbolic" / "compile.py"
+    offenders = []
+    for path in sorted(ROOT.rglob("*.py")):
+        if path == compiler:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            name = (node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name)
+                    else node.name if isinstance(node, ast.alias) else None)
+            if name in {"lambdify", "PythonCodePrinter", "NumPyPrinter", "SciPyPrinter", "pycode"}:
+                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno if hasattr(node, 'lineno') else '?'}")
+    assert not offenders, "compile through geomech.symbolic.compile: " + ", ".join(offenders)

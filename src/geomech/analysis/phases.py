@@ -41,6 +41,7 @@ from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError, ShapeError
 from ..lie._common import wrap_angle
 from ..symbolic.charts import group_chart
+from ..symbolic.compile import compile_vector
 from ..symbolic.formula import to_expression
 
 __all__ = [
@@ -184,11 +185,10 @@ class ShapeLoop:
 
 
 def _time_function(exprs: list) -> Callable:
-    f = sp.lambdify(T_SYMBOL, exprs, modules="numpy")
+    f = compile_vector(exprs, [T_SYMBOL])
 
     def g(t: np.ndarray) -> np.ndarray:
-        vals = f(t)
-        return np.stack([np.broadcast_to(np.asarray(v, dtype=float), t.shape) for v in vals], -1)
+        return f(np.asarray(t, dtype=float)[..., None])
 
     return g
 

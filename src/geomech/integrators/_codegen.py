@@ -1,12 +1,13 @@
 """Compile symbolic models and the integrator loops into one numba module, cached on disk.
 
 The integrator loops are written once, as plain Python in the template modules ``_k_*.py``, calling the
-model through a few fixed names (``rhs``, ``fjac``, ``grad``, ...). For a model given by a formula this
-module prints those functions from sympy (common subexpressions shared, floats printed to round-trip),
-writes model and templates together into one source file named by a hash of its text, imports it, and
-lets numba compile each loop with ``cache=True``: a later run, or another process, loads the machine code
-from disk. Passing compiled model functions to compiled loops as arguments would defeat numba's disk cache
-(the function type differs in every process), hence one generated file per model.
+model through a few fixed names (``rhs``, ``fjac``, ``grad``, ...). For a model given by a formula the
+symbolic layer prints those functions from sympy (:func:`geomech.symbolic.compile.kernel_source`: common
+subexpressions shared, floats printed to round-trip); this module writes model and templates together
+into one source file named by a hash of its text, imports it, and lets numba compile each loop with
+``cache=True``: a later run, or another process, loads the machine code from disk. Passing compiled model
+functions to compiled loops as arguments would defeat numba's disk cache (the function type differs in
+every process), hence one generated file per model.
 
 Without numba, or for a model given as Python callables, the same template source runs as plain Python
 with wrappers around the callables (slow but identical arithmetic), so every method works everywhere.
@@ -19,18 +20,14 @@ import importlib.util
 import os
 import sys
 import threading
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import sympy as sp
-from sympy.printing.pycode import PythonCodePrinter
-
 from .._storage import cache_subdir, scratch_dir, write_atomic
+from ..symbolic.compile import FunctionSpec, kernel_source
 
-__all__ = ["FunctionSpec", "model_source", "compiled_module", "python_module", "numba_available", "cache_dir"]
+__all__ = ["FunctionSpec", "kernel_source", "compiled_module", "python_module", "numba_available", "cache_dir"]
 
 _TEMPLATES = ("_k_common.py", "_k_explicit.py", "_k_implicit.py", "_k_canonical.py", "_k_liepoisson.py")
 _PREAMBLE_START = "# >>> template preamble"
@@ -57,93 +54,6 @@ def cache_dir() -> Path:
         directory = scratch_dir() / "kernels"
         directory.mkdir(exist_ok=True)
     return directory
-
-
-class _Printer(PythonCodePrinter):
-    """Python code for numba: ``math`` functions, floats printed so that they read back exactly."""
-
-    def _print_Float(self, expr: sp.Float) -> str:
-        value = float(expr)
-        return repr(value) if np.isfinite(value) else f"float('{value}')"
-
-    def _print_Rational(self, expr: sp.Rational) -> str:
-        return f"({expr.p}/{expr.q})"
-
-    def _print_Half(self, expr: sp.Rational) -> str:
-        return "0.5"
-
-
-@dataclass(frozen=True)
-class FunctionSpec:
-    """One generated model function.
-
-    ``outputs`` is a tuple of sympy objects: a single scalar gives ``def name(y): return ...``; otherwise
-    each output (a list or a nested list) is an array argument written in place,
-    ``def name(y, out0, out1, ...)``. With ``scalar_args`` the arguments are the variables themselves,
-    ``def name(x0, x1, ...)``.
-    """
-
-    name: str
-    outputs: tuple[Any, ...]
-    variables: tuple[sp.Symbol, ...]
-    scalar_args: bool = False
-
-
-def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
-    alias = {v: sp.Symbol(f"_a{i}") for i, v in enumerate(spec.variables)}
-    shapes, flat = [], []
-    for out in spec.outputs:
-        arr = np.array(out, dtype=object)
-        shapes.append(arr.shape)
-        flat.extend(sp.sympify(e).xreplace(alias) for e in arr.ravel())
-    bad = [e for e in flat if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan)]
-    if bad:
-        from ..errors import SymbolicError
-
-        raise SymbolicError(f"{spec.name}: the formula is not finite at the given parameter values (a division by "
-                            f"zero or a pole there): {str(bad[0])[:200]}; choose other values.")
-    stray = set().union(*(e.free_symbols for e in flat)) - set(alias.values()) if flat else set()
-    if stray:
-        raise ValueError(f"{spec.name}: symbols {sorted(map(str, stray))} are not variables of the model")
-    replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
-    scalar_return = len(spec.outputs) == 1 and shapes[0] == ()
-    if spec.scalar_args:
-        args = [f"_a{i}" for i in range(len(spec.variables))]
-    else:
-        args = ["y"]
-    if not scalar_return:
-        args += [f"out{k}" for k in range(len(spec.outputs))]
-    lines = ["@kernel", f"def {spec.name}({', '.join(args)}):"]
-    if not spec.scalar_args:
-        lines += [f"    _a{i} = y[{i}]" for i in range(len(spec.variables))]
-    for sym, expr in replacements:
-        lines.append(f"    {sym} = {printer.doprint(expr)}")
-    if scalar_return:
-        lines.append(f"    return {printer.doprint(reduced[0])}")
-    else:
-        pos = 0
-        for k, shape in enumerate(shapes):
-            for index in np.ndindex(*shape):
-                target = f"out{k}[{', '.join(map(str, index))}]" if index else f"out{k}[0]"
-                lines.append(f"    {target} = {printer.doprint(reduced[pos])}")
-                pos += 1
-    if len(lines) == 2:
-        lines.append("    return")
-    if printer._not_supported:
-        raise NotImplementedError(
-            f"{spec.name}: cannot print {sorted(map(str, printer._not_supported))} for numba"
-        )
-    return "\n".join(lines) + "\n"
-
-
-def model_source(specs: Sequence[FunctionSpec]) -> str:
-    """Python (numba-compatible) source of the model functions ``specs``.
-
-    Raises ``NotImplementedError`` when an expression uses a function numba's ``math`` lacks; the caller
-    then falls back to the Python backend.
-    """
-    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
-    return "\n\n".join(_function_source(s, printer) for s in specs)
 
 
 def _template_text() -> str:

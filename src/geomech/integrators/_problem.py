@@ -18,7 +18,8 @@ import sympy as sp
 
 from ..errors import InputError
 from ..lie.so3 import hat
-from ..symbolic.compile import M_SYMBOLS
+from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
+from ..symbolic.simplify import vanishes
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 from . import _codegen
@@ -27,20 +28,6 @@ from .methods import Structure
 __all__ = ["Problem", "make_problem"]
 
 _R_SYMBOLS = sp.symbols("r0:9", real=True)
-
-
-def _is_zero(expr: sp.Expr, variables: tuple[sp.Symbol, ...]) -> bool:
-    """Whether ``expr`` vanishes identically: a numeric screen at random points, then ``simplify``."""
-    if expr == 0:
-        return True
-    rng = np.random.default_rng(7)
-    f = sp.lambdify(variables, expr, modules="numpy")
-    with np.errstate(all="ignore"):
-        for _ in range(3):
-            value = complex(f(*rng.uniform(-0.6, 0.6, len(variables))))
-            if np.isfinite(value) and abs(value) > 1e-9:
-                return False
-    return sp.simplify(expr) == 0
 
 
 @dataclass(eq=False)
@@ -152,7 +139,7 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
         for q in core.q_symbols:
             for p in core.p_symbols:
                 mixed = sp.diff(expr, q, p)
-                if not _is_zero(mixed, variables):
+                if not vanishes(mixed):
                     missing[Structure.SEPARABLE_CANONICAL] = (
                         f"{core.name} is not separable: d^2H/d{q} d{p} = {sp.simplify(mixed)} is not zero"
                     )
@@ -189,7 +176,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
     for i in range(3):
         for j in range(i + 1, 3):
             mixed = sp.diff(grad[i], M_SYMBOLS[j])
-            if not _is_zero(mixed, M_SYMBOLS):
+            if not vanishes(mixed):
                 missing[Structure.LIE_POISSON_SPLIT] = (
                     f"H is not a sum f1(m1) + f2(m2) + f3(m3): d^2H/dm{i + 1} dm{j + 1} = {sp.simplify(mixed)} "
                     "is not zero"
@@ -205,7 +192,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
         by_cost = sorted(range(3), key=lambda i: (cost[i], i))
         result["split_axis_order"] = (by_cost[0], by_cost[1], by_cost[2])
     hess = sp.Matrix(3, 3, lambda i, j: sp.diff(grad[i], M_SYMBOLS[j]))
-    constant = all(not (e.free_symbols & set(M_SYMBOLS)) or _is_zero(sp.diff(e, s), M_SYMBOLS)
+    constant = all(not (e.free_symbols & set(M_SYMBOLS)) or vanishes(sp.diff(e, s))
                    for e in hess for s in M_SYMBOLS)
     if not constant:
         missing[Structure.LIE_POISSON_QUADRATIC] = "H is not quadratic in m (its Hessian is not constant)"
@@ -260,10 +247,10 @@ def _model_source(kind: str, layout: str, expr: sp.Expr, variables: tuple, featu
             gw = [sp.diff(w, v) for v in variables]
             hw = [[sp.diff(e, v) for v in variables] for e in gw]
             specs += [FS("gf_all", (g, hm, gw, hw), variables), FS("gf_grads", (g, gw), variables)]
-            return _codegen.model_source(specs)
+            return _codegen.kernel_source(specs)
         # the symplectic-Euler loop shares code with the generating-function one and numba types every
         # name it calls, taken branch or not: without "gf", inert stand-ins
-        return _codegen.model_source(specs) + _GF_STUBS
+        return _codegen.kernel_source(specs) + _GF_STUBS
     m = list(M_SYMBOLS)
     g = [sp.diff(expr, s) for s in m]
     hm = [[sp.diff(gi, s) for s in m] for gi in g]
@@ -286,7 +273,7 @@ def _model_source(kind: str, layout: str, expr: sp.Expr, variables: tuple, featu
         for i in range(3):
             part = g[i].subs({m[j]: 0 for j in range(3) if j != i})
             specs.append(FS(f"dh{i}", (part,), (m[i],), scalar_args=True))
-    return _codegen.model_source(specs)
+    return _codegen.kernel_source(specs)
 
 
 # -- Python model functions (systems from callables, or formulas numba cannot compile) -------------
@@ -344,14 +331,21 @@ def _gf_python(core: CanonicalSystem) -> dict[str, Any]:
     gw = [sp.diff(w, v) for v in variables]
     hm = [[sp.diff(e, v) for v in variables] for e in g]
     hw = [[sp.diff(e, v) for v in variables] for e in gw]
-    f_all = sp.lambdify(variables, [g, hm, gw, hw], modules="numpy")
+    N = len(variables)
+    # one function of the four outputs, their common subexpressions shared, split afterwards
+    f_all = compile_vector(list(g) + [e for row in hm for e in row] + list(gw) + [e for row in hw for e in row],
+                           variables)
+
+    def parts(y):
+        v = f_all(np.asarray(y, dtype=float))
+        return v[:N], v[N:N + N * N].reshape(N, N), v[N + N * N:2 * N + N * N], v[2 * N + N * N:].reshape(N, N)
 
     def gf_all(y, g_out, hm_out, gw_out, hw_out):
-        a, b, c, d = f_all(*y)
+        a, b, c, d = parts(y)
         g_out[:], hm_out[:, :], gw_out[:], hw_out[:, :] = a, b, c, d
 
     def gf_grads(y, g_out, gw_out):
-        a, _, c, _ = f_all(*y)
+        a, _, c, _ = parts(y)
         g_out[:], gw_out[:] = a, c
 
     return {"gf_all": gf_all, "gf_grads": gf_grads}
@@ -395,12 +389,12 @@ def _lie_poisson_python(core: LeftInvariantSystem, expr: sp.Expr | None, feature
     if "split" in features and expr is not None:
         for i in range(3):
             part = sp.diff(expr, M_SYMBOLS[i]).subs({M_SYMBOLS[j]: 0 for j in range(3) if j != i})
-            out[f"dh{i}"] = _scalar_function(sp.lambdify(M_SYMBOLS[i], part, modules=["numpy", "scipy"]))
+            out[f"dh{i}"] = _scalar_function(compile_scalar(part, [M_SYMBOLS[i]]))
     return out
 
 
 def _scalar_function(fn: Any) -> Any:
     def scalar(x: float) -> float:
-        return float(fn(x))
+        return float(fn(np.array([x], dtype=float)))
 
     return scalar

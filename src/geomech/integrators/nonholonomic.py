@@ -42,7 +42,7 @@ from scipy.integrate import solve_ivp
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
 from ..reduction import bkmm_reduction, lagrange_dalembert
-from ..symbolic.compile import compile_vector
+from ..symbolic.compile import compile_matrix, compile_scalar, compile_vector
 from ..symbolic.formula import to_expression
 from ..systems.nonholonomic import NonholonomicSystem
 
@@ -85,12 +85,10 @@ class Gait:
             names.append(str(name))
             exprs.append(e)
         rows = [[e, sp.diff(e, T_SYMBOL), sp.diff(e, T_SYMBOL, 2)] for e in exprs]
-        f = sp.lambdify([T_SYMBOL], rows, "numpy") if rows else None
+        f = compile_matrix(sp.Matrix(len(rows), 3, sum(rows, [])), [T_SYMBOL])
 
         def fn(t: float) -> np.ndarray:
-            if f is None:
-                return np.zeros((0, 3))
-            return np.array(f(float(t)), dtype=float).reshape(len(rows), 3)
+            return f(np.array([float(t)]))
 
         return cls(tuple(names), tuple(exprs), fn)
 
@@ -132,8 +130,8 @@ class _Torques:
                 if extra:
                     raise InputError(f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
                                      f"coordinates and the velocities ({', '.join(local)}).")
-                f = sp.lambdify([T_SYMBOL, list(system.q), list(system.qdot)], e, "numpy")
-                fn = (lambda f_: lambda t, q, qd: float(f_(t, q, qd)))(f)
+                f = compile_scalar(e, [T_SYMBOL, *system.q, *system.qdot])
+                fn = (lambda f_: lambda t, q, qd: float(f_(np.concatenate([[t], q, qd]))))(f)
             self.fns[self.free.index(i)] = fn
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:

@@ -63,6 +63,7 @@ import sympy as sp
 
 from ..errors import InputError
 from ..symbolic import NumericCache, clear_denominators, inverse, shared_property, simplify_expr, simplify_matrix
+from ..symbolic.compile import compile_matrix, compile_vector
 from ..symbolic.formula import to_expression
 from ..systems.nonholonomic import NonholonomicSystem
 from ._derived import Derived, Labelled
@@ -270,16 +271,15 @@ class AlmostPoissonStructure(Derived, NumericCache):
         s, keys = self.system, self._keys()
         rng = np.random.default_rng(seed)
         syms = self.z + list(s.parameter_symbols)
-        fd = sp.lambdify(syms, [self.jacobiator_direct[k] for k in keys], "numpy")
-        fc = sp.lambdify(syms, [self.jacobiator_curvature[k] for k in keys], "numpy")
-        out = np.empty((points, 2, len(keys)))
-        for j in range(points):
+        f = compile_vector([[self.jacobiator_direct[k] for k in keys], [self.jacobiator_curvature[k] for k in keys]],
+                           syms)
+        args = []
+        for _ in range(points):
             pv = s._random_point(rng, self.z)
             if parameters:
                 pv.update({p: float(parameters[p.name]) for p in s.parameter_symbols if p.name in parameters})
-            args = [pv[v] for v in syms]
-            out[j, 0], out[j, 1] = fd(*args), fc(*args)
-        return out
+            args.append([pv[v] for v in syms])
+        return f(np.array(args, dtype=float).reshape(points, len(syms)))
 
     @shared_property
     def jacobiators(self) -> dict:
@@ -315,7 +315,7 @@ class AlmostPoissonStructure(Derived, NumericCache):
         s, keys, z = self.system, self._keys(), self.z
         rng = np.random.default_rng(seed)
         syms = z + list(s.parameter_symbols)
-        f = sp.lambdify(syms, sp.Matrix(self.tensor), "numpy")
+        f = compile_matrix(sp.Matrix(self.tensor), syms, dtype=complex)
         N, h = len(z), 1e-30
         out = np.empty((points, len(keys)))
         for j in range(points):
@@ -323,12 +323,11 @@ class AlmostPoissonStructure(Derived, NumericCache):
             if parameters:
                 pv.update({p: float(parameters[p.name]) for p in s.parameter_symbols if p.name in parameters})
             args = np.array([pv[v] for v in syms], dtype=complex)
-            J = np.asarray(f(*args), dtype=complex).real.reshape(N, N)
-            dJ = np.empty((N, N, N))
-            for l in range(N):
-                a = args.copy()
-                a[l] += 1j * h
-                dJ[l] = np.asarray(f(*a), dtype=complex).imag.reshape(N, N) / h
+            # the point, and the point stepped by i h along each coordinate: one vectorised evaluation
+            stepped = np.tile(args, (N + 1, 1))
+            stepped[1 + np.arange(N), np.arange(N)] += 1j * h
+            values = f(stepped)
+            J, dJ = values[0].real, values[1:].imag / h
             out[j] = [J[a, :] @ dJ[:, b, c] + J[b, :] @ dJ[:, c, a] + J[c, :] @ dJ[:, a, b] for a, b, c in keys]
         return out
 

@@ -22,6 +22,7 @@ from ..symbolic import (
     NumericCache,
     clear_denominators,
     column,
+    compile_matrix,
     inverse,
     shared_property,
     shared_value,
@@ -449,11 +450,13 @@ def _complement_in_body_frame(s: NonholonomicSystem) -> tuple[sp.ImmutableMatrix
 def _is_complement(s: NonholonomicSystem, Z: sp.Matrix, X: sp.Matrix) -> bool:
     """``A Z = I`` and ``X^T M Z = 0`` at two random points (parameters random too)."""
     rng = np.random.default_rng(5)
-    f = sp.lambdify(list(s.q) + list(s.parameter_symbols),
-                    [sp.Matrix(s.constraint_matrix) * Z, X.T * sp.Matrix(s.mass_matrix) * Z, Z], "numpy")
+    variables = list(s.q) + list(s.parameter_symbols)
+    parts = [sp.Matrix(s.constraint_matrix) * Z, X.T * sp.Matrix(s.mass_matrix) * Z, Z]
+    fs = [compile_matrix(m, variables) for m in parts]
     for _ in range(2):
         pt = s._random_point(rng, s.q)
-        AZ, XMZ, Zn = (np.asarray(v, dtype=float) for v in f(*[pt[v] for v in list(s.q) + list(s.parameter_symbols)]))
+        x = np.array([pt[v] for v in variables], dtype=float)
+        AZ, XMZ, Zn = (f(x) for f in fs)
         scale = max(1.0, float(np.abs(Zn).max(initial=0.0)))
         if not (np.allclose(AZ, np.eye(s.c), atol=1e-9 * scale) and np.abs(XMZ).max(initial=0.0) < 1e-9 * scale):
             return False

@@ -21,7 +21,7 @@ from ..errors import ConvergenceError, InputError, SymbolicError
 from ..lie.group import LieGroup
 from ..lie.groups import named_group
 from .compile import compile_vector
-from .simplify import simplify_expr
+from .simplify import simplify_expr, vanishes
 
 __all__ = ["GroupChart", "group_chart"]
 
@@ -30,27 +30,6 @@ def _symbol(s: Any) -> sp.Symbol:
     if isinstance(s, sp.Symbol):
         return s if s.is_real else sp.Symbol(s.name, real=True)
     return sp.Symbol(str(s), real=True)
-
-
-def _vanishes(residual: sp.MatrixBase, tries: int = 3) -> bool:
-    """Whether every entry of ``residual`` is identically zero: a numeric test at random rational points
-    of its free symbols rejects (a non-zero value well above round-off); otherwise exact simplification
-    decides."""
-    entries = [e for e in residual if e != 0]
-    if not entries:
-        return True
-    symbols = sorted(set().union(*(e.free_symbols for e in entries)), key=str)
-    rng = np.random.default_rng(len(symbols))
-    for _ in range(tries):
-        point = {s: sp.Rational(int(rng.integers(-900, 900)), 1000) for s in symbols}
-        for e in entries:
-            try:
-                value = complex(e.subs(point).evalf(30))
-            except (TypeError, ValueError):  # a pole at this point: no information
-                continue
-            if np.isfinite(value) and abs(value) > 1e-20:
-                return False
-    return all(simplify_expr(e) == 0 for e in entries)
 
 
 class GroupChart:
@@ -138,7 +117,7 @@ class GroupChart:
         x = sp.Matrix(X).reshape(B.rows, 1)
         pivots = [next(i for i in range(B.rows) if B[i, a] != 0) for a in range(B.cols)]
         comps = sp.Matrix([x[p] / B[p, a] for a, p in enumerate(pivots)])
-        if check and not _vanishes(B * comps - x):
+        if check and not vanishes(B * comps - x):
             raise SymbolicError(f"{X} is not in the Lie algebra of {self.name}.")
         return comps
 

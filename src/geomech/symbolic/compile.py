@@ -1,14 +1,17 @@
 """Formulas to numeric functions: canonical symbols, binding a user formula to its variables and parameters, and
-compiling expressions to vectorised numpy functions (the integrators' numba kernels are printed by
-:mod:`geomech.integrators._codegen` from the same expressions)."""
+compiling expressions to numeric functions: vectorised numpy functions (:func:`compile_vector` and its kin) and
+the source of numba kernels (:func:`kernel_source`), both with their common subexpressions shared. Every
+formula-to-function step of the package goes through here."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import SymbolicError
 from .formula import parse_formula
@@ -85,7 +88,8 @@ def _lambdify(exprs: Any, variables: Sequence[sp.Symbol]):
         raise SymbolicError("A formula to compile is not finite (it holds a division by zero or a pole at the "
                             "given parameter values): " + ", ".join(str(e) for e in flat if isinstance(e, sp.Basic)
                                                                      and e.has(sp.zoo, sp.oo, sp.nan))[:300] + ".")
-    return sp.lambdify(list(variables), exprs, modules="numpy", cse=True)
+    # numpy for the elementary functions, scipy.special for the rest (elliptic integrals, erf, ...)
+    return sp.lambdify(list(variables), exprs, modules=["scipy", "numpy"], cse=True)
 
 
 def compile_scalar(expr: sp.Expr, variables: Sequence[sp.Symbol]):
@@ -100,19 +104,25 @@ def compile_scalar(expr: sp.Expr, variables: Sequence[sp.Symbol]):
     return scalar
 
 
-def compile_vector(exprs: Any, variables: Sequence[sp.Symbol]):
+def compile_vector(exprs: Any, variables: Sequence[sp.Symbol], *, dtype: Any = float):
     """Compile a (nested) list of expressions to ``f(x)`` with ``x`` of shape ``(..., n)``, returning
-    an array of shape ``(..., *shape)``; constant entries are broadcast."""
+    an array of shape ``(..., *shape)``; constant entries are broadcast. ``dtype=complex`` evaluates at
+    complex points (derivatives by complex step)."""
     arr = np.array(exprs, dtype=object)
     shape = arr.shape
     flat = list(arr.ravel())
+    if not flat:
+        def empty(x: np.ndarray) -> np.ndarray:
+            return np.zeros(np.shape(x)[:-1] + shape, dtype=dtype)
+
+        return empty
     f = _lambdify(flat, variables)
 
     def vector(x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, dtype=float)
+        x = np.asarray(x, dtype=dtype)
         batch = x.shape[:-1]
         vals = f(*np.moveaxis(x, -1, 0))
-        out = np.stack([np.broadcast_to(np.asarray(v, dtype=float), batch) for v in vals], -1)
+        out = np.stack([np.broadcast_to(np.asarray(v, dtype=dtype), batch) for v in vals], -1)
         return out.reshape(batch + shape)
 
     return vector
@@ -126,26 +136,26 @@ def stack_last(*arrays: Any) -> np.ndarray:
     return np.concatenate([np.broadcast_to(a, batch + a.shape[-1:]) for a in arrs], axis=-1)
 
 
-def compile_matrix(e: sp.Matrix, variables: Sequence[sp.Symbol]):
+def compile_matrix(e: sp.Matrix, variables: Sequence[sp.Symbol], *, dtype: Any = float):
     """A sympy matrix to ``f(x)`` of shape ``(..., rows, cols)``, like :func:`compile_vector`, also for matrices with a
     zero dimension."""
     if e.rows == 0 or e.cols == 0:
         shape = e.shape
 
         def empty(x: np.ndarray) -> np.ndarray:
-            x = np.asarray(x, dtype=float)
-            return np.zeros(x.shape[:-1] + shape)
+            x = np.asarray(x, dtype=dtype)
+            return np.zeros(x.shape[:-1] + shape, dtype=dtype)
 
         return empty
     if not variables:
-        const = np.array(e.evalf(), dtype=float)
+        const = np.array(e.evalf(), dtype=dtype)
 
         def constant(x: np.ndarray) -> np.ndarray:
-            x = np.asarray(x, dtype=float)
+            x = np.asarray(x, dtype=dtype)
             return np.broadcast_to(const, x.shape[:-1] + const.shape).copy()
 
         return constant
-    return compile_vector(e.tolist(), variables)
+    return compile_vector(e.tolist(), variables, dtype=dtype)
 
 
 def column(seq: Sequence[Any]) -> sp.Matrix:
@@ -156,3 +166,90 @@ def column(seq: Sequence[Any]) -> sp.Matrix:
 def suffixed_symbols(suffix: str, names: Sequence[str]) -> tuple[sp.Symbol, ...]:
     """Real symbols ``name_suffix`` (or ``name`` with no suffix), e.g. the velocities ``x_dot`` of ``x``."""
     return tuple(sp.Symbol(f"{n}_{suffix}" if suffix else n, real=True) for n in names)
+
+
+# -- numba kernels: the same expressions printed as Python source for numba ----------------------------------
+class _Printer(PythonCodePrinter):
+    """Python code for numba: ``math`` functions, floats printed so that they read back exactly."""
+
+    def _print_Float(self, expr: sp.Float) -> str:
+        value = float(expr)
+        return repr(value) if np.isfinite(value) else f"float('{value}')"
+
+    def _print_Rational(self, expr: sp.Rational) -> str:
+        return f"({expr.p}/{expr.q})"
+
+    def _print_Half(self, expr: sp.Rational) -> str:
+        return "0.5"
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    """One generated model function.
+
+    ``outputs`` is a tuple of sympy objects: a single scalar gives ``def name(y): return ...``; otherwise
+    each output (a list or a nested list) is an array argument written in place,
+    ``def name(y, out0, out1, ...)``. With ``scalar_args`` the arguments are the variables themselves,
+    ``def name(x0, x1, ...)``.
+    """
+
+    name: str
+    outputs: tuple[Any, ...]
+    variables: tuple[sp.Symbol, ...]
+    scalar_args: bool = False
+
+
+def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
+    alias = {v: sp.Symbol(f"_a{i}") for i, v in enumerate(spec.variables)}
+    shapes, flat = [], []
+    for out in spec.outputs:
+        arr = np.array(out, dtype=object)
+        shapes.append(arr.shape)
+        flat.extend(sp.sympify(e).xreplace(alias) for e in arr.ravel())
+    bad = [e for e in flat if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan)]
+    if bad:
+        raise SymbolicError(f"{spec.name}: the formula is not finite at the given parameter values (a division by "
+                            f"zero or a pole there): {str(bad[0])[:200]}; choose other values.")
+    stray = set().union(*(e.free_symbols for e in flat)) - set(alias.values()) if flat else set()
+    if stray:
+        raise ValueError(f"{spec.name}: symbols {sorted(map(str, stray))} are not variables of the model")
+    replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
+    scalar_return = len(spec.outputs) == 1 and shapes[0] == ()
+    if spec.scalar_args:
+        args = [f"_a{i}" for i in range(len(spec.variables))]
+    else:
+        args = ["y"]
+    if not scalar_return:
+        args += [f"out{k}" for k in range(len(spec.outputs))]
+    lines = ["@kernel", f"def {spec.name}({', '.join(args)}):"]
+    if not spec.scalar_args:
+        lines += [f"    _a{i} = y[{i}]" for i in range(len(spec.variables))]
+    for sym, expr in replacements:
+        lines.append(f"    {sym} = {printer.doprint(expr)}")
+    if scalar_return:
+        lines.append(f"    return {printer.doprint(reduced[0])}")
+    else:
+        pos = 0
+        for k, shape in enumerate(shapes):
+            for index in np.ndindex(*shape):
+                target = f"out{k}[{', '.join(map(str, index))}]" if index else f"out{k}[0]"
+                lines.append(f"    {target} = {printer.doprint(reduced[pos])}")
+                pos += 1
+    if len(lines) == 2:
+        lines.append("    return")
+    if printer._not_supported:
+        raise NotImplementedError(
+            f"{spec.name}: cannot print {sorted(map(str, printer._not_supported))} for numba"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def kernel_source(specs: Sequence[FunctionSpec]) -> str:
+    """Python (numba-compatible) source of the model functions ``specs``.
+
+    Each function is decorated ``@kernel`` (the loader defines it, e.g. as ``numba.njit``). Raises
+    ``NotImplementedError`` when an expression uses a function numba's ``math`` lacks; the caller then
+    falls back to the Python backend.
+    """
+    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
+    return "\n\n".join(_function_source(s, printer) for s in specs)

@@ -8,10 +8,12 @@ from collections.abc import Sequence
 from functools import lru_cache
 from typing import Any
 
+import numpy as np
 import sympy as sp
 from sympy.simplify.fu import TR2
 
-__all__ = ["simplify_expr", "simplify_matrix", "tidy_trig", "inverse", "time_derivative", "clear_denominators"]
+__all__ = ["simplify_expr", "simplify_matrix", "tidy_trig", "inverse", "time_derivative", "clear_denominators",
+           "vanishes"]
 
 #: Above this many terms in a numerator, factoring is skipped (it dominates the cost, and longer numerators
 #: of the examples are irreducible).
@@ -331,3 +333,31 @@ def clear_denominators(v: sp.MatrixBase) -> sp.Matrix:
         if g not in (0, 1):
             out = out / g
     return out
+
+
+def vanishes(expr: Any, tries: int = 3) -> bool:
+    """Whether ``expr`` (an expression, or every entry of a matrix or sequence) is identically zero.
+
+    A screen first: the expression is evaluated exactly (30 digits) at ``tries`` random rational points of
+    its free symbols in [-0.9, 0.9]; a value above 1e-20 proves it is not zero, at no cost of simplification
+    (a long trigonometric expression that is zero costs the evaluations only). Where the screen passes,
+    :func:`simplify_expr`, then ``sympy.simplify``, decide exactly. Points where an entry has a pole give no
+    information and are skipped. The points are fixed by the number of symbols: the answer is reproducible.
+    """
+    items = list(expr) if isinstance(expr, (sp.MatrixBase, list, tuple)) else [expr]
+    entries = [sp.sympify(e) for e in items]
+    entries = [e for e in entries if e != 0]
+    if not entries:
+        return True
+    symbols = sorted(set().union(*(e.free_symbols for e in entries)), key=str)
+    rng = np.random.default_rng(len(symbols))
+    for _ in range(tries):
+        point = {v: sp.Rational(int(rng.integers(-900, 901)), 1000) for v in symbols}
+        for e in entries:
+            try:
+                value = complex(e.xreplace(point).evalf(30))
+            except (TypeError, ValueError):  # a pole here: no information
+                continue
+            if np.isfinite(value) and abs(value) > 1e-20:
+                return False
+    return all(simplify_expr(e) == 0 or sp.simplify(e) == 0 for e in entries)

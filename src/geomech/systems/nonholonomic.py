@@ -33,7 +33,9 @@ import sympy as sp
 
 from ..errors import InputError, ShapeError, SymbolicError
 from ..symbolic.charts import GroupChart, group_chart
+from ..symbolic.compile import compile_matrix, compile_vector
 from ..symbolic.formula import parse_formula
+from ..symbolic.simplify import simplify_expr
 
 __all__ = [
     "NonholonomicSystem",
@@ -428,8 +430,6 @@ class NonholonomicSystem:
         Lam_inv = self.group.body_velocity_inverse.subs(self.reference_substitution)
         A = self.constraint_matrix.subs(self.reference_substitution)
         Ag = sp.Matrix(A[:, : self.k]) * Lam_inv
-        from ..symbolic.simplify import simplify_expr
-
         return (sp.ImmutableMatrix(Ag.applyfunc(simplify_expr)), sp.ImmutableMatrix(A[:, self.k:]))
 
     # ---------------- numeric helpers ----------------
@@ -502,13 +502,11 @@ class NonholonomicSystem:
         L_body = self.lagrangian.subs(self.body_substitution)
         L_id = L_body.subs(self.reference_substitution)
         variables = list(gq + self.shape + self.xi + self.shape_dot)
-        f_body = sp.lambdify(variables + list(self.parameter_symbols), L_body, "numpy")
-        f_id = sp.lambdify(variables + list(self.parameter_symbols), L_id, "numpy")
+        f_both = compile_vector([L_body, L_id], variables + list(self.parameter_symbols))
         lag_ok = True
         for _ in range(samples):
             pt = self._random_point(rng, variables)
-            args = [pt[s] for s in variables + list(self.parameter_symbols)]
-            a, b = float(f_body(*args)), float(f_id(*args))
+            a, b = f_both(np.array([pt[s] for s in variables + list(self.parameter_symbols)], dtype=float))
             if abs(a - b) > _INVARIANCE_RTOL * max(1.0, abs(a), abs(b)):
                 lag_ok = False
                 break
@@ -528,14 +526,13 @@ class NonholonomicSystem:
             Lam_inv = self.group.body_velocity_inverse
             Abody = sp.Matrix(self.constraint_matrix[:, : self.k]) * Lam_inv
             Abody = sp.Matrix.hstack(Abody, sp.Matrix(self.constraint_matrix[:, self.k:]))
-            fA = sp.lambdify(list(gq + self.shape) + list(self.parameter_symbols), Abody, "numpy")
+            fA = compile_matrix(Abody, list(gq + self.shape) + list(self.parameter_symbols))
             for _ in range(samples):
                 pt = self._random_point(rng, list(gq + self.shape))
                 args_g = [pt[s] for s in gq + self.shape] + [pt[s] for s in self.parameter_symbols]
                 args_e = [float(v) for v in self.group.reference] + [pt[s] for s in self.shape] + \
                     [pt[s] for s in self.parameter_symbols]
-                Ag = np.array(fA(*args_g), dtype=float)
-                Ae = np.array(fA(*args_e), dtype=float)
+                Ag, Ae = fA(np.array([args_g, args_e], dtype=float))
                 _, sv, vt = np.linalg.svd(Ae)
                 null = vt[np.sum(sv > 1e-12 * max(sv.max(), 1.0)):].T
                 res = np.abs(Ag @ null).max(axis=1) if null.size else np.zeros(self.c)
