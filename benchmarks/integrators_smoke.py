@@ -54,16 +54,26 @@ def main() -> None:
     red = closed_loop_reduced()
     y0 = [0.3, 0.2]
     print(f"reduced closed loop, h = 1e-3, {args.steps} steps, best of {args.repeats}")
-    for key in ("implicit_midpoint", "gauss_legendre_1", "gauss_legendre_2", "gauss_legendre_3",
-                "generating_function", "symplectic_euler", "rk4", "abm4"):
+    for key in (
+        "implicit_midpoint",
+        "gauss_legendre_1",
+        "gauss_legendre_2",
+        "gauss_legendre_3",
+        "generating_function",
+        "symplectic_euler",
+        "rk4",
+        "abm4",
+    ):
         t = time.perf_counter()
         first = solve(red, key, y0=y0, h=1e-3, n_steps=10)
         setup = time.perf_counter() - t
         best = best_run_time(
             lambda key=key: solve(red, key, y0=y0, h=1e-3, n_steps=args.steps, save_every=args.steps), args.repeats
         )
-        print(f"  {key:22s} {best / args.steps * 1e9:8.1f} ns/step   (compile {first.stats['compile_time']:.2f} s, "
-              f"first call {setup:.2f} s)")
+        print(
+            f"  {key:22s} {best / args.steps * 1e9:8.1f} ns/step   (compile {first.stats['compile_time']:.2f} s, "
+            f"first call {setup:.2f} s)"
+        )
 
     hc = closed_loop()
     rng = np.random.default_rng(0)

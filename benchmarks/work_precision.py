@@ -357,8 +357,9 @@ def run_heyoka(hy: Any, prob: Problem, tol: float, T: float, ref: np.ndarray, re
     }
 
 
-def _propagator_record(prob: Problem, build, method: str, tol: float, T: float, ref: np.ndarray, repeats: int,
-                       compile_time: float) -> tuple[dict, Any]:
+def _propagator_record(
+    prob: Problem, build, method: str, tol: float, T: float, ref: np.ndarray, repeats: int, compile_time: float
+) -> tuple[dict, Any]:
     """Time ``build()`` plus the state at T (a new initial condition needs a new build, so that is the cost),
     then one evaluation alone, and the energy along a grid of the built propagator."""
 
@@ -373,10 +374,19 @@ def _propagator_record(prob: Problem, build, method: str, tol: float, T: float, 
     eval_time = (time.perf_counter() - t) / 1000
     Y = prop.state(np.linspace(0.0, T, N_ENERGY + 1))
     record = {
-        "solver": "geomech", "method": method, "param": "tol", "value": tol, "T": T,
-        "compile_time": compile_time, "status": "success", "wall": wall, "eval_time": eval_time,
-        "error": float(np.max(np.abs(final - ref))), "energy_error": energy_error(prob, Y),
-        "drift": drift_ratio(prob, Y), "period": prop.period,
+        "solver": "geomech",
+        "method": method,
+        "param": "tol",
+        "value": tol,
+        "T": T,
+        "compile_time": compile_time,
+        "status": "success",
+        "wall": wall,
+        "eval_time": eval_time,
+        "error": float(np.max(np.abs(final - ref))),
+        "energy_error": energy_error(prob, Y),
+        "drift": drift_ratio(prob, Y),
+        "period": prop.period,
     }
     return record, prop
 
@@ -385,8 +395,15 @@ def run_quadrature(prob: Problem, tol: float, T: float, ref: np.ndarray, repeats
     """The exact propagator as a method: its whole cost (tracing the orbit, building the tables, evaluating
     at T) is the wall time, since each new initial condition needs a new build."""
     record, _ = _propagator_record(
-        prob, lambda: QuadraturePropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol), "quadrature", tol, T,
-        ref, repeats, 0.0)
+        prob,
+        lambda: QuadraturePropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol),
+        "quadrature",
+        tol,
+        T,
+        ref,
+        repeats,
+        0.0,
+    )
     return record
 
 
@@ -396,8 +413,15 @@ def run_periodic(prob: Problem, tol: float, T: float, ref: np.ndarray, repeats: 
     process (numba compiling or loading its cache) is the compile time."""
     compile_time = PeriodicOrbitPropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol).stats["compile_time"]
     record, po = _propagator_record(
-        prob, lambda: PeriodicOrbitPropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol), "periodic_orbit",
-        tol, T, ref, max(repeats, 20), compile_time)
+        prob,
+        lambda: PeriodicOrbitPropagator(prob.system, prob.y0, L_bounds=(-1, 1), tol=tol),
+        "periodic_orbit",
+        tol,
+        T,
+        ref,
+        max(repeats, 20),
+        compile_time,
+    )
     record.update(period_time=po.stats["run_time"], n_mesh=po.n_mesh)
     return record
 

@@ -46,21 +46,28 @@ def main(out: Path) -> None:
         dR, dm = system.vector_field(y[:9].reshape(3, 3), y[9:])
         return np.concatenate([dR.ravel(), dm])
 
-    ref = solve_ivp(rhs, (0, 40), np.concatenate([R0.ravel(), m0]), method="DOP853", rtol=1e-13,
-                    atol=1e-13, t_eval=t)
+    ref = solve_ivp(rhs, (0, 40), np.concatenate([R0.ravel(), m0]), method="DOP853", rtol=1e-13, atol=1e-13, t_eval=t)
     print(f"   chart switches: {len(red.switches)} through all three charts (no pole is an equilibrium here)")
-    print(f"   max |m - m_direct| = {np.abs(red.m - ref.y[9:].T).max():.2e}, "
-          f"max |R - R_direct| = {np.abs(red.R - ref.y[:9].T.reshape(-1, 3, 3)).max():.2e}")
+    print(
+        f"   max |m - m_direct| = {np.abs(red.m - ref.y[9:].T).max():.2e}, "
+        f"max |R - R_direct| = {np.abs(red.R - ref.y[:9].T.reshape(-1, 3, 3)).max():.2e}"
+    )
     p = np.einsum("nij,nj->ni", red.R, red.m)
     print(f"   spatial momentum p = R m kept to {np.abs(p - p[0]).max():.2e}")
 
     fig = plt.figure(figsize=(11, 5))
     ax1 = fig.add_subplot(1, 2, 1, projection="3d")
-    momentum_sphere(traj.m, ax=ax1, title="free rigid body I = (3, 2, 1)",
-                    energy_curves=gm.RigidBody([3.0, 2.0, 1.0]).energy)
+    momentum_sphere(
+        traj.m, ax=ax1, title="free rigid body I = (3, 2, 1)", energy_curves=gm.RigidBody([3.0, 2.0, 1.0]).energy
+    )
     ax2 = fig.add_subplot(1, 2, 2, projection="3d")
-    momentum_sphere(red.m, ax=ax2, title=f"gyrostat-like body: {len(red.switches)} chart switches",
-                    energy_curves=system.hamiltonian, chart=red.axis)
+    momentum_sphere(
+        red.m,
+        ax=ax2,
+        title=f"gyrostat-like body: {len(red.switches)} chart switches",
+        energy_curves=system.hamiltonian,
+        chart=red.axis,
+    )
     fig.tight_layout()
     fig.savefig(out / "momentum_spheres.png", dpi=120)
     ax = reduced_phase_portrait(sa, red.G, axis=2, trajectory=red)
@@ -79,13 +86,14 @@ def main(out: Path) -> None:
     hp = sa.reduced_system(G=1.0, axis=2)
     sol = gm.solve(hp, "periodic_orbit", y0=[0.3, 0.2], h=100.0, t_final=1e5)
     print(f"   {sol.message}")
-    check = solve_ivp(lambda _t, y: hp.vector_field(y), (0, 1000), [0.3, 0.2], method="DOP853", rtol=1e-13,
-                      atol=1e-13)
+    check = solve_ivp(lambda _t, y: hp.vector_field(y), (0, 1000), [0.3, 0.2], method="DOP853", rtol=1e-13, atol=1e-13)
     drift = abs(hp.hamiltonian(check.y[:, -1]) - hp.hamiltonian(np.array([0.3, 0.2])))
     gap = np.abs(sol.states[10] - check.y[:, -1]).max()
-    print(f"   at t = 1000 it differs from DOP853 (rtol 1e-13) by {gap:.1e}, DOP853's energy having drifted by "
-          f"{drift:.1e};\n   the period's energy error up to t = 1e5 is {np.abs(sol.energy_error).max():.1e} "
-          "(the tests check this state against a\n   quadruple-precision Taylor integration)")
+    print(
+        f"   at t = 1000 it differs from DOP853 (rtol 1e-13) by {gap:.1e}, DOP853's energy having drifted by "
+        f"{drift:.1e};\n   the period's energy error up to t = 1e5 is {np.abs(sol.energy_error).max():.1e} "
+        "(the tests check this state against a\n   quadruple-precision Taylor integration)"
+    )
 
     print("\n5. A nonholonomic system from its Lagrangian: the snakeboard (BKMM 1996)")
     from geomech.analysis.gaits import analyse_gait
@@ -98,13 +106,16 @@ def main(out: Path) -> None:
     print("   momentum equation p' =", bkmm.momentum_rhs[0], "  (derived, BKMM's form)")
     print("   Jacobi identity of the almost-Poisson bracket holds:", almost_poisson(board).satisfies_jacobi)
     gait = analyse_gait(board, {"psi": "sin(4*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}, period=1.0, periods=3)
-    print("   rotor at twice the steering frequency, 3 periods: net (dx, dy, dtheta) =",
-          np.round(gait.net_displacement, 6).tolist())
+    print(
+        "   rotor at twice the steering frequency, 3 periods: net (dx, dy, dtheta) =",
+        np.round(gait.net_displacement, 6).tolist(),
+    )
     ax = gait_paths(gait)
     ax.figure.savefig(out / "snakeboard_gait.png", dpi=120)
     plt.close("all")
-    print(f"\nfigures written to {out}/momentum_spheres.png, {out}/serret_andoyer_plane.png and "
-          f"{out}/snakeboard_gait.png")
+    print(
+        f"\nfigures written to {out}/momentum_spheres.png, {out}/serret_andoyer_plane.png and {out}/snakeboard_gait.png"
+    )
 
 
 if __name__ == "__main__":

@@ -45,14 +45,17 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
     print("1. Uncontrolled (wheel locked to the bus): the intermediate-axis spin")
     locked = locked_rotor_control(body).closed_loop()
     rep = analyse_stability(locked, G).nearest(spin)
-    print(f"   Lagrange-Dirichlet: {rep.lagrange_dirichlet.verdict}; energy-Casimir: {rep.energy_casimir.verdict}; "
-          f"linearisation: {rep.linearisation.verdict} ({rep.linearisation.reason})")
+    print(
+        f"   Lagrange-Dirichlet: {rep.lagrange_dirichlet.verdict}; energy-Casimir: {rep.energy_casimir.verdict}; "
+        f"linearisation: {rep.linearisation.verdict} ({rep.linearisation.reason})"
+    )
 
     print("\n2. Design: phi(v) = h_max tanh(k v / h_max), wheel momentum |Gamma| < h_max, phi'(0) = k")
     k_min = theorem5_boundary(lam2, I3)
     k, h_max = 2.0 * k_min, 25.0
-    control = StructurePreservingControl.one_rotor(body, "h_max*tanh(k*v/h_max)",
-                                                   parameters={"k": k, "h_max": h_max}, probe_radius=G)
+    control = StructurePreservingControl.one_rotor(
+        body, "h_max*tanh(k*v/h_max)", parameters={"k": k, "h_max": h_max}, probe_radius=G
+    )
     print(f"   Theorem 5 needs phi'(0) > 1 - I3/lambda2 = {k_min:.4g}; chosen k = {k:.4g}")
     print(f"   closed-loop Hamiltonian H_c = {control.hamiltonian_expression}")
     lemma = control.lemma4_check()
@@ -66,30 +69,41 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
     analysis = analyse_stability(system, G)
     print(f"   {analysis.equilibria.message}")
     for r in analysis:
-        print(f"   m = {np.round(r.equilibrium.m, 3) + 0.0}: LD {r.lagrange_dirichlet.verdict}, "
-              f"EC {r.energy_casimir.verdict}, linearisation {r.linearisation.verdict}")
+        print(
+            f"   m = {np.round(r.equilibrium.m, 3) + 0.0}: LD {r.lagrange_dirichlet.verdict}, "
+            f"EC {r.energy_casimir.verdict}, linearisation {r.linearisation.verdict}"
+        )
     target = analysis.nearest(spin)
     boundary = stability_boundary(control.family(), "k", (0.5 * k_min, 2.0 * k_min), G=G)
-    print(f"   boundary found by the tool: k = {boundary.value:.10f} (closed form {k_min:.10f}), stable "
-          f"{boundary.stable_side}")
+    print(
+        f"   boundary found by the tool: k = {boundary.value:.10f} (closed form {k_min:.10f}), stable "
+        f"{boundary.stable_side}"
+    )
     below = perturbation_growth(control.family()(k=0.8 * k_min), spin, delta=1e-3, t_final=t_final)
     above = perturbation_growth(system, spin, delta=1e-3, t_final=t_final)
-    print(f"   simulated growth of a 1e-3 perturbation: k = 0.8 k_min -> x{below.ratio:.0f}, "
-          f"k = {k:.3g} -> x{above.ratio:.2f}")
+    print(
+        f"   simulated growth of a 1e-3 perturbation: k = 0.8 k_min -> x{below.ratio:.0f}, "
+        f"k = {k:.3g} -> x{above.ratio:.2f}"
+    )
 
     print("\n4. The controlled spacecraft: open-loop equations (26) with the feedback, from a perturbed spin")
     m0 = G * np.array([0.03, 1.0, 0.02]) / np.linalg.norm([0.03, 1.0, 0.02])
     t = np.linspace(0.0, t_final, 1501)
-    free = body.simulate(t, m0=m0, Gamma0=locked_rotor_control(body).rotor_momentum(m0),
-                         torque=locked_rotor_control(body))
+    free = body.simulate(
+        t, m0=m0, Gamma0=locked_rotor_control(body).rotor_momentum(m0), torque=locked_rotor_control(body)
+    )
     ctrl = body.simulate(t, m0=m0, Gamma0=control.rotor_momentum(m0), torque=control)
     tilt = lambda m: np.degrees(np.arccos(np.clip(m[:, 1] / G, -1.0, 1.0)))  # noqa: E731
     p_drift = np.abs(control.conserved_p(ctrl.m, ctrl.Gamma) - control.conserved_p(m0, ctrl.Gamma[0])).max()
     pi = ctrl.spatial_momentum()
-    print(f"   max angle between m and body axis 2: locked wheel {tilt(free.m).max():.1f} deg, "
-          f"controlled {tilt(ctrl.m).max():.2f} deg")
-    print(f"   wheel momentum max |Gamma| = {np.abs(ctrl.Gamma).max():.3g} N m s (bound {h_max}), "
-          f"max torque {np.abs(ctrl.u).max():.3g} N m")
+    print(
+        f"   max angle between m and body axis 2: locked wheel {tilt(free.m).max():.1f} deg, "
+        f"controlled {tilt(ctrl.m).max():.2f} deg"
+    )
+    print(
+        f"   wheel momentum max |Gamma| = {np.abs(ctrl.Gamma).max():.3g} N m s (bound {h_max}), "
+        f"max torque {np.abs(ctrl.u).max():.3g} N m"
+    )
     print(f"   p = Gamma - phi(m3) kept to {p_drift:.1e}; spatial momentum R m kept to {np.abs(pi - pi[0]).max():.1e}")
     Hc = system.hamiltonian(ctrl.m)
     print(f"   closed-loop energy H_c kept to {np.abs(Hc - Hc[0]).max() / abs(Hc[0]):.1e} (relative)")
@@ -114,14 +128,23 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
     fig2.savefig(out / "spacecraft_tilt.png", dpi=120)
     plt.close("all")
     summary = {
-        "k_min_closed_form": k_min, "k_boundary_found": boundary.value, "k": k, "h_max": h_max,
-        "verdicts_at_spin": {"lagrange_dirichlet": target.lagrange_dirichlet.verdict,
-                             "energy_casimir": target.energy_casimir.verdict,
-                             "linearisation": target.linearisation.verdict},
-        "locked_verdict": rep.verdict, "growth_ratio_below": below.ratio, "growth_ratio_above": above.ratio,
+        "k_min_closed_form": k_min,
+        "k_boundary_found": boundary.value,
+        "k": k,
+        "h_max": h_max,
+        "verdicts_at_spin": {
+            "lagrange_dirichlet": target.lagrange_dirichlet.verdict,
+            "energy_casimir": target.energy_casimir.verdict,
+            "linearisation": target.linearisation.verdict,
+        },
+        "locked_verdict": rep.verdict,
+        "growth_ratio_below": below.ratio,
+        "growth_ratio_above": above.ratio,
         "max_tilt_deg": {"locked": float(tilt(free.m).max()), "controlled": float(tilt(ctrl.m).max())},
-        "max_wheel_momentum": float(np.abs(ctrl.Gamma).max()), "p_drift": float(p_drift),
-        "lemma4_relative_error": lemma.max_relative_error, "hyperregular": hyp.status,
+        "max_wheel_momentum": float(np.abs(ctrl.Gamma).max()),
+        "p_drift": float(p_drift),
+        "lemma4_relative_error": lemma.max_relative_error,
+        "hyperregular": hyp.status,
     }
     (out / "spacecraft_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(f"\nfigures: {out}/spacecraft_phase_portrait.png, {out}/spacecraft_tilt.png")

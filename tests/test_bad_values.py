@@ -9,12 +9,15 @@ from geomech.errors import InputError, SingularityError
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, snakeboard
 
 
-@pytest.mark.parametrize("kw, needle", [
-    ({"m": float("nan")}, "`m` of snakeboard to be finite"),
-    ({"r": 0.0}, "`r` of snakeboard to be positive"),
-    ({"J": -1.0}, "`J` of snakeboard to be positive"),
-    ({"m": "heavy"}, "to be a number"),
-])
+@pytest.mark.parametrize(
+    "kw, needle",
+    [
+        ({"m": float("nan")}, "`m` of snakeboard to be finite"),
+        ({"r": 0.0}, "`r` of snakeboard to be positive"),
+        ({"J": -1.0}, "`J` of snakeboard to be positive"),
+        ({"m": "heavy"}, "to be a number"),
+    ],
+)
 def test_example_parameters_are_checked_when_given(kw, needle):
     with pytest.raises(InputError, match=needle):
         snakeboard(**kw)
@@ -50,8 +53,20 @@ def run(capsys, *args):
 
 
 def test_a_stability_map_cannot_sweep_where_stability_refuses(capsys, tmp_path):
-    base = ["stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--x", "k=0.05:0.95:3",
-            "--out", str(tmp_path / "m")]
+    base = [
+        "stability-map",
+        "--lambda",
+        "3",
+        "2",
+        "--I3",
+        "1",
+        "--phi",
+        "k*v",
+        "--x",
+        "k=0.05:0.95:3",
+        "--out",
+        str(tmp_path / "m"),
+    ]
     code, _, err = run(capsys, *base, "--y", "lambda2=1.2:3.5:3")
     assert code == 2 and "lambda1 = 3 <= lambda2 = 3.5" in err and err.count("\n") == 1
     code, _, err = run(capsys, *base, "--y", "I3=-1:0.5:3")
@@ -64,12 +79,16 @@ def test_derive_says_that_parameters_do_not_change_a_symbolic_derivation(capsys)
     assert code == 2 and "symbolic in every parameter" in err and "'--param'" in err
 
 
-SLIDER_L = ("m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2"
-            " + ms/2*((x_dot - s*sin(theta)*theta_dot + cos(theta)*s_dot)**2"
-            " + (y_dot + s*cos(theta)*theta_dot + sin(theta)*s_dot)**2)")
+SLIDER_L = (
+    "m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2"
+    " + ms/2*((x_dot - s*sin(theta)*theta_dot + cos(theta)*s_dot)**2"
+    " + (y_dot + s*cos(theta)*theta_dot + sin(theta)*s_dot)**2)"
+)
 #: the blade sits at the sliding mass, tilted by beta from the body axis
-SLIDER_BLADE = ("-sin(theta + beta)*(x_dot - s*sin(theta)*theta_dot + cos(theta)*s_dot)"
-                " + cos(theta + beta)*(y_dot + s*cos(theta)*theta_dot + sin(theta)*s_dot)")
+SLIDER_BLADE = (
+    "-sin(theta + beta)*(x_dot - s*sin(theta)*theta_dot + cos(theta)*s_dot)"
+    " + cos(theta + beta)*(y_dot + s*cos(theta)*theta_dot + sin(theta)*s_dot)"
+)
 
 
 def test_an_automatic_basis_that_degenerates_at_the_given_values_is_named_and_a_valid_one_works():
@@ -81,14 +100,21 @@ def test_an_automatic_basis_that_degenerates_at_the_given_values_is_named_and_a_
     from geomech.systems.nonholonomic import NonholonomicSystem
 
     values = dict(m=1.0, I=0.5, ms=0.3, beta=0.0)
-    auto = NonholonomicSystem.from_lagrangian(SLIDER_L, SE2("x", "y", "theta"), ["s"], [SLIDER_BLADE],
-                                              parameters=values, name="slider")
+    auto = NonholonomicSystem.from_lagrangian(
+        SLIDER_L, SE2("x", "y", "theta"), ["s"], [SLIDER_BLADE], parameters=values, name="slider"
+    )
     gait = {"s": "0.2*sin(2*pi*t)"}
     with pytest.raises(InputError, match=r"slider: the body-fixed basis .* degenerates at .*beta = 0,.*\(rank 1 < 2\)"):
         simulate_reduced(auto, 1.0, shapes=gait, p0=[0.1, 0.1])
-    good = NonholonomicSystem.from_lagrangian(SLIDER_L, SE2("x", "y", "theta"), ["s"], [SLIDER_BLADE],
-                                              parameters=values, name="slider",
-                                              basis=[["cos(beta)", "0"], ["sin(beta)", "-s"], ["0", "1"]])
+    good = NonholonomicSystem.from_lagrangian(
+        SLIDER_L,
+        SE2("x", "y", "theta"),
+        ["s"],
+        [SLIDER_BLADE],
+        parameters=values,
+        name="slider",
+        basis=[["cos(beta)", "0"], ["sin(beta)", "-s"], ["0", "1"]],
+    )
     red = simulate_reduced(good, 1.0, shapes=gait, p0=[0.1, 0.1])
     full = simulate_full(good, 1.0, shapes=gait, p0=[0.1, 0.1])
     assert np.abs(red.q[-1] - red.q[0]).max() > 1e-2  # it moves

@@ -24,12 +24,15 @@ def test_solve_refuses_an_output_that_would_not_fit_before_allocating_it(reduced
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # kB: nothing was allocated
 
 
-@pytest.mark.parametrize("kw, needle", [
-    (dict(h=1e-300, t_final=1.0), "above the limit `max_steps`"),
-    (dict(h=1e-3, t_final=1e308), "not a finite number of steps"),
-    (dict(h=1e-3, t_final=1.0, max_steps=100), "above the limit `max_steps` = 100"),
-    (dict(h=1e-3, t_final=1.0, memory_limit=1000.0), "above the limit `memory_limit`"),
-])
+@pytest.mark.parametrize(
+    "kw, needle",
+    [
+        (dict(h=1e-300, t_final=1.0), "above the limit `max_steps`"),
+        (dict(h=1e-3, t_final=1e308), "not a finite number of steps"),
+        (dict(h=1e-3, t_final=1.0, max_steps=100), "above the limit `max_steps` = 100"),
+        (dict(h=1e-3, t_final=1.0, memory_limit=1000.0), "above the limit `memory_limit`"),
+    ],
+)
 def test_solve_refuses_oversized_runs_with_the_knob_that_raises_the_bound(reduced, kw, needle):
     with pytest.raises(InputError, match=needle):
         gm.solve(reduced, "rk4", y0=[0.3, 0.2], **kw)
@@ -40,13 +43,16 @@ def test_raising_the_bound_runs_it(reduced):
     assert sol.status == "success" and len(sol.t) == 11
 
 
-@pytest.mark.parametrize("fn, arg", [
-    (gm.lie.so3.exp, [1e308, 0.0, 0.0]),
-    (gm.lie.so3.exp, [[0.1, 0.2, 0.3], [0.0, -2e15, 0.0]]),
-    (gm.lie.se3.exp, [0.0, 0.0, 0.0, 0.0, 1e300, 0.0]),
-    (gm.lie.se2.exp, [0.0, 0.0, 1e200]),
-    (gm.lie.quaternion.exp, [0.0, 0.0, 1e16]),
-])
+@pytest.mark.parametrize(
+    "fn, arg",
+    [
+        (gm.lie.so3.exp, [1e308, 0.0, 0.0]),
+        (gm.lie.so3.exp, [[0.1, 0.2, 0.3], [0.0, -2e15, 0.0]]),
+        (gm.lie.se3.exp, [0.0, 0.0, 0.0, 0.0, 1e300, 0.0]),
+        (gm.lie.se2.exp, [0.0, 0.0, 1e200]),
+        (gm.lie.quaternion.exp, [0.0, 0.0, 1e16]),
+    ],
+)
 def test_exponentials_refuse_angles_beyond_their_meaning(fn, arg):
     with pytest.raises(InputError, match="modulo 2 pi"):
         fn(arg)

@@ -13,8 +13,13 @@ ROOT = Path(__file__).resolve().parents[1]
 def _run(script: str, out: Path) -> str:
     path = str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=path)
-    done = subprocess.run([sys.executable, str(ROOT / "examples" / script), "--out", str(out)], env=env,
-                          capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / script), "--out", str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     return done.stdout
 

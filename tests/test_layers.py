@@ -81,8 +81,11 @@ def test_no_import_cycles_between_modules():
     graph = _graph()
     packages = {m for m in graph if (ROOT / Path(*m.split(".")[1:]) / "__init__.py").is_file() or m == "geomech"}
     # a package's __init__ re-exports its modules: edges into it are not dependencies of one module on another
-    edges = {m: {t for t in ts if t in graph and t not in packages and t != m} for m, ts in graph.items()
-             if m not in packages}
+    edges = {
+        m: {t for t in ts if t in graph and t not in packages and t != m}
+        for m, ts in graph.items()
+        if m not in packages
+    }
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -145,8 +148,15 @@ def test_one_compiler():
         if path == compiler:
             continue
         for node in ast.walk(ast.parse(path.read_text())):
-            name = (node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name)
-                    else node.name if isinstance(node, ast.alias) else None)
+            name = (
+                node.attr
+                if isinstance(node, ast.Attribute)
+                else node.id
+                if isinstance(node, ast.Name)
+                else node.name
+                if isinstance(node, ast.alias)
+                else None
+            )
             if name in {"lambdify", "PythonCodePrinter", "NumPyPrinter", "SciPyPrinter", "pycode"}:
                 offenders.append(f"{path.relative_to(ROOT)}:{node.lineno if hasattr(node, 'lineno') else '?'}")
     assert not offenders, "compile through geomech.symbolic.compile: " + ", ".join(offenders)

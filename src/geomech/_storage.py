@@ -25,8 +25,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["cache_root", "cache_subdir", "scratch_dir", "write_atomic", "atomic_path", "check_output_dir", "write_set",
-           "dumps_json"]
+__all__ = [
+    "cache_root",
+    "cache_subdir",
+    "scratch_dir",
+    "write_atomic",
+    "atomic_path",
+    "check_output_dir",
+    "write_set",
+    "dumps_json",
+]
 
 _OFF = {"", "0", "off", "none", "false", "no"}
 _LOCK = threading.Lock()
@@ -83,8 +91,9 @@ def scratch_dir() -> Path:
         return _SCRATCH
 
 
-def write_atomic(path: str | Path, data: bytes | str | Callable[[IO[Any]], None], *,
-                 binary: bool | None = None) -> Path:
+def write_atomic(
+    path: str | Path, data: bytes | str | Callable[[IO[Any]], None], *, binary: bool | None = None
+) -> Path:
     """Write ``path`` completely or not at all: into a temporary file in the same directory, renamed over
     ``path`` when done. ``data`` is bytes, text, or a function that writes to the open file."""
     path = Path(path)
@@ -259,5 +268,7 @@ def dumps_json(obj: Any, indent: int | None = 2) -> str:
         plain = json.loads(json.dumps(obj, default=default))
         where = _nonfinite_paths(plain)
         shown = ", ".join(where[:5]) + (f" and {len(where) - 5} more" if len(where) > 5 else "")
-        raise NumericalError(f"The result is not finite (NaN or inf) at {shown}; the computation failed there "
-                             "(check the inputs' ranges, or reduce the step or the time span).") from None
+        raise NumericalError(
+            f"The result is not finite (NaN or inf) at {shown}; the computation failed there "
+            "(check the inputs' ranges, or reduce the step or the time span)."
+        ) from None

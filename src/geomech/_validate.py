@@ -78,8 +78,9 @@ def rotation_matrix(value: Any, name: str, *, atol: float = 1e-9) -> np.ndarray:
     return arr
 
 
-def positive_definite_along(I: np.ndarray, points: Any, what: str, consequence: str, *, rtol: float,
-                            global_scale: bool = False) -> None:
+def positive_definite_along(
+    I: np.ndarray, points: Any, what: str, consequence: str, *, rtol: float, global_scale: bool = False
+) -> None:
     """Raise :class:`~geomech.errors.SingularityError` at the first point where the symmetric matrices ``I``
     (``(n, k, k)``) are not positive definite, naming the point, the eigenvalues and ``consequence``.
 
@@ -88,14 +89,15 @@ def positive_definite_along(I: np.ndarray, points: Any, what: str, consequence: 
     from .errors import SingularityError
 
     eig = np.linalg.eigvalsh(0.5 * (I + np.swapaxes(I, -1, -2)))
-    scale = (max(float(np.abs(eig).max()), 1e-300) if global_scale
-             else np.maximum(np.abs(eig).max(-1), 1e-300))
+    scale = max(float(np.abs(eig).max()), 1e-300) if global_scale else np.maximum(np.abs(eig).max(-1), 1e-300)
     bad = eig.min(-1) <= rtol * scale
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise SingularityError(f"The {what} is singular (or not positive) at r = "
-                               f"{np.round(np.atleast_2d(points)[i], 6).tolist()} (eigenvalues "
-                               f"{np.round(eig[i], 12).tolist()}): {consequence}.")
+        raise SingularityError(
+            f"The {what} is singular (or not positive) at r = "
+            f"{np.round(np.atleast_2d(points)[i], 6).tolist()} (eigenvalues "
+            f"{np.round(eig[i], 12).tolist()}): {consequence}."
+        )
 
 
 #: Default ceilings of work decided before it starts; each is an argument (or option) a user can raise.
@@ -111,13 +113,14 @@ def work_budget(count: float, limit: float, what: str, knob: str, fix: str, *, s
             shown, cost = "beyond the range of double precision", ""
         else:
             shown, cost = f"{count:.3g}", f" (about {count * seconds_each:.2g} s)" if seconds_each else ""
-        raise InputError(f"{what} is {shown}{cost}, above the limit `{knob}` = {limit:.3g}; "
-                         f"{fix}, or raise `{knob}`.")
+        raise InputError(f"{what} is {shown}{cost}, above the limit `{knob}` = {limit:.3g}; {fix}, or raise `{knob}`.")
 
 
 def memory_budget(n_values: float, limit: float, what: str, knob: str, fix: str) -> None:
     """Refuse an output of ``n_values`` float64 values above ``limit`` bytes, before allocating it."""
     size = 8.0 * n_values
     if not size <= limit:
-        raise InputError(f"{what} would hold {n_values:.3g} numbers ({size / 2**30:.3g} GiB), above the limit "
-                         f"`{knob}` = {limit / 2**30:.3g} GiB; {fix}, or raise `{knob}`.")
+        raise InputError(
+            f"{what} would hold {n_values:.3g} numbers ({size / 2**30:.3g} GiB), above the limit "
+            f"`{knob}` = {limit / 2**30:.3g} GiB; {fix}, or raise `{knob}`."
+        )

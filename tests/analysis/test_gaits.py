@@ -20,9 +20,9 @@ from geomech.systems.nonholonomic_examples import kinematic_car, snakeboard_bkmm
 
 M, R, J0, J1 = 1.0, 1.0, 0.3, 0.1
 A_PSI, B_PHI = 1.0, 0.4
-DRIVE = {"psi": f"{A_PSI}*sin(2*pi*t/T)", "phi": f"{B_PHI}*sin(2*pi*t/T)"}          # same frequency
-ROTATE = {"psi": f"{A_PSI}*sin(4*pi*t/T)", "phi": f"{B_PHI}*sin(2*pi*t/T)"}         # rotor at twice the axles'
-PARKING = {"psi": f"{A_PSI}*sin(6*pi*t/T)", "phi": f"{B_PHI}*sin(4*pi*t/T)"}        # rotor 3 : axles 2
+DRIVE = {"psi": f"{A_PSI}*sin(2*pi*t/T)", "phi": f"{B_PHI}*sin(2*pi*t/T)"}  # same frequency
+ROTATE = {"psi": f"{A_PSI}*sin(4*pi*t/T)", "phi": f"{B_PHI}*sin(2*pi*t/T)"}  # rotor at twice the axles'
+PARKING = {"psi": f"{A_PSI}*sin(6*pi*t/T)", "phi": f"{B_PHI}*sin(4*pi*t/T)"}  # rotor 3 : axles 2
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +49,13 @@ def test_drive_gait_momentum_gain_is_the_bessel_closed_form(board):
     # along the gait p(t) = cos(phi) (p0 + 2 J0 int_0^t cos(phi) phi' psi')
     i = 137
     ti = a.t[i]
-    integral = quad(lambda s: 2 * J0 * np.cos(B_PHI * np.sin(w * s)) * (B_PHI * w * np.cos(w * s))
-                    * (A_PSI * w * np.cos(w * s)), 0, ti, epsabs=1e-14, epsrel=1e-13)[0]
+    integral = quad(
+        lambda s: 2 * J0 * np.cos(B_PHI * np.sin(w * s)) * (B_PHI * w * np.cos(w * s)) * (A_PSI * w * np.cos(w * s)),
+        0,
+        ti,
+        epsabs=1e-14,
+        epsrel=1e-13,
+    )[0]
     assert abs(a.p[i, 0] - np.cos(B_PHI * np.sin(w * ti)) * (0.7 + integral)) < 1e-9
 
 
@@ -59,9 +64,16 @@ def test_reconstruction_agrees_with_full_simulation(board):
 
     q0 = {"x": 0.4, "y": -1.1, "theta": 0.7}
     a = analyse_gait(board, ROTATE, period=1.0, periods=2, p0=[0.35], g0=q0, samples_per_period=101)
-    tr = simulate_full(board.system, shapes={k: v.replace("T", "1.0") for k, v in ROTATE.items()}, q0=q0,
-                       p0=[0.35], t_eval=a.t, rtol=1e-12, atol=1e-13)
-    assert np.abs(tr.q[:, :3] - a.path.coordinates).max() < 1e-8      # theta unwrapped in both
+    tr = simulate_full(
+        board.system,
+        shapes={k: v.replace("T", "1.0") for k, v in ROTATE.items()},
+        q0=q0,
+        p0=[0.35],
+        t_eval=a.t,
+        rtol=1e-12,
+        atol=1e-13,
+    )
+    assert np.abs(tr.q[:, :3] - a.path.coordinates).max() < 1e-8  # theta unwrapped in both
     assert np.abs(tr.p - a.p).max() < 1e-8
     assert np.abs(tr.q[:, 3:] - a.r).max() < 1e-12
 
@@ -70,8 +82,14 @@ def test_reconstruction_agrees_with_reduced_simulation(board):
     from geomech.integrators.nonholonomic import simulate_reduced
 
     a = analyse_gait(board, DRIVE, period=1.0, periods=2, p0=[-0.2], samples_per_period=51)
-    tr = simulate_reduced(board.system, shapes={k: v.replace("T", "1.0") for k, v in DRIVE.items()}, p0=[-0.2],
-                          t_eval=a.t, rtol=1e-12, atol=1e-13)
+    tr = simulate_reduced(
+        board.system,
+        shapes={k: v.replace("T", "1.0") for k, v in DRIVE.items()},
+        p0=[-0.2],
+        t_eval=a.t,
+        rtol=1e-12,
+        atol=1e-13,
+    )
     assert np.abs(tr.q[:, :3] - a.path.coordinates).max() < 1e-8
     assert np.abs(tr.p - a.p).max() < 1e-8
 
@@ -97,7 +115,7 @@ def test_rotate_gait_turns_in_place(board):
     assert abs(eth) > 0.2
     turn = np.array([[np.cos(eth), -np.sin(eth)], [np.sin(eth), np.cos(eth)]])
     centre = np.linalg.solve(np.eye(2) - turn, [ex, ey])
-    assert np.linalg.norm(centre) < R                     # inside the wheelbase: rotation in place
+    assert np.linalg.norm(centre) < R  # inside the wheelbase: rotation in place
 
 
 def test_parking_gait_moves_sideways(board):
@@ -126,8 +144,13 @@ def test_principally_kinematic_connection_is_the_whole_motion(car):
     assert np.abs(a.path.g - a.alone["connection"].g).max() < 1e-12
     assert np.abs(a.alone["momentum"].g - np.eye(3)).max() == 0.0
     # theta' = (R/ell) tan(phi) psi', integrated by quadrature
-    dth = quad(lambda t: 0.3 * np.tan(0.3 * np.cos(2 * np.pi * t)) * 4 * np.pi * np.cos(2 * np.pi * t), 0, 1,
-               epsabs=1e-14, epsrel=1e-13)[0]
+    dth = quad(
+        lambda t: 0.3 * np.tan(0.3 * np.cos(2 * np.pi * t)) * 4 * np.pi * np.cos(2 * np.pi * t),
+        0,
+        1,
+        epsabs=1e-14,
+        epsrel=1e-13,
+    )[0]
     assert abs(a.per_period()[0, 2] - dth) < 1e-10
     # a kinematic system's displacement does not depend on how fast the loop is run
     slow = analyse_gait(car, {"psi": "2*sin(2*pi*t/T)", "phi": "0.3*cos(2*pi*t/T)"}, period=3.0)
@@ -154,11 +177,19 @@ def test_parts_do_not_compose_but_their_rotations_add(board):
     gc, gm, g = (a.displacement(part=p) for p in ("connection", "momentum", "total"))
     assert np.abs(gc @ gm - g).max() > 1e-3 and np.abs(gm @ gc - g).max() > 1e-3
     tot = a.displacement_coordinates()
-    assert np.abs(a.displacement_coordinates(part="connection")[:2]
-                  + a.displacement_coordinates(part="momentum")[:2] - tot[:2]).max() > 1e-3
+    assert (
+        np.abs(
+            a.displacement_coordinates(part="connection")[:2]
+            + a.displacement_coordinates(part="momentum")[:2]
+            - tot[:2]
+        ).max()
+        > 1e-3
+    )
     # the rotation of SE(2) is abelian: theta' = omega_conn + omega_mom adds up exactly
-    assert abs(a.displacement_coordinates(part="connection")[2] + a.displacement_coordinates(part="momentum")[2]
-               - tot[2]) < 1e-10
+    assert (
+        abs(a.displacement_coordinates(part="connection")[2] + a.displacement_coordinates(part="momentum")[2] - tot[2])
+        < 1e-10
+    )
 
 
 def test_stokes_for_small_loops(board):
@@ -174,7 +205,7 @@ def test_stokes_for_small_loops(board):
         errs.append(np.abs(u + B).max())
         assert np.abs(u + B).max() < 0.05 * np.abs(B).max()
     slope = np.polyfit(np.log(eps_list), np.log(errs), 1)[0]
-    assert slope > 2.7          # holonomy = exp(-iint B) + O(eps^3)
+    assert slope > 2.7  # holonomy = exp(-iint B) + O(eps^3)
 
 
 def test_curvature_integral_against_grid_quadrature(board):
@@ -183,6 +214,7 @@ def test_curvature_integral_against_grid_quadrature(board):
     val = gait_curvature_integral(board, loop)
     f = lambda rho, ang: (-J0 * np.sin(2 * (0.3 + 0.4 * rho * np.sin(ang))) / (M * R**2)) * rho * 0.5 * 0.4
     from scipy.integrate import dblquad
+
     want = dblquad(lambda rho, ang: f(rho, ang), 0, 2 * np.pi, 0, 1, epsabs=1e-13, epsrel=1e-12)[0]
     assert abs(val[2] - want) < 1e-10
 

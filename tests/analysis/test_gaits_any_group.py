@@ -19,8 +19,11 @@ def _sleigh_with_rotor() -> NonholonomicSystem:
     v, w = xi[:3, 0], xi[3:, 0]
     vc = v + w.cross(sp.Matrix([sp.Rational(2, 5), 0, sp.Rational(1, 10)]))
     psid = sp.Symbol("psi_dot")
-    L = (vc.dot(vc) + (w.T * sp.diag(sp.Rational(1, 2), sp.Rational(4, 5), 1) * w)[0] / 2
-         + sp.Rational(3, 10) / 2 * (psid + w[2]) ** 2)
+    L = (
+        vc.dot(vc)
+        + (w.T * sp.diag(sp.Rational(1, 2), sp.Rational(4, 5), 1) * w)[0] / 2
+        + sp.Rational(3, 10) / 2 * (psid + w[2]) ** 2
+    )
     return NonholonomicSystem.from_lagrangian(L, G, ("psi",), [v[1], v[2]], name="sleigh3d_rotor")
 
 
@@ -45,11 +48,15 @@ def test_product_group_gait_agrees_with_the_full_simulation():
     # group SE(2) x S^1, shape phi alone; with momentum the steering loop moves it
     base = snakeboard_bkmm(m=1.0, r=1.0, J0=0.3, J1=0.1)
     G = SE2("x", "y", "theta") * S1("psi")
-    s = NonholonomicSystem.from_lagrangian(base.lagrangian, G, ("phi",),
-                                           list(base.constraint_matrix * sp.Matrix(base.qdot)),
-                                           parameters=dict(base.parameters), name="snakeboard_rotor_group")
-    a = analyse_gait(s, {"phi": "0.5*sin(2*pi*t/T)"}, period=1.0, periods=2, p0=[0.4, 0.3],
-                     samples_per_period=41)
+    s = NonholonomicSystem.from_lagrangian(
+        base.lagrangian,
+        G,
+        ("phi",),
+        list(base.constraint_matrix * sp.Matrix(base.qdot)),
+        parameters=dict(base.parameters),
+        name="snakeboard_rotor_group",
+    )
+    a = analyse_gait(s, {"phi": "0.5*sin(2*pi*t/T)"}, period=1.0, periods=2, p0=[0.4, 0.3], samples_per_period=41)
     assert a.model.group.name == "SE(2) x SO(2)"
     tr = simulate_full(s, shapes={"phi": "0.5*sin(2*pi*t)"}, p0=[0.4, 0.3], t_eval=a.t, rtol=1e-12, atol=1e-13)
     np.testing.assert_allclose(a.path.coordinates, tr.q[:, :4], atol=1e-8)

@@ -95,13 +95,16 @@ def test_phase_formula_equals_reconstruction_random_loops_pinned(pinned, rng):
 
 
 # -- the free rigid body (Montgomery) -------------------------------------------------------------
-@pytest.mark.parametrize("inertia, m0, R0", [
-    ([3.0, 2.0, 1.0], [1.0, 0.3, 0.2], None),
-    ([3.0, 2.0, 1.0], [0.2, 0.3, 1.0], None),
-    ([3.0, 2.0, 1.0], [1.0, 0.1, -0.4], [0.4, -1.0, 2.0]),
-    ([1.0, 2.0, 2.5], [-0.3, 0.9, 0.4], None),
-    ([[3.0, 0.2, 0.0], [0.2, 2.0, 0.1], [0.0, 0.1, 1.5]], [0.2, 0.5, 1.0], [0.3, 1.0, 2.0]),
-])
+@pytest.mark.parametrize(
+    "inertia, m0, R0",
+    [
+        ([3.0, 2.0, 1.0], [1.0, 0.3, 0.2], None),
+        ([3.0, 2.0, 1.0], [0.2, 0.3, 1.0], None),
+        ([3.0, 2.0, 1.0], [1.0, 0.1, -0.4], [0.4, -1.0, 2.0]),
+        ([1.0, 2.0, 2.5], [-0.3, 0.9, 0.4], None),
+        ([[3.0, 0.2, 0.0], [0.2, 2.0, 0.1], [0.0, 0.1, 1.5]], [0.2, 0.5, 1.0], [0.3, 1.0, 2.0]),
+    ],
+)
 def test_montgomery_formula_against_direct_integration(inertia, m0, R0):
     res = rigid_body_phase(RigidBody(inertia), m0, R0=None if R0 is None else so3.exp(R0))
     assert abs(res.difference) < 1e-8
@@ -134,8 +137,9 @@ def test_rigid_body_without_a_period_is_refused():
 
 # -- the planar N-body ----------------------------------------------------------------------------
 def test_planar_bodies_rotation_formula_vs_full_simulation(bodies):
-    loop = ShapeLoop.from_fourier([1.2, 0.3, 0.9], [[0.2, 0.1, 0.0], [0.05, 0, 0.1]],
-                                  [[0.0, 0.3, 0.2], [0, 0.05, 0]], 3.0)
+    loop = ShapeLoop.from_fourier(
+        [1.2, 0.3, 0.9], [[0.2, 0.1, 0.0], [0.05, 0, 0.1]], [[0.0, 0.3, 0.2], [0, 0.05, 0]], 3.0
+    )
     mu, g0 = np.array([0.4, -0.2, 0.8]), np.array([0.5, -1.0, 0.3])
     ph = phases(bodies, loop, mu, g0=g0)
     q0, qd0 = full_initial_state(bodies, loop, mu, g0)
@@ -190,8 +194,15 @@ def test_reconstruction_vs_newtonian_three_body(bodies):
 
     x0 = np.array([[0, 0], [1.5, 0.2], [0.3, 1.4]], float)
     v0 = np.array([[0.1, -0.3], [0.2, 0.4], [-0.5, 0.1]])
-    sol = solve_ivp(newton, (0, 2), np.concatenate([x0.ravel(), v0.ravel()]), method="DOP853", rtol=1e-13,
-                    atol=1e-13, dense_output=True)
+    sol = solve_ivp(
+        newton,
+        (0, 2),
+        np.concatenate([x0.ravel(), v0.ravel()]),
+        method="DOP853",
+        rtol=1e-13,
+        atol=1e-13,
+        dense_output=True,
+    )
     J = np.array([[0.0, -1.0], [1.0, 0.0]])
 
     def state(t):
@@ -306,8 +317,10 @@ def test_rkmk4_is_fourth_order(chain):
     mu = np.array([0.2, -0.3, 0.5])
     ref = reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0])).path.g[-1]
     hs = np.array([0.2, 0.1, 0.05])
-    errs = [np.abs(reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0]), method="rkmk4",
-                               step=h).path.g[-1] - ref).max() for h in hs]
+    errs = [
+        np.abs(reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0]), method="rkmk4", step=h).path.g[-1] - ref).max()
+        for h in hs
+    ]
     order = np.polyfit(np.log(hs), np.log(errs), 1)[0]
     assert 3.7 < order < 4.4
 
@@ -329,8 +342,12 @@ def test_decomposition_adds_up_only_when_abelian(pinned, chain):
     rec = reconstruct(pinned, loop1, 0.9, decompose=True, t_eval=np.array([0.0, 1.0]))
     parts = rec.alone["connection"].angle[-1] + rec.alone["momentum"].angle[-1]
     assert abs(parts - rec.path.angle[-1]) < 1e-12
-    out = decompose_displacement(chain.group, {"a": lambda t, g: np.array([1.0, 0.0, 0.0]),
-                                     "b": lambda t, g: np.array([0.0, 0.0, 1.0])}, np.eye(3), [0.0, 1.0])
+    out = decompose_displacement(
+        chain.group,
+        {"a": lambda t, g: np.array([1.0, 0.0, 0.0]), "b": lambda t, g: np.array([0.0, 0.0, 1.0])},
+        np.eye(3),
+        [0.0, 1.0],
+    )
     assert np.abs(out["total"].g[-1] - out["a"].g[-1] @ out["b"].g[-1]).max() > 1e-3
 
 

@@ -51,8 +51,7 @@ def random_admissible(rng):
 def test_theorem5_boundary_matches_the_closed_form_for_random_admissible_parameters(rng):
     for _ in range(6):
         lam1, lam2, I3, J3, G = random_admissible(rng)
-        control = SPC.one_rotor(RotorBody.one_rotor(lam1, lam2, I3, J3), "k*v", parameters={"k": 0.5},
-                                probe_radius=G)
+        control = SPC.one_rotor(RotorBody.one_rotor(lam1, lam2, I3, J3), "k*v", parameters={"k": 0.5}, probe_radius=G)
         k_star = theorem5_boundary(lam2, I3)
         b = stability_boundary(control.family(), "k", (k_star - 0.3, k_star + 0.3), G=G)
         assert abs(b.value - k_star) < 1e-10
@@ -65,8 +64,13 @@ def test_theorem5_generalised_phi_with_phi0_plus_p_zero(rng):
     for _ in range(3):
         lam1, lam2, I3, J3, G = random_admissible(rng)
         b_coef = rng.uniform(-0.2, 0.2)
-        control = SPC.one_rotor(RotorBody.one_rotor(lam1, lam2, I3), "k*v + a*v**3 + b*sin(v) + c",
-                                parameters={"k": 0.5, "a": 0.4, "b": b_coef, "c": 0.3}, p=-0.3, probe_radius=G)
+        control = SPC.one_rotor(
+            RotorBody.one_rotor(lam1, lam2, I3),
+            "k*v + a*v**3 + b*sin(v) + c",
+            parameters={"k": 0.5, "a": 0.4, "b": b_coef, "c": 0.3},
+            p=-0.3,
+            probe_radius=G,
+        )
         found = stability_boundary(control.family(), "k", (-1.0, 1.5), G=G)
         assert abs(found.value - (1 - I3 / lam2 - b_coef)) < 1e-10
 
@@ -91,8 +95,9 @@ def test_hessian_at_the_intermediate_axis_is_the_seeds(k):
     control = one_rotor(lam1, lam2, I3, k=k)
     eq = refine_equilibrium(control.closed_loop(), [0.0, G, 0.0])
     assert eq.axis == 2 and np.allclose(eq.lL, [0.0, 0.0], atol=1e-14)
-    np.testing.assert_allclose(eq.hessian, np.diag([-G**2 * (1 / lam2 - 1 / lam1), 1 / I3 - 1 / lam2 - k / I3]),
-                               atol=1e-14)
+    np.testing.assert_allclose(
+        eq.hessian, np.diag([-(G**2) * (1 / lam2 - 1 / lam1), 1 / I3 - 1 / lam2 - k / I3]), atol=1e-14
+    )
     rep = assess(control.closed_loop(), eq)
     if k > 1 - I3 / lam2:
         assert rep.lagrange_dirichlet.verdict == "stable" and "negative definite" in rep.lagrange_dirichlet.reason
@@ -108,8 +113,18 @@ def test_hessian_at_the_intermediate_axis_is_the_seeds(k):
 def random_system(rng):
     c = rng.normal(size=7)
     m1, m2, m3 = __import__("sympy").symbols("m1 m2 m3")
-    H = (m1**2 / 3 + m2**2 / 2.2 + m3**2 / 1.4 + c[0] * m3**4 / 10 + c[1] * m1**2 * m2**2 / 10
-         + c[2] * m1 * m3 / 5 + c[3] * m1 / 5 + c[4] * m2 / 5 + c[5] * m3 / 5 + c[6] * m2**3 / 10)
+    H = (
+        m1**2 / 3
+        + m2**2 / 2.2
+        + m3**2 / 1.4
+        + c[0] * m3**4 / 10
+        + c[1] * m1**2 * m2**2 / 10
+        + c[2] * m1 * m3 / 5
+        + c[3] * m1 / 5
+        + c[4] * m2 / 5
+        + c[5] * m3 / 5
+        + c[6] * m2**3 / 10
+    )
     return LeftInvariantSystem.from_expression(H)
 
 
@@ -127,9 +142,11 @@ def test_three_verdicts_are_consistent_on_random_systems(rng):
             assert (r.linearisation.verdict == "unstable") == saddle
             lp = [complex(z["re"], z["im"]) for z in r.linearisation.extra["lie_poisson_eigenvalues"]]
             lp = [z for z in lp if abs(z) > 1e-9 * max(abs(x) for x in lp)]
-            np.testing.assert_allclose(sorted(lp, key=lambda z: (z.real, z.imag)),
-                                       sorted(r.linearisation.eigenvalues, key=lambda z: (z.real, z.imag)),
-                                       atol=1e-9)
+            np.testing.assert_allclose(
+                sorted(lp, key=lambda z: (z.real, z.imag)),
+                sorted(r.linearisation.eigenvalues, key=lambda z: (z.real, z.imag)),
+                atol=1e-9,
+            )
             if r.energy_casimir.verdict == "stable":
                 full = r.energy_casimir.extra["full_second_variation_eigenvalues"]
                 assert np.all(full > 0) or np.all(full < 0)
@@ -211,10 +228,11 @@ def test_stability_map_linear_control_matches_theorem5():
     ks = np.linspace(0.05, 0.95, 10)
     lam2s = np.linspace(1.15, 2.85, 7)
     seen: list[int] = []
-    ds = stability_map(control.family(), ("k", ks), ("lambda2", lam2s), closed_form=theorem5_margin(control),
-                       progress=seen.append)
+    ds = stability_map(
+        control.family(), ("k", ks), ("lambda2", lam2s), closed_form=theorem5_margin(control), progress=seen.append
+    )
     assert seen == list(range(70)) + [70]  # before each grid point, and once at the end
-    margin = (ks[None, :] - (1 - 1.0 / lam2s[:, None]))
+    margin = ks[None, :] - (1 - 1.0 / lam2s[:, None])
     np.testing.assert_allclose(ds["closed_form_margin"].values, margin, atol=1e-14)
     verdict = ds["verdict"].values
     assert np.all((verdict == 1) == (margin > 0)) and np.all((verdict == -1) == (margin < 0))
@@ -260,8 +278,12 @@ def test_plots(tmp_path):
     ax = equilibria_phase_portrait(control.closed_loop(), 1.0)
     labels = {t.get_text() for t in ax.get_legend().get_texts()}
     assert {"stable", "unstable"} <= labels
-    ds = stability_map(control.family(), ("k", np.linspace(0.1, 0.9, 5)), ("lambda2", np.linspace(1.3, 2.8, 4)),
-                       closed_form=theorem5_margin(control))
+    ds = stability_map(
+        control.family(),
+        ("k", np.linspace(0.1, 0.9, 5)),
+        ("lambda2", np.linspace(1.3, 2.8, 4)),
+        closed_form=theorem5_margin(control),
+    )
     ax2 = stability_map_plot(ds)
     assert ax2.get_xlabel() == "k" and ax2.get_ylabel() == "lambda2"
     with pytest.raises(InputError, match="variable"):
@@ -303,8 +325,16 @@ def test_chart_hessian_against_finite_differences(l, ratio, axis):
     _, grad, hess = chart_derivatives(system, chart.inverse(lL, G), axis)
     e = 1e-4
     fd_grad = np.array([(h(lL + e * d) - h(lL - e * d)) / (2 * e) for d in np.eye(2)])
-    fd_hess = np.array([[(h(lL + e * a + e * b) - h(lL + e * a - e * b) - h(lL - e * a + e * b)
-                          + h(lL - e * a - e * b)) / (4 * e * e) for b in np.eye(2)] for a in np.eye(2)])
+    fd_hess = np.array(
+        [
+            [
+                (h(lL + e * a + e * b) - h(lL + e * a - e * b) - h(lL - e * a + e * b) + h(lL - e * a - e * b))
+                / (4 * e * e)
+                for b in np.eye(2)
+            ]
+            for a in np.eye(2)
+        ]
+    )
     # central differences are O(e^2) with constants that grow like (G^2 - L^2)^(-5/2) near the poles
     np.testing.assert_allclose(grad, fd_grad, rtol=1e-6, atol=1e-8)
     np.testing.assert_allclose(hess, fd_hess, rtol=1e-4, atol=1e-5)

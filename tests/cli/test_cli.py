@@ -22,8 +22,9 @@ def test_help(capsys):
 
 
 def test_rigid_body_json_summary(capsys):
-    code, out, err = run(capsys, "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2",
-                         "--t-final", "50", "--json")
+    code, out, err = run(
+        capsys, "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2", "--t-final", "50", "--json"
+    )
     assert code == 0, err
     s = json.loads(out)
     np.testing.assert_allclose(s["m_final"]["reduced"], s["m_final"]["exact"], atol=1e-9)
@@ -35,8 +36,20 @@ def test_rigid_body_json_summary(capsys):
 
 
 def test_rigid_body_tensor_and_out_dir(capsys, tmp_path):
-    code, out, err = run(capsys, "rigid-body", "--inertia", "3,0.1,0,0.1,2.5,0,0,0,1.5", "--momentum", "1,0.3,0.2",
-                         "--t-final", "5", "--samples", "51", "--out", str(tmp_path))
+    code, out, err = run(
+        capsys,
+        "rigid-body",
+        "--inertia",
+        "3,0.1,0,0.1,2.5,0,0,0,1.5",
+        "--momentum",
+        "1,0.3,0.2",
+        "--t-final",
+        "5",
+        "--samples",
+        "51",
+        "--out",
+        str(tmp_path),
+    )
     assert code == 0, err
     assert "eq. (11)" in out
     assert json.loads((tmp_path / "rigid_body.json").read_text())["t_final"] == 5.0
@@ -65,8 +78,19 @@ def test_bad_input_is_one_line_and_status_2(capsys, args, needle):
 
 
 def test_reduce_prints_the_reduced_hamiltonian(capsys):
-    code, out, err = run(capsys, "reduce", "--hamiltonian", "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)",
-                         "--param", "I1=3", "--param", "I2=2", "--param", "I3=1", "--json")
+    code, out, err = run(
+        capsys,
+        "reduce",
+        "--hamiltonian",
+        "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)",
+        "--param",
+        "I1=3",
+        "--param",
+        "I2=2",
+        "--param",
+        "I3=1",
+        "--json",
+    )
     assert code == 0, err
     s = json.loads(out)
     assert s["hyperregular"] == "yes"
@@ -81,6 +105,9 @@ def test_reduce_prints_the_reduced_hamiltonian(capsys):
 
 
 def test_console_script_exit_status():
-    proc = subprocess.run([sys.executable, "-m", "geomech", "rigid-body", "--inertia", "1", "1",
-                           "--momentum", "1", "0", "0"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "geomech", "rigid-body", "--inertia", "1", "1", "--momentum", "1", "0", "0"],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2 and proc.stderr.startswith("geomech: error:") and "Traceback" not in proc.stderr

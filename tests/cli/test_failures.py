@@ -22,17 +22,25 @@ def run(capsys, *args):
     return code, out, err
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["reduce", "--hamiltonian", "m1**2 + 0*len(open('PWNED','w').name)"], "`--hamiltonian`"),
-    (["stability", "--lambda", "3", "2", "--I3", "1", "--phi", "__import__('os').system('touch PWNED')"], "`--phi`"),
-    (["reduce", "--hamiltonian", "10**10**10"], "beyond 1e300"),
-    (["reduce", "--hamiltonian", "m1**2/I1", "--param", "I1=nan"], "not a finite number"),
-    (["reduce", "--hamiltonian", "m1**2/I1", "--param", "I1=1", "--param", "I1=2"], "given twice"),
-    (["simulate", "snakeboard", "--shape", "phi=sin(t)", "--tau", "psi=__import__('os')"], "`--tau psi`"),
-    (["phase", "loop", "three-link-middle", "--shape", "alpha1=cos(2*pi*t).real", "--shape", "alpha2=0"],
-     "`--shape alpha1`"),
-    ([*RIGID, "--out", ""], "`--out` is empty"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["reduce", "--hamiltonian", "m1**2 + 0*len(open('PWNED','w').name)"], "`--hamiltonian`"),
+        (
+            ["stability", "--lambda", "3", "2", "--I3", "1", "--phi", "__import__('os').system('touch PWNED')"],
+            "`--phi`",
+        ),
+        (["reduce", "--hamiltonian", "10**10**10"], "beyond 1e300"),
+        (["reduce", "--hamiltonian", "m1**2/I1", "--param", "I1=nan"], "not a finite number"),
+        (["reduce", "--hamiltonian", "m1**2/I1", "--param", "I1=1", "--param", "I1=2"], "given twice"),
+        (["simulate", "snakeboard", "--shape", "phi=sin(t)", "--tau", "psi=__import__('os')"], "`--tau psi`"),
+        (
+            ["phase", "loop", "three-link-middle", "--shape", "alpha1=cos(2*pi*t).real", "--shape", "alpha2=0"],
+            "`--shape alpha1`",
+        ),
+        ([*RIGID, "--out", ""], "`--out` is empty"),
+    ],
+)
 def test_bad_input_is_one_line_naming_the_option(capsys, tmp_path, monkeypatch, args, needle):
     monkeypatch.chdir(tmp_path)
     code, out, err = run(capsys, *args)
@@ -57,8 +65,9 @@ def test_a_numerical_failure_is_status_1_and_an_unexpected_one_is_reported_not_r
 
     monkeypatch.setattr("geomech.experiments.rigid_body.run_rigid_body", diverge)
     code, _, err = run(capsys, *RIGID)
-    assert code == 1 and err == ("geomech: numerical failure: Newton did not converge at t = 3.2 (step 41): "
-                                 "residual 1e3\n")
+    assert code == 1 and err == (
+        "geomech: numerical failure: Newton did not converge at t = 3.2 (step 41): residual 1e3\n"
+    )
 
     def bug(*a, **k):
         raise KeyError("oops")
@@ -132,10 +141,29 @@ def test_a_model_path_that_is_not_python_is_refused(capsys, tmp_path):
 def test_ctrl_c_at_any_moment_is_one_line_and_status_130(delay, tmp_path):
     """Early (while numpy, sympy and numba load) and late (integrating)."""
     exe = os.path.join(os.path.dirname(sys.executable), "geomech")
-    p = subprocess.Popen([exe, "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2",
-                          "--t-final", "1e6", "--max-turns", "1e9", "--out", str(tmp_path / "out")],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    p = subprocess.Popen(
+        [
+            exe,
+            "rigid-body",
+            "--inertia",
+            "3",
+            "2",
+            "1",
+            "--momentum",
+            "1",
+            "0.3",
+            "0.2",
+            "--t-final",
+            "1e6",
+            "--max-turns",
+            "1e9",
+            "--out",
+            str(tmp_path / "out"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)

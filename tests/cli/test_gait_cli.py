@@ -28,7 +28,7 @@ def test_json_summary_matches_the_closed_form_momentum_gain(capsys):
     code, out, err = run(capsys, *BOARD, *DRIVE, "--period", "1.5", "--periods", "2", "--p0", "-0.25", "--json")
     assert code == 0, err
     s = json.loads(out)
-    want = 4 * np.pi * 0.3 * 1.0 * (2 * np.pi / 1.5) * jv(1, 0.4)      # Bessel closed form, see the analysis tests
+    want = 4 * np.pi * 0.3 * 1.0 * (2 * np.pi / 1.5) * jv(1, 0.4)  # Bessel closed form, see the analysis tests
     assert np.allclose(np.array(s["momentum_change_per_period"])[:, 0], want, rtol=1e-9)
     assert s["p0"] == [-0.25] and s["periods"] == 2 and len(s["displacement_per_period"]) == 2
     assert set(s["net_displacement"]) == {"x", "y", "theta"}
@@ -37,17 +37,39 @@ def test_json_summary_matches_the_closed_form_momentum_gain(capsys):
 
 def test_text_and_files(capsys, tmp_path):
     xr = pytest.importorskip("xarray")
-    code, out, err = run(capsys, *BOARD, "--shape-loop", "psi=sin(4*pi*t/T)", "--shape-loop", "phi=0.4*sin(2*pi*t/T)",
-                         "--period", "1", "--samples", "41", "--g0", "theta=0.5", "--out", str(tmp_path))
+    code, out, err = run(
+        capsys,
+        *BOARD,
+        "--shape-loop",
+        "psi=sin(4*pi*t/T)",
+        "--shape-loop",
+        "phi=0.4*sin(2*pi*t/T)",
+        "--period",
+        "1",
+        "--samples",
+        "41",
+        "--g0",
+        "theta=0.5",
+        "--out",
+        str(tmp_path),
+    )
     assert code == 0, err
     assert "net displacement" in out and "connection term" in out and "momentum term" in out
-    for f in ("gait_path.png", "gait_momentum.png", "curvature.png", "connection_omega.png", "curvature_v_x.png",
-              "curvature_v_y.png", "gait.nc", "gait.json"):
+    for f in (
+        "gait_path.png",
+        "gait_momentum.png",
+        "curvature.png",
+        "connection_omega.png",
+        "curvature_v_x.png",
+        "curvature_v_y.png",
+        "gait.nc",
+        "gait.json",
+    ):
         assert (tmp_path / f).stat().st_size > 0
     ds = xr.load_dataset(tmp_path / "gait.nc")
     assert ds["g"].shape == (41, 3) and abs(float(ds["g"][0, 2]) - 0.5) < 1e-15
     s = json.loads((tmp_path / "gait.json").read_text())
-    assert abs(s["net_displacement"]["theta"]) > 0.2          # the rotate gait turns the board
+    assert abs(s["net_displacement"]["theta"]) > 0.2  # the rotate gait turns the board
 
 
 def test_model_file(capsys, tmp_path):
@@ -59,9 +81,19 @@ def test_model_file(capsys, tmp_path):
         "xd, yd, thd, psid, phid = sp.symbols('x_dot y_dot theta_dot psi_dot phi_dot', real=True)\n"
         "L = (xd**2 + yd**2)/2 + thd**2/5 + psid**2/10 + phid**2/10\n"
         "cons = [sp.cos(th)*xd + sp.sin(th)*yd - psid/2, -sp.sin(th)*xd + sp.cos(th)*yd, thd - sp.tan(phi)*psid/2]\n"
-        "system = NonholonomicSystem.from_lagrangian(L, SE2(x, y, th), (psi, phi), cons, name='car')\n")
-    code, out, err = run(capsys, str(f), "--shape-loop", "psi=2*sin(2*pi*t)", "--shape-loop", "phi=0.3*cos(2*pi*t)",
-                         "--period", "1", "--json")
+        "system = NonholonomicSystem.from_lagrangian(L, SE2(x, y, th), (psi, phi), cons, name='car')\n"
+    )
+    code, out, err = run(
+        capsys,
+        str(f),
+        "--shape-loop",
+        "psi=2*sin(2*pi*t)",
+        "--shape-loop",
+        "phi=0.3*cos(2*pi*t)",
+        "--period",
+        "1",
+        "--json",
+    )
     assert code == 0, err
     s = json.loads(out)
     assert s["momentum_change_per_period"] == [[]]
@@ -69,15 +101,23 @@ def test_model_file(capsys, tmp_path):
     assert s["net_displacement"] == pytest.approx(s["connection_alone"], abs=1e-12)
 
 
-@pytest.mark.parametrize("args, words", [
-    (["--shape-loop", "psi=t", "--shape-loop", "phi=0.4*sin(2*pi*t)", "--period", "1"], "closed"),
-    (["--shape-loop", "psi=sin(2*pi*t)", "--period", "1"], "one `--shape-loop` for each"),
-    (["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "beta=sin(2*pi*t)", "--period", "1"], "not a shape variable"),
-    (["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "phi=pi/2*cos(2*pi*t)", "--period", "1"], "singular"),
-    (["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "phi=0.1*cos(2*pi*t)", "--period", "1", "--p0", "1,2"],
-     "p0"),
-    (["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "phi=0.1*cos(2*pi*t)", "--period", "-1"], "period"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--shape-loop", "psi=t", "--shape-loop", "phi=0.4*sin(2*pi*t)", "--period", "1"], "closed"),
+        (["--shape-loop", "psi=sin(2*pi*t)", "--period", "1"], "one `--shape-loop` for each"),
+        (
+            ["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "beta=sin(2*pi*t)", "--period", "1"],
+            "not a shape variable",
+        ),
+        (["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "phi=pi/2*cos(2*pi*t)", "--period", "1"], "singular"),
+        (
+            ["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "phi=0.1*cos(2*pi*t)", "--period", "1", "--p0", "1,2"],
+            "p0",
+        ),
+        (["--shape-loop", "psi=sin(2*pi*t)", "--shape-loop", "phi=0.1*cos(2*pi*t)", "--period", "-1"], "period"),
+    ],
+)
 def test_errors_are_one_line_and_status_2(capsys, args, words):
     code, out, err = run(capsys, *BOARD, *args)
     assert code == 2

@@ -15,8 +15,24 @@ for _cmd in (derive_cmd, simulate_cmd):
     if _cmd.name not in cli.commands:
         cli.add_command(_cmd)
 
-SNAKE_ARGS = ["--param", "m=1", "--param", "r=0.5", "--param", "J=0.18", "--param", "J0=0.05", "--param", "J1=0.01",
-              "--shape", "psi=sin(2*pi*t)", "--shape", "phi=0.5*sin(2*pi*t)", "--t-final", "1"]
+SNAKE_ARGS = [
+    "--param",
+    "m=1",
+    "--param",
+    "r=0.5",
+    "--param",
+    "J=0.18",
+    "--param",
+    "J0=0.05",
+    "--param",
+    "J1=0.01",
+    "--shape",
+    "psi=sin(2*pi*t)",
+    "--shape",
+    "phi=0.5*sin(2*pi*t)",
+    "--t-final",
+    "1",
+]
 
 
 def _run(capsys, *argv):
@@ -29,8 +45,9 @@ def test_simulate_snakeboard_json_matches_the_library(capsys, tmp_path):
     code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--json", "--out", str(tmp_path))
     assert code == 0, err
     data = json.loads(out)
-    ref = simulate_full(snakeboard(m=1, r=0.5, J=0.18, J0=0.05, J1=0.01), 1.0,
-                        shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"})
+    ref = simulate_full(
+        snakeboard(m=1, r=0.5, J=0.18, J0=0.05, J1=0.01), 1.0, shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+    )
     for k in ("x", "y", "theta"):
         assert data["final_configuration"][k] == pytest.approx(ref.final()[k], abs=1e-9)
     assert data["nonholonomic_momentum"][0] == pytest.approx(ref.p[-1, 0], abs=1e-9)
@@ -45,8 +62,20 @@ def test_simulate_snakeboard_json_matches_the_library(capsys, tmp_path):
 def test_simulate_text_and_other_methods(capsys):
     code, out, _ = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "discrete", "--h", "0.01")
     assert code == 0 and "final configuration: x = " in out and "work by shape inputs" in out
-    code, out, _ = _run(capsys, "simulate", "chaplygin_sleigh", "--param", "m=1", "--param", "I_c=0.5",
-                        "--param", "a=0.3", "--method", "reduced", "--json")
+    code, out, _ = _run(
+        capsys,
+        "simulate",
+        "chaplygin_sleigh",
+        "--param",
+        "m=1",
+        "--param",
+        "I_c=0.5",
+        "--param",
+        "a=0.3",
+        "--method",
+        "reduced",
+        "--json",
+    )
     assert code == 0 and json.loads(out)["work_by_shape_inputs"] == 0.0
 
 
@@ -62,7 +91,7 @@ def test_derive_snakeboard_json_and_latex(capsys):
     assert code == 0 and r"\dot{\phi}" in out and "== bkmm ==" in out
 
 
-MODEL = '''
+MODEL = """
 from geomech.lie import SE2
 from geomech.systems.nonholonomic import NonholonomicSystem
 
@@ -71,7 +100,7 @@ def build(m=1.0, I=0.5, a=0.3):
         "m/2*((x_dot - a*sin(theta)*theta_dot)**2 + (y_dot + a*cos(theta)*theta_dot)**2) + I/2*theta_dot**2",
         SE2("x", "y", "theta"), (), ["-sin(theta)*x_dot + cos(theta)*y_dot"],
         parameters={"m": m, "I": I, "a": a}, name="my_sleigh")
-'''
+"""
 
 
 def test_derive_and_simulate_a_model_file(capsys, tmp_path):
@@ -84,25 +113,37 @@ def test_derive_and_simulate_a_model_file(capsys, tmp_path):
     assert code == 0, err
     assert np.isfinite(json.loads(out)["energy_final"])
     g = tmp_path / "plain.py"
-    g.write_text(textwrap.dedent('''
+    g.write_text(
+        textwrap.dedent("""
         from geomech.systems.nonholonomic_examples import rolling_disk
         system = rolling_disk(m=1, R=0.5, I=0.2, J=0.1)
-    '''))
+    """)
+    )
     code, out, err = _run(capsys, "derive", "--model", str(g), "--section", "system")
     assert code == 0 and "rolling_disk" in out
 
 
-@pytest.mark.parametrize("body, match", [
-    ('''L = "m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2 - m*g*y"\n'''
-     '''system = NonholonomicSystem.from_lagrangian(L, SE2(), (), ["-sin(theta)*x_dot + cos(theta)*y_dot"])''',
-     "not invariant under SE(2)"),
-    ('''system = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2", SE2(), (),'''
-     ''' ["x_dot**2 - y_dot"])''', "not linear homogeneous"),
-    ('''system = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2)", SE2("x", "y"), (), [])''',
-     "Expected 3 coordinate names for SE(2)"),
-    ('''system = 3''', "expected `system` to be a NonholonomicSystem"),
-    ('''raise RuntimeError("boom")''', "RuntimeError: boom"),
-])
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        (
+            """L = "m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2 - m*g*y"\n"""
+            """system = NonholonomicSystem.from_lagrangian(L, SE2(), (), ["-sin(theta)*x_dot + cos(theta)*y_dot"])""",
+            "not invariant under SE(2)",
+        ),
+        (
+            """system = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2", SE2(), (),"""
+            """ ["x_dot**2 - y_dot"])""",
+            "not linear homogeneous",
+        ),
+        (
+            """system = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2)", SE2("x", "y"), (), [])""",
+            "Expected 3 coordinate names for SE(2)",
+        ),
+        ("""system = 3""", "expected `system` to be a NonholonomicSystem"),
+        ("""raise RuntimeError("boom")""", "RuntimeError: boom"),
+    ],
+)
 def test_bad_models_give_one_line_and_status_2(capsys, tmp_path, body, match):
     f = tmp_path / "bad.py"
     header = "from geomech.lie import SE2\nfrom geomech.systems.nonholonomic import NonholonomicSystem\n"
@@ -153,12 +194,17 @@ def test_derive_json_exports_the_short_forms(capsys):
     assert code == 0, err
     data = json.loads(out)
     lda = data["lagrange_dalembert"]
-    assert set(lda["text"]) >= {"multipliers lambda on D", "projected equations X^T(M qddot - f - B tau) (= 0)",
-                                "basis of D X(q) (columns)"}
+    assert set(lda["text"]) >= {
+        "multipliers lambda on D",
+        "projected equations X^T(M qddot - f - B tau) (= 0)",
+        "basis of D X(q) (columns)",
+    }
     assert "multipliers lambda" not in lda["text"] and "accelerations qddot" not in lda["text"]
     assert list(lda["text"]["multipliers lambda on D"]) == ["lambda1(q, rdot, p, tau)"]
     assert r"\lambda_{1} = " in lda["latex"]["multipliers lambda on D"]
     jac = data["almost_poisson"]["text"]["Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"]
     assert list(jac) == ["Jac(x, pt1, pt2)", "Jac(y, pt1, pt2)", "Jac(theta, pt1, pt2)"]
-    assert data["system"]["latex"]["constraints"] == [r"- \dot{x} \sin{\left(\theta \right)} + \dot{y} "
-                                                      r"\cos{\left(\theta \right)}"]
+    assert data["system"]["latex"]["constraints"] == [
+        r"- \dot{x} \sin{\left(\theta \right)} + \dot{y} "
+        r"\cos{\left(\theta \right)}"
+    ]

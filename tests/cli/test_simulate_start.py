@@ -15,8 +15,22 @@ BOARD = ["--param", "m=1", "--param", "r=0.5", "--param", "J=0.18", "--param", "
 
 def test_the_board_starts_at_rest_even_off_phi_zero(tmp_path, capsys):
     # phi(0) = 0.5: the old default (momentum 0) gave x' and theta' != 0 at the start
-    code = main(["simulate", "snakeboard", *BOARD, "--shape", "psi=sin(2*pi*t)", "--shape", "phi=0.5*cos(2*pi*t)",
-                 "--t-final", "0.5", "--json", "--out", str(tmp_path)])
+    code = main(
+        [
+            "simulate",
+            "snakeboard",
+            *BOARD,
+            "--shape",
+            "psi=sin(2*pi*t)",
+            "--shape",
+            "phi=0.5*cos(2*pi*t)",
+            "--t-final",
+            "0.5",
+            "--json",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     out, err = capsys.readouterr()
     assert code == 0, err
     s = json.loads(out)

@@ -19,17 +19,22 @@ def spin(summary, m):
     return min(summary["equilibria"], key=lambda e: np.linalg.norm(np.array(e["m"]) - m))
 
 
-@pytest.mark.parametrize("k, expected", [(0.51, ("stable", "stable", "inconclusive")),
-                                         (0.49, ("inconclusive", "inconclusive", "unstable"))])
+@pytest.mark.parametrize(
+    "k, expected", [(0.51, ("stable", "stable", "inconclusive")), (0.49, ("inconclusive", "inconclusive", "unstable"))]
+)
 def test_stability_json_issue_example(capsys, k, expected):
-    code, out, err = run(capsys, "stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param",
-                         f"k={k}", "--json")
+    code, out, err = run(
+        capsys, "stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param", f"k={k}", "--json"
+    )
     assert code == 0, err
     s = json.loads(out)
     assert s["complete"] and len(s["equilibria"]) == 6
     e = spin(s, [0.0, 1.0, 0.0])
-    assert (e["verdicts"]["lagrange_dirichlet"], e["verdicts"]["energy_casimir"],
-            e["verdicts"]["linearisation"]) == expected
+    assert (
+        e["verdicts"]["lagrange_dirichlet"],
+        e["verdicts"]["energy_casimir"],
+        e["verdicts"]["linearisation"],
+    ) == expected
     # Hessian of h_p at (l, L) = (0, 0): diag(-(1/lambda2 - 1/lambda1) G^2, 1/I3 - 1/lambda2 - k/I3)
     assert e["chart_axis"] == 3 and abs(e["l"]) < 1e-12 and abs(e["L"]) < 1e-12
     np.testing.assert_allclose(e["hessian"], np.diag([-1 / 6, 0.5 - k]), atol=1e-13)
@@ -41,8 +46,27 @@ def test_stability_json_issue_example(capsys, k, expected):
 
 
 def test_stability_text_p_G_and_out(capsys, tmp_path):
-    code, out, err = run(capsys, "stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v + a*v**3",
-                         "--param", "k=0.3", "--param", "a=0.5", "--p", "0.1", "--G", "1.5", "--out", str(tmp_path))
+    code, out, err = run(
+        capsys,
+        "stability",
+        "--lambda",
+        "3",
+        "2",
+        "--I3",
+        "1",
+        "--phi",
+        "k*v + a*v**3",
+        "--param",
+        "k=0.3",
+        "--param",
+        "a=0.5",
+        "--p",
+        "0.1",
+        "--G",
+        "1.5",
+        "--out",
+        str(tmp_path),
+    )
     assert code == 0, err
     assert "Lagrange-Dirichlet" in out and "energy-Casimir" in out and "Poincare-Hopf" in out
     s = json.loads((tmp_path / "stability.json").read_text())
@@ -51,13 +75,47 @@ def test_stability_text_p_G_and_out(capsys, tmp_path):
 
 
 def test_three_rotors(capsys):
-    code, out, err = run(capsys, "stability", "--lambda", "3", "2", "1.2", "--phi", "0", "--phi", "0", "--phi",
-                         "k*v", "--param", "k=0.5", "--p", "0.05", "0", "0", "--json")
+    code, out, err = run(
+        capsys,
+        "stability",
+        "--lambda",
+        "3",
+        "2",
+        "1.2",
+        "--phi",
+        "0",
+        "--phi",
+        "0",
+        "--phi",
+        "k*v",
+        "--param",
+        "k=0.5",
+        "--p",
+        "0.05",
+        "0",
+        "0",
+        "--json",
+    )
     assert code == 0, err
     s = json.loads(out)
     assert s["model"]["kind"] == "diagonal" and s["complete"]
-    code, out, err = run(capsys, "stability", "--lambda", "3", "2", "1.2", "--phi", "3*c*m2", "--phi", "2*c*m1",
-                         "--phi", "0", "--param", "c=0.2", "--json")
+    code, out, err = run(
+        capsys,
+        "stability",
+        "--lambda",
+        "3",
+        "2",
+        "1.2",
+        "--phi",
+        "3*c*m2",
+        "--phi",
+        "2*c*m1",
+        "--phi",
+        "0",
+        "--param",
+        "c=0.2",
+        "--json",
+    )
     assert code == 0, err
     assert json.loads(out)["model"]["kind"] == "three-rotors"
 
@@ -65,8 +123,24 @@ def test_three_rotors(capsys):
 def test_stability_map_writes_figure_and_data(capsys, tmp_path):
     xr = pytest.importorskip("xarray")
     # k is swept: it needs no --param value
-    code, out, err = run(capsys, "stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v",
-                         "--x", "k=0.05:0.95:8", "--y", "lambda2=1.2:2.8:5", "--out", str(tmp_path), "--json")
+    code, out, err = run(
+        capsys,
+        "stability-map",
+        "--lambda",
+        "3",
+        "2",
+        "--I3",
+        "1",
+        "--phi",
+        "k*v",
+        "--x",
+        "k=0.05:0.95:8",
+        "--y",
+        "lambda2=1.2:2.8:5",
+        "--out",
+        str(tmp_path),
+        "--json",
+    )
     assert code == 0, err
     s = json.loads(out)
     assert s["counts"]["stable"] > 0 and s["counts"]["unstable"] > 0
@@ -85,18 +159,72 @@ def test_stability_map_writes_figure_and_data(capsys, tmp_path):
         (["stability", "--lambda", "3", "-2", "--I3", "1", "--phi", "k*v", "--param", "k=0.5"], "positive"),
         (["stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v + m1", "--param", "k=0.5"], "v alone"),
         (["stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v"], "'k'"),
-        (["stability", "--lambda", "3", "2", "1", "--phi", "a*m2", "--phi", "a*m1", "--phi", "0", "--param",
-          "a=0.3"], "no closed-loop Hamiltonian"),
+        (
+            [
+                "stability",
+                "--lambda",
+                "3",
+                "2",
+                "1",
+                "--phi",
+                "a*m2",
+                "--phi",
+                "a*m1",
+                "--phi",
+                "0",
+                "--param",
+                "a=0.3",
+            ],
+            "no closed-loop Hamiltonian",
+        ),
         (["stability", "--lambda", "3", "--I3", "1", "--phi", "v"], "expected 2 or 3 numbers"),
         (["stability", "--lambda", "3", "2", "1", "--phi", "m1 +", "--phi", "0", "--phi", "0"], "Could not parse"),
         (["stability", "--lambda", "3", "2", "1", "--phi", "v", "--phi", "0"], "three --phi"),
         (["stability", "--lambda", "3", "2", "--phi", "v"], "--I3"),
         (["stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param", "k=x"], "not a number"),
         (["stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param", "k=0.5", "--G", "0"], "positive"),
-        (["stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param", "k=0.5", "--x",
-          "k=0:1", "--y", "I3=0.5:1:3", "--out", "unused"], "NAME=START:STOP:N"),
-        (["stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param", "k=0.5", "--x",
-          "q=0:1:3", "--y", "I3=0.5:1:3", "--out", "unused"], "not a parameter"),
+        (
+            [
+                "stability-map",
+                "--lambda",
+                "3",
+                "2",
+                "--I3",
+                "1",
+                "--phi",
+                "k*v",
+                "--param",
+                "k=0.5",
+                "--x",
+                "k=0:1",
+                "--y",
+                "I3=0.5:1:3",
+                "--out",
+                "unused",
+            ],
+            "NAME=START:STOP:N",
+        ),
+        (
+            [
+                "stability-map",
+                "--lambda",
+                "3",
+                "2",
+                "--I3",
+                "1",
+                "--phi",
+                "k*v",
+                "--param",
+                "k=0.5",
+                "--x",
+                "q=0:1:3",
+                "--y",
+                "I3=0.5:1:3",
+                "--out",
+                "unused",
+            ],
+            "not a parameter",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_status_2(capsys, args, needle):

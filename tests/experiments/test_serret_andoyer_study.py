@@ -40,8 +40,13 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     np.testing.assert_allclose(first, np.broadcast_to(first[0], first.shape), atol=1e-12)
     # the data behind figure 7: (l, L) of every reduced approach on the level H_c, and the h_p grid
     reduced = [str(k) for k in ds.reduced_approach.values]
-    assert set(reduced) == {"reduced_adams", "reduced_generating", "reduced_midpoint", "reduced_gauss2",
-                            "reduced_gauss3"}
+    assert set(reduced) == {
+        "reduced_adams",
+        "reduced_generating",
+        "reduced_midpoint",
+        "reduced_gauss2",
+        "reduced_gauss3",
+    }
     assert ds.h_p.dims == ("L_grid", "l_grid") and ds.lL.attrs["units"]
     l0, L0 = ds.lL.sel(reduced_approach="reduced_midpoint").isel(time=0).values
     hp_at = ds.h_p.interp(l_grid=l0, L_grid=L0).item()
@@ -55,13 +60,27 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
         assert a["wall_time_s"] >= 0 and a["compile_time_s"] >= 0
     np.testing.assert_allclose(ds.compile_time.values, [per[k]["compile_time_s"] for k in ds.approach.values])
     # "whatever the method": the midpoint rule also runs on Euler's equations
-    assert "reduced_midpoint vs euler_midpoint" in summary["claims"]["reduced_form_better_whatever_the_method"][
-        "evidence"]
+    assert (
+        "reduced_midpoint vs euler_midpoint" in summary["claims"]["reduced_form_better_whatever_the_method"]["evidence"]
+    )
 
 
 def test_cli_lambda_sets_the_inertias(tmp_path, capsys):
-    code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path), "--t-final", "0.05", "--lambda", "1.3",
-                 "1.0", "--no-extras", "--json"])
+    code = main(
+        [
+            "reproduce",
+            "serret-andoyer",
+            "--out",
+            str(tmp_path),
+            "--t-final",
+            "0.05",
+            "--lambda",
+            "1.3",
+            "1.0",
+            "--no-extras",
+            "--json",
+        ]
+    )
     out, err = capsys.readouterr()
     assert code == 0, err
     assert json.loads(out)["parameters"]["lambda1"] == 1.3

@@ -29,8 +29,9 @@ ORDER_CASES = [
 
 @pytest.fixture(scope="module")
 def reference(closed_loop_reduced):
-    sol = solve_ivp(lambda t, y: closed_loop_reduced.vector_field(y), (0, T), Y0, method="DOP853",
-                    rtol=1e-13, atol=1e-14)
+    sol = solve_ivp(
+        lambda t, y: closed_loop_reduced.vector_field(y), (0, T), Y0, method="DOP853", rtol=1e-13, atol=1e-14
+    )
     return sol.y[:, -1]
 
 
@@ -57,8 +58,9 @@ def test_stormer_verlet_order_on_a_separable_problem(pendulum, fitted_order):
     ref = solve_ivp(lambda t, y: pendulum.vector_field(y), (0, t1), y0, method="DOP853", rtol=1e-13, atol=1e-14)
     ref = ref.y[:, -1]
     steps = np.array([20, 40, 80, 160, 320])
-    errors = [np.abs(solve(pendulum, "stormer_verlet", y0=y0, h=t1 / n, n_steps=n).states[-1] - ref).max()
-              for n in steps]
+    errors = [
+        np.abs(solve(pendulum, "stormer_verlet", y0=y0, h=t1 / n, n_steps=n).states[-1] - ref).max() for n in steps
+    ]
     assert abs(fitted_order(t1 / steps, errors) - 2) < 0.2
 
 
@@ -158,11 +160,15 @@ def test_agrees_with_the_exact_free_body_through_its_reduction(key, body):
     tol = {1: 0.1, 2: 1e-3, 4: 1e-6, 6: 1e-8, 12: 1e-5}[method.order]
     assert errors[1] < tol
     if method.order <= 6:
-        assert errors[0] / errors[1] > 2 ** method.order * 0.7
+        assert errors[0] / errors[1] > 2**method.order * 0.7
 
 
 SYMPLECTIC_KEYS = [
-    "symplectic_euler", "implicit_midpoint", "generating_function", "gauss_legendre_2", "gauss_legendre_3"
+    "symplectic_euler",
+    "implicit_midpoint",
+    "generating_function",
+    "gauss_legendre_2",
+    "gauss_legendre_3",
 ]
 
 
@@ -189,8 +195,14 @@ def test_non_symplectic_energy_error_drifts(key, closed_loop_reduced):
 
 # a step for each method at which its energy error (1e-10 to 1e-7 here) is far above round-off, so that a
 # drift would show against the 1e-14 allowance instead of hiding in the round-off random walk
-LONG_RUN_STEP = {"symplectic_euler": 0.01, "implicit_midpoint": 0.01, "gauss_legendre_1": 0.01,
-                 "generating_function": 0.01, "gauss_legendre_2": 0.1, "gauss_legendre_3": 0.4}
+LONG_RUN_STEP = {
+    "symplectic_euler": 0.01,
+    "implicit_midpoint": 0.01,
+    "gauss_legendre_1": 0.01,
+    "generating_function": 0.01,
+    "gauss_legendre_2": 0.1,
+    "gauss_legendre_3": 0.4,
+}
 
 
 @pytest.mark.slow

@@ -79,11 +79,12 @@ def test_agrees_with_the_exact_free_body(key, body):
     exact = body.exact_solution(m0).momentum(t1)
     method = REGISTRY[key]
     n = {2: 200, 4: 30, 6: 8, 12: 30}[method.order]
-    errors = [np.abs(solve(body, method, m0=m0, R0=R_START, h=t1 / s, t_final=t1).m[-1] - exact).max()
-              for s in (n, 2 * n)]
+    errors = [
+        np.abs(solve(body, method, m0=m0, R0=R_START, h=t1 / s, t_final=t1).m[-1] - exact).max() for s in (n, 2 * n)
+    ]
     assert errors[1] < {2: 1e-3, 4: 1e-6, 6: 1e-9, 12: 1e-5}[method.order]
     if method.order <= 6:
-        assert errors[0] / errors[1] > 2 ** method.order * 0.7
+        assert errors[0] / errors[1] > 2**method.order * 0.7
 
 
 CASIMIR_KEYS = ["strang", "splitting_4_yoshida", "splitting_4_suzuki", "lgvi", "lgvi_exp"]
@@ -143,8 +144,15 @@ def _discrete_lagrangian(system, h, param):
 @pytest.mark.parametrize("param", ["cayley", "exp"])
 def test_lgvi_solves_the_discrete_euler_lagrange_equations(param, closed_loop, m_start):
     h = 0.1
-    sol = solve(closed_loop, REGISTRY["lgvi" if param == "cayley" else "lgvi_exp"], m0=m_start, R0=R_START,
-                h=h, n_steps=3, newton_tol=1e-15)
+    sol = solve(
+        closed_loop,
+        REGISTRY["lgvi" if param == "cayley" else "lgvi_exp"],
+        m0=m_start,
+        R0=R_START,
+        h=h,
+        n_steps=3,
+        newton_tol=1e-15,
+    )
     R, m = sol.R, sol.m
     L_d = _discrete_lagrangian(closed_loop, h, param)
     eps = 1e-6
@@ -161,4 +169,3 @@ def test_lgvi_solves_the_discrete_euler_lagrange_equations(param, closed_loop, m
             assert abs(first + m[k, axis]) < 1e-8
             # so the discrete Euler-Lagrange equation D2 L_d + D1 L_d = 0 holds, and not trivially
             assert abs(second + first) < 2e-8 and abs(second) > 1e-3
-

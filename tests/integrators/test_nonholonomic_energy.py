@@ -19,16 +19,31 @@ from geomech.systems.nonholonomic_examples import chaplygin_ball, geared_body, k
 # (builder, parameters, initial data). Starts are chosen so the motion is non-trivial (every coordinate moves)
 # and stays away from the charts' singularities (the ball's theta = 0, the car's and bicycle's steering pi/2).
 CASES = {
-    "simplified_bicycle": (simplified_bicycle, dict(m=1.0, h=0.8, c=0.3, b=1.0, g=9.81, J_s=0.05),
-                           dict(q0={"phi": 0.1, "sigma": 0.2}, rdot0={"phi": 0.3, "sigma": -0.4}, p0=[1.5])),
-    "geared_body": (geared_body, dict(m=1.2, J=0.3, J0=0.2, k=0.7, a=0.4),
-                    dict(q0={"psi": 0.3}, rdot0={"psi": 1.1}, p0=[0.6, -0.4])),
-    "geared_body_scaled": (lambda **kw: geared_body(scaled=True, **kw), dict(m=1.2, J=0.3, J0=0.2, k=0.7, a=0.4),
-                           dict(q0={"psi": 0.3}, rdot0={"psi": 1.1}, p0=[0.6, -0.4])),
-    "kinematic_car": (kinematic_car, dict(m=1.0, I=0.2, R=0.3, ell=1.0, J=0.1, K=0.1),
-                      dict(q0={"phi": 0.2}, rdot0={"psi": 2.0, "phi": 0.3})),
-    "chaplygin_ball": (chaplygin_ball, dict(m=1.3, r=0.8, I1=0.4, I2=0.5, I3=0.7),
-                       dict(q0={"theta": 1.0, "psi": 0.3}, rdot0={"theta": 0.5, "psi": 1.0}, p0=[0.3])),
+    "simplified_bicycle": (
+        simplified_bicycle,
+        dict(m=1.0, h=0.8, c=0.3, b=1.0, g=9.81, J_s=0.05),
+        dict(q0={"phi": 0.1, "sigma": 0.2}, rdot0={"phi": 0.3, "sigma": -0.4}, p0=[1.5]),
+    ),
+    "geared_body": (
+        geared_body,
+        dict(m=1.2, J=0.3, J0=0.2, k=0.7, a=0.4),
+        dict(q0={"psi": 0.3}, rdot0={"psi": 1.1}, p0=[0.6, -0.4]),
+    ),
+    "geared_body_scaled": (
+        lambda **kw: geared_body(scaled=True, **kw),
+        dict(m=1.2, J=0.3, J0=0.2, k=0.7, a=0.4),
+        dict(q0={"psi": 0.3}, rdot0={"psi": 1.1}, p0=[0.6, -0.4]),
+    ),
+    "kinematic_car": (
+        kinematic_car,
+        dict(m=1.0, I=0.2, R=0.3, ell=1.0, J=0.1, K=0.1),
+        dict(q0={"phi": 0.2}, rdot0={"psi": 2.0, "phi": 0.3}),
+    ),
+    "chaplygin_ball": (
+        chaplygin_ball,
+        dict(m=1.3, r=0.8, I1=0.4, I2=0.5, I3=0.7),
+        dict(q0={"theta": 1.0, "psi": 0.3}, rdot0={"theta": 0.5, "psi": 1.0}, p0=[0.3]),
+    ),
 }
 T_FINAL = 2.0
 #: The ball's BKMM reduction (needed for its initial state and momentum) takes ~15 s to derive.
@@ -66,7 +81,7 @@ def test_full_and_reduced_simulators_conserve_energy(name):
     assert full.max_residual < 1e-9 and reduced.max_residual < 1e-12
     np.testing.assert_allclose(full.q, reduced.q, atol=1e-8)
     # the motion is not trivial: the shapes and the group move
-    assert np.ptp(full.q[:, s.k:], axis=0).min() > 0.05 and np.ptp(full.q[:, :s.k], axis=0).max() > 0.1
+    assert np.ptp(full.q[:, s.k :], axis=0).min() > 0.05 and np.ptp(full.q[:, : s.k], axis=0).max() > 0.1
 
 
 @pytest.mark.parametrize("name", _names(SLOW))

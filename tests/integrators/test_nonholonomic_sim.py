@@ -50,12 +50,15 @@ def test_discrete_integrator_converges_at_second_order():
     assert abs(c.work[-1] - ref.work[-1]) < 1e-3 and c.max_residual < 1e-3
 
 
-@pytest.mark.parametrize("build, q0, rdot0", [
-    (snakeboard, {"phi": 0.3}, {"psi": 0.7, "phi": 0.1}),
-    (roller_racer, {"phi": 0.4}, {"phi": 0.8}),
-    (chaplygin_sleigh, {}, {}),
-    (rolling_disk, {}, {"phi": 0.9}),
-])
+@pytest.mark.parametrize(
+    "build, q0, rdot0",
+    [
+        (snakeboard, {"phi": 0.3}, {"psi": 0.7, "phi": 0.1}),
+        (roller_racer, {"phi": 0.4}, {"phi": 0.8}),
+        (chaplygin_sleigh, {}, {}),
+        (rolling_disk, {}, {"phi": 0.9}),
+    ],
+)
 def test_energy_is_conserved_with_free_shapes_and_no_torque(build, q0, rdot0, rng):
     s = build()
     s = s.with_parameters(**{p.name: float(rng.uniform(0.6, 1.4)) for p in s.parameter_symbols})
@@ -79,8 +82,11 @@ def test_rolling_disk_exact_solution(sim):
     I, R, nu, w = 0.7, 0.4, 1.3, 0.9
     s = rolling_disk(m=1.2, R=R, I=I, J=0.3)
     kw = dict(rdot0={"phi": nu}, p0=[I * w])
-    tr = (simulate_discrete(s, 2.0, 0.01, **kw) if sim == "discrete" else
-          (simulate_full if sim == "full" else simulate_reduced)(s, 2.0, samples=21, **kw))
+    tr = (
+        simulate_discrete(s, 2.0, 0.01, **kw)
+        if sim == "discrete"
+        else (simulate_full if sim == "full" else simulate_reduced)(s, 2.0, samples=21, **kw)
+    )
     t = tr.t
     exact = np.stack([R * nu / w * np.sin(w * t), -R * nu / w * (np.cos(w * t) - 1), w * t, nu * t], -1)
     tol = 1e-4 if sim == "discrete" else 1e-9
@@ -149,7 +155,7 @@ def test_gait_derivatives_are_exact():
     g = Gait.from_expressions({"psi": "sin(2*pi*t)"})
     r, rd, rdd = g(0.1)
     w = 2 * np.pi
-    np.testing.assert_allclose([r[0], rd[0], rdd[0]], [np.sin(w * 0.1), w * np.cos(w * 0.1), -w**2 * np.sin(w * 0.1)])
+    np.testing.assert_allclose([r[0], rd[0], rdd[0]], [np.sin(w * 0.1), w * np.cos(w * 0.1), -(w**2) * np.sin(w * 0.1)])
 
 
 def test_trajectory_csv(tmp_path):
@@ -157,8 +163,12 @@ def test_trajectory_csv(tmp_path):
     path = tr.to_csv(tmp_path / "traj.csv")
     rows = path.read_text().splitlines()
     assert rows[0].startswith("t,x,y,theta,psi,phi,x_dot") and len(rows) == 7
-    assert set(tr.summary()) >= {"final_configuration", "nonholonomic_momentum", "constraint_residual_max",
-                                 "work_by_shape_inputs"}
+    assert set(tr.summary()) >= {
+        "final_configuration",
+        "nonholonomic_momentum",
+        "constraint_residual_max",
+        "work_by_shape_inputs",
+    }
 
 
 def test_principally_kinematic_system_simulates_in_all_three_ways():

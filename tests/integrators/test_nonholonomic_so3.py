@@ -127,8 +127,11 @@ def test_chaplygin_ball_keeps_its_angular_momentum_about_the_contact_point():
         for j in range(3):
             dq = np.zeros(3)
             dq[j] = eps
-            dR += (euler.as_matrix(tr.q[:, 2:5] + dq, seq="ZXZ") - euler.as_matrix(tr.q[:, 2:5] - dq, seq="ZXZ")) \
-                / (2 * eps) * tr.qd[:, 2 + j, None, None]
+            dR += (
+                (euler.as_matrix(tr.q[:, 2:5] + dq, seq="ZXZ") - euler.as_matrix(tr.q[:, 2:5] - dq, seq="ZXZ"))
+                / (2 * eps)
+                * tr.qd[:, 2 + j, None, None]
+            )
         omega_hat = np.swapaxes(R, 1, 2) @ dR
         omega = np.stack([omega_hat[:, 2, 1], omega_hat[:, 0, 2], omega_hat[:, 1, 0]], -1)
         Omega = np.einsum("nij,nj->ni", R, omega)

@@ -37,8 +37,9 @@ def test_periodic_orbit_refuses_systems_and_reports_a_separatrix():
     I1, I2, I3 = 1.0, 2.0, 3.0
     a = np.sqrt((1 / I2 - 1 / I3) / (1 / I1 - 1 / I3))  # m1^2/I1 + m3^2/I3 = 1/I2 with m1^2 + m3^2 = 1
     m_sep = np.array([a, 0.0, np.sqrt(1 - a * a)])
-    sol = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0,
-                raise_on_failure=False)
+    sol = solve(
+        red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0, raise_on_failure=False
+    )
     assert sol.status == "not_periodic" and "separatrix" in sol.message
     with pytest.raises(NumericalError, match="separatrix"):
         solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0)
@@ -74,7 +75,13 @@ def test_quadrature_reports_a_separatrix_as_status_data():
     red = GeneralizedSerretAndoyer(body).reduced_system(1.0)
     a = np.sqrt((1 / 2.0 - 1 / 3.0) / (1 / 1.0 - 1 / 3.0))
     m_sep = np.array([a, 0.0, np.sqrt(1 - a * a)])
-    sol = solve(red, gm.integrators.Quadrature(L_bounds=(-1.0, 1.0)), y0=CHART.forward(m_sep), h=1.0,
-                t_final=5.0, raise_on_failure=False)
+    sol = solve(
+        red,
+        gm.integrators.Quadrature(L_bounds=(-1.0, 1.0)),
+        y0=CHART.forward(m_sep),
+        h=1.0,
+        t_final=5.0,
+        raise_on_failure=False,
+    )
     assert sol.status == "not_periodic" and "separatrix" in sol.message
     assert np.all(np.isnan(sol.states[1:])) and np.all(sol.states[0] == CHART.forward(m_sep))

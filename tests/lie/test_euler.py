@@ -35,9 +35,7 @@ def regular_angles(seq: str, n: int, rng: np.random.Generator, margin: float = 0
 def test_as_matrix_matches_scipy(seq):
     rng = np.random.default_rng(0)
     angles = rng.uniform(-7, 7, size=(30, 3))
-    np.testing.assert_allclose(
-        euler.as_matrix(angles, seq), Rotation.from_euler(seq, angles).as_matrix(), atol=1e-14
-    )
+    np.testing.assert_allclose(euler.as_matrix(angles, seq), Rotation.from_euler(seq, angles).as_matrix(), atol=1e-14)
 
 
 @pytest.mark.parametrize("seq", ALL)

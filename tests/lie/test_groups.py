@@ -35,11 +35,24 @@ CASES = [
     ("SO3xSO3", SO3("a1", "b1", "c1") * SO3("a2", "b2", "c2"), [[0, 1, 2], [3, 4, 5]]),
     # the generic group, by matrix functions: so(3) from its basis, SE(2) with a user's chart, Heisenberg
     ("matrix-so3", MatrixGroup("so3 by basis", SO3().sympy_basis()), [[0, 1, 2]]),
-    ("matrix-se2", MatrixGroup("se2 by chart", SE2().sympy_basis(), coordinates=(_x, _y, _t),
-                               matrix=sp.Matrix([[sp.cos(_t), -sp.sin(_t), _x], [sp.sin(_t), sp.cos(_t), _y],
-                                                 [0, 0, 1]]), angles=(2,)), [[2]]),
-    ("heisenberg", MatrixGroup("Heisenberg", _HEISENBERG, coordinates=(_x, _y, _t),
-                               matrix=sp.Matrix([[1, _x, _t], [0, 1, _y], [0, 0, 1]])), []),
+    (
+        "matrix-se2",
+        MatrixGroup(
+            "se2 by chart",
+            SE2().sympy_basis(),
+            coordinates=(_x, _y, _t),
+            matrix=sp.Matrix([[sp.cos(_t), -sp.sin(_t), _x], [sp.sin(_t), sp.cos(_t), _y], [0, 0, 1]]),
+            angles=(2,),
+        ),
+        [[2]],
+    ),
+    (
+        "heisenberg",
+        MatrixGroup(
+            "Heisenberg", _HEISENBERG, coordinates=(_x, _y, _t), matrix=sp.Matrix([[1, _x, _t], [0, 1, _y], [0, 0, 1]])
+        ),
+        [],
+    ),
 ]
 IDS = [c[0] for c in CASES]
 GENERIC = {"matrix-so3", "matrix-se2", "heisenberg"}
@@ -438,9 +451,9 @@ def test_twin_structure_constants_and_Ad_are_the_numeric_ones(case, rng):
 def test_so3_body_velocity_is_the_textbook_313_formula():
     chart = GroupChart(SO3())
     phi, th, psi = chart.coordinates
-    want = sp.Matrix([[sp.sin(th) * sp.sin(psi), sp.cos(psi), 0],
-                      [sp.sin(th) * sp.cos(psi), -sp.sin(psi), 0],
-                      [sp.cos(th), 0, 1]])
+    want = sp.Matrix(
+        [[sp.sin(th) * sp.sin(psi), sp.cos(psi), 0], [sp.sin(th) * sp.cos(psi), -sp.sin(psi), 0], [sp.cos(th), 0, 1]]
+    )
     assert sp.simplify(chart.body_velocity_matrix - want) == sp.zeros(3, 3)
 
 

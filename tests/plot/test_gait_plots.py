@@ -15,8 +15,9 @@ from geomech.systems.nonholonomic_examples import snakeboard_bkmm  # noqa: E402
 @pytest.fixture(scope="module")
 def analysis():
     model = GaitModel(snakeboard_bkmm(m=1.0, r=1.0, J0=0.3, J1=0.1))
-    return analyse_gait(model, {"psi": "sin(2*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}, period=1.0, periods=2,
-                        samples_per_period=41)
+    return analyse_gait(
+        model, {"psi": "sin(2*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}, period=1.0, periods=2, samples_per_period=41
+    )
 
 
 def test_paths_full_and_parts(analysis):
@@ -44,8 +45,9 @@ def test_connection_field_and_curvature(analysis):
     X = np.asarray(q.X).reshape(7, 7)
     Y = np.asarray(q.Y).reshape(7, 7)
     A = analysis.model.connection(np.stack([X, Y], -1))[..., 2, :]
-    assert np.allclose(np.asarray(q.U).reshape(7, 7), -A[..., 0]) and np.allclose(np.asarray(q.V).reshape(7, 7),
-                                                                                   -A[..., 1])
+    assert np.allclose(np.asarray(q.U).reshape(7, 7), -A[..., 0]) and np.allclose(
+        np.asarray(q.V).reshape(7, 7), -A[..., 1]
+    )
     plt.close(ax.figure)
     ax = gait_curvature_map(analysis, n=31, bounds=(-1.0, 1.0, -0.6, 0.6))
     B = np.asarray(ax.collections[0].get_array()).reshape(31, 31)

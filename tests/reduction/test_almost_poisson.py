@@ -68,14 +68,14 @@ def test_almost_poisson_dynamics_is_the_lagrange_dalembert_flow(name, rng):
     for _ in range(2):
         q = rng.uniform(-1, 1, s.n)
         A = num.constraint_matrix(q).reshape(s.c, s.n)
-        qd = np.linalg.svd(A)[2][s.c:].T @ rng.uniform(-1, 1, s.n - s.c)
+        qd = np.linalg.svd(A)[2][s.c :].T @ rng.uniform(-1, 1, s.n - s.c)
         qdd, _ = num.solve(q, qd)
         pt = f["pt"](np.r_[q, qd])[:, 0]
         z = np.r_[q, pt]
         zdot = f["J"](z) @ f["gradH"](z)[:, 0]
         Jq, Jv = (np.asarray(a, dtype=float) for a in grad(q, qd))
         np.testing.assert_allclose(zdot[: s.n], qd, atol=1e-11)
-        np.testing.assert_allclose(zdot[s.n:], Jq @ qd + Jv @ qdd, atol=1e-10)
+        np.testing.assert_allclose(zdot[s.n :], Jq @ qd + Jv @ qdd, atol=1e-10)
         # the point of M: p(q, pt) = FL(qdot)
         np.testing.assert_allclose(f["p"](z)[:, 0], num.mass_matrix(q) @ qd, atol=1e-11)
 
@@ -116,8 +116,9 @@ def test_printed_sign_of_the_curvature_term_fails(rng):
     s = EXAMPLES["snakeboard"]()
     pr, red = poisson_reduction(s), bkmm_reduction(s)
     rd = sp.Matrix(red.rdot)
-    term = [sum(red.mu[a] * (sp.Matrix(red.curvature[a])[al, :] * rd)[0, 0] for a in range(s.k))
-            for al in range(s.sigma)]
+    term = [
+        sum(red.mu[a] * (sp.Matrix(red.curvature[a])[al, :] * rd)[0, 0] for a in range(s.k)) for al in range(s.sigma)
+    ]
     syms = sorted(set().union(*[sp.sympify(t).free_symbols for t in term]), key=str)
     f = sp.lambdify(syms, term)
     assert np.abs(np.asarray(f(*rng.uniform(0.5, 1.5, len(syms))), dtype=float)).max() > 1e-3
@@ -146,8 +147,12 @@ def test_reduced_legendre_transform_and_constrained_lagrangian():
 def test_reduced_bracket_of_the_snakeboard_is_not_poisson():
     pr = poisson_reduction(EXAMPLES["snakeboard_bkmm"]())
     J, z = pr.tensor, pr.z
-    jac = [simplify_expr(jacobiator(J, z, i, j, k)) for i in range(len(z)) for j in range(i + 1, len(z))
-           for k in range(j + 1, len(z))]
+    jac = [
+        simplify_expr(jacobiator(J, z, i, j, k))
+        for i in range(len(z))
+        for j in range(i + 1, len(z))
+        for k in range(j + 1, len(z))
+    ]
     assert any(v != 0 for v in jac)
     assert J == -J.T
 
@@ -168,7 +173,8 @@ def test_jacobiators_are_printed_with_their_indices_all_types_simplified(name, r
     ap = almost_poisson(EXAMPLES[name]())
     s, z, d = ap.system, ap.z, ap.X.cols
     printed = json.loads(ap.to_json())["text"][
-        "Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"]
+        "Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"
+    ]
     keys = ap._keys()
     assert list(printed) == [f"Jac({z[i]}, {z[j]}, {z[k]})" for i, j, k in keys]
     assert len(keys) == s.n * d * (d - 1) // 2 + d * (d - 1) * (d - 2) // 6

@@ -52,10 +52,16 @@ def _jacobian(f, x, angle_out, h=1e-3):
 
 def random_sa(rng, n):
     G = rng.uniform(0.5, 3.0, n)
-    return np.column_stack([
-        rng.uniform(-3, 3, n), rng.uniform(-3, 3, n), rng.uniform(-3, 3, n),
-        G * rng.uniform(-0.9, 0.9, n), G, G * rng.uniform(-0.9, 0.9, n),
-    ])
+    return np.column_stack(
+        [
+            rng.uniform(-3, 3, n),
+            rng.uniform(-3, 3, n),
+            rng.uniform(-3, 3, n),
+            G * rng.uniform(-0.9, 0.9, n),
+            G,
+            G * rng.uniform(-0.9, 0.9, n),
+        ]
+    )
 
 
 def random_body(rng):
@@ -112,8 +118,14 @@ def test_forward_gives_G_norm_H_Phi_L_Psi(rng):
         assert np.allclose(SA.from_body(R, m), sa, atol=1e-12)
 
 
-@given(st.floats(-3.1, 3.1), st.floats(-3.1, 3.1), st.floats(-3.1, 3.1), st.floats(-0.999, 0.999),
-       st.floats(0.1, 10.0), st.floats(-0.999, 0.999))
+@given(
+    st.floats(-3.1, 3.1),
+    st.floats(-3.1, 3.1),
+    st.floats(-3.1, 3.1),
+    st.floats(-0.999, 0.999),
+    st.floats(0.1, 10.0),
+    st.floats(-0.999, 0.999),
+)
 def test_round_trips(l, g, h, L_ratio, G, H_ratio):
     sa = np.array([l, g, h, L_ratio * G, G, H_ratio * G])
     R, m = SA.to_body(sa)
@@ -219,8 +231,9 @@ def test_eq11b_needs_the_sign_of_L(rng):
 def euler_period_check(inertia, m0, T):
     """m(T) = m0 by direct integration, and m does not come back to m0 at T/2 (least period)."""
     I = np.array(inertia)
-    sol = solve_ivp(lambda t, m: np.cross(m, m / I), (0, T), m0, method="DOP853", rtol=1e-12, atol=1e-12,
-                    t_eval=[T / 2, T])
+    sol = solve_ivp(
+        lambda t, m: np.cross(m, m / I), (0, T), m0, method="DOP853", rtol=1e-12, atol=1e-12, t_eval=[T / 2, T]
+    )
     return np.abs(sol.y[:, -1] - m0).max(), np.abs(sol.y[:, 0] - m0).max()
 
 

@@ -55,7 +55,7 @@ def test_reduced_equations_agree_with_the_full_equations(name, kw, rng):
         assert np.abs(num.constraint_residual(q, qd)).max(initial=0) < 1e-12
         np.testing.assert_allclose(rn.momentum(q, qd), p, atol=1e-12)
         np.testing.assert_allclose(Jq @ qd + Jv @ qdd, rn.pdot(r, rd, p), atol=1e-11)
-        np.testing.assert_allclose(qdd[s.k:], rn.rddot(r, rd, p, tau), atol=1e-10)
+        np.testing.assert_allclose(qdd[s.k :], rn.rddot(r, rd, p, tau), atol=1e-10)
 
 
 @pytest.mark.parametrize("name", ["snakeboard_bkmm", "rolling_disk", "geared_body"])
@@ -91,8 +91,13 @@ def test_momentum_coefficients_reproduce_the_momentum_equation(name):
     s = red.system
     xi, mu, E = sp.Matrix(red.reconstruction), red.mu, sp.Matrix(red.basis)
     for i in range(red.m):
-        direct = (mu.T * (s.group.bracket(list(xi), list(E[:, i])) + sum(
-            (sp.diff(E[:, i], r) * v for r, v in zip(red.r, red.rdot)), sp.zeros(s.k, 1))))[0, 0]
+        direct = (
+            mu.T
+            * (
+                s.group.bracket(list(xi), list(E[:, i]))
+                + sum((sp.diff(E[:, i], r) * v for r, v in zip(red.r, red.rdot)), sp.zeros(s.k, 1))
+            )
+        )[0, 0]
         assert simplify_expr(direct - red.momentum_rhs[i]) == 0
 
 
@@ -193,8 +198,9 @@ def test_default_basis_is_the_cleared_null_space():
     from geomech.systems.nonholonomic import NonholonomicSystem
 
     s = snakeboard()
-    plain = NonholonomicSystem.from_lagrangian(s.lagrangian, SE2(*s.group.coordinates), s.shape,
-                                               [list(row) for row in s.constraint_matrix.tolist()])
+    plain = NonholonomicSystem.from_lagrangian(
+        s.lagrangian, SE2(*s.group.coordinates), s.shape, [list(row) for row in s.constraint_matrix.tolist()]
+    )
     red = bkmm_reduction(plain)
     phi, r = plain.shape[1], _sym(s, "r")
     assert red.basis == sp.Matrix([-r * sp.cos(phi), 0, sp.sin(phi)])
@@ -246,8 +252,7 @@ def test_multipliers_on_the_distribution():
     for _ in range(3):
         q, qd, r, rd, p = _reduced_state(s, red, rn, rng)
         tau = rng.uniform(-1, 1, s.sigma)
-        sub = {**values, **dict(zip(s.q, q)), **dict(zip(s.qdot, qd)), **dict(zip(red.p, p)),
-               **dict(zip(lda.tau, tau))}
+        sub = {**values, **dict(zip(s.q, q)), **dict(zip(s.qdot, qd)), **dict(zip(red.p, p)), **dict(zip(lda.tau, tau))}
         full = np.array([float(e.subs(sub)) for e in lda.multipliers])
         np.testing.assert_allclose([float(e.subs(sub)) for e in short], full, rtol=1e-10, atol=1e-12)
 
@@ -262,8 +267,9 @@ def test_constraint_complement_is_the_kinetic_orthogonal_right_inverse(name, rng
     s = EXAMPLES[name]()
     lda = lagrange_dalembert(s)
     Z, X = sp.Matrix(lda.constraint_complement), sp.Matrix(lda.projected_equations[1])
-    f = sp.lambdify(list(s.q) + list(s.parameter_symbols),
-                    [sp.Matrix(s.constraint_matrix) * Z, X.T * sp.Matrix(s.mass_matrix) * Z])
+    f = sp.lambdify(
+        list(s.q) + list(s.parameter_symbols), [sp.Matrix(s.constraint_matrix) * Z, X.T * sp.Matrix(s.mass_matrix) * Z]
+    )
     for _ in range(3):
         AZ, XMZ = (np.asarray(v, dtype=float) for v in f(*rng.uniform(0.3, 1.3, s.n + len(s.parameter_symbols))))
         np.testing.assert_allclose(AZ, np.eye(s.c), atol=1e-12)
@@ -310,15 +316,22 @@ def test_a_new_process_reads_the_disk_cache(tmp_path):
     import subprocess
     import sys
 
-    code = ("import json; from geomech.reduction.nonholonomic import bkmm_reduction; "
-            "from geomech.symbolic import cache as ns; "
-            "from geomech.systems.nonholonomic_examples import chaplygin_sleigh; "
-            "d = bkmm_reduction(chaplygin_sleigh()).to_dict(); "
-            "print(json.dumps([d, ns.DISK_CACHE.hits, ns.DISK_CACHE.misses]))")
+    code = (
+        "import json; from geomech.reduction.nonholonomic import bkmm_reduction; "
+        "from geomech.symbolic import cache as ns; "
+        "from geomech.systems.nonholonomic_examples import chaplygin_sleigh; "
+        "d = bkmm_reduction(chaplygin_sleigh()).to_dict(); "
+        "print(json.dumps([d, ns.DISK_CACHE.hits, ns.DISK_CACHE.misses]))"
+    )
 
     def run():
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                             env={**os.environ, "GEOMECH_CACHE_DIR": str(tmp_path)})
+        out = subprocess.run(
+            [sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            check=True,
+            env={**os.environ, "GEOMECH_CACHE_DIR": str(tmp_path)},
+        )
         return json.loads(out.stdout)
 
     first, hits1, misses1 = run()

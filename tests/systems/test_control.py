@@ -31,12 +31,21 @@ def simulate_closed_loop(body, control, m0, t, R0=None):
     "make",
     [
         lambda: (ONE, SPC.one_rotor(ONE, "k*v + a*v**3", parameters={"k": 0.6, "a": 0.3}, p=0.05)),
-        lambda: (THREE, SPC.diagonal(THREE, ["a*v", "b*sin(v)", "k*v"], parameters={"a": 0.2, "b": 0.3, "k": 0.5},
-                                     p=[0.02, -0.03, 0.01])),
+        lambda: (
+            THREE,
+            SPC.diagonal(
+                THREE, ["a*v", "b*sin(v)", "k*v"], parameters={"a": 0.2, "b": 0.3, "k": 0.5}, p=[0.02, -0.03, 0.01]
+            ),
+        ),
         lambda: (THREE, SPC.three_rotors(THREE, ["3*c*m2", "2*c*m1", "k*m3"], parameters={"c": 0.2, "k": 0.4})),
-        lambda: (PYRAMID, SPC.general(PYRAMID, [f"c*({float(a[0])}*m1 + {float(a[1])}*m2 + {float(a[2])}*m3)"
-                                               for a in PYRAMID.axes],
-                                      parameters={"c": 0.3})),
+        lambda: (
+            PYRAMID,
+            SPC.general(
+                PYRAMID,
+                [f"c*({float(a[0])}*m1 + {float(a[1])}*m2 + {float(a[2])}*m3)" for a in PYRAMID.axes],
+                parameters={"c": 0.3},
+            ),
+        ),
     ],
     ids=["one-rotor", "corollary-2", "proposition-5", "pyramid"],
 )
@@ -73,12 +82,17 @@ def test_eq29a_sign_checked_against_eq30c(rng):
     # with the sign printed in eq. (29a), p = Gamma - phi(m3) drifts along the motion
     t = np.linspace(0.0, 20.0, 201)
     m0 = np.array([0.5, 0.8, 0.3])
-    printed = ONE.simulate(t, m0=m0, Gamma0=control.rotor_momentum(m0),
-                           torque=lambda t, R, m, g, G: control.eq29a_torque(m, as_printed=True))
+    printed = ONE.simulate(
+        t,
+        m0=m0,
+        Gamma0=control.rotor_momentum(m0),
+        torque=lambda t, R, m, g, G: control.eq29a_torque(m, as_printed=True),
+    )
     p = control.conserved_p(printed.m, printed.Gamma)
     assert np.abs(p - p[0]).max() > 1e-2
-    corrected = ONE.simulate(t, m0=m0, Gamma0=control.rotor_momentum(m0),
-                             torque=lambda t, R, m, g, G: control.eq29a_torque(m))
+    corrected = ONE.simulate(
+        t, m0=m0, Gamma0=control.rotor_momentum(m0), torque=lambda t, R, m, g, G: control.eq29a_torque(m)
+    )
     p = control.conserved_p(corrected.m, corrected.Gamma)
     assert np.abs(p - p[0]).max() < 1e-10
 
@@ -167,8 +181,10 @@ def test_closed_loop_hamiltonian_eq29b_with_its_constant_fixed_at_zero(rng):
     control = SPC.one_rotor(ONE, "k*v + a*v**3", parameters={"k": 0.6, "a": 0.3}, p=0.05)
     lam1, lam2, I3 = 3.0, 2.0, 1.0
     m = rng.normal(size=(10, 3))
-    expected = 0.5 * (m[:, 0] ** 2 / lam1 + m[:, 1] ** 2 / lam2 + m[:, 2] ** 2 / I3) - (
-        0.3 * m[:, 2] ** 2 + 0.3 * m[:, 2] ** 4 / 4 + 0.05 * m[:, 2]) / I3
+    expected = (
+        0.5 * (m[:, 0] ** 2 / lam1 + m[:, 1] ** 2 / lam2 + m[:, 2] ** 2 / I3)
+        - (0.3 * m[:, 2] ** 2 + 0.3 * m[:, 2] ** 4 / 4 + 0.05 * m[:, 2]) / I3
+    )
     np.testing.assert_allclose(control.closed_loop_hamiltonian(m), expected, rtol=1e-13, atol=1e-15)
     assert control.closed_loop_hamiltonian(np.zeros(3)) == 0.0
     assert isinstance(control.closed_loop(), LeftInvariantSystem)
@@ -204,8 +220,9 @@ def test_lemma4_check_can_fail():
     control = SPC.one_rotor(ONE, "k*v", parameters={"k": 0.6})
     assert control.lemma4_check().passed(1e-13)
     # a wrong H_c (the constant-free sign of the rotor term flipped) is caught
-    control.hamiltonian_expression = control.hamiltonian_expression + 2 * sp.Symbol("k", real=True) * sp.Symbol(
-        "m3", real=True) ** 2 / 2
+    control.hamiltonian_expression = (
+        control.hamiltonian_expression + 2 * sp.Symbol("k", real=True) * sp.Symbol("m3", real=True) ** 2 / 2
+    )
     assert not control.lemma4_check().passed(1e-3)
 
 
@@ -248,8 +265,9 @@ def test_eq32_equals_h_p_and_eq34_differs_by_a_constant(rng):
     pts = rng.uniform([-3, -0.9, 1.0], [3, 0.9, 1.5], size=(20, 3))
     assert np.abs(f(*pts.T)).max() < 1e-13
     lin = SPC.one_rotor(ONE, "k*v + c", parameters={"k": 0.3, "c": 0.05}, p=0.07)
-    d = sp.lambdify([l_SYM, L_SYM, G_SYM],
-                    cf.eq34_reduced_hamiltonian(lin) - cf.closed_loop_reduced_expression(lin))(*pts.T)
+    d = sp.lambdify([l_SYM, L_SYM, G_SYM], cf.eq34_reduced_hamiltonian(lin) - cf.closed_loop_reduced_expression(lin))(
+        *pts.T
+    )
     np.testing.assert_allclose(d, (0.07 + 0.05) ** 2 / (2 * 1.0 * 0.7), rtol=1e-12)
 
 
@@ -270,15 +288,17 @@ def test_locked_rotor_reproduces_the_free_rigid_body():
 
 def test_eq43_equals_h_p():
     control = SPC.diagonal(THREE, ["0", "0", "k*v + a*v**3"], parameters={"k": 0.4, "a": 0.2}, p=[0.1, -0.2, 0.05])
-    d = sp.lambdify([l_SYM, L_SYM, G_SYM],
-                    cf.closed_loop_reduced_expression(control) - cf.eq43_reduced_hamiltonian(control))
+    d = sp.lambdify(
+        [l_SYM, L_SYM, G_SYM], cf.closed_loop_reduced_expression(control) - cf.eq43_reduced_hamiltonian(control)
+    )
     pts = np.random.default_rng(2).uniform([-3, -0.9, 1.0], [3, 0.9, 1.5], size=(20, 3))
     assert np.abs(d(*pts.T)).max() < 1e-13
 
 
 def test_eq42_as_printed_leaves_a_function_of_L_undetermined():
-    control = SPC.diagonal(THREE, ["a*v", "b*v**2", "k*v"], parameters={"a": 0.2, "b": 0.3, "k": 0.4},
-                           p=[0.1, 0.2, 0.05])
+    control = SPC.diagonal(
+        THREE, ["a*v", "b*v**2", "k*v"], parameters={"a": 0.2, "b": 0.3, "k": 0.4}, p=[0.1, 0.2, 0.05]
+    )
     hp = cf.closed_loop_reduced_expression(control)
     e42 = cf.eq42_reduced_hamiltonian(control)
     diff = hp - e42

@@ -105,8 +105,10 @@ def test_from_lagrangian_rejects_what_is_not_invariant_or_not_simple():
 
 def test_invariant_user_lagrangian_with_positions_through_g():
     # A point mass on a rotating arm written in inertial coordinates: SE(2)-invariant after all.
-    L = ("(x_dot**2 + y_dot**2)/2 + (x_dot - r_dot*sin(theta) - r*cos(theta)*theta_dot)**2/2"
-         " + (y_dot + r_dot*cos(theta) - r*sin(theta)*theta_dot)**2/2 + theta_dot**2/2")
+    L = (
+        "(x_dot**2 + y_dot**2)/2 + (x_dot - r_dot*sin(theta) - r*cos(theta)*theta_dot)**2/2"
+        " + (y_dot + r_dot*cos(theta) - r*sin(theta)*theta_dot)**2/2 + theta_dot**2/2"
+    )
     s = HolonomicSystem.from_lagrangian(L, "SE2", ["r"])
     assert not any(s.reduced_mass_matrix.has(a) for a in s.group_coordinates)
 

@@ -27,7 +27,7 @@ def _random_state(system, num, rng):
     q = rng.uniform(-1.0, 1.0, system.n)
     A = num.constraint_matrix(q).reshape(system.c, system.n)
     _, _, vt = np.linalg.svd(A) if system.c else (None, None, np.eye(system.n))
-    qd = vt[system.c:].T @ rng.uniform(-1.0, 1.0, system.n - system.c)
+    qd = vt[system.c :].T @ rng.uniform(-1.0, 1.0, system.n - system.c)
     return q, qd
 
 
@@ -61,16 +61,15 @@ def test_lagrange_dalembert_against_sympy_lagranges_method(name, kw, rng):
         FF = np.array(forcing.subs(rep).evalf(), dtype=float).ravel()
         x = np.linalg.solve(MM, FF)
         qdd, lam = num.solve(q, qd, tau)
-        np.testing.assert_allclose(x[s.n: 2 * s.n], qdd, atol=1e-10)
-        np.testing.assert_allclose(x[2 * s.n:], lam, atol=1e-10)
+        np.testing.assert_allclose(x[s.n : 2 * s.n], qdd, atol=1e-10)
+        np.testing.assert_allclose(x[2 * s.n :], lam, atol=1e-10)
 
 
 def _kanes_method(N, q_syms, u_syms, u_dep, constraints):
     t = me.dynamicsymbols._t
     kd = [qi.diff(t) - ui for qi, ui in zip(q_syms, u_syms)]
     u_ind = [u for u in u_syms if u not in u_dep]
-    return me.KanesMethod(N, q_ind=q_syms, u_ind=u_ind, kd_eqs=kd, u_dependent=u_dep,
-                          velocity_constraints=constraints)
+    return me.KanesMethod(N, q_ind=q_syms, u_ind=u_ind, kd_eqs=kd, u_dependent=u_dep, velocity_constraints=constraints)
 
 
 def _solve_dependent(constraints, u_dep, rep):
@@ -95,7 +94,7 @@ def _compare_kane(system, kane, bodies, q_syms, u_syms, u_dep, constraints, valu
         FF = np.array(kane.forcing_full.subs(rep).evalf(), dtype=float).ravel()
         x = np.linalg.solve(MM, FF)
         # x = (qdot, udot of the independent speeds); dependent accelerations from the acceleration constraints.
-        ud_ind = dict(zip([u for u in kane.u if u not in u_dep], x[system.n:]))
+        ud_ind = dict(zip([u for u in kane.u if u not in u_dep], x[system.n :]))
         qdd_ours, _ = num.solve(q, qd)
         checked = [j for j, u in enumerate(u_syms) if u in ud_ind]
         assert len(checked) == system.n - system.c
@@ -111,8 +110,8 @@ def test_snakeboard_against_kanes_method_on_a_rigid_body_model(rng):
     N = me.ReferenceFrame("N")
     B = N.orientnew("B", "Axis", [th, N.z])
     R = B.orientnew("R", "Axis", [psi, B.z])
-    Wb = B.orientnew("Wb", "Axis", [phi, B.z])     # back wheels: heading theta + phi
-    Wf = B.orientnew("Wf", "Axis", [-phi, B.z])    # front wheels: heading theta - phi
+    Wb = B.orientnew("Wb", "Axis", [phi, B.z])  # back wheels: heading theta + phi
+    Wf = B.orientnew("Wf", "Axis", [-phi, B.z])  # front wheels: heading theta - phi
     t = me.dynamicsymbols._t
     rep_qd = dict(zip([qi.diff(t) for qi in q], u))
     for F in (B, R, Wb, Wf):
@@ -123,10 +122,12 @@ def test_snakeboard_against_kanes_method_on_a_rigid_body_model(rng):
     for P in (Pb, Pf):
         P.v2pt_theory(O, N, B)
     zero = 0
-    bodies = [me.RigidBody("board", O, B, m, (me.inertia(B, 0, 0, J), O)),
-              me.RigidBody("rotor", O, R, zero, (me.inertia(R, 0, 0, J0), O)),
-              me.RigidBody("wb", Pb, Wb, zero, (me.inertia(Wb, 0, 0, J1), Pb)),
-              me.RigidBody("wf", Pf, Wf, zero, (me.inertia(Wf, 0, 0, J1), Pf))]
+    bodies = [
+        me.RigidBody("board", O, B, m, (me.inertia(B, 0, 0, J), O)),
+        me.RigidBody("rotor", O, R, zero, (me.inertia(R, 0, 0, J0), O)),
+        me.RigidBody("wb", Pb, Wb, zero, (me.inertia(Wb, 0, 0, J1), Pb)),
+        me.RigidBody("wf", Pf, Wf, zero, (me.inertia(Wf, 0, 0, J1), Pf)),
+    ]
     constraints = [Pb.vel(N).dot(Wb.y), Pf.vel(N).dot(Wf.y)]
     kane = _kanes_method(N, q, u, [u[0], u[1]], constraints)
     s = _with_random_parameters(snakeboard(), rng)
@@ -163,8 +164,9 @@ def test_bkmm_snakeboard_is_the_general_one_with_normalised_inertia():
 def test_plus_phi_turns_the_board_clockwise_when_rolling_forward():
     """Documented convention: moving towards the front wheels with phi > 0, theta decreases."""
     s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
-    A = np.array(s.constraint_matrix.subs({**dict(zip(s.q, [0, 0, 0, 0, 0.3]))}).subs(s.parameter_values()).evalf(),
-                 dtype=float)
+    A = np.array(
+        s.constraint_matrix.subs({**dict(zip(s.q, [0, 0, 0, 0, 0.3]))}).subs(s.parameter_values()).evalf(), dtype=float
+    )
     # unknowns (y_dot, theta_dot) for x_dot = 1 (forward along the board at theta = 0), psi_dot = phi_dot = 0
     sol = np.linalg.solve(A[:, 1:3], -A[:, 0])
     assert abs(sol[0]) < 1e-14 and sol[1] == pytest.approx(-np.tan(0.3) / 0.5)

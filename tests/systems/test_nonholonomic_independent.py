@@ -37,8 +37,9 @@ def _id(name, kw):
 
 
 def _cases(slow=frozenset()):
-    return [pytest.param(n, kw, id=_id(n, kw), marks=[pytest.mark.slow] if _id(n, kw) in slow else [])
-            for n, kw in CASES]
+    return [
+        pytest.param(n, kw, id=_id(n, kw), marks=[pytest.mark.slow] if _id(n, kw) in slow else []) for n, kw in CASES
+    ]
 
 
 def _system(name, kw, rng):
@@ -135,7 +136,7 @@ class Reference:
         s = self.system
         q = rng.choice([-1.0, 1.0], s.n) * rng.uniform(0.3, 1.2, s.n)
         _, _, vt = np.linalg.svd(self.A(q))
-        qd = vt[s.c:].T @ rng.uniform(-1.0, 1.0, s.n - s.c)
+        qd = vt[s.c :].T @ rng.uniform(-1.0, 1.0, s.n - s.c)
         assert np.abs(self.A(q) @ qd).max() < 1e-13
         return q, qd
 
@@ -164,7 +165,7 @@ class ReducedCoordinates:
 
     def vertical(self, q):
         s = self.ref.system
-        E = self._E(*q[s.k:]).reshape(s.k, self.m)
+        E = self._E(*q[s.k :]).reshape(s.k, self.m)
         return np.vstack([_se2_rates(q[2]) @ E, np.zeros((s.sigma, self.m), dtype=E.dtype)])
 
     def horizontal(self, q):
@@ -177,7 +178,7 @@ class ReducedCoordinates:
     def z(self, q, qd):
         s = self.ref.system
         Mqd = self.ref.M(q) @ qd
-        return np.r_[q[s.k:], self.horizontal(q).T @ Mqd, self.vertical(q).T @ Mqd]
+        return np.r_[q[s.k :], self.horizontal(q).T @ Mqd, self.vertical(q).T @ Mqd]
 
     @staticmethod
     def xi(q, qd):
@@ -265,8 +266,11 @@ def test_multipliers_on_the_distribution_against_the_reference(name, kw, rng):
         q, qd = ref.random_state(rng)
         tau = rng.uniform(-1.0, 1.0, s.sigma)
         p = rc.vertical(q).T @ ref.M(q) @ qd
-        _assert_close(fn(*q, *qd[s.k:], *p, *tau, *pv.values()).ravel(), ref.solve(q, qd, tau)[1],
-                      what=f"{s.name}: multipliers on D")
+        _assert_close(
+            fn(*q, *qd[s.k :], *p, *tau, *pv.values()).ravel(),
+            ref.solve(q, qd, tau)[1],
+            what=f"{s.name}: multipliers on D",
+        )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -313,7 +317,7 @@ def test_almost_poisson_flow_is_the_reference_flow(name, kw, rng):
         z = np.r_[q, pt]
         zdot = f["J"](z) @ f["gradH"](z)[:, 0]
         _assert_close(zdot[: s.n], qd, what=f"{s.name}: q'")
-        _assert_close(zdot[s.n:], _along_flow(lambda a, b: X(*a).T @ ref.M(a) @ b, q, qd, qdd), what=f"{s.name}: pt'")
+        _assert_close(zdot[s.n :], _along_flow(lambda a, b: X(*a).T @ ref.M(a) @ b, q, qd, qdd), what=f"{s.name}: pt'")
         _assert_close(f["p"](z)[:, 0], ref.M(q) @ qd, what=f"{s.name}: FL")
 
 
@@ -344,8 +348,9 @@ def test_jacobiator_vanishes_exactly_when_the_constraints_are_integrable(name, k
         worst = max(worst, np.abs(jac).max() / scale)
         # the curvature formula gives every Jacobiator of coordinate functions that can be non-zero
         listed = np.array([_jacobiator(Jz, dJ, *key) for key in keys])
-        np.testing.assert_allclose(listed, curv(*z).ravel(), rtol=1e-9, atol=1e-11 * scale,
-                                   err_msg=f"{s.name}: Jacobiator")
+        np.testing.assert_allclose(
+            listed, curv(*z).ravel(), rtol=1e-9, atol=1e-11 * scale, err_msg=f"{s.name}: Jacobiator"
+        )
         others = [_jacobiator(Jz, dJ, *key) for key in combinations(range(N), 3) if key not in set(keys)]
         assert np.abs(others).max(initial=0.0) < 1e-11 * scale
     if integrable:
@@ -379,7 +384,7 @@ def test_reduced_hamilton_and_lagrange_equations_follow_the_reference_flow(name,
         qdd, _ = ref.solve(q, qd, tau)
         z = rc.z(q, qd)
         zdot = _along_flow(rc.z, q, qd, qdd)
-        r, rd, ptr, p = q[s.k:], qd[s.k:], z[sig: 2 * sig], z[2 * sig:]
+        r, rd, ptr, p = q[s.k :], qd[s.k :], z[sig : 2 * sig], z[2 * sig :]
         # Theorem 1.1
         scale = np.abs(zdot).max()  # p' may vanish identically (the ball's spin momentum is conserved)
         _assert_close(zdot_fn(z)[:, 0] + np.r_[np.zeros(sig), tau, np.zeros(m)], zdot, what=f"{s.name}: Thm 1.1")
@@ -387,8 +392,8 @@ def test_reduced_hamilton_and_lagrange_equations_follow_the_reference_flow(name,
         # the Lagrangian reduction, eqs. (1.1)-(1.3), and the reduced Legendre transform
         _assert_close(rn.momentum(q, qd), p, what=f"{s.name}: momentum")
         _assert_close(rn.xi(r, rd, p), rc.xi(q, qd), what=f"{s.name}: eq. 1.1")
-        _assert_close(rn.pdot(r, rd, p), zdot[2 * sig:], what=f"{s.name}: eq. 1.2", scale=scale)
-        _assert_close(rn.rddot(r, rd, p, tau), qdd[s.k:], what=f"{s.name}: eq. 1.3")
+        _assert_close(rn.pdot(r, rd, p), zdot[2 * sig :], what=f"{s.name}: eq. 1.2", scale=scale)
+        _assert_close(rn.rddot(r, rd, p, tau), qdd[s.k :], what=f"{s.name}: eq. 1.3")
         _assert_close(rn.shape_mass(r, rd, p) @ rd, ptr, what=f"{s.name}: Legendre")
         # Theorem 1.2: the two reductions coincide
         assert np.abs(lf(*r, *rd, *p)).max(initial=0.0) < 1e-9 * max(1.0, scale)

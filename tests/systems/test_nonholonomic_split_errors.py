@@ -14,17 +14,20 @@ def test_an_undeclared_velocity_in_a_constraint_is_a_split_error():
     # psi is neither a group coordinate nor a shape variable: its velocity would otherwise read as a
     # parameter and the constraint as "not homogeneous"
     with pytest.raises(InputError, match=r"\['psi_dot'\].*shape/group split"):
-        NonholonomicSystem.from_lagrangian(L, SE2("x", "y", "theta"), (), [BLADE + " + a*psi_dot"],
-                                           parameters={"m": 1, "I": 1, "a": 1})
+        NonholonomicSystem.from_lagrangian(
+            L, SE2("x", "y", "theta"), (), [BLADE + " + a*psi_dot"], parameters={"m": 1, "I": 1, "a": 1}
+        )
 
 
 def test_a_group_factor_the_lagrangian_ignores_is_named():
     with pytest.raises(SymbolicError, match=r"\['alpha'\] appear nowhere in the Lagrangian"):
-        NonholonomicSystem.from_lagrangian(L, SE2("x", "y", "theta") * S1("alpha"), (), [BLADE],
-                                           parameters={"m": 1, "I": 1})
+        NonholonomicSystem.from_lagrangian(
+            L, SE2("x", "y", "theta") * S1("alpha"), (), [BLADE], parameters={"m": 1, "I": 1}
+        )
 
 
 def test_a_genuinely_nonhomogeneous_constraint_is_still_called_so():
     with pytest.raises(InputError, match="velocity-free term"):
-        NonholonomicSystem.from_lagrangian(L, SE2("x", "y", "theta"), (), [BLADE + " + c"],
-                                           parameters={"m": 1, "I": 1, "c": 1})
+        NonholonomicSystem.from_lagrangian(
+            L, SE2("x", "y", "theta"), (), [BLADE + " + c"], parameters={"m": 1, "I": 1, "c": 1}
+        )

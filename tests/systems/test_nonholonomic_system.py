@@ -9,10 +9,13 @@ from geomech.lie import S1, SE2, SE3, SO3, Rn, se2, se3, so3
 from geomech.symbolic import GroupChart
 from geomech.systems.nonholonomic import NonholonomicSystem
 
-SNAKE_L = ("m/2*(x_dot**2+y_dot**2) + (J+J0+2*J1)/2*theta_dot**2 + J0*theta_dot*psi_dot + J0/2*psi_dot**2"
-           " + J1*phi_dot**2")
-SNAKE_C = ["-sin(theta+phi)*x_dot + cos(theta+phi)*y_dot - r*cos(phi)*theta_dot",
-           "-sin(theta-phi)*x_dot + cos(theta-phi)*y_dot + r*cos(phi)*theta_dot"]
+SNAKE_L = (
+    "m/2*(x_dot**2+y_dot**2) + (J+J0+2*J1)/2*theta_dot**2 + J0*theta_dot*psi_dot + J0/2*psi_dot**2 + J1*phi_dot**2"
+)
+SNAKE_C = [
+    "-sin(theta+phi)*x_dot + cos(theta+phi)*y_dot - r*cos(phi)*theta_dot",
+    "-sin(theta-phi)*x_dot + cos(theta-phi)*y_dot + r*cos(phi)*theta_dot",
+]
 
 
 def _snake(**kw):
@@ -28,13 +31,27 @@ def _numeric_body_velocity(g_of_q, q, qd, log, h=1e-6):
     return (log(np.linalg.inv(g0) @ gp) - log(np.linalg.inv(g0) @ gm)) / (2 * h)
 
 
-@pytest.mark.parametrize("group, numeric, log", [
-    (SE2(), lambda q: np.array([[np.cos(q[2]), -np.sin(q[2]), q[0]], [np.sin(q[2]), np.cos(q[2]), q[1]], [0, 0, 1]]),
-     se2.log),
-    (SO3(seq="ZXZ"), lambda q: so3.rot_z(q[0]) @ so3.rot_x(q[1]) @ so3.rot_z(q[2]), so3.log),
-    (SE3(seq="ZYX"), lambda q: np.block([[so3.rot_z(q[3]) @ so3.rot_y(q[4]) @ so3.rot_x(q[5]), q[:3, None]],
-                                         [np.zeros((1, 3)), np.ones((1, 1))]]), se3.log),
-])
+@pytest.mark.parametrize(
+    "group, numeric, log",
+    [
+        (
+            SE2(),
+            lambda q: np.array([[np.cos(q[2]), -np.sin(q[2]), q[0]], [np.sin(q[2]), np.cos(q[2]), q[1]], [0, 0, 1]]),
+            se2.log,
+        ),
+        (SO3(seq="ZXZ"), lambda q: so3.rot_z(q[0]) @ so3.rot_x(q[1]) @ so3.rot_z(q[2]), so3.log),
+        (
+            SE3(seq="ZYX"),
+            lambda q: np.block(
+                [
+                    [so3.rot_z(q[3]) @ so3.rot_y(q[4]) @ so3.rot_x(q[5]), q[:3, None]],
+                    [np.zeros((1, 3)), np.ones((1, 1))],
+                ]
+            ),
+            se3.log,
+        ),
+    ],
+)
 def test_body_velocity_matrix_against_finite_differences(group, numeric, log, rng):
     group = GroupChart(group)
     lam = sp.lambdify(group.coordinates, group.body_velocity_matrix)
@@ -54,7 +71,7 @@ def test_structure_constants_match_the_lie_module(group, ad, rng):
         xi, eta = rng.normal(size=group.dim), rng.normal(size=group.dim)
         np.testing.assert_allclose(np.einsum("abd,b,d->a", C, xi, eta), ad(xi) @ eta, atol=1e-12)
     # Jacobi identity of the constants: C^a_{be} C^e_{cd} + cyclic(b, c, d) = 0
-    jac = (np.einsum("abe,ecd->abcd", C, C) + np.einsum("ace,edb->abcd", C, C) + np.einsum("ade,ebc->abcd", C, C))
+    jac = np.einsum("abe,ecd->abcd", C, C) + np.einsum("ace,edb->abcd", C, C) + np.einsum("ade,ebc->abcd", C, C)
     assert np.abs(jac).max() < 1e-12
 
 
@@ -73,13 +90,15 @@ def test_snakeboard_from_strings_body_form_and_velocities():
     x1, x2, x3 = s.xi
     J, J0, J1, m, r = s.parameter_symbols
     psid, phid = s.shape_dot
-    expected = (m / 2 * (x1**2 + x2**2) + (J + J0 + 2 * J1) / 2 * x3**2 + J0 * x3 * psid + J0 / 2 * psid**2
-                + J1 * phid**2)
+    expected = (
+        m / 2 * (x1**2 + x2**2) + (J + J0 + 2 * J1) / 2 * x3**2 + J0 * x3 * psid + J0 / 2 * psid**2 + J1 * phid**2
+    )
     assert sp.expand(s.body_lagrangian - expected) == 0
     Axi, Ar = s.body_constraints
     phi = s.shape[1]
-    assert sp.simplify(Axi - sp.Matrix([[-sp.sin(phi), sp.cos(phi), -r * sp.cos(phi)],
-                                        [sp.sin(phi), sp.cos(phi), r * sp.cos(phi)]])) == sp.zeros(2, 3)
+    assert sp.simplify(
+        Axi - sp.Matrix([[-sp.sin(phi), sp.cos(phi), -r * sp.cos(phi)], [sp.sin(phi), sp.cos(phi), r * sp.cos(phi)]])
+    ) == sp.zeros(2, 3)
     assert Ar == sp.zeros(2, 2)
 
 
@@ -100,8 +119,9 @@ def test_invariance_report_names_the_breaking_term():
     # An anisotropic translational inertia is not rotation invariant: the report shows the theta dependence.
     with pytest.raises(SymbolicError, match="sin\\(theta\\)"):
         _snake(lagrangian=SNAKE_L.replace("y_dot**2", "2*y_dot**2"))
-    report = _snake(check=False, constraints=["-sin(phi)*x_dot + cos(theta+phi)*y_dot - r*cos(phi)*theta_dot",
-                                               SNAKE_C[1]]).check_invariance()
+    report = _snake(
+        check=False, constraints=["-sin(phi)*x_dot + cos(theta+phi)*y_dot - r*cos(phi)*theta_dot", SNAKE_C[1]]
+    ).check_invariance()
     assert report.lagrangian_invariant and not report.constraints_invariant and report.breaking_constraints == (0,)
 
 
@@ -111,12 +131,15 @@ def test_rescaled_constraints_define_the_same_invariant_distribution():
     assert _snake(constraints=scaled).check_invariance().ok
 
 
-@pytest.mark.parametrize("constraint, match", [
-    ("x_dot**2 - y_dot", "not linear homogeneous"),
-    ("x_dot + 1", "velocity-free term"),
-    ("sin(x_dot)", "not even polynomial"),
-    ("x - y", "contains no velocity"),
-])
+@pytest.mark.parametrize(
+    "constraint, match",
+    [
+        ("x_dot**2 - y_dot", "not linear homogeneous"),
+        ("x_dot + 1", "velocity-free term"),
+        ("sin(x_dot)", "not even polynomial"),
+        ("x - y", "contains no velocity"),
+    ],
+)
 def test_constraints_must_be_linear_homogeneous_one_forms(constraint, match):
     with pytest.raises(InputError, match=match):
         _snake(constraints=[constraint, SNAKE_C[1]])
@@ -171,6 +194,7 @@ def test_a_shape_group_split_that_does_not_match_the_lagrangian_is_reported():
 def test_single_letter_parameters_are_symbols_not_constants():
     s = _snake(lagrangian=SNAKE_L + " + 0*I*E")
     assert s.lagrangian.has(sp.Symbol("J0", real=True)) and not s.lagrangian.has(sp.I)
-    sleigh = NonholonomicSystem.from_lagrangian("m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2", SE2(), (),
-                                                ["-sin(theta)*x_dot + cos(theta)*y_dot"])
+    sleigh = NonholonomicSystem.from_lagrangian(
+        "m/2*(x_dot**2 + y_dot**2) + I/2*theta_dot**2", SE2(), (), ["-sin(theta)*x_dot + cos(theta)*y_dot"]
+    )
     assert {p.name for p in sleigh.parameter_symbols} == {"I", "m"}

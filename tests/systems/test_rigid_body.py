@@ -44,6 +44,7 @@ def test_exact_solution_in_a_non_principal_frame(rng):
     m0 = np.array([0.4, -1.0, 0.7])
     exact = body.exact_solution(m0)
     t = np.linspace(0, 3 * exact.period, 31)
-    sol = solve_ivp(lambda _t, m: body.euler_vector_field(m), (0, t[-1]), m0, method="DOP853",
-                    rtol=1e-12, atol=1e-12, t_eval=t)
+    sol = solve_ivp(
+        lambda _t, m: body.euler_vector_field(m), (0, t[-1]), m0, method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t
+    )
     np.testing.assert_allclose(exact.momentum(t), sol.y.T, atol=1e-9)

@@ -34,8 +34,9 @@ def test_eq24_is_the_legendre_transform_of_eq22():
     L = (lam1 * w[0] ** 2 + lam2 * w[1] ** 2 + I3 * w[2] ** 2) / 2 + J3 * (w[2] + gd) ** 2 / 2
     H, (G1,) = legendre_hamiltonian(L, w, [gd])
     expr, (Gam,) = RotorBody.one_rotor(3.0, 2.0, 1.0, 0.5).hamiltonian_expression()
-    expr = expr.xreplace({s: sp.Symbol(str(s), positive=True) for s in expr.free_symbols
-                          if str(s) in ("lambda1", "lambda2", "I3", "J3")})
+    expr = expr.xreplace(
+        {s: sp.Symbol(str(s), positive=True) for s in expr.free_symbols if str(s) in ("lambda1", "lambda2", "I3", "J3")}
+    )
     assert sp.simplify(H - expr.xreplace({Gam: G1})) == 0
 
 
@@ -76,9 +77,11 @@ def test_open_loop_equations_are_the_seeds_written_out_eq30(rng):
     for _ in range(5):
         m, G = rng.normal(size=3), rng.normal()
         _, dm, dgam, dG = body.vector_field(np.eye(3), m, np.array([G]), np.array([0.7]))
-        expected = [(1 / I3 - 1 / lam2) * m[1] * m[2] - G * m[1] / I3,  # eq. (30a)
-                    (1 / lam1 - 1 / I3) * m[0] * m[2] + G * m[0] / I3,  # eq. (30b)
-                    (1 / lam2 - 1 / lam1) * m[0] * m[1]]  # eq. (30c)
+        expected = [
+            (1 / I3 - 1 / lam2) * m[1] * m[2] - G * m[1] / I3,  # eq. (30a)
+            (1 / lam1 - 1 / I3) * m[0] * m[2] + G * m[0] / I3,  # eq. (30b)
+            (1 / lam2 - 1 / lam1) * m[0] * m[1],
+        ]  # eq. (30c)
         np.testing.assert_allclose(dm, expected, atol=1e-14)
         # eq. (26c): gamma' = dH_f/dGamma = -(m3 - Gamma)/I3 + Gamma/J3
         np.testing.assert_allclose(dgam, [-(m[2] - G) / I3 + G / J3], atol=1e-14)
@@ -87,8 +90,9 @@ def test_open_loop_equations_are_the_seeds_written_out_eq30(rng):
 
 def test_locked_inertia_of_the_seeds_layouts():
     np.testing.assert_allclose(RotorBody.one_rotor(3.0, 2.0, 1.0, 0.5).locked_inertia, np.diag([3.0, 2.0, 1.5]))
-    np.testing.assert_allclose(RotorBody.three_rotors([3.0, 2.0, 1.0], [0.1, 0.2, 0.3]).locked_inertia,
-                               np.diag([3.1, 2.2, 1.3]))
+    np.testing.assert_allclose(
+        RotorBody.three_rotors([3.0, 2.0, 1.0], [0.1, 0.2, 0.3]).locked_inertia, np.diag([3.1, 2.2, 1.3])
+    )
 
 
 def test_isotropic_pyramid():

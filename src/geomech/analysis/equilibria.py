@@ -23,8 +23,15 @@ from ..errors import ConvergenceError, InputError, NumericalError
 from ..reduction import SerretAndoyerChart
 from ..systems import as_left_invariant
 
-__all__ = ["Equilibrium", "EquilibriumSet", "chart_derivatives", "continue_equilibria", "find_equilibria",
-           "refine_equilibrium", "fibonacci_sphere"]
+__all__ = [
+    "Equilibrium",
+    "EquilibriumSet",
+    "chart_derivatives",
+    "continue_equilibria",
+    "find_equilibria",
+    "refine_equilibrium",
+    "fibonacci_sphere",
+]
 
 _CHARTS = tuple(SerretAndoyerChart(k) for k in range(3))
 
@@ -105,8 +112,10 @@ class Equilibrium:
     def index(self) -> int:
         """Poincare-Hopf index: +1 at an extremum of :math:`h_p`, -1 at a saddle, 0 if degenerate."""
         if not np.all(np.isfinite(self.hessian)):
-            raise NumericalError(f"The Hessian of h_p at the equilibrium m = {np.round(self.m, 6).tolist()} is not "
-                                 "finite (an overflow: parameter values too large for double precision?).")
+            raise NumericalError(
+                f"The Hessian of h_p at the equilibrium m = {np.round(self.m, 6).tolist()} is not "
+                "finite (an overflow: parameter values too large for double precision?)."
+            )
         ev = np.linalg.eigvalsh(self.hessian)
         scale = max(np.abs(ev).max(), 1e-300)
         if np.abs(ev).min() <= 1e-9 * scale:
@@ -137,8 +146,9 @@ class Equilibrium:
         }
 
 
-def refine_equilibrium(system: Any, m_guess: Any, G: float | None = None, *, tol: float = 1e-12,
-                       max_iter: int = 80) -> Equilibrium:
+def refine_equilibrium(
+    system: Any, m_guess: Any, G: float | None = None, *, tol: float = 1e-12, max_iter: int = 80
+) -> Equilibrium:
     """Solve :math:`\\nabla h_p = 0` from ``m_guess`` (projected to :math:`|m| = G`) in the chart farthest
     from its poles, switching chart when an iterate nears a pole.
 
@@ -261,9 +271,11 @@ def find_equilibria(system: Any, G: float = 1.0, *, n_points: int = 1500, tol: f
         minima = np.nonzero(r <= r[nbr[:, 1:]].min(axis=1))[0]
         if len(minima) > max(200, n // 20):
             # a smooth H has a few equilibria; this many local minima of |m x grad H| is round-off noise
-            raise NumericalError(f"|m x grad H| has {len(minima)} local minima over {n} points of the sphere "
-                                 f"|m| = {G:g}: H is not resolved in double precision there (parameters spanning "
-                                 "too many orders of magnitude?).")
+            raise NumericalError(
+                f"|m x grad H| has {len(minima)} local minima over {n} points of the sphere "
+                f"|m| = {G:g}: H is not resolved in double precision there (parameters spanning "
+                "too many orders of magnitude?)."
+            )
         seeds = ([G * e for e in np.vstack([np.eye(3), -np.eye(3)])] if not tried else []) + [pts[i] for i in minima]
         tried += 1
         for s in seeds:
@@ -290,16 +302,18 @@ def _as_set(found: list[Equilibrium], G: float) -> EquilibriumSet:
     if complete:
         msg = f"{len(found)} nondegenerate equilibria; Poincare-Hopf index sum 2 = chi(S^2): none missed."
     elif n_deg:
-        msg = (f"{n_deg} of {len(found)} equilibria are degenerate (singular Hessian of h_p): they may be "
-               "non-isolated (a continuum) or bifurcating; the list may be incomplete.")
+        msg = (
+            f"{n_deg} of {len(found)} equilibria are degenerate (singular Hessian of h_p): they may be "
+            "non-isolated (a continuum) or bifurcating; the list may be incomplete."
+        )
     else:
-        msg = (f"Poincare-Hopf index sum is {total}, not 2: some equilibria were missed; retry with more "
-               "`n_points`.")
+        msg = f"Poincare-Hopf index sum is {total}, not 2: some equilibria were missed; retry with more `n_points`."
     return EquilibriumSet(tuple(found), G, total, n_deg, complete, msg)
 
 
-def continue_equilibria(system: Any, previous: EquilibriumSet, *, n_points: int = 600,
-                        tol: float = 1e-12) -> EquilibriumSet:
+def continue_equilibria(
+    system: Any, previous: EquilibriumSet, *, n_points: int = 600, tol: float = 1e-12
+) -> EquilibriumSet:
     """The equilibria of ``system`` continued from those of a nearby system (``previous``, same G).
 
     Each previous equilibrium is refined for the new system; when the result is not complete

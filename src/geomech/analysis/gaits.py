@@ -54,9 +54,12 @@ __all__ = [
     "gait_curvature_integral",
 ]
 
-_NOTE = ("The connection-alone and momentum-alone displacements integrate each term of the body velocity by "
-         "itself; on a non-abelian group they do not compose (nor add) to the net displacement, and their split "
-         "is not a geometric/dynamic phase decomposition (open for nonholonomic systems, section 2 of the seed).")
+_NOTE = (
+    "The connection-alone and momentum-alone displacements integrate each term of the body velocity by "
+    "itself; on a non-abelian group they do not compose (nor add) to the net displacement, and their split "
+    "is not a geometric/dynamic phase decomposition (open for nonholonomic systems, section 2 of the seed)."
+)
+
 
 # ---------------------------------------------------------------------------------------------------
 # The system's reduced objects, evaluated numerically
@@ -124,9 +127,14 @@ class GaitModel:
         I = self.locked_inertia(np.atleast_2d(r))
         if self.m == 0:
             return I
-        V.positive_definite_along(I, r, f"locked inertia of {self.name}",
-                                  "I^-1 p in the reconstruction g^-1 g' = -A r' + I^-1 p is undefined there; keep the "
-                                  "gait away from it", rtol=1e-10, global_scale=True)
+        V.positive_definite_along(
+            I,
+            r,
+            f"locked inertia of {self.name}",
+            "I^-1 p in the reconstruction g^-1 g' = -A r' + I^-1 p is undefined there; keep the gait away from it",
+            rtol=1e-10,
+            global_scale=True,
+        )
         return I
 
     # -- numeric objects ---------------------------------------------------------------------------
@@ -187,8 +195,9 @@ class GaitModel:
 # ---------------------------------------------------------------------------------------------------
 # Loops
 # ---------------------------------------------------------------------------------------------------
-def gait_loop(system: Any, shapes: Any, period: float | None = None, *,
-              parameters: Mapping[str, float] | None = None) -> ShapeLoop:
+def gait_loop(
+    system: Any, shapes: Any, period: float | None = None, *, parameters: Mapping[str, float] | None = None
+) -> ShapeLoop:
     """A :class:`~geomech.analysis.phases.ShapeLoop` in the shape space of ``system``.
 
     ``shapes`` maps every shape variable to a formula in ``t`` (and ``T``, the period), e.g.
@@ -198,20 +207,28 @@ def gait_loop(system: Any, shapes: Any, period: float | None = None, *,
     names = [s.name for s in system.shape]
     if isinstance(shapes, ShapeLoop):
         if shapes.names is not None and list(shapes.names) != names:
-            raise ShapeError(f"Expected the shape loop's coordinates to be ({', '.join(names)}) for {system.name}, "
-                             f"got ({', '.join(shapes.names)}).")
+            raise ShapeError(
+                f"Expected the shape loop's coordinates to be ({', '.join(names)}) for {system.name}, "
+                f"got ({', '.join(shapes.names)})."
+            )
         return shapes
     if not isinstance(shapes, Mapping):
-        raise InputError(f"Expected `shapes` to be a mapping shape variable -> formula in t, or a ShapeLoop, got "
-                         f"{type(shapes).__name__}.")
+        raise InputError(
+            f"Expected `shapes` to be a mapping shape variable -> formula in t, or a ShapeLoop, got "
+            f"{type(shapes).__name__}."
+        )
     unknown = [str(n) for n in shapes if str(n) not in names]
     if unknown:
-        raise InputError(f"The gait names {unknown}, which are not shape variables of {system.name} "
-                         f"({', '.join(names) or 'no shape variables'}).")
+        raise InputError(
+            f"The gait names {unknown}, which are not shape variables of {system.name} "
+            f"({', '.join(names) or 'no shape variables'})."
+        )
     missing = [n for n in names if n not in {str(k) for k in shapes}]
     if missing:
-        raise ShapeError(f"Expected a formula for each of the {len(names)} shape variables ({', '.join(names)}) of "
-                         f"{system.name}; missing {missing}: a gait prescribes the whole shape.")
+        raise ShapeError(
+            f"Expected a formula for each of the {len(names)} shape variables ({', '.join(names)}) of "
+            f"{system.name}; missing {missing}: a gait prescribes the whole shape."
+        )
     T = V.positive_scalar(period, "period")
     values = {"T": T, **dict(parameters or {})}
     by_name = {str(k): v for k, v in shapes.items()}
@@ -237,28 +254,37 @@ def _check_regular(model: GaitModel, loop: ShapeLoop, n: int = 1024) -> None:
     vals = lam(t)
     if not np.all(np.isfinite(vals)):
         i = int(np.argmax(~np.isfinite(vals)))
-        raise SingularityError(f"The locked inertia of {model.name} is not finite at r = "
-                               f"{np.round(loop.r(t[i]), 6).tolist()} (t = {t[i]:.6g}) on the gait.")
+        raise SingularityError(
+            f"The locked inertia of {model.name} is not finite at r = "
+            f"{np.round(loop.r(t[i]), 6).tolist()} (t = {t[i]:.6g}) on the gait."
+        )
     I_all = model.locked_inertia(loop.r(t))
     scale = max(float(np.abs(np.linalg.eigvalsh(0.5 * (I_all + np.swapaxes(I_all, -1, -2)))).max()), 1e-300)
     worst, t_worst = float(vals.min()), float(t[int(np.argmin(vals))])
     for i in range(1, n):
         # strict on one side at least: a constant stretch (a frozen shape) has nothing to refine
         if vals[i] <= min(vals[i - 1], vals[i + 1]) and vals[i] < max(vals[i - 1], vals[i + 1]):
-            res = minimize_scalar(lambda s: float(lam(s)[0]), bounds=(t[i - 1], t[i + 1]), method="bounded",
-                                  options={"xatol": 1e-13 * max(T, 1.0)})
+            res = minimize_scalar(
+                lambda s: float(lam(s)[0]),
+                bounds=(t[i - 1], t[i + 1]),
+                method="bounded",
+                options={"xatol": 1e-13 * max(T, 1.0)},
+            )
             if res.fun < worst:
                 worst, t_worst = float(res.fun), float(res.x)
     if worst <= 1e-10 * scale:
         raise SingularityError(
             f"The locked inertia of {model.name} is singular on the gait at t = {t_worst:.6g}, r = "
             f"{np.round(loop.r(t_worst), 6).tolist()} (smallest eigenvalue {worst:.3g}, largest on the loop "
-            f"{scale:.3g}): I^-1 p is undefined there; keep the gait away from it.")
+            f"{scale:.3g}): I^-1 p is undefined there; keep the gait away from it."
+        )
     A = model.connection(loop.r(t))
     if not np.all(np.isfinite(A)):
         i = int(np.argmax(~np.all(np.isfinite(A), axis=(-2, -1))))
-        raise SingularityError(f"The nonholonomic connection of {model.name} is not finite at r = "
-                               f"{np.round(loop.r(t[i]), 6).tolist()} on the gait.")
+        raise SingularityError(
+            f"The nonholonomic connection of {model.name} is not finite at r = "
+            f"{np.round(loop.r(t[i]), 6).tolist()} on the gait."
+        )
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -328,13 +354,15 @@ class GaitAnalysis:
         idx = self.boundary_indices
         n = self.periods - start if periods is None else int(periods)
         if not (0 <= start and 0 <= n and start + n <= self.periods):
-            raise InputError(f"Expected 0 <= start and start + periods <= {self.periods}, got start = {start}, "
-                             f"periods = {n}.")
+            raise InputError(
+                f"Expected 0 <= start and start + periods <= {self.periods}, got start = {start}, periods = {n}."
+            )
         G = self.model.group.numeric
         return G.compose(G.inverse(path.g[idx[start]]), path.g[idx[start + n]])
 
-    def displacement_coordinates(self, periods: int | None = None, *, part: str = "total",
-                                 start: int = 0) -> np.ndarray:
+    def displacement_coordinates(
+        self, periods: int | None = None, *, part: str = "total", start: int = 0
+    ) -> np.ndarray:
         """:meth:`displacement` in the system's chart coordinates, its angles unwrapped (SE(2) ``(dx, dy,
         dtheta)`` with the turn accumulated on the universal cover, S^1 the unwrapped angle); where the chart is
         singular at the identity (3-1-3 Euler angles of SO(3)), the exponential coordinates (log, for SO(3) the
@@ -384,8 +412,11 @@ class GaitAnalysis:
             "system": self.system.name,
             "group": self.system.group.name,
             "shape": [s.name for s in self.system.shape],
-            "loop": (None if self.loop.expressions is None else
-                     {n: str(e) for n, e in zip([s.name for s in self.system.shape], self.loop.expressions)}),
+            "loop": (
+                None
+                if self.loop.expressions is None
+                else {n: str(e) for n, e in zip([s.name for s in self.system.shape], self.loop.expressions)}
+            ),
             "period": self.period,
             "periods": self.periods,
             "winding": list(self.winding),
@@ -401,8 +432,12 @@ class GaitAnalysis:
             "displacement_frame": "body frame at the start: g(t0)^-1 g(t0 + n T)",
             "angles_unwrapped": bool(self.model.group.angle_components),
             "note": _NOTE,
-            "integrator": {"group": self.path.method, "steps": int(self.path.steps), "nfev": int(self.path.nfev),
-                           "momentum_nfev": int(self.momentum_nfev)},
+            "integrator": {
+                "group": self.path.method,
+                "steps": int(self.path.steps),
+                "nfev": int(self.path.nfev),
+                "momentum_nfev": int(self.momentum_nfev),
+            },
         }
 
     def to_dataset(self) -> Any:
@@ -411,8 +446,13 @@ class GaitAnalysis:
 
         s = self.system
         alg = [f"xi{a + 1}" for a in range(self.model.k)]
-        coords = {"t": self.t, "shape": [r.name for r in s.shape], "algebra": alg,
-                  "momentum": [f"p{i + 1}" for i in range(self.model.m)], "coordinate": list(self.coordinate_names)}
+        coords = {
+            "t": self.t,
+            "shape": [r.name for r in s.shape],
+            "algebra": alg,
+            "momentum": [f"p{i + 1}" for i in range(self.model.m)],
+            "coordinate": list(self.coordinate_names),
+        }
 
         def gcoords(path: GroupPath) -> np.ndarray:
             G = self.model.group.numeric
@@ -421,17 +461,29 @@ class GaitAnalysis:
             return path.coordinates
 
         data = {
-            "r": (("t", "shape"), self.r), "rdot": (("t", "shape"), self.rdot), "p": (("t", "momentum"), self.p),
-            "xi": (("t", "algebra"), self.xi), "xi_connection": (("t", "algebra"), self.xi_connection),
-            "xi_momentum": (("t", "algebra"), self.xi_momentum), "g": (("t", "coordinate"), gcoords(self.path)),
+            "r": (("t", "shape"), self.r),
+            "rdot": (("t", "shape"), self.rdot),
+            "p": (("t", "momentum"), self.p),
+            "xi": (("t", "algebra"), self.xi),
+            "xi_connection": (("t", "algebra"), self.xi_connection),
+            "xi_momentum": (("t", "algebra"), self.xi_momentum),
+            "g": (("t", "coordinate"), gcoords(self.path)),
             "g_connection_alone": (("t", "coordinate"), gcoords(self.alone["connection"])),
             "g_momentum_alone": (("t", "coordinate"), gcoords(self.alone["momentum"])),
         }
-        attrs = {"system": s.name, "group": s.group.name, "period": self.period, "periods": self.periods,
-                 "note": _NOTE, "g_convention": ("chart coordinates, continuous along the path, angles unwrapped "
-                                                 "(SE(2): x, y and the heading; S^1: the angle); where the chart "
-                                                 "is singular at the identity (SO(3) in 3-1-3 Euler angles): the "
-                                                 "exponential coordinates (rotation vector) of g(0)^-1 g(t)")}
+        attrs = {
+            "system": s.name,
+            "group": s.group.name,
+            "period": self.period,
+            "periods": self.periods,
+            "note": _NOTE,
+            "g_convention": (
+                "chart coordinates, continuous along the path, angles unwrapped "
+                "(SE(2): x, y and the heading; S^1: the angle); where the chart "
+                "is singular at the identity (SO(3) in 3-1-3 Euler angles): the "
+                "exponential coordinates (rotation vector) of g(0)^-1 g(t)"
+            ),
+        }
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -447,14 +499,26 @@ def _element0(model: GaitModel, g0: Any) -> np.ndarray:
     else:
         vals = V.finite(g0, "g0").reshape(-1)
         if vals.size != len(names):
-            raise ShapeError(f"Expected `g0` with {len(names)} group coordinates ({', '.join(names)}), "
-                             f"got {vals.size}.")
+            raise ShapeError(
+                f"Expected `g0` with {len(names)} group coordinates ({', '.join(names)}), got {vals.size}."
+            )
     return model.element(vals)
 
 
-def analyse_gait(system: Any, loop: Any, *, period: float | None = None, periods: int = 1, p0: Any = None,
-                 g0: Any = None, parameters: Mapping[str, float] | None = None, basis: Any = None,
-                 samples_per_period: int = 201, rtol: float = 1e-12, atol: float = 1e-12) -> GaitAnalysis:
+def analyse_gait(
+    system: Any,
+    loop: Any,
+    *,
+    period: float | None = None,
+    periods: int = 1,
+    p0: Any = None,
+    g0: Any = None,
+    parameters: Mapping[str, float] | None = None,
+    basis: Any = None,
+    samples_per_period: int = 201,
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+) -> GaitAnalysis:
     r"""Integrate a nonholonomic system along ``periods`` periods of a prescribed gait and split its motion.
 
     Steps: (1) the momentum equation (1.2) along :math:`r(t)` from :math:`p(0) = p_0` (scipy's DOP853,
@@ -510,21 +574,27 @@ def analyse_gait(system: Any, loop: Any, *, period: float | None = None, periods
     else:
         p_init = V.finite(np.atleast_1d(p0), "p0").reshape(-1)
         if p_init.size != m:
-            raise ShapeError(f"Expected `p0` with {m} component(s) (dim S_q of {s.name}, basis: "
-                             f"{model.reduction.normalization}), got {p_init.size}.")
+            raise ShapeError(
+                f"Expected `p0` with {m} component(s) (dim S_q of {s.name}, basis: "
+                f"{model.reduction.normalization}), got {p_init.size}."
+            )
     nfev = 0
     if m:
+
         def rhs(t: float, p: np.ndarray) -> np.ndarray:
             return model.pdot(loop.r(t), loop.rdot(t), p)
 
-        sol = solve_ivp(rhs, (0.0, t_eval[-1]), p_init, method="DOP853", rtol=rtol, atol=atol, dense_output=True,
-                        t_eval=t_eval)
+        sol = solve_ivp(
+            rhs, (0.0, t_eval[-1]), p_init, method="DOP853", rtol=rtol, atol=atol, dense_output=True, t_eval=t_eval
+        )
         if sol.status != 0 or not np.all(np.isfinite(sol.y)):
-            raise NumericalError(f"The momentum equation (1.2) of {s.name} along the gait failed at t = "
-                                 f"{sol.t[-1]:.6g}: {sol.message}")
+            raise NumericalError(
+                f"The momentum equation (1.2) of {s.name} along the gait failed at t = {sol.t[-1]:.6g}: {sol.message}"
+            )
         nfev = int(sol.nfev)
         p_of_t, P = sol.sol, sol.y.T
     else:
+
         def p_of_t(t: float) -> np.ndarray:
             return np.zeros(0)
 
@@ -536,12 +606,26 @@ def analyse_gait(system: Any, loop: Any, *, period: float | None = None, periods
     def xi_mom(t: float, g: np.ndarray) -> np.ndarray:
         return model.xi_momentum(loop.r(t), p_of_t(t))
 
-    parts = decompose_displacement(model.group, {"connection": xi_conn, "momentum": xi_mom}, _element0(model, g0),
-                                   t_eval, rtol=rtol, atol=atol)
+    parts = decompose_displacement(
+        model.group, {"connection": xi_conn, "momentum": xi_mom}, _element0(model, g0), t_eval, rtol=rtol, atol=atol
+    )
     path = parts.pop("total")
     r, rd = loop.r(t_eval), loop.rdot(t_eval)
-    out = GaitAnalysis(model, loop, periods, t_eval, r, rd, P, model.xi_connection(r, rd), model.xi_momentum(r, P),
-                       path, parts, tuple(int(w) for w in winding), nfev)
+    out = GaitAnalysis(
+        model,
+        loop,
+        periods,
+        t_eval,
+        r,
+        rd,
+        P,
+        model.xi_connection(r, rd),
+        model.xi_momentum(r, P),
+        path,
+        parts,
+        tuple(int(w) for w in winding),
+        nfev,
+    )
     return out
 
 
@@ -552,8 +636,14 @@ def _model(system: Any, parameters: Mapping[str, float] | None) -> GaitModel:
     return system if isinstance(system, GaitModel) else GaitModel(system, parameters)
 
 
-def connection_line_integral(system: Any, loop: Any, *, period: float | None = None,
-                             parameters: Mapping[str, float] | None = None, rtol: float = 1e-13) -> np.ndarray:
+def connection_line_integral(
+    system: Any,
+    loop: Any,
+    *,
+    period: float | None = None,
+    parameters: Mapping[str, float] | None = None,
+    rtol: float = 1e-13,
+) -> np.ndarray:
     r""":math:`-\oint\mathcal A^{nh}(r)\,dr`, shape ``(k,)``.
 
     Its abelian components are displacements: for SE(2) the rotation (index 2), equal to the turn of the
@@ -570,9 +660,16 @@ def connection_line_integral(system: Any, loop: Any, *, period: float | None = N
     return _periodic_integral(integrand, loop.period, rtol=rtol, what="connection")
 
 
-def gait_curvature_integral(system: Any, loop: Any, *, period: float | None = None,
-                            parameters: Mapping[str, float] | None = None, base_point: Any = None,
-                            n_radial: int = 24, rtol: float = 1e-12) -> np.ndarray:
+def gait_curvature_integral(
+    system: Any,
+    loop: Any,
+    *,
+    period: float | None = None,
+    parameters: Mapping[str, float] | None = None,
+    base_point: Any = None,
+    n_radial: int = 24,
+    rtol: float = 1e-12,
+) -> np.ndarray:
     r""":math:`\iint_D B_{12}\,dr_1\,dr_2` of the nonholonomic connection's curvature (BKMM,
     :math:`B = d\mathcal A - [\mathcal A, \mathcal A]`) over the region a loop in a 2-D shape space encloses,
     weighted by its winding number; shape ``(k,)``.
@@ -585,8 +682,15 @@ def gait_curvature_integral(system: Any, loop: Any, *, period: float | None = No
     """
     model = _model(system, parameters)
     if model.sigma != 2:
-        raise ShapeError(f"Expected a 2-D shape space for the curvature integral, {model.name} has {model.sigma} "
-                         "shape variables.")
+        raise ShapeError(
+            f"Expected a 2-D shape space for the curvature integral, {model.name} has {model.sigma} shape variables."
+        )
     loop = gait_loop(model.system, loop, period, parameters=parameters)
-    return stokes_integral(lambda pts: model.curvature(pts)[..., 0, 1], loop, bind_loop(model, loop),
-                           base_point=base_point, rtol=rtol, n_radial=n_radial)
+    return stokes_integral(
+        lambda pts: model.curvature(pts)[..., 0, 1],
+        loop,
+        bind_loop(model, loop),
+        base_point=base_point,
+        rtol=rtol,
+        n_radial=n_radial,
+    )

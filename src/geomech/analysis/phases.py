@@ -95,8 +95,14 @@ class ShapeLoop:
         return self._eval(2, t)
 
     @classmethod
-    def from_expressions(cls, expressions: Any, period: float, *, names: Sequence[str] | None = None,
-                         parameters: Mapping[str, float] | None = None) -> ShapeLoop:
+    def from_expressions(
+        cls,
+        expressions: Any,
+        period: float,
+        *,
+        names: Sequence[str] | None = None,
+        parameters: Mapping[str, float] | None = None,
+    ) -> ShapeLoop:
         """Each shape coordinate as a formula in ``t`` (strings or sympy), e.g.
         ``["0.5*sin(2*pi*t)", "0.5*cos(2*pi*t)"]`` or ``{"alpha1": "...", "alpha2": "..."}``."""
         T = V.positive_scalar(period, "period")
@@ -111,8 +117,10 @@ class ShapeLoop:
             ex = ex.subs(sub)
             extra = sorted(str(s) for s in ex.free_symbols if s != T_SYMBOL)
             if extra:
-                raise InputError(f"Shape-loop expression {e!r} has symbols {extra} other than t; give their "
-                                 "values in `parameters` or write numbers.")
+                raise InputError(
+                    f"Shape-loop expression {e!r} has symbols {extra} other than t; give their "
+                    "values in `parameters` or write numbers."
+                )
             exprs.append(ex)
         if not exprs:
             raise ShapeError("Expected at least one shape-loop expression.")
@@ -121,8 +129,15 @@ class ShapeLoop:
         return cls(T, len(exprs), funcs, tuple(names) if names is not None else None, tuple(exprs))
 
     @classmethod
-    def from_callable(cls, r: Callable, rdot: Callable, period: float, *, rddot: Callable | None = None,
-                      names: Sequence[str] | None = None) -> ShapeLoop:
+    def from_callable(
+        cls,
+        r: Callable,
+        rdot: Callable,
+        period: float,
+        *,
+        rddot: Callable | None = None,
+        names: Sequence[str] | None = None,
+    ) -> ShapeLoop:
         """A loop from functions of time (e.g. a closed form, or a periodic orbit's shape from a
         simulation). Each takes a scalar ``t`` and returns ``(n,)``; ``rddot`` is needed only to drive a
         full simulation (:meth:`HolonomicSystem.simulate`)."""
@@ -134,14 +149,17 @@ class ShapeLoop:
                 if f is None:
                     raise InputError(f"This ShapeLoop was built without `{what}`; pass it to from_callable.")
                 return np.stack([np.atleast_1d(np.asarray(f(float(x)), dtype=float)) for x in t]).reshape(t.size, n)
+
             return g
 
-        return cls(T, n, (vec(r, "r"), vec(rdot, "rdot"), vec(rddot, "rddot")),
-                   tuple(names) if names is not None else None)
+        return cls(
+            T, n, (vec(r, "r"), vec(rdot, "rdot"), vec(rddot, "rddot")), tuple(names) if names is not None else None
+        )
 
     @classmethod
-    def from_fourier(cls, mean: Any, cos_coefficients: Any, sin_coefficients: Any, period: float, *,
-                     winding: Any = None) -> ShapeLoop:
+    def from_fourier(
+        cls, mean: Any, cos_coefficients: Any, sin_coefficients: Any, period: float, *, winding: Any = None
+    ) -> ShapeLoop:
         """:math:`r(t) = \\bar r + 2\\pi w t/T + \\sum_{j\\ge1} a_j\\cos(2\\pi jt/T) + b_j\\sin(2\\pi jt/T)`,
         coefficients of shape ``(harmonics, n)``, ``winding`` the integers :math:`w` (angles only)."""
         T = V.positive_scalar(period, "period")
@@ -166,13 +184,15 @@ class ShapeLoop:
                 elif order == 1:
                     out = out + 2 * np.pi * w / T
                 return out
+
             return f
 
         return cls(T, n, (make(0), make(1), make(2)))
 
     @classmethod
-    def ellipse(cls, center: Any, radii: Any, period: float, *, tilt: float = 0.0, phase: float = 0.0,
-                clockwise: bool = False) -> ShapeLoop:
+    def ellipse(
+        cls, center: Any, radii: Any, period: float, *, tilt: float = 0.0, phase: float = 0.0, clockwise: bool = False
+    ) -> ShapeLoop:
         """An ellipse in a 2-D shape space, counterclockwise unless ``clockwise``."""
         c = V.exact_shape(center, "center", (2,))
         ra = V.exact_shape(radii, "radii", (2,))
@@ -208,19 +228,24 @@ def bind_loop(system: Any, loop: Any, *, atol: float = 1e-9) -> np.ndarray:
             f"{system.name}, got one with {loop.dim} coordinate(s)."
         )
     if loop.names is not None and list(loop.names) != names:
-        raise ShapeError(f"Expected the shape loop's coordinates to be ({', '.join(names)}), got "
-                         f"({', '.join(loop.names)}).")
+        raise ShapeError(
+            f"Expected the shape loop's coordinates to be ({', '.join(names)}), got ({', '.join(loop.names)})."
+        )
     d = loop.r(loop.period) - loop.r(0.0)
     t_check = np.linspace(0.0, loop.period, 257)
     with np.errstate(all="ignore"):
         samples = np.asarray(loop.r(t_check), dtype=float)
         rates = np.asarray(loop.rdot(t_check), dtype=float)
-    bad = ~(np.all(np.isfinite(samples.reshape(t_check.size, -1)), axis=1)
-            & np.all(np.isfinite(rates.reshape(t_check.size, -1)), axis=1))
+    bad = ~(
+        np.all(np.isfinite(samples.reshape(t_check.size, -1)), axis=1)
+        & np.all(np.isfinite(rates.reshape(t_check.size, -1)), axis=1)
+    )
     if np.any(bad) or not np.all(np.isfinite(d)):
         t_bad = float(t_check[np.argmax(bad)]) if np.any(bad) else loop.period
-        raise InputError(f"Expected a shape loop with finite values and rates, got a non-finite one at t = {t_bad:.6g} "
-                         f"(of T = {loop.period:g}); a loop must be a smooth closed curve.")
+        raise InputError(
+            f"Expected a shape loop with finite values and rates, got a non-finite one at t = {t_bad:.6g} "
+            f"(of T = {loop.period:g}); a loop must be a smooth closed curve."
+        )
     scale = max(1.0, float(np.abs(samples).max()))
     turns = np.zeros(loop.dim)
     for i in range(loop.dim):
@@ -240,8 +265,15 @@ def bind_loop(system: Any, loop: Any, *, atol: float = 1e-9) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------------
 # Quadrature of periodic integrands
 # ---------------------------------------------------------------------------------------------------
-def _periodic_integral(f: Callable[[np.ndarray], np.ndarray], T: float, *, rtol: float = 1e-13,
-                       n0: int = 64, nmax: int = 2**17, what: str = "integral") -> np.ndarray:
+def _periodic_integral(
+    f: Callable[[np.ndarray], np.ndarray],
+    T: float,
+    *,
+    rtol: float = 1e-13,
+    n0: int = 64,
+    nmax: int = 2**17,
+    what: str = "integral",
+) -> np.ndarray:
     """:math:`\\int_0^T f`, ``f`` smooth and T-periodic, by the trapezoidal rule with doubling (spectrally
     accurate for smooth periodic integrands); falls back to adaptive Gauss-Kronrod for a kinked loop."""
     n = n0
@@ -263,8 +295,10 @@ def _periodic_integral(f: Callable[[np.ndarray], np.ndarray], T: float, *, rtol:
     val, err = quad_vec(lambda s: f(np.array([s]))[0], 0.0, T, epsabs=0.0, epsrel=max(rtol, 1e-13), limit=4000)
     scale = max(np.abs(val).max(), 1e-300)
     if np.max(err) > 1e-8 * scale:
-        raise ConvergenceError(f"The quadrature of the {what} over the loop did not converge (error estimate "
-                               f"{np.max(err):.3g}); the loop is probably not smooth enough.")
+        raise ConvergenceError(
+            f"The quadrature of the {what} over the loop did not converge (error estimate "
+            f"{np.max(err):.3g}); the loop is probably not smooth enough."
+        )
     return val
 
 
@@ -294,9 +328,18 @@ class PhaseSplit:
         return float(wrap_angle(np.asarray(self.total)))
 
     def to_json(self) -> dict[str, Any]:
-        return {"geometric": self.geometric, "dynamic": self.dynamic, "total": self.total,
-                "total_wrapped": self.total_wrapped, "component": self.component, "momentum": self.momentum,
-                "period": self.period, "winding": list(self.winding), "group": self.group, "wrapped": False}
+        return {
+            "geometric": self.geometric,
+            "dynamic": self.dynamic,
+            "total": self.total,
+            "total_wrapped": self.total_wrapped,
+            "component": self.component,
+            "momentum": self.momentum,
+            "period": self.period,
+            "winding": list(self.winding),
+            "group": self.group,
+            "wrapped": False,
+        }
 
 
 def _momentum(mu: Any, G: Any) -> np.ndarray:
@@ -304,8 +347,10 @@ def _momentum(mu: Any, G: Any) -> np.ndarray:
     if mu.size == 1 and G.dim > 1 and mu[0] == 0:
         return np.zeros(G.dim)
     if mu.size != G.dim:
-        raise ShapeError(f"Expected `mu` with {G.dim} component(s) ({', '.join(G.algebra_names)} momenta) for "
-                         f"{G.name}, got {mu.size}.")
+        raise ShapeError(
+            f"Expected `mu` with {G.dim} component(s) ({', '.join(G.algebra_names)} momenta) for "
+            f"{G.name}, got {mu.size}."
+        )
     return mu
 
 
@@ -380,8 +425,9 @@ def phases(system: Any, loop: ShapeLoop, mu: Any = 0.0, *, g0: Any = None, rtol:
 
     geo, inv_int = _periodic_integral(integrand, T, rtol=rtol, what="phase")
     dyn = p_rot * inv_int
-    return PhaseSplit(float(geo), float(dyn), float(geo + dyn), G.coordinates[c].name, p_rot, T,
-                      tuple(int(x) for x in turns), G.name)
+    return PhaseSplit(
+        float(geo), float(dyn), float(geo + dyn), G.coordinates[c].name, p_rot, T, tuple(int(x) for x in turns), G.name
+    )
 
 
 def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, c: int, tol: float = 1e-10) -> None:
@@ -394,8 +440,12 @@ def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, c: in
     Io = I[..., o, :][..., :, o]
     M = Io[..., 0, 0]
     scale = max(1.0, float(np.abs(I).max()))
-    off = max(float(np.abs(A[..., o, :]).max()), float(np.abs(I[..., o, c]).max()) / scale,
-              float(np.abs(Io - M[..., None, None] * np.eye(len(o))).max()) / scale, float(np.ptp(M)) / scale)
+    off = max(
+        float(np.abs(A[..., o, :]).max()),
+        float(np.abs(I[..., o, c]).max()) / scale,
+        float(np.abs(Io - M[..., None, None] * np.eye(len(o))).max()) / scale,
+        float(np.ptp(M)) / scale,
+    )
     if off > tol:
         raise InputError(
             f"The rotational phase formula (eq. 2.3) for {system.name} needs zero linear momentum or a "
@@ -404,8 +454,9 @@ def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, c: in
         )
 
 
-def curvature_integral(system: Any, loop: ShapeLoop, *, base_point: Any = None, rtol: float = 1e-12,
-                       n_radial: int = 24) -> np.ndarray:
+def curvature_integral(
+    system: Any, loop: ShapeLoop, *, base_point: Any = None, rtol: float = 1e-12, n_radial: int = 24
+) -> np.ndarray:
     """:math:`\\iint_D B_{12}\\, dr_1 dr_2` over the region the loop encloses, weighted by its winding
     number (Stokes: equals :math:`\\oint A\\,dr` for the abelian components), shape ``(k,)``.
 
@@ -416,14 +467,24 @@ def curvature_integral(system: Any, loop: ShapeLoop, *, base_point: Any = None, 
     """
     conn = _connection(system)
     if system.shape_dim != 2:
-        raise ShapeError(f"Expected a 2-D shape space for the curvature integral, {system.name} has "
-                         f"{system.shape_dim} shape coordinates.")
-    return stokes_integral(conn.curvature_2d, loop, bind_loop(system, loop), base_point=base_point, rtol=rtol,
-                           n_radial=n_radial)
+        raise ShapeError(
+            f"Expected a 2-D shape space for the curvature integral, {system.name} has "
+            f"{system.shape_dim} shape coordinates."
+        )
+    return stokes_integral(
+        conn.curvature_2d, loop, bind_loop(system, loop), base_point=base_point, rtol=rtol, n_radial=n_radial
+    )
 
 
-def stokes_integral(curvature_2d: Callable[[np.ndarray], np.ndarray], loop: ShapeLoop, turns: np.ndarray, *,
-                    base_point: Any = None, rtol: float = 1e-12, n_radial: int = 24) -> np.ndarray:
+def stokes_integral(
+    curvature_2d: Callable[[np.ndarray], np.ndarray],
+    loop: ShapeLoop,
+    turns: np.ndarray,
+    *,
+    base_point: Any = None,
+    rtol: float = 1e-12,
+    n_radial: int = 24,
+) -> np.ndarray:
     r""":math:`\iint_D B_{12}\,dr_1 dr_2` over the region a loop in a 2-D shape space encloses, weighted by its
     winding number, for a curvature given as ``curvature_2d(points (..., 2)) -> (..., k)``.
 
@@ -433,11 +494,16 @@ def stokes_integral(curvature_2d: Callable[[np.ndarray], np.ndarray], loop: Shap
     bounds no region.
     """
     if np.any(turns != 0):
-        raise InputError(f"The loop winds {np.asarray(turns).tolist()} times around the angle coordinates: it "
-                         "bounds no region of shape space, so Stokes' theorem does not apply.")
+        raise InputError(
+            f"The loop winds {np.asarray(turns).tolist()} times around the angle coordinates: it "
+            "bounds no region of shape space, so Stokes' theorem does not apply."
+        )
     T = loop.period
-    c = (loop.r(np.linspace(0, T, 257)[:-1]).mean(0) if base_point is None
-         else V.exact_shape(base_point, "base_point", (2,)))
+    c = (
+        loop.r(np.linspace(0, T, 257)[:-1]).mean(0)
+        if base_point is None
+        else V.exact_shape(base_point, "base_point", (2,))
+    )
     result = None
     for nr in (n_radial, 2 * n_radial):
         s, w = np.polynomial.legendre.leggauss(nr)
@@ -454,8 +520,10 @@ def stokes_integral(curvature_2d: Callable[[np.ndarray], np.ndarray], loop: Shap
         if result is not None and np.abs(val - result).max() <= 1e-11 * max(1.0, np.abs(val).max()):
             return val
         result = val
-    raise ConvergenceError("The radial Gauss-Legendre rule for the curvature integral did not converge; "
-                           "the curvature may be singular inside the loop.")
+    raise ConvergenceError(
+        "The radial Gauss-Legendre rule for the curvature integral did not converge; "
+        "the curvature may be singular inside the loop."
+    )
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -508,9 +576,18 @@ class GroupPath:
         return {n: float(v) for n, v in zip(names, values)}
 
 
-def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray], g0: Any, t_eval: Any, *,
-                       method: str = "rkmk-dop853", rtol: float = 1e-12, atol: float = 1e-12,
-                       step: float | None = None, chart_radius: float = 1.0) -> GroupPath:
+def integrate_on_group(
+    group: Any,
+    xi: Callable[[float, np.ndarray], np.ndarray],
+    g0: Any,
+    t_eval: Any,
+    *,
+    method: str = "rkmk-dop853",
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+    step: float | None = None,
+    chart_radius: float = 1.0,
+) -> GroupPath:
     """Integrate :math:`g^{-1}\\dot g = \\xi(t, g)` on the group, staying on it exactly.
 
     Both methods write :math:`g = g_c\\exp(u)` about a centre :math:`g_c` and integrate
@@ -578,12 +655,23 @@ def integrate_on_group(group: Any, xi: Callable[[float, np.ndarray], np.ndarray]
         i = 1
         t_end = float(t_eval[-1])
         while i < t_eval.size:
+
             def leave(_t, u, *_):
                 return float(np.linalg.norm(u)) - radius
+
             leave.terminal = True
             leave.direction = 1
-            sol = solve_ivp(chart_rhs, (tc, t_end), np.zeros(k), method="DOP853", rtol=rtol, atol=atol,
-                            dense_output=True, events=leave, args=(gc,))
+            sol = solve_ivp(
+                chart_rhs,
+                (tc, t_end),
+                np.zeros(k),
+                method="DOP853",
+                rtol=rtol,
+                atol=atol,
+                dense_output=True,
+                events=leave,
+                args=(gc,),
+            )
             steps += int(sol.t.size - 1)
             if sol.status < 0:
                 raise NumericalError(f"Reconstruction on {G.name} failed at t = {sol.t[-1]:.6g}: {sol.message}")
@@ -627,8 +715,9 @@ class Reconstruction:
     alone: dict[str, GroupPath] | None = None
 
 
-def decompose_displacement(group: Any, terms: Mapping[str, Callable[[float, np.ndarray], np.ndarray]], g0: Any,
-                           t_eval: Any, **options: Any) -> dict[str, GroupPath]:
+def decompose_displacement(
+    group: Any, terms: Mapping[str, Callable[[float, np.ndarray], np.ndarray]], g0: Any, t_eval: Any, **options: Any
+) -> dict[str, GroupPath]:
     """Integrate the sum of the body-velocity ``terms`` and each term alone, from the same ``g0``.
 
     Returns ``{"total": ..., name: ...}``. This is the split of a net displacement by contribution (e.g.
@@ -646,9 +735,19 @@ def decompose_displacement(group: Any, terms: Mapping[str, Callable[[float, np.n
     return out
 
 
-def reconstruct(system: Any, shape: Any, mu: Any = 0.0, *, g0: Any = None, t_eval: Any = None,
-                method: str = "rkmk-dop853", rtol: float = 1e-12, atol: float = 1e-12, step: float | None = None,
-                decompose: bool = False) -> Reconstruction:
+def reconstruct(
+    system: Any,
+    shape: Any,
+    mu: Any = 0.0,
+    *,
+    g0: Any = None,
+    t_eval: Any = None,
+    method: str = "rkmk-dop853",
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+    step: float | None = None,
+    decompose: bool = False,
+) -> Reconstruction:
     """Reconstruct :math:`g(t)` along a shape path by eq. (2.2), for any of the groups.
 
     Parameters

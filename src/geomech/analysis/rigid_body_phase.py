@@ -70,14 +70,38 @@ class RigidBodyPhase:
         return self.body.exact_solution(self.m0).momentum(np.linspace(0.0, self.period, n))
 
     def to_json(self) -> dict[str, Any]:
-        out = {k: getattr(self, k) for k in ("period", "energy", "momentum", "family", "axis", "pole_sign",
-                                             "solid_angle", "geometric", "dynamic", "total", "total_wrapped",
-                                             "direct_wrapped", "reconstructed_wrapped", "difference",
-                                             "attitude_residual")}
+        out = {
+            k: getattr(self, k)
+            for k in (
+                "period",
+                "energy",
+                "momentum",
+                "family",
+                "axis",
+                "pole_sign",
+                "solid_angle",
+                "geometric",
+                "dynamic",
+                "total",
+                "total_wrapped",
+                "direct_wrapped",
+                "reconstructed_wrapped",
+                "difference",
+                "attitude_residual",
+            )
+        }
         out["spatial_momentum"] = np.asarray(self.spatial_momentum).tolist()
-        out["wrapped"] = {"solid_angle": False, "geometric": False, "dynamic": False, "total": False,
-                          "total_wrapped": True, "direct_wrapped": True, "reconstructed_wrapped": True,
-                          "difference": True, "range": "(-pi, pi]"}
+        out["wrapped"] = {
+            "solid_angle": False,
+            "geometric": False,
+            "dynamic": False,
+            "total": False,
+            "total_wrapped": True,
+            "direct_wrapped": True,
+            "reconstructed_wrapped": True,
+            "difference": True,
+            "range": "(-pi, pi]",
+        }
         return out
 
 
@@ -88,8 +112,9 @@ def _rotation_about(Q: np.ndarray, n: np.ndarray) -> tuple[float, float]:
     return float(wrap_angle(np.asarray(np.arctan2(s, c)))), float(np.linalg.norm(Q @ n - n))
 
 
-def rigid_body_phase(body: Any, m0: Any, *, R0: Any = None, rtol: float = 1e-12, direct: bool = True,
-                     reconstructed: bool = True) -> RigidBodyPhase:
+def rigid_body_phase(
+    body: Any, m0: Any, *, R0: Any = None, rtol: float = 1e-12, direct: bool = True, reconstructed: bool = True
+) -> RigidBodyPhase:
     """Montgomery's formula for the free rigid body, the solid angle by the Serret-Andoyer variables.
 
     In the Serret-Andoyer chart about the encircled principal axis :math:`a`
@@ -145,33 +170,57 @@ def rigid_body_phase(body: Any, m0: Any, *, R0: Any = None, rtol: float = 1e-12,
 
     Lam, dl = _periodic_integral(integrand, T, rtol=1e-14, what="solid angle")
     if abs(abs(dl) - 2 * np.pi) > 1e-6:
-        raise NumericalError(f"The Serret-Andoyer angle l advanced by {dl:.9g} over a period instead of +-2 pi; "
-                             "the orbit does not encircle the expected axis.")
+        raise NumericalError(
+            f"The Serret-Andoyer angle l advanced by {dl:.9g} over a period instead of +-2 pi; "
+            "the orbit does not encircle the expected axis."
+        )
     geo, dyn = -float(Lam), 2 * E * T / G
     total = geo + dyn
     mu = R0 @ m0
     n = mu / G
     direct_angle = residual = rec_angle = None
     if direct:
+
         def rhs(_t: float, y: np.ndarray) -> np.ndarray:
             R, m = y[:9].reshape(3, 3), y[9:]
             w = np.linalg.solve(body.tensor, m)
-            return np.concatenate([(R @ np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])).ravel(),
-                                   np.cross(m, w)])
+            return np.concatenate(
+                [(R @ np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])).ravel(), np.cross(m, w)]
+            )
 
-        sol = solve_ivp(rhs, (0.0, T), np.concatenate([R0.ravel(), m0]), method="DOP853", rtol=rtol,
-                        atol=rtol * max(1.0, G))
+        sol = solve_ivp(
+            rhs, (0.0, T), np.concatenate([R0.ravel(), m0]), method="DOP853", rtol=rtol, atol=rtol * max(1.0, G)
+        )
         if sol.status != 0:
             raise NumericalError(f"Direct attitude integration failed at t = {sol.t[-1]:.6g}: {sol.message}")
         direct_angle, residual = _rotation_about(sol.y[:9, -1].reshape(3, 3) @ R0.T, n)
     if reconstructed:
-        path = integrate_on_group("SO3", lambda t, R: np.linalg.solve(body.tensor, R.T @ mu), R0,
-                                  np.array([0.0, T]), rtol=rtol, atol=rtol)
+        path = integrate_on_group(
+            "SO3", lambda t, R: np.linalg.solve(body.tensor, R.T @ mu), R0, np.array([0.0, T]), rtol=rtol, atol=rtol
+        )
         rec_angle = _rotation_about(path.g[-1] @ R0.T, n)[0]
     tw = float(wrap_angle(np.asarray(total)))
     diff = None if direct_angle is None else float(wrap_angle(np.asarray(tw - direct_angle)))
-    return RigidBodyPhase(T, E, G, exact.family, a, int(s), mu, float(Lam), geo, dyn, total, tw, direct_angle,
-                          rec_angle, diff, residual, body, m0)
+    return RigidBodyPhase(
+        T,
+        E,
+        G,
+        exact.family,
+        a,
+        int(s),
+        mu,
+        float(Lam),
+        geo,
+        dyn,
+        total,
+        tw,
+        direct_angle,
+        rec_angle,
+        diff,
+        residual,
+        body,
+        m0,
+    )
 
 
 def spherical_polygon_area(points: Any, pole: Any) -> float:

@@ -83,11 +83,19 @@ class Verdict:
 
     def to_json(self) -> dict[str, Any]:
         ev = np.asarray(self.eigenvalues)
-        eig = ([{"re": float(z.real), "im": float(z.imag)} for z in ev] if np.iscomplexobj(ev)
-               else ev.astype(float).tolist())
+        eig = (
+            [{"re": float(z.real), "im": float(z.imag)} for z in ev]
+            if np.iscomplexobj(ev)
+            else ev.astype(float).tolist()
+        )
         extra = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.extra.items()}
-        return {"verdict": self.verdict, "reason": self.reason, "matrix": np.asarray(self.matrix).tolist(),
-                "eigenvalues": eig, **extra}
+        return {
+            "verdict": self.verdict,
+            "reason": self.reason,
+            "matrix": np.asarray(self.matrix).tolist(),
+            "eigenvalues": eig,
+            **extra,
+        }
 
 
 def _definiteness(ev: np.ndarray) -> str:
@@ -112,16 +120,31 @@ def lagrange_dirichlet(equilibrium: Equilibrium) -> Verdict:
     chart = f"chart about axis {equilibrium.axis + 1}"
     if kind in ("positive", "negative"):
         what = "minimum" if kind == "positive" else "maximum"
-        return Verdict("lagrange-dirichlet", "stable",
-                       f"the Hessian of h_p ({chart}) is {kind} definite: a strict local {what} of h_p, so "
-                       f"{'+' if kind == 'positive' else '-'}h_p is a Lyapunov function (Lyapunov stable).", H, ev)
+        return Verdict(
+            "lagrange-dirichlet",
+            "stable",
+            f"the Hessian of h_p ({chart}) is {kind} definite: a strict local {what} of h_p, so "
+            f"{'+' if kind == 'positive' else '-'}h_p is a Lyapunov function (Lyapunov stable).",
+            H,
+            ev,
+        )
     if kind == "indefinite":
-        return Verdict("lagrange-dirichlet", "inconclusive",
-                       f"the Hessian of h_p ({chart}) is indefinite (a saddle of h_p): the Lagrange-Dirichlet "
-                       "criterion is silent here; it does not prove instability (see the linearisation).", H, ev)
-    return Verdict("lagrange-dirichlet", "inconclusive",
-                   f"the Hessian of h_p ({chart}) is singular (a degenerate critical point): the criterion "
-                   "needs a definite Hessian; higher-order terms decide.", H, ev)
+        return Verdict(
+            "lagrange-dirichlet",
+            "inconclusive",
+            f"the Hessian of h_p ({chart}) is indefinite (a saddle of h_p): the Lagrange-Dirichlet "
+            "criterion is silent here; it does not prove instability (see the linearisation).",
+            H,
+            ev,
+        )
+    return Verdict(
+        "lagrange-dirichlet",
+        "inconclusive",
+        f"the Hessian of h_p ({chart}) is singular (a degenerate critical point): the criterion "
+        "needs a definite Hessian; higher-order terms decide.",
+        H,
+        ev,
+    )
 
 
 def _tangent_basis(m: np.ndarray) -> np.ndarray:
@@ -159,17 +182,25 @@ def energy_casimir(system: Any, equilibrium: Equilibrium) -> Verdict:
             if np.all(sgn * fe > 0):
                 break
             c *= 4.0
-        extra.update({"casimir_ddphi": float(c), "full_second_variation": full,
-                      "full_second_variation_eigenvalues": fe})
-        return Verdict("energy-casimir", "stable",
-                       f"with C(m) = Phi(|m|^2/2), Phi' = {-mu:.6g}, Phi'' = {c:.6g}, the second variation of "
-                       f"H + C at m_e is {kind} definite: nonlinearly stable (Arnold's energy-Casimir criterion).",
-                       Q, ev, extra)
-    reason = ("the second variation of H + C on the tangent space of the momentum sphere is indefinite: no "
-              "Casimir makes it definite, and the energy-Casimir method is silent (it does not prove instability)."
-              if kind == "indefinite" else
-              "the second variation of H + C on the tangent space of the momentum sphere is singular: the "
-              "energy-Casimir method needs it definite.")
+        extra.update(
+            {"casimir_ddphi": float(c), "full_second_variation": full, "full_second_variation_eigenvalues": fe}
+        )
+        return Verdict(
+            "energy-casimir",
+            "stable",
+            f"with C(m) = Phi(|m|^2/2), Phi' = {-mu:.6g}, Phi'' = {c:.6g}, the second variation of "
+            f"H + C at m_e is {kind} definite: nonlinearly stable (Arnold's energy-Casimir criterion).",
+            Q,
+            ev,
+            extra,
+        )
+    reason = (
+        "the second variation of H + C on the tangent space of the momentum sphere is indefinite: no "
+        "Casimir makes it definite, and the energy-Casimir method is silent (it does not prove instability)."
+        if kind == "indefinite"
+        else "the second variation of H + C on the tangent space of the momentum sphere is singular: the "
+        "energy-Casimir method needs it definite."
+    )
     return Verdict("energy-casimir", "inconclusive", reason, Q, ev, extra)
 
 
@@ -188,21 +219,39 @@ def linearisation(system: Any, equilibrium: Equilibrium) -> Verdict:
     lp_ev = np.linalg.eigvals(lp).astype(complex)
     det = float(np.linalg.det(H))
     scale = max(np.abs(H).max() ** 2, 1e-300)
-    extra = {"lie_poisson_matrix": lp, "lie_poisson_eigenvalues": [{"re": float(z.real), "im": float(z.imag)}
-                                                                   for z in lp_ev]}
+    extra = {
+        "lie_poisson_matrix": lp,
+        "lie_poisson_eigenvalues": [{"re": float(z.real), "im": float(z.imag)} for z in lp_ev],
+    }
     if det < -_DEGENERATE * scale:
         sigma = float(np.sqrt(-det))
-        return Verdict("linearisation", "unstable",
-                       f"the linearised reduced flow has the real pair +-{sigma:.6g}: perturbations grow like "
-                       f"exp({sigma:.4g} t), the equilibrium is unstable (Lyapunov's indirect method).",
-                       Jlin, ev, extra)
+        return Verdict(
+            "linearisation",
+            "unstable",
+            f"the linearised reduced flow has the real pair +-{sigma:.6g}: perturbations grow like "
+            f"exp({sigma:.4g} t), the equilibrium is unstable (Lyapunov's indirect method).",
+            Jlin,
+            ev,
+            extra,
+        )
     if det > _DEGENERATE * scale:
-        return Verdict("linearisation", "inconclusive",
-                       f"the linearised reduced flow has the imaginary pair +-{np.sqrt(det):.6g} i (spectrally "
-                       "stable): linearisation does not decide nonlinear stability.", Jlin, ev, extra)
-    return Verdict("linearisation", "inconclusive",
-                   "the linearised reduced flow is degenerate (zero eigenvalues): linearisation decides nothing.",
-                   Jlin, ev, extra)
+        return Verdict(
+            "linearisation",
+            "inconclusive",
+            f"the linearised reduced flow has the imaginary pair +-{np.sqrt(det):.6g} i (spectrally "
+            "stable): linearisation does not decide nonlinear stability.",
+            Jlin,
+            ev,
+            extra,
+        )
+    return Verdict(
+        "linearisation",
+        "inconclusive",
+        "the linearised reduced flow is degenerate (zero eigenvalues): linearisation decides nothing.",
+        Jlin,
+        ev,
+        extra,
+    )
 
 
 @dataclass(frozen=True)
@@ -231,20 +280,28 @@ class StabilityReport:
         return {
             **eq,
             "linearisation_eigenvalues": self.linearisation.to_json()["eigenvalues"],
-            "verdicts": {"lagrange_dirichlet": self.lagrange_dirichlet.verdict,
-                         "energy_casimir": self.energy_casimir.verdict,
-                         "linearisation": self.linearisation.verdict},
+            "verdicts": {
+                "lagrange_dirichlet": self.lagrange_dirichlet.verdict,
+                "energy_casimir": self.energy_casimir.verdict,
+                "linearisation": self.linearisation.verdict,
+            },
             "verdict": self.verdict,
-            "evidence": {"lagrange_dirichlet": self.lagrange_dirichlet.to_json(),
-                         "energy_casimir": self.energy_casimir.to_json(),
-                         "linearisation": self.linearisation.to_json()},
+            "evidence": {
+                "lagrange_dirichlet": self.lagrange_dirichlet.to_json(),
+                "energy_casimir": self.energy_casimir.to_json(),
+                "linearisation": self.linearisation.to_json(),
+            },
         }
 
 
 def assess(system: Any, equilibrium: Equilibrium) -> StabilityReport:
     """All three verdicts on ``equilibrium``."""
-    return StabilityReport(equilibrium, lagrange_dirichlet(equilibrium), energy_casimir(system, equilibrium),
-                           linearisation(system, equilibrium))
+    return StabilityReport(
+        equilibrium,
+        lagrange_dirichlet(equilibrium),
+        energy_casimir(system, equilibrium),
+        linearisation(system, equilibrium),
+    )
 
 
 @dataclass(frozen=True)
@@ -265,9 +322,13 @@ class StabilityAnalysis:
         return next(r for r in self.reports if r.equilibrium is eq)
 
     def to_json(self) -> dict[str, Any]:
-        return {"G": self.equilibria.G, "complete": self.equilibria.complete,
-                "index_sum": self.equilibria.index_sum, "message": self.equilibria.message,
-                "equilibria": [r.to_json() for r in self.reports]}
+        return {
+            "G": self.equilibria.G,
+            "complete": self.equilibria.complete,
+            "index_sum": self.equilibria.index_sum,
+            "message": self.equilibria.message,
+            "equilibria": [r.to_json() for r in self.reports],
+        }
 
 
 def analyse_stability(system: Any, G: float = 1.0, *, n_points: int = 1500) -> StabilityAnalysis:
@@ -304,9 +365,16 @@ class StabilityBoundary:
     evaluations: int
 
 
-def stability_boundary(family: Callable[..., Any], parameter: str, bracket: tuple[float, float], *,
-                       G: float = 1.0, near: Any = None, fixed: Mapping[str, float] | None = None,
-                       xtol: float = 1e-13) -> StabilityBoundary:
+def stability_boundary(
+    family: Callable[..., Any],
+    parameter: str,
+    bracket: tuple[float, float],
+    *,
+    G: float = 1.0,
+    near: Any = None,
+    fixed: Mapping[str, float] | None = None,
+    xtol: float = 1e-13,
+) -> StabilityBoundary:
     """Find the parameter value where the relative equilibrium near ``near`` changes stability.
 
     Parameters
@@ -337,9 +405,11 @@ def stability_boundary(family: Callable[..., Any], parameter: str, bracket: tupl
 
     fa, fb = f(a), f(b)
     if fa * fb > 0:
-        raise InputError(f"Expected the stability of the equilibrium near {near.tolist()} to change between "
-                         f"{parameter} = {a:g} and {b:g}; the determinant of the second variation has the same sign "
-                         f"({fa:.3g}, {fb:.3g}) at both ends. Widen or move `bracket`.")
+        raise InputError(
+            f"Expected the stability of the equilibrium near {near.tolist()} to change between "
+            f"{parameter} = {a:g} and {b:g}; the determinant of the second variation has the same sign "
+            f"({fa:.3g}, {fb:.3g}) at both ends. Widen or move `bracket`."
+        )
     root = brentq(f, a, b, xtol=xtol, rtol=4 * np.finfo(float).eps, maxiter=200)
     stable_side = "above" if (fb > 0) == (b > a) else "below"
     m = known[min(known, key=lambda k: abs(k - root))]
@@ -360,8 +430,16 @@ class PerturbationGrowth:
     ratio: float
 
 
-def perturbation_growth(system: Any, m_e: Any, *, delta: float = 1e-3, t_final: float = 200.0,
-                        direction: Any = None, samples: int = 2001, rtol: float = 1e-11) -> PerturbationGrowth:
+def perturbation_growth(
+    system: Any,
+    m_e: Any,
+    *,
+    delta: float = 1e-3,
+    t_final: float = 200.0,
+    direction: Any = None,
+    samples: int = 2001,
+    rtol: float = 1e-11,
+) -> PerturbationGrowth:
     """Integrate Euler's equation :math:`\\dot m = m\\times\\nabla H` from :math:`m_e + \\delta\\,u` (projected
     back to :math:`|m| = |m_e|`) and record the deviation :math:`|m(t) - m_e|`."""
     system = as_left_invariant(system)
@@ -379,8 +457,15 @@ def perturbation_growth(system: Any, m_e: Any, *, delta: float = 1e-3, t_final: 
     m0 = m_e + delta * G * u / np.linalg.norm(u)
     m0 *= G / np.linalg.norm(m0)
     t = np.linspace(0.0, t_final, int(samples))
-    sol = solve_ivp(lambda _t, m: system.euler_vector_field(m), (0.0, t_final), m0, method="DOP853", t_eval=t,
-                    rtol=rtol, atol=rtol * G)
+    sol = solve_ivp(
+        lambda _t, m: system.euler_vector_field(m),
+        (0.0, t_final),
+        m0,
+        method="DOP853",
+        t_eval=t,
+        rtol=rtol,
+        atol=rtol * G,
+    )
     if sol.status < 0:
         raise NumericalError(f"Perturbation growth: integration failed at t = {sol.t[-1]:.6g}: {sol.message}")
     dev = np.linalg.norm(sol.y.T - m_e, axis=-1)

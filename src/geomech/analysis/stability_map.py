@@ -82,14 +82,22 @@ def stability_map(
     yname, ys = _axis_values(y, "y")
     if xname == yname:
         raise InputError(f"Expected two different parameters for `x` and `y`, got {xname!r} twice.")
-    V.work_budget(float(xs.size) * ys.size, float(max_points), f"The grid ({xs.size} x {ys.size} points)",
-                  "max_points", "take fewer points", seconds_each=0.015)
+    V.work_budget(
+        float(xs.size) * ys.size,
+        float(max_points),
+        f"The grid ({xs.size} x {ys.size} points)",
+        "max_points",
+        "take fewer points",
+        seconds_each=0.015,
+    )
     G = V.positive_scalar(G, "G")
     near = np.array([0.0, G, 0.0]) if near is None else V.exact_shape(near, "near", (3,))
     fixed = dict(fixed or {})
     ny, nx = ys.size, xs.size
-    codes = {k: np.full((ny, nx), VERDICT_CODES["none"], dtype=np.int8)
-             for k in ("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")}
+    codes = {
+        k: np.full((ny, nx), VERDICT_CODES["none"], dtype=np.int8)
+        for k in ("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")
+    }
     m_all = np.full((ny, nx, 3), np.nan)
     hev = np.full((ny, nx, 2), np.nan)
     growth = np.full((ny, nx), np.nan)
@@ -114,8 +122,11 @@ def stability_map(
             # complete by Poincare-Hopf); the one assessed is the nearest to `near`: a definition that does
             # not depend on the path through the grid, and that a fold or a pole cannot capture.
             try:
-                eqs = (find_equilibria(system, G, n_points=n_points) if prev is None
-                       else continue_equilibria(system, prev, n_points=n_points))
+                eqs = (
+                    find_equilibria(system, G, n_points=n_points)
+                    if prev is None
+                    else continue_equilibria(system, prev, n_points=n_points)
+                )
             except (ConvergenceError, InputError, FloatingPointError):
                 prev = None
                 continue
@@ -139,34 +150,68 @@ def stability_map(
             ecdet[j, i] = _ec_determinant(system, eq.m)
     if progress is not None:
         progress(done)
-    flags = {"flag_values": np.array(sorted(VERDICT_CODES.values()), dtype=np.int8),
-             "flag_meanings": " ".join(k for k, _ in sorted(VERDICT_CODES.items(), key=lambda kv: kv[1]))}
+    flags = {
+        "flag_values": np.array(sorted(VERDICT_CODES.values()), dtype=np.int8),
+        "flag_meanings": " ".join(k for k, _ in sorted(VERDICT_CODES.items(), key=lambda kv: kv[1])),
+    }
     dims = (yname, xname)
     data = {
-        "verdict": (dims, codes["verdict"], {**flags, "long_name": "combined verdict (stable if Lagrange-Dirichlet "
-                                             "or energy-Casimir proves it, unstable if the linearisation does)"}),
+        "verdict": (
+            dims,
+            codes["verdict"],
+            {
+                **flags,
+                "long_name": "combined verdict (stable if Lagrange-Dirichlet "
+                "or energy-Casimir proves it, unstable if the linearisation does)",
+            },
+        ),
         "lagrange_dirichlet": (dims, codes["lagrange_dirichlet"], {**flags, "long_name": "Lagrange-Dirichlet on h_p"}),
         "energy_casimir": (dims, codes["energy_casimir"], {**flags, "long_name": "energy-Casimir on so(3)*"}),
         "linearisation": (dims, codes["linearisation"], {**flags, "long_name": "linearisation eigenvalues"}),
         "m": (dims + ("component",), m_all, {"long_name": "body momentum of the continued equilibrium"}),
-        "hessian_eigenvalues": (dims + ("eigenvalue",), hev, {"long_name": "eigenvalues of the Hessian of h_p "
-                                                                        "(Serret-Andoyer chart)"}),
-        "branch_jump": (dims, jumped, {"long_name": "1 where the continuation left the followed branch (or started "
-                                                    "afresh from `near`), 0 where it followed it"}),
+        "hessian_eigenvalues": (
+            dims + ("eigenvalue",),
+            hev,
+            {"long_name": "eigenvalues of the Hessian of h_p (Serret-Andoyer chart)"},
+        ),
+        "branch_jump": (
+            dims,
+            jumped,
+            {
+                "long_name": "1 where the continuation left the followed branch (or started "
+                "afresh from `near`), 0 where it followed it"
+            },
+        ),
         "complete": (dims, complete, {"long_name": "1 where the equilibria found pass the Poincare-Hopf check"}),
         "growth_rate": (dims, growth, {"long_name": "largest real part of the linearisation eigenvalues"}),
-        "ec_determinant": (dims, ecdet, {"long_name": "normalised determinant of the energy-Casimir second "
-                                                      "variation; its zero level is the stability boundary"}),
+        "ec_determinant": (
+            dims,
+            ecdet,
+            {
+                "long_name": "normalised determinant of the energy-Casimir second "
+                "variation; its zero level is the stability boundary"
+            },
+        ),
     }
     if margin is not None:
-        data["closed_form_margin"] = (dims, margin, {"long_name": "closed-form prediction; zero on the predicted "
-                                                                  "boundary"})
+        data["closed_form_margin"] = (
+            dims,
+            margin,
+            {"long_name": "closed-form prediction; zero on the predicted boundary"},
+        )
     return xr.Dataset(
         data,
         coords={xname: xs, yname: ys, "component": ["m1", "m2", "m3"], "eigenvalue": [0, 1]},
-        attrs={"title": "stability map of a relative equilibrium", "description": description,
-               "G": G, "near": near.tolist(), "fixed_parameters": str(fixed), "x": xname, "y": yname,
-               "source": f"geomech {__version__}"},
+        attrs={
+            "title": "stability map of a relative equilibrium",
+            "description": description,
+            "G": G,
+            "near": near.tolist(),
+            "fixed_parameters": str(fixed),
+            "x": xname,
+            "y": yname,
+            "source": f"geomech {__version__}",
+        },
     )
 
 

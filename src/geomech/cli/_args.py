@@ -97,14 +97,17 @@ def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, ow
         if not sep or not name or not expr.strip():
             raise InputError(f"Expected `{option}` as NAME=EXPR, got {item!r}.")
         if name not in names:
-            raise InputError(f"`{option}` names {name!r}, which is not a shape variable of {owner} "
-                             f"({', '.join(names) or 'none'}).")
+            raise InputError(
+                f"`{option}` names {name!r}, which is not a shape variable of {owner} ({', '.join(names) or 'none'})."
+            )
         if name in given:
             raise InputError(f"`{option}` gives {name!r} twice.")
         given[name] = parse_formula(expr, f"{option} {name}")
     if len(given) != len(names):
-        raise ShapeError(f"Expected one `{option}` for each of the {len(names)} shape variables "
-                         f"({', '.join(names)}) of {owner}, got {len(given)} ({', '.join(given) or 'none'}).")
+        raise ShapeError(
+            f"Expected one `{option}` for each of the {len(names)} shape variables "
+            f"({', '.join(names)}) of {owner}, got {len(given)} ({', '.join(given) or 'none'})."
+        )
     return {n: given[n] for n in names}
 
 

@@ -58,16 +58,22 @@ def _text(s: dict[str, Any]) -> str:
     def fmt(d: dict) -> str:
         return ", ".join(f"{k} {v:.10g}" for k, v in d.items())
 
-    lines = [f"{s['system']} on {s['group']}, shape ({', '.join(s['shape'])}), T = {s['period']:g}, "
-             f"{s['periods']} period(s), p0 = {s['p0']}",
-             f"net displacement g(0)^-1 g(NT)          : {fmt(s['net_displacement'])}"]
+    lines = [
+        f"{s['system']} on {s['group']}, shape ({', '.join(s['shape'])}), T = {s['period']:g}, "
+        f"{s['periods']} period(s), p0 = {s['p0']}",
+        f"net displacement g(0)^-1 g(NT)          : {fmt(s['net_displacement'])}",
+    ]
     for j, d in enumerate(s["displacement_per_period"]):
         lines.append(f"  period {j + 1}: g(t0)^-1 g(t0 + T)        : {fmt(d)}")
-    lines += [f"connection term -A^nh r' alone          : {fmt(s['connection_alone'])}",
-              f"momentum term I^-1 p alone              : {fmt(s['momentum_alone'])}"]
+    lines += [
+        f"connection term -A^nh r' alone          : {fmt(s['connection_alone'])}",
+        f"momentum term I^-1 p alone              : {fmt(s['momentum_alone'])}",
+    ]
     if s["momentum_change_per_period"] and s["momentum_change_per_period"][0]:
-        lines.append("momentum change per period p((j+1)T) - p(jT): "
-                     + "; ".join("[" + ", ".join(f"{x:.6g}" for x in d) + "]" for d in s["momentum_change_per_period"]))
+        lines.append(
+            "momentum change per period p((j+1)T) - p(jT): "
+            + "; ".join("[" + ", ".join(f"{x:.6g}" for x in d) + "]" for d in s["momentum_change_per_period"])
+        )
     else:
         lines.append("no nonholonomic momentum (S_q = 0): the connection term is the whole motion")
     lines.append("note: " + s["note"])
@@ -107,23 +113,48 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
 
 @click.command("gait")
 @click.argument("model")
-@click.option("--shape-loop", "shape_loop", multiple=True, metavar="NAME=EXPR", required=True,
-              help="A shape variable as a formula in t (and T, the period), e.g. 'psi=sin(2*pi*t/T)'; one per "
-                   "shape variable.")
+@click.option(
+    "--shape-loop",
+    "shape_loop",
+    multiple=True,
+    metavar="NAME=EXPR",
+    required=True,
+    help="A shape variable as a formula in t (and T, the period), e.g. 'psi=sin(2*pi*t/T)'; one per shape variable.",
+)
 @click.option("--period", type=float, required=True, help="Period T of the gait.")
-@click.option("--periods", type=click.IntRange(1, 10**4), default=1, show_default=True,
-              help="Number of periods to integrate.")
-@click.option("--p0", type=FloatVector(*range(1, 65)), default=None,
-              help="Initial nonholonomic momentum, comma-separated (default 0; basis of docs/nonholonomic.md).")
+@click.option(
+    "--periods", type=click.IntRange(1, 10**4), default=1, show_default=True, help="Number of periods to integrate."
+)
+@click.option(
+    "--p0",
+    type=FloatVector(*range(1, 65)),
+    default=None,
+    help="Initial nonholonomic momentum, comma-separated (default 0; basis of docs/nonholonomic.md).",
+)
 @click.option("--g0", "g0", multiple=True, metavar="NAME=VALUE", help="An initial group coordinate (default 0).")
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
-@click.option("--samples", type=click.IntRange(3, 10**5), default=201, show_default=True,
-              help="Output times per period.")
+@click.option(
+    "--samples", type=click.IntRange(3, 10**5), default=201, show_default=True, help="Output times per period."
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).")
-def gait_cmd(model: str, shape_loop: tuple, period: float, periods: int, p0: tuple | None, g0: tuple,
-             params: tuple, samples: int, as_json: bool, out: Path | None) -> None:
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).",
+)
+def gait_cmd(
+    model: str,
+    shape_loop: tuple,
+    period: float,
+    periods: int,
+    p0: tuple | None,
+    g0: tuple,
+    params: tuple,
+    samples: int,
+    as_json: bool,
+    out: Path | None,
+) -> None:
     """Net displacement of a periodic gait of a nonholonomic MODEL, with the connection and momentum terms.
 
     Integrates the momentum equation (1.2) along the gait and the reconstruction equation (1.1) on the
@@ -139,8 +170,15 @@ def gait_cmd(model: str, shape_loop: tuple, period: float, periods: int, p0: tup
     system = _system(model, parse_params(params))
     loop = _shape_loop(system, shape_loop)
     with activity(f"gait of {system.name}: deriving and integrating"):
-        analysis = analyse_gait(system, loop, period=period, periods=periods, p0=p0,
-                                g0=_named(system, g0, "--g0"), samples_per_period=samples)
+        analysis = analyse_gait(
+            system,
+            loop,
+            period=period,
+            periods=periods,
+            p0=p0,
+            g0=_named(system, g0, "--g0"),
+            samples_per_period=samples,
+        )
     summary = analysis.summary()
     summary["model"] = model
     if out is not None:

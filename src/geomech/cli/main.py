@@ -39,18 +39,36 @@ def cli() -> None:
 
 
 @cli.command("rigid-body")
-@click.option("--inertia", type=FloatVector(3, 9), required=True,
-              help="Principal moments I1 I2 I3, or the 9 entries of the inertia tensor (row by row).")
+@click.option(
+    "--inertia",
+    type=FloatVector(3, 9),
+    required=True,
+    help="Principal moments I1 I2 I3, or the 9 entries of the inertia tensor (row by row).",
+)
 @click.option("--momentum", type=FloatVector(3), required=True, help="Initial body angular momentum m1 m2 m3.")
 @click.option("--t-final", type=float, default=50.0, show_default=True, help="Final time.")
-@click.option("--samples", type=click.IntRange(2, 10**6), default=1001, show_default=True,
-              help="Times at which invariants are checked.")
+@click.option(
+    "--samples",
+    type=click.IntRange(2, 10**6),
+    default=1001,
+    show_default=True,
+    help="Times at which invariants are checked.",
+)
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Relative tolerance of the integration.")
-@click.option("--max-turns", type=float, default=2000.0, show_default=True,
-              help="Refuse runs of more turns of the body (t_final |omega| / 2 pi), about 60 ms each.")
+@click.option(
+    "--max-turns",
+    type=float,
+    default=2000.0,
+    show_default=True,
+    help="Refuse runs of more turns of the body (t_final |omega| / 2 pi), about 60 ms each.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for rigid_body.json and a figure of the momentum on its sphere.")
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for rigid_body.json and a figure of the momentum on its sphere.",
+)
 def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json, out) -> None:
     """The free rigid body: exact elliptic solution vs the integrated Serret-Andoyer reduced system.
 
@@ -60,8 +78,9 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
     from ..experiments.rigid_body import run_rigid_body, summary_text
 
     with activity(f"integrating the reduced system to t = {t_final:g}"):
-        summary, traj = run_rigid_body(inertia, momentum, t_final=t_final, samples=samples, rtol=rtol,
-                                       max_turns=max_turns)
+        summary, traj = run_rigid_body(
+            inertia, momentum, t_final=t_final, samples=samples, rtol=rtol, max_turns=max_turns
+        )
     outputs = None
     if out is not None:
         from ..plot import momentum_sphere
@@ -73,11 +92,20 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
 
 
 @cli.command("reduce")
-@click.option("--hamiltonian", "hamiltonian", required=True,
-              help="H(m1, m2, m3) as a formula, e.g. 'm1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)'.")
+@click.option(
+    "--hamiltonian",
+    "hamiltonian",
+    required=True,
+    help="H(m1, m2, m3) as a formula, e.g. 'm1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)'.",
+)
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
-@click.option("--axis", type=click.IntRange(1, 3), default=3, show_default=True,
-              help="Body axis of the Serret-Andoyer chart (3 is the paper's).")
+@click.option(
+    "--axis",
+    type=click.IntRange(1, 3),
+    default=3,
+    show_default=True,
+    help="Body axis of the Serret-Andoyer chart (3 is the paper's).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option("--latex", "as_latex", is_flag=True, help="Print LaTeX.")
 def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
@@ -110,12 +138,16 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
     if as_json:
         click.echo(dumps_json(summary))
     elif as_latex:
-        click.echo(f"h_p(l, L) = {summary['latex']['h_p']}\n\\dot l = {summary['latex']['l_dot']}\n"
-                   f"\\dot L = {summary['latex']['L_dot']}")
+        click.echo(
+            f"h_p(l, L) = {summary['latex']['h_p']}\n\\dot l = {summary['latex']['l_dot']}\n"
+            f"\\dot L = {summary['latex']['L_dot']}"
+        )
     else:
-        click.echo(f"H(m)       = {summary['hamiltonian']}\nchart      : about body axis {axis}\n"
-                   f"h_p(l, L)  = {h}\nl'         = {ldot}\nL'         = {Ldot}\n"
-                   f"hyperregular: {summary['hyperregular']}")
+        click.echo(
+            f"H(m)       = {summary['hamiltonian']}\nchart      : about body axis {axis}\n"
+            f"h_p(l, L)  = {h}\nl'         = {ldot}\nL'         = {Ldot}\n"
+            f"hyperregular: {summary['hyperregular']}"
+        )
 
 
 cli.add_command(derive_cmd)
@@ -134,9 +166,18 @@ def _say(kind: str, message: str) -> None:
 
 
 #: API argument names that a command's option spells differently (used only where the command has that option).
-_ALIASES = {"expression": "--hamiltonian", "hamiltonian": "--hamiltonian", "parameters": "--param",
-            "m0": "--momentum", "momentum": "--momentum", "shapes": "--shape", "tau": "--tau", "phi": "--phi",
-            "period": "--period", "expressions": "--shape"}
+_ALIASES = {
+    "expression": "--hamiltonian",
+    "hamiltonian": "--hamiltonian",
+    "parameters": "--param",
+    "m0": "--momentum",
+    "momentum": "--momentum",
+    "shapes": "--shape",
+    "tau": "--tau",
+    "phi": "--phi",
+    "period": "--period",
+    "expressions": "--shape",
+}
 
 
 def _command_of(args: list[str]) -> click.Command:
@@ -165,8 +206,10 @@ def _check_values_are_not_options(args: list[str]) -> None:
     for option, value in zip(args, args[1:]):
         p = params.get(option)
         if p is not None and not p.is_flag and not p.count and value in params:
-            raise click.UsageError(f"{option} takes a value, but the next word is the option {value}; give "
-                                   f"{option} its value (a value that starts with - can be written {option}=VALUE).")
+            raise click.UsageError(
+                f"{option} takes a value, but the next word is the option {value}; give "
+                f"{option} its value (a value that starts with - can be written {option}=VALUE)."
+            )
 
 
 def _with_option_names(exc: GeomechError, args: list[str]) -> None:
@@ -181,15 +224,22 @@ def _with_option_names(exc: GeomechError, args: list[str]) -> None:
         base = name.split("[", 1)[0]
         for candidate in (_ALIASES.get(base), "--" + base.replace("_", "-")):
             if candidate in options:
-                return candidate + name[len(base):]
+                return candidate + name[len(base) :]
         return None
 
-    text = re.sub(r"`([A-Za-z_][A-Za-z0-9_]*(?:\[[^\]`]*\])?)`",
-                  lambda m: f"`{option(m.group(1))}`" if option(m.group(1)) else m.group(0), text)
+    text = re.sub(
+        r"`([A-Za-z_][A-Za-z0-9_]*(?:\[[^\]`]*\])?)`",
+        lambda m: f"`{option(m.group(1))}`" if option(m.group(1)) else m.group(0),
+        text,
+    )
     if "--param" in options:
-        text = re.sub(r"pass(?: them as)? parameters=\{([^}]*)\}",
-                      lambda m: "add " + " ".join(f"--param {k.strip(chr(39))}=VALUE"
-                                                  for k in re.findall(r"'[^']+'", m.group(1))), text)
+        text = re.sub(
+            r"pass(?: them as)? parameters=\{([^}]*)\}",
+            lambda m: (
+                "add " + " ".join(f"--param {k.strip(chr(39))}=VALUE" for k in re.findall(r"'[^']+'", m.group(1)))
+            ),
+            text,
+        )
     if text != str(exc):
         exc.args = (text,)
 
@@ -253,8 +303,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except RuntimeWarning as exc:
         _debug(debug)
-        _say("numerical failure", f"{exc}: a value left the range of double precision (an input too large or too "
-                                  "small for this computation)")
+        _say(
+            "numerical failure",
+            f"{exc}: a value left the range of double precision (an input too large or too small for this computation)",
+        )
         return 1
     except BrokenPipeError:
         # stdout closed early (| head): nothing more to say, and Python must not complain at exit

@@ -36,8 +36,9 @@ def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]
             try:
                 out[name.strip()] = float(val)
             except ValueError:
-                raise click.BadParameter(f"{name.strip()} = {val!r} is not a number",
-                                         param_hint=f"'{option}'") from None
+                raise click.BadParameter(
+                    f"{name.strip()} = {val!r} is not a number", param_hint=f"'{option}'"
+                ) from None
         else:
             out[name.strip()] = parse_formula(val, f"{option} {name.strip()}")
     return out
@@ -59,12 +60,16 @@ def require_values(system) -> None:
     """Numeric commands need every parameter: name the missing ones as ``--param`` options."""
     missing = sorted(p.name for p in system.parameter_symbols if p.name not in system.parameters)
     if missing:
-        raise InputError(f"{system.name} needs a value for parameter(s) {missing}: add "
-                         + " ".join(f"--param {m}=VALUE" for m in missing) + ".")
+        raise InputError(
+            f"{system.name} needs a value for parameter(s) {missing}: add "
+            + " ".join(f"--param {m}=VALUE" for m in missing)
+            + "."
+        )
 
 
-def derivation(system, sections: tuple[str, ...] = ("system", "lagrange_dalembert", "bkmm", "almost_poisson",
-                                                      "poisson_reduction")) -> dict[str, Any]:
+def derivation(
+    system, sections: tuple[str, ...] = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction")
+) -> dict[str, Any]:
     """All derived objects of ``system`` as a JSON-ready dict (text and LaTeX of each)."""
     import sympy as sp
 
@@ -76,14 +81,20 @@ def derivation(system, sections: tuple[str, ...] = ("system", "lagrange_dalember
         constraints = list(system.constraint_matrix * sp.Matrix(system.qdot))
         names = system.latex_names
         out["system"] = {
-            "name": system.name, "description": system.description, "group": system.group.name,
+            "name": system.name,
+            "description": system.description,
+            "group": system.group.name,
             "group_coordinates": [c.name for c in system.group.coordinates],
-            "shape": [r.name for r in system.shape], "velocities": [v.name for v in system.qdot],
+            "shape": [r.name for r in system.shape],
+            "velocities": [v.name for v in system.qdot],
             "lagrangian": str(system.lagrangian),
             "constraints": [str(e) for e in constraints],
-            "parameters": [p.name for p in system.parameter_symbols], "invariance": system.check_invariance().to_dict(),
-            "latex": {"lagrangian": sp.latex(system.lagrangian, symbol_names=names),
-                      "constraints": [sp.latex(e, symbol_names=names) for e in constraints]},
+            "parameters": [p.name for p in system.parameter_symbols],
+            "invariance": system.check_invariance().to_dict(),
+            "latex": {
+                "lagrangian": sp.latex(system.lagrangian, symbol_names=names),
+                "constraints": [sp.latex(e, symbol_names=names) for e in constraints],
+            },
         }
     if "lagrange_dalembert" in sections:
         out["lagrange_dalembert"] = lagrange_dalembert(system).to_dict()
@@ -101,12 +112,26 @@ _SECTIONS = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_
 
 @click.command("derive")
 @click.argument("name", required=False)
-@click.option("--model", type=click.Path(dir_okay=False), default=None,
-              help="A Python model file defining `system` or `build(**params)` (docs/nonholonomic.md).")
-@click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
-              help="A parameter of a --model file's build(**params) (repeatable); derivations are symbolic.")
-@click.option("--section", "sections", multiple=True, type=click.Choice(_SECTIONS),
-              help="Derive only these parts (repeatable; default all).")
+@click.option(
+    "--model",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="A Python model file defining `system` or `build(**params)` (docs/nonholonomic.md).",
+)
+@click.option(
+    "--param",
+    "params",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="A parameter of a --model file's build(**params) (repeatable); derivations are symbolic.",
+)
+@click.option(
+    "--section",
+    "sections",
+    multiple=True,
+    type=click.Choice(_SECTIONS),
+    help="Derive only these parts (repeatable; default all).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (text and LaTeX of every object).")
 @click.option("--latex", "as_latex", is_flag=True, help="Print LaTeX.")
 def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
@@ -121,9 +146,12 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     """
     values = _pairs(params, "--param", True)
     if values and model is None:
-        raise click.BadParameter("the derivation is symbolic in every parameter of a built-in example, so values "
-                                 "would not change it; drop --param (it applies to simulate and gait, and to a "
-                                 "--model file's build(**params))", param_hint="'--param'")
+        raise click.BadParameter(
+            "the derivation is symbolic in every parameter of a built-in example, so values "
+            "would not change it; drop --param (it applies to simulate and gait, and to a "
+            "--model file's build(**params))",
+            param_hint="'--param'",
+        )
     system = _system(name, model, values)
     with activity(f"deriving {system.name}"):
         data = derivation(system, tuple(sections) or _SECTIONS)
@@ -153,29 +181,83 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
 @click.argument("name", required=False)
 @click.option("--model", type=click.Path(dir_okay=False), default=None, help="A Python model file instead of NAME.")
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
-@click.option("--shape", "shapes", multiple=True, metavar="NAME=F(t)",
-              help="A prescribed shape motion, e.g. 'psi=sin(2*pi*t)' (repeatable); other shapes are free.")
-@click.option("--tau", "taus", multiple=True, metavar="NAME=F(t, q, qdot)",
-              help="A torque on a free shape variable, a formula in t, the coordinates and velocities (repeatable).")
+@click.option(
+    "--shape",
+    "shapes",
+    multiple=True,
+    metavar="NAME=F(t)",
+    help="A prescribed shape motion, e.g. 'psi=sin(2*pi*t)' (repeatable); other shapes are free.",
+)
+@click.option(
+    "--tau",
+    "taus",
+    multiple=True,
+    metavar="NAME=F(t, q, qdot)",
+    help="A torque on a free shape variable, a formula in t, the coordinates and velocities (repeatable).",
+)
 @click.option("--q0", "q0s", multiple=True, metavar="NAME=VALUE", help="An initial coordinate (default 0).")
-@click.option("--rdot0", "rdot0s", multiple=True, metavar="NAME=VALUE",
-              help="An initial velocity of a free shape variable (default 0).")
-@click.option("--p0", type=FloatVector(*range(1, 65)), default=None,
-              help="Initial nonholonomic momentum, comma-separated (default 0; basis of docs/nonholonomic.md).")
+@click.option(
+    "--rdot0",
+    "rdot0s",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="An initial velocity of a free shape variable (default 0).",
+)
+@click.option(
+    "--p0",
+    type=FloatVector(*range(1, 65)),
+    default=None,
+    help="Initial nonholonomic momentum, comma-separated (default 0; basis of docs/nonholonomic.md).",
+)
 @click.option("--t-final", type=float, default=1.0, show_default=True, help="Final time.")
-@click.option("--method", type=click.Choice(["full", "reduced", "discrete"]), default="full", show_default=True,
-              help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA.")
+@click.option(
+    "--method",
+    type=click.Choice(["full", "reduced", "discrete"]),
+    default="full",
+    show_default=True,
+    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA.",
+)
 @click.option("--h", "step", type=float, default=1e-3, show_default=True, help="Step of the discrete method.")
 @click.option("--samples", type=click.IntRange(2, 10**6), default=201, show_default=True, help="Output times.")
-@click.option("--max-evaluations", type=click.IntRange(1, None), default=200_000, show_default=True,
-              help="Stop the full and reduced methods past this many evaluations of the equations.")
-@click.option("--max-steps", type=click.IntRange(1, None), default=1_000_000, show_default=True,
-              help="Refuse discrete runs of more steps ((t_final) / h).")
+@click.option(
+    "--max-evaluations",
+    type=click.IntRange(1, None),
+    default=200_000,
+    show_default=True,
+    help="Stop the full and reduced methods past this many evaluations of the equations.",
+)
+@click.option(
+    "--max-steps",
+    type=click.IntRange(1, None),
+    default=1_000_000,
+    show_default=True,
+    help="Refuse discrete runs of more steps ((t_final) / h).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
-def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, method, step, samples,
-                 max_evaluations, max_steps, as_json, out) -> None:
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.",
+)
+def simulate_cmd(
+    name,
+    model,
+    params,
+    shapes,
+    taus,
+    q0s,
+    rdot0s,
+    p0,
+    t_final,
+    method,
+    step,
+    samples,
+    max_evaluations,
+    max_steps,
+    as_json,
+    out,
+) -> None:
     """Simulate an example or --model FILE.py with gaits (--shape) and torques (--tau).
 
     Prints the final configuration, the nonholonomic momentum, the constraint residual and the work done by
@@ -187,9 +269,13 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
     from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
 
     system = _system(name, model, _pairs(params, "--param", True))
-    kw = dict(shapes=_pairs(shapes, "--shape", False), tau=_pairs(taus, "--tau", False),
-              q0=_pairs(q0s, "--q0", True), rdot0=_pairs(rdot0s, "--rdot0", True),
-              p0=None if p0 is None else list(p0))
+    kw = dict(
+        shapes=_pairs(shapes, "--shape", False),
+        tau=_pairs(taus, "--tau", False),
+        q0=_pairs(q0s, "--q0", True),
+        rdot0=_pairs(rdot0s, "--rdot0", True),
+        p0=None if p0 is None else list(p0),
+    )
     require_values(system)
     start = "momentum p0 as given"
     if p0 is None:
@@ -225,13 +311,15 @@ def simulate_cmd(name, model, params, shapes, taus, q0s, rdot0s, p0, t_final, me
         click.echo(dumps_json(summary))
         return
     fc = ", ".join(f"{k} = {v:.6g}" for k, v in summary["final_configuration"].items())
-    click.echo(f"{summary['system']} by {summary['method']} to t = {summary['t_final']:g}\n"
-               f"final configuration: {fc}\n"
-               f"nonholonomic momentum: {summary['nonholonomic_momentum']}\n"
-               f"constraint residual |A(q) qdot|: max {summary['constraint_residual_max']:.3g}, "
-               f"final {summary['constraint_residual_final']:.3g}\n"
-               f"work by shape inputs: {summary['work_by_shape_inputs']:.6g} "
-               f"(energy change {summary['energy_final'] - summary['energy_initial']:.6g})")
+    click.echo(
+        f"{summary['system']} by {summary['method']} to t = {summary['t_final']:g}\n"
+        f"final configuration: {fc}\n"
+        f"nonholonomic momentum: {summary['nonholonomic_momentum']}\n"
+        f"constraint residual |A(q) qdot|: max {summary['constraint_residual_max']:.3g}, "
+        f"final {summary['constraint_residual_final']:.3g}\n"
+        f"work by shape inputs: {summary['work_by_shape_inputs']:.6g} "
+        f"(energy change {summary['energy_final'] - summary['energy_initial']:.6g})"
+    )
 
 
 def _plot_path(traj) -> Any:
@@ -248,8 +336,16 @@ def _plot_path(traj) -> Any:
         ax.plot(x, y, lw=1.5)
         step = max(1, len(x) // 12)
         arrow = 0.05 * max(np.ptp(x), np.ptp(y), 1e-3)
-        ax.quiver(x[::step], y[::step], arrow * np.cos(th[::step]), arrow * np.sin(th[::step]), angles="xy",
-                  scale_units="xy", scale=1, width=0.004)
+        ax.quiver(
+            x[::step],
+            y[::step],
+            arrow * np.cos(th[::step]),
+            arrow * np.sin(th[::step]),
+            angles="xy",
+            scale_units="xy",
+            scale=1,
+            width=0.004,
+        )
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel(s.q[0].name)
         ax.set_ylabel(s.q[1].name)
@@ -261,4 +357,3 @@ def _plot_path(traj) -> Any:
     ax.set_title(f"{s.name}: {traj.method}")
     fig.tight_layout()
     return fig
-

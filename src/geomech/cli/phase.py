@@ -23,8 +23,10 @@ from ._progress import activity
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
 
-_WRAP_NOTE = ("geometric, dynamic and total are unwrapped real numbers; '*_wrapped' values are reduced to "
-              "(-pi, pi]; an angle read off an attitude matrix is defined only modulo 2 pi and is wrapped")
+_WRAP_NOTE = (
+    "geometric, dynamic and total are unwrapped real numbers; '*_wrapped' values are reduced to "
+    "(-pi, pi]; an angle read off an attitude matrix is defined only modulo 2 pi and is wrapped"
+)
 
 
 def _save(outputs: Outputs, ax: Any, name: str) -> None:
@@ -40,13 +42,22 @@ def phase() -> None:
 @click.option("--I1", "I1", type=float, default=1.0, show_default=True, help="Moment of inertia of body 1.")
 @click.option("--I2", "I2", type=float, default=3.0, show_default=True, help="Moment of inertia of body 2.")
 @click.option("--mu", type=float, default=0.0, show_default=True, help="Total angular momentum.")
-@click.option("--period", type=float, default=1.0, show_default=True,
-              help="Time T in which body 2 makes its turns relative to body 1.")
-@click.option("--turns", type=int, default=1, show_default=True,
-              help="Signed turns of body 2 relative to body 1 during the period (counterclockwise positive).")
+@click.option(
+    "--period",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="Time T in which body 2 makes its turns relative to body 1.",
+)
+@click.option(
+    "--turns",
+    type=int,
+    default=1,
+    show_default=True,
+    help="Signed turns of body 2 relative to body 1 during the period (counterclockwise positive).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for two_bodies.json and a figure of theta(t).")
+@click.option("--out", type=OutDir(), default=None, help="Directory for two_bodies.json and a figure of theta(t).")
 def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, as_json: bool, out: Path | None) -> None:
     """Two planar bodies pinned at their centres of mass (section 2.2 of the nonholonomic paper).
 
@@ -68,8 +79,14 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
     rec = reconstruct(system, loop, mu, t_eval=np.linspace(0.0, period, 201))
     closed = -2 * math.pi * turns * I2 / (I1 + I2) + mu * period / (I1 + I2)
     summary = {
-        "I1": I1, "I2": I2, "mu": mu, "period": period, "turns": turns,
-        "geometric_phase": split.geometric, "dynamic_phase": split.dynamic, "total_phase": split.total,
+        "I1": I1,
+        "I2": I2,
+        "mu": mu,
+        "period": period,
+        "turns": turns,
+        "geometric_phase": split.geometric,
+        "dynamic_phase": split.dynamic,
+        "total_phase": split.total,
         "total_phase_wrapped": split.total_wrapped,
         "closed_form": closed,
         "reconstructed": float(rec.path.coordinates[-1, 0] - rec.path.coordinates[0, 0]),
@@ -82,27 +99,42 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
 
         outputs = Outputs(out)
         _save(outputs, group_path(rec), "two_bodies_theta.png")
-    text = (f"two pinned bodies, I1 = {I1:g}, I2 = {I2:g}, mu = {mu:g}, T = {period:g}, turns = {turns}\n"
-            f"geometric phase  -oint A dpsi      = {split.geometric:.12g}\n"
-            f"dynamic phase    mu int 1/I dt     = {split.dynamic:.12g}\n"
-            f"total phase of body 1 (unwrapped)  = {split.total:.12g}   (wrapped: {split.total_wrapped:.12g})\n"
-            f"closed form                        = {closed:.12g}\n"
-            f"reconstructed on the group         = {summary['reconstructed']:.12g}")
+    text = (
+        f"two pinned bodies, I1 = {I1:g}, I2 = {I2:g}, mu = {mu:g}, T = {period:g}, turns = {turns}\n"
+        f"geometric phase  -oint A dpsi      = {split.geometric:.12g}\n"
+        f"dynamic phase    mu int 1/I dt     = {split.dynamic:.12g}\n"
+        f"total phase of body 1 (unwrapped)  = {split.total:.12g}   (wrapped: {split.total_wrapped:.12g})\n"
+        f"closed form                        = {closed:.12g}\n"
+        f"reconstructed on the group         = {summary['reconstructed']:.12g}"
+    )
     emit(summary, as_json, text, outputs, "two_bodies")
 
 
 @phase.command("rigid-body")
-@click.option("--inertia", type=FloatVector(3, 9), required=True,
-              help="Principal moments I1 I2 I3, or the 9 entries of the inertia tensor (row by row).")
+@click.option(
+    "--inertia",
+    type=FloatVector(3, 9),
+    required=True,
+    help="Principal moments I1 I2 I3, or the 9 entries of the inertia tensor (row by row).",
+)
 @click.option("--momentum", type=FloatVector(3), required=True, help="Initial body angular momentum m1 m2 m3.")
-@click.option("--attitude", type=FloatVector(3), default=None,
-              help="Initial attitude as a rotation vector (default the identity).")
+@click.option(
+    "--attitude",
+    type=FloatVector(3),
+    default=None,
+    help="Initial attitude as a rotation vector (default the identity).",
+)
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Tolerance of the direct integration.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for rigid_body_phase.json and a figure of the enclosed solid angle.")
-def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol: float, as_json: bool,
-                   out: Path | None) -> None:
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for rigid_body_phase.json and a figure of the enclosed solid angle.",
+)
+def rigid_body_cmd(
+    inertia: tuple, momentum: tuple, attitude: tuple | None, rtol: float, as_json: bool, out: Path | None
+) -> None:
     """Montgomery's formula: the rotation about the spatial momentum after one period of the body momentum.
 
     Prints the period T, the oriented solid angle Lambda enclosed by m(t) on the momentum sphere, the
@@ -119,10 +151,20 @@ def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol
     body = RigidBody(arr.reshape(3, 3) if arr.size == 9 else arr)
     R0 = None if attitude is None else so3.exp(np.asarray(attitude, dtype=float))
     res = rigid_body_phase(body, np.asarray(momentum, dtype=float), R0=R0, rtol=rtol)
-    summary = {"inertia": arr.tolist(), "momentum0": list(momentum), **res.to_json(),
-               "angles_wrapped": {"solid_angle": False, "geometric": False, "dynamic": False, "total": False,
-                                  "total_wrapped": True, "direct_wrapped": True},
-               "note": _WRAP_NOTE}
+    summary = {
+        "inertia": arr.tolist(),
+        "momentum0": list(momentum),
+        **res.to_json(),
+        "angles_wrapped": {
+            "solid_angle": False,
+            "geometric": False,
+            "dynamic": False,
+            "total": False,
+            "total_wrapped": True,
+            "direct_wrapped": True,
+        },
+        "note": _WRAP_NOTE,
+    }
     summary.pop("wrapped", None)
     outputs = None
     if out is not None:
@@ -130,15 +172,17 @@ def rigid_body_cmd(inertia: tuple, momentum: tuple, attitude: tuple | None, rtol
 
         outputs = Outputs(out)
         _save(outputs, momentum_solid_angle(res), "rigid_body_solid_angle.png")
-    text = (f"free rigid body, {res.family} orbit about principal axis {res.axis + 1}, |mu| = {res.momentum:.12g}\n"
-            f"period T                            = {res.period:.12g}\n"
-            f"solid angle Lambda (oriented)       = {res.solid_angle:.12g}\n"
-            f"geometric phase -Lambda             = {res.geometric:.12g}\n"
-            f"dynamic phase 2 E T/|mu|            = {res.dynamic:.12g}\n"
-            f"total (unwrapped)                   = {res.total:.12g}\n"
-            f"total, wrapped to (-pi, pi]         = {res.total_wrapped:.12g}\n"
-            f"direct integration, wrapped         = {res.direct_wrapped:.12g}\n"
-            f"difference (wrapped)                = {res.difference:.3g}")
+    text = (
+        f"free rigid body, {res.family} orbit about principal axis {res.axis + 1}, |mu| = {res.momentum:.12g}\n"
+        f"period T                            = {res.period:.12g}\n"
+        f"solid angle Lambda (oriented)       = {res.solid_angle:.12g}\n"
+        f"geometric phase -Lambda             = {res.geometric:.12g}\n"
+        f"dynamic phase 2 E T/|mu|            = {res.dynamic:.12g}\n"
+        f"total (unwrapped)                   = {res.total:.12g}\n"
+        f"total, wrapped to (-pi, pi]         = {res.total_wrapped:.12g}\n"
+        f"direct integration, wrapped         = {res.direct_wrapped:.12g}\n"
+        f"difference (wrapped)                = {res.difference:.3g}"
+    )
     emit(summary, as_json, text, outputs, "rigid_body_phase")
 
 
@@ -147,6 +191,7 @@ def _three_link(origin: str):
         from ..systems.holonomic_examples import three_link_chain
 
         return three_link_chain(origin=origin)
+
     return make
 
 
@@ -174,8 +219,10 @@ HOLONOMIC_MODELS: dict[str, tuple[Any, str]] = {
     "three-link": (_three_link("com"), "unit three-link chain, centre-of-mass frame; shape alpha1, alpha2; SE(2)"),
     "three-link-middle": (_three_link("middle"), "unit three-link chain, middle-link frame; SE(2)"),
     "planar-3-body": (_planar_three_body, "three unit point masses with gravity; shape rho, a2, b2; SE(2)"),
-    "spacecraft": (_spacecraft, "rigid body (3, 2, 1) with rotors (J = 0.2) on body axes 1 and 2; shape the "
-                                "rotor angles; SO(3)"),
+    "spacecraft": (
+        _spacecraft,
+        "rigid body (3, 2, 1) with rotors (J = 0.2) on body axes 1 and 2; shape the rotor angles; SO(3)",
+    ),
 }
 
 
@@ -190,24 +237,42 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
         return HOLONOMIC_MODELS[model][0]()
     if model.endswith(".py") or Path(model).is_file():
         return load_model(model, params, kind=HolonomicSystem)
-    raise InputError(f"Unknown MODEL {model!r}: give one of {', '.join(sorted(HOLONOMIC_MODELS))} or a model file "
-                     "(.py) that defines a HolonomicSystem (docs/phases.md).")
+    raise InputError(
+        f"Unknown MODEL {model!r}: give one of {', '.join(sorted(HOLONOMIC_MODELS))} or a model file "
+        "(.py) that defines a HolonomicSystem (docs/phases.md)."
+    )
 
 
 @phase.command("loop")
 @click.argument("model")
-@click.option("--shape", "shapes", multiple=True, metavar="NAME=EXPR", required=True,
-              help="A shape coordinate as a formula in t (and T, the period), e.g. 'alpha1=0.8*cos(2*pi*t/T)'.")
+@click.option(
+    "--shape",
+    "shapes",
+    multiple=True,
+    metavar="NAME=EXPR",
+    required=True,
+    help="A shape coordinate as a formula in t (and T, the period), e.g. 'alpha1=0.8*cos(2*pi*t/T)'.",
+)
 @click.option("--period", type=float, default=1.0, show_default=True, help="Period T of the loop.")
-@click.option("--mu", type=FloatVector(1, 3), default=None,
-              help="Spatial momentum: one number for S^1, 'px,py,L' for SE(2), three for SO(3) (default 0).")
-@click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
-              help="A parameter value for a model file (repeatable).")
+@click.option(
+    "--mu",
+    type=FloatVector(1, 3),
+    default=None,
+    help="Spatial momentum: one number for S^1, 'px,py,L' for SE(2), three for SO(3) (default 0).",
+)
+@click.option(
+    "--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value for a model file (repeatable)."
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for loop.json and figures (connection, curvature with the loop, path).")
-def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params: tuple, as_json: bool,
-             out: Path | None) -> None:
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for loop.json and figures (connection, curvature with the loop, path).",
+)
+def loop_cmd(
+    model: str, shapes: tuple, period: float, mu: tuple | None, params: tuple, as_json: bool, out: Path | None
+) -> None:
     """Phases and reconstruction for a closed shape loop of a holonomic MODEL: a built-in one (two-bodies,
     three-link, three-link-middle, planar-3-body, spacecraft) or a model file (.py) that defines ``system``
     (a HolonomicSystem) or ``build(**params)`` returning one (docs/phases.md).
@@ -226,10 +291,17 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
     loop = ShapeLoop.from_expressions({n: given[n] for n in names}, period, parameters={"T": period})
     mu_arr = np.zeros(1 if system.group.dim == 1 else system.group.dim) if mu is None else np.asarray(mu, float)
     if mu_arr.size != (1 if system.group.dim == 1 else system.group.dim):
-        raise InputError(f"Expected `--mu` with {system.group.dim} component(s) for {system.group.name}, got "
-                         f"{mu_arr.size}: {mu_arr.tolist()}.")
-    summary: dict[str, Any] = {"model": model, "shape": {n: str(given[n]) for n in names}, "period": period,
-                               "mu": mu_arr.tolist(), "group": system.group.name}
+        raise InputError(
+            f"Expected `--mu` with {system.group.dim} component(s) for {system.group.name}, got "
+            f"{mu_arr.size}: {mu_arr.tolist()}."
+        )
+    summary: dict[str, Any] = {
+        "model": model,
+        "shape": {n: str(given[n]) for n in names},
+        "period": period,
+        "mu": mu_arr.tolist(),
+        "group": system.group.name,
+    }
     try:
         with activity("phases over the loop"):
             split = phases(system, loop, mu_arr)
@@ -258,15 +330,19 @@ def loop_cmd(model: str, shapes: tuple, period: float, mu: tuple | None, params:
     lines = [f"{model}: {system.name}, G = {system.group.name}, T = {period:g}, mu = {mu_arr.tolist()}"]
     ph = summary["phase"]
     if ph.get("available", True):
-        lines += [f"geometric phase ({ph['component']}) = {ph['geometric']:.12g}",
-                  f"dynamic phase                = {ph['dynamic']:.12g}",
-                  f"total phase (unwrapped)      = {ph['total']:.12g}"]
+        lines += [
+            f"geometric phase ({ph['component']}) = {ph['geometric']:.12g}",
+            f"dynamic phase                = {ph['dynamic']:.12g}",
+            f"total phase (unwrapped)      = {ph['total']:.12g}",
+        ]
     else:
         lines.append(f"phase formula: not available ({ph['reason']})")
     if summary.get("curvature_integral") is not None:
         lines.append(f"iint B over the enclosed area = {summary['curvature_integral']}")
-    lines.append("net motion (reconstructed)   = " + ", ".join(
-        f"{k} {v:.12g}" for k, v in summary["net_motion_coordinates"].items()))
+    lines.append(
+        "net motion (reconstructed)   = "
+        + ", ".join(f"{k} {v:.12g}" for k, v in summary["net_motion_coordinates"].items())
+    )
     emit(summary, as_json, "\n".join(lines), outputs, "loop")
 
 

@@ -19,19 +19,39 @@ def reproduce() -> None:
 
 
 @reproduce.command("serret-andoyer")
-@click.option("--out", type=OutDir(), required=True,
-              help="Directory for figure5_errors.png, figure6_trajectories.png, figure7_reduced_flow.png, "
-                   "serret_andoyer_study.nc and summary.json.")
+@click.option(
+    "--out",
+    type=OutDir(),
+    required=True,
+    help="Directory for figure5_errors.png, figure6_trajectories.png, figure7_reduced_flow.png, "
+    "serret_andoyer_study.nc and summary.json.",
+)
 @click.option("--t-final", type=float, default=100.0, show_default=True, help="Duration [s] (the seed gives none).")
 @click.option("--h", "h", type=float, default=1e-3, show_default=True, help="Step, and Adams' output interval [s].")
-@click.option("--save-every", type=click.IntRange(1, None), default=10, show_default=True,
-              help="Keep every n-th step in the data file and the figures.")
-@click.option("--lambda", "lambdas", type=FloatVector(2), default="1.2,1.0", show_default=True,
-              help="lambda1 lambda2: locked inertias about axes 1 and 2 (the seed gives none).")
+@click.option(
+    "--save-every",
+    type=click.IntRange(1, None),
+    default=10,
+    show_default=True,
+    help="Keep every n-th step in the data file and the figures.",
+)
+@click.option(
+    "--lambda",
+    "lambdas",
+    type=FloatVector(2),
+    default="1.2,1.0",
+    show_default=True,
+    help="lambda1 lambda2: locked inertias about axes 1 and 2 (the seed gives none).",
+)
 @click.option("--I3", "I3", type=float, default=0.6, show_default=True, help="The body's own moment about axis 3.")
 @click.option("--J3", "J3", type=float, default=0.2, show_default=True, help="The rotor's axial moment.")
-@click.option("--max-steps", type=float, default=1e8, show_default=True,
-              help="Refuse runs of more steps (t_final / h) per approach.")
+@click.option(
+    "--max-steps",
+    type=float,
+    default=1e8,
+    show_default=True,
+    help="Refuse runs of more steps (t_final / h) per approach.",
+)
 @click.option("--no-extras", is_flag=True, help="Only the seed's five approaches.")
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json to stdout.")
 @click.pass_context
@@ -46,8 +66,17 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
         write_study,
     )
 
-    cfg = StudyConfig(lambda1=lambdas[0], lambda2=lambdas[1], I3=I3, J3=J3, h=h, t_final=t_final,
-                      save_every=save_every, max_steps=max_steps, extras=not no_extras)
+    cfg = StudyConfig(
+        lambda1=lambdas[0],
+        lambda2=lambdas[1],
+        I3=I3,
+        J3=J3,
+        h=h,
+        t_final=t_final,
+        save_every=save_every,
+        max_steps=max_steps,
+        extras=not no_extras,
+    )
     argv = (ctx.obj or {}).get("argv", sys.argv[1:])
     command = "geomech " + " ".join(shlex.quote(a) for a in argv)
     cfg.validate()
@@ -59,8 +88,9 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
         return
     click.echo(f"{'approach':<52} {'max energy err':>15} {'max |m| err':>12} {'time [s]':>9}")
     for a in summary["approaches"].values():
-        click.echo(f"{a['label']:<52} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} "
-                   f"{a['wall_time_s']:>9.3f}")
+        click.echo(
+            f"{a['label']:<52} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} {a['wall_time_s']:>9.3f}"
+        )
     for name, c in summary["claims"].items():
         click.echo(f"claim {name}: {'holds' if c['holds'] else 'does not hold'}")
     click.echo("wrote " + ", ".join(str(p) for p in written))

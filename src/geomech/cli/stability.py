@@ -18,8 +18,15 @@ from ._args import FloatVector, OutDir, Outputs, parse_params
 
 __all__ = ["stability_cmd", "stability_map_cmd"]
 
-def _control(lambdas: tuple[float, ...], I3: float | None, phis: tuple[str, ...], params: dict[str, float],
-             p: tuple[float, ...] | None, G: float) -> Any:
+
+def _control(
+    lambdas: tuple[float, ...],
+    I3: float | None,
+    phis: tuple[str, ...],
+    params: dict[str, float],
+    p: tuple[float, ...] | None,
+    G: float,
+) -> Any:
     from ..systems.control import StructurePreservingControl
     from ..systems.rotors import RotorBody
 
@@ -28,28 +35,38 @@ def _control(lambdas: tuple[float, ...], I3: float | None, phis: tuple[str, ...]
         raise click.BadParameter(f"expected a positive momentum magnitude, got {G}", param_hint="'--G'")
     if len(lambdas) == 2:
         if I3 is None:
-            raise click.BadParameter("one rotor (two --lambda values) needs --I3, the body's own moment about "
-                                     "the rotor axis", param_hint="'--I3'")
+            raise click.BadParameter(
+                "one rotor (two --lambda values) needs --I3, the body's own moment about the rotor axis",
+                param_hint="'--I3'",
+            )
         body = RotorBody.one_rotor(lambdas[0], lambdas[1], I3)
         if lambdas[0] <= lambdas[1]:
             raise click.BadParameter(
                 f"expected lambda1 > lambda2 (axis 1 the major and axis 2 the intermediate axis of the locked body, "
                 f"as in section 6.3), got {lambdas[0]:g} <= {lambdas[1]:g}; relabel the axes",
-                param_hint="'--lambda'")
+                param_hint="'--lambda'",
+            )
         if len(phis) != 1:
-            raise click.BadParameter(f"one rotor takes one --phi (a function of v = m3), got {len(phis)}",
-                                     param_hint="'--phi'")
+            raise click.BadParameter(
+                f"one rotor takes one --phi (a function of v = m3), got {len(phis)}", param_hint="'--phi'"
+            )
         if p is not None and len(p) != 1:
             raise click.BadParameter(f"one rotor takes one --p value, got {len(p)}", param_hint="'--p'")
-        return StructurePreservingControl.one_rotor(body, phis[0], p=0.0 if p is None else p[0], parameters=params,
-                                                    probe_radius=G)
+        return StructurePreservingControl.one_rotor(
+            body, phis[0], p=0.0 if p is None else p[0], parameters=params, probe_radius=G
+        )
     if I3 is not None:
-        raise click.BadParameter("--I3 is for one rotor (two --lambda values); with three rotors --lambda gives "
-                                 "lambda1 lambda2 lambda3", param_hint="'--I3'")
+        raise click.BadParameter(
+            "--I3 is for one rotor (two --lambda values); with three rotors --lambda gives lambda1 lambda2 lambda3",
+            param_hint="'--I3'",
+        )
     body = RotorBody.three_rotors(lambdas)
     if len(phis) != 3:
-        raise click.BadParameter(f"three rotors take three --phi (each in v, Corollary 2, or each in m1, m2, m3, "
-                                 f"Proposition 5), got {len(phis)}", param_hint="'--phi'")
+        raise click.BadParameter(
+            f"three rotors take three --phi (each in v, Corollary 2, or each in m1, m2, m3, "
+            f"Proposition 5), got {len(phis)}",
+            param_hint="'--phi'",
+        )
     pv = (0.0, 0.0, 0.0) if p is None else p
     if len(pv) != 3:
         raise click.BadParameter(f"three rotors take three --p values, got {len(pv)}", param_hint="'--p'")
@@ -64,36 +81,62 @@ def _model_json(control: Any, G: float) -> dict[str, Any]:
     hyp = control.hyperregularity()
     lemma = control.lemma4_check()
     return {
-        "model": {"rotors": control.n_rotors, "kind": control.kind, "G": G,
-                  "inertia_without_rotor_axial_moments": np.diag(control.body.inertia).tolist(),
-                  "phi": [str(e) for e in (control.phi_of_v or control.phi_expression)],
-                  "parameters": dict(control.parameters)},
+        "model": {
+            "rotors": control.n_rotors,
+            "kind": control.kind,
+            "G": G,
+            "inertia_without_rotor_axial_moments": np.diag(control.body.inertia).tolist(),
+            "phi": [str(e) for e in (control.phi_of_v or control.phi_expression)],
+            "parameters": dict(control.parameters),
+        },
         "closed_loop_hamiltonian": str(control.hamiltonian_expression),
         "closed_loop_hamiltonian_closed_form": control.hamiltonian_is_closed_form,
-        "existence_condition": {"holds": control.condition.holds, "method": control.condition.method,
-                                "detail": control.condition.detail},
-        "lemma4": {"max_relative_error": lemma.max_relative_error, "points": lemma.n_points,
-                   "gradient_route": lemma.gradient_route},
+        "existence_condition": {
+            "holds": control.condition.holds,
+            "method": control.condition.method,
+            "detail": control.condition.detail,
+        },
+        "lemma4": {
+            "max_relative_error": lemma.max_relative_error,
+            "points": lemma.n_points,
+            "gradient_route": lemma.gradient_route,
+        },
         "hyperregularity": hyp.to_json(),
     }
 
 
 def _model_options(f):
     opts = [
-        click.option("--lambda", "lambdas", type=FloatVector(2, 3), required=True,
-                     help="lambda1 lambda2 (one rotor on axis 3: the locked inertias about axes 1, 2) or lambda1 "
-                          "lambda2 lambda3 (three rotors: Lambda without the rotors' axial moments)."),
-        click.option("--I3", "I3", type=float, default=None,
-                     help="One rotor: the body's own moment of inertia about the rotor axis."),
-        click.option("--phi", "phis", multiple=True, required=True,
-                     help="phi(v) for one rotor (v = m3); three times for three rotors: each phi_i(v) "
-                          "(Corollary 2) or each a function of m1, m2, m3 (Proposition 5)."),
-        click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
-                     help="A parameter of phi (repeatable)."),
-        click.option("--p", "p", type=FloatVector(1, 3), default=None,
-                     help="The conserved p = Gamma - phi(m) (default 0)."),
-        click.option("--G", "G", type=float, default=1.0, show_default=True,
-                     help="Magnitude of the angular momentum |m|."),
+        click.option(
+            "--lambda",
+            "lambdas",
+            type=FloatVector(2, 3),
+            required=True,
+            help="lambda1 lambda2 (one rotor on axis 3: the locked inertias about axes 1, 2) or lambda1 "
+            "lambda2 lambda3 (three rotors: Lambda without the rotors' axial moments).",
+        ),
+        click.option(
+            "--I3",
+            "I3",
+            type=float,
+            default=None,
+            help="One rotor: the body's own moment of inertia about the rotor axis.",
+        ),
+        click.option(
+            "--phi",
+            "phis",
+            multiple=True,
+            required=True,
+            help="phi(v) for one rotor (v = m3); three times for three rotors: each phi_i(v) "
+            "(Corollary 2) or each a function of m1, m2, m3 (Proposition 5).",
+        ),
+        click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter of phi (repeatable)."),
+        click.option(
+            "--p", "p", type=FloatVector(1, 3), default=None, help="The conserved p = Gamma - phi(m) (default 0)."
+        ),
+        click.option(
+            "--G", "G", type=float, default=1.0, show_default=True, help="Magnitude of the angular momentum |m|."
+        ),
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -103,8 +146,12 @@ def _model_options(f):
 @click.command("stability")
 @_model_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=OutDir(), default=None,
-              help="Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.")
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.",
+)
 def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
     """Relative equilibria of a rotor control's closed loop and three stability verdicts on each.
 
@@ -135,21 +182,29 @@ def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
     if as_json:
         click.echo(dumps_json(summary))
         return
-    lines = [f"closed loop H_c(m) = {summary['closed_loop_hamiltonian']}",
-             f"hyperregular: {summary['hyperregularity']['status']} ({summary['hyperregularity']['where'] or 'ok'})",
-             f"equilibria on |m| = {G:g}: {analysis.equilibria.message}"]
+    lines = [
+        f"closed loop H_c(m) = {summary['closed_loop_hamiltonian']}",
+        f"hyperregular: {summary['hyperregularity']['status']} ({summary['hyperregularity']['where'] or 'ok'})",
+        f"equilibria on |m| = {G:g}: {analysis.equilibria.message}",
+    ]
     for r in analysis:
         e = r.equilibrium
         ev = r.linearisation.eigenvalues
         tiny = 1e-12 * max(np.abs(ev).max(), 1e-300)
-        ev = ", ".join(f"{(z.real if abs(z.real) > tiny else 0.0):+.4g}{(z.imag if abs(z.imag) > tiny else 0.0):+.4g}i"
-                       for z in ev)
-        lines.append(f"  m = {(np.round(e.m, 6) + 0.0).tolist()}  (l, L) = ({e.lL[0]:.6g}, {e.lL[1]:.6g}) in the "
-                     f"chart about axis {e.axis + 1}")
-        lines.append(f"    Hessian eigenvalues {(np.round(np.linalg.eigvalsh(e.hessian), 8) + 0.0).tolist()}; "
-                     f"linearisation {ev}")
-        lines.append(f"    Lagrange-Dirichlet: {r.lagrange_dirichlet.verdict}; energy-Casimir: "
-                     f"{r.energy_casimir.verdict}; linearisation: {r.linearisation.verdict}  => {r.verdict}")
+        ev = ", ".join(
+            f"{(z.real if abs(z.real) > tiny else 0.0):+.4g}{(z.imag if abs(z.imag) > tiny else 0.0):+.4g}i" for z in ev
+        )
+        lines.append(
+            f"  m = {(np.round(e.m, 6) + 0.0).tolist()}  (l, L) = ({e.lL[0]:.6g}, {e.lL[1]:.6g}) in the "
+            f"chart about axis {e.axis + 1}"
+        )
+        lines.append(
+            f"    Hessian eigenvalues {(np.round(np.linalg.eigvalsh(e.hessian), 8) + 0.0).tolist()}; linearisation {ev}"
+        )
+        lines.append(
+            f"    Lagrange-Dirichlet: {r.lagrange_dirichlet.verdict}; energy-Casimir: "
+            f"{r.energy_casimir.verdict}; linearisation: {r.linearisation.verdict}  => {r.verdict}"
+        )
     click.echo("\n".join(lines))
 
 
@@ -158,8 +213,9 @@ def _check_swept_body(control: Any, lambdas: tuple[float, ...], *sweeps: tuple[s
     lambda1 > lambda2 at every grid point (section 6.3's labelling)."""
     for name, values, hint in sweeps:
         if name in ("lambda1", "lambda2", "lambda3", "I3") and values.min() <= 0:
-            raise click.BadParameter(f"{name} must stay positive, but the sweep reaches {values.min():g}",
-                                     param_hint=hint)
+            raise click.BadParameter(
+                f"{name} must stay positive, but the sweep reaches {values.min():g}", param_hint=hint
+            )
     if control.kind != "one-rotor":
         return
     grid = {name: values for name, values, _ in sweeps}
@@ -167,9 +223,12 @@ def _check_swept_body(control: Any, lambdas: tuple[float, ...], *sweeps: tuple[s
     l2 = grid.get("lambda2", np.array([lambdas[1]]))
     if l1.min() <= l2.max():
         hint = sweeps[0][2] if sweeps[0][0] in ("lambda1", "lambda2") else sweeps[1][2]
-        raise click.BadParameter(f"the sweep reaches lambda1 = {l1.min():g} <= lambda2 = {l2.max():g}; keep lambda1 "
-                                 "> lambda2 over the whole grid (axis 1 the major, axis 2 the intermediate axis of "
-                                 "the locked body, as `stability` requires)", param_hint=hint)
+        raise click.BadParameter(
+            f"the sweep reaches lambda1 = {l1.min():g} <= lambda2 = {l2.max():g}; keep lambda1 "
+            "> lambda2 over the whole grid (axis 1 the major, axis 2 the intermediate axis of "
+            "the locked body, as `stability` requires)",
+            param_hint=hint,
+        )
 
 
 def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
@@ -180,8 +239,7 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
             raise ValueError
         a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
     except ValueError:
-        raise click.BadParameter(f"expected NAME=START:STOP:N (e.g. k=0:1:41), got {spec!r}", param_hint=hint) \
-            from None
+        raise click.BadParameter(f"expected NAME=START:STOP:N (e.g. k=0:1:41), got {spec!r}", param_hint=hint) from None
     if not (np.isfinite(a) and np.isfinite(b) and b > a and 2 <= n <= 1000):
         raise click.BadParameter(f"expected START < STOP and 2 <= N <= 1000, got {spec!r}", param_hint=hint)
     return name.strip(), np.linspace(a, b, n)
@@ -189,16 +247,34 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
 
 @click.command("stability-map")
 @_model_options
-@click.option("--x", "xspec", required=True, metavar="NAME=START:STOP:N",
-              help="First swept parameter: a parameter of phi or of the model (lambda1, lambda2, I3, p, ...).")
+@click.option(
+    "--x",
+    "xspec",
+    required=True,
+    metavar="NAME=START:STOP:N",
+    help="First swept parameter: a parameter of phi or of the model (lambda1, lambda2, I3, p, ...).",
+)
 @click.option("--y", "yspec", required=True, metavar="NAME=START:STOP:N", help="Second swept parameter.")
-@click.option("--near", type=FloatVector(3), default=None,
-              help="Reference body momentum: the equilibrium nearest to it is assessed; default (0, G, 0), the "
-                   "intermediate-axis spin.")
-@click.option("--out", type=OutDir(), required=True,
-              help="Directory for stability_map.png, stability_map.nc and stability_map.json.")
-@click.option("--max-points", type=click.IntRange(1, None), default=10_000, show_default=True,
-              help="Refuse larger grids (10-15 ms a point).")
+@click.option(
+    "--near",
+    type=FloatVector(3),
+    default=None,
+    help="Reference body momentum: the equilibrium nearest to it is assessed; default (0, G, 0), the "
+    "intermediate-axis spin.",
+)
+@click.option(
+    "--out",
+    type=OutDir(),
+    required=True,
+    help="Directory for stability_map.png, stability_map.nc and stability_map.json.",
+)
+@click.option(
+    "--max-points",
+    type=click.IntRange(1, None),
+    default=10_000,
+    show_default=True,
+    help="Refuse larger grids (10-15 ms a point).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, max_points, as_json) -> None:
     """Stability verdicts over a grid of two parameters, on the relative equilibrium nearest to --near.
@@ -223,15 +299,19 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     # a swept parameter of phi needs no --param: its first grid value stands in while the model is built
     body_names = {"lambda1", "lambda2", "lambda3", "I3", "p"}
     for name, values in ((xname, xs), (yname, ys)):
-        if name not in body_names and name not in given and any(
-                name in {s.name for s in parse_formula(phi, "--phi").free_symbols} for phi in phis):
+        if (
+            name not in body_names
+            and name not in given
+            and any(name in {s.name for s in parse_formula(phi, "--phi").free_symbols} for phi in phis)
+        ):
             given[name] = float(values[0])
     control = _control(lambdas, I3, phis, given, p, G)
     known = set(control.parameters)
     for name, hint in ((xname, "'--x'"), (yname, "'--y'")):
         if name not in known:
-            raise click.BadParameter(f"{name!r} is not a parameter of this model; choose one of {sorted(known)}",
-                                     param_hint=hint)
+            raise click.BadParameter(
+                f"{name!r} is not a parameter of this model; choose one of {sorted(known)}", param_hint=hint
+            )
     if xname == yname:
         raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
     _check_swept_body(control, lambdas, (xname, xs, "'--x'"), (yname, ys, "'--y'"))
@@ -239,27 +319,53 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     desc = f"phi = {', '.join(str(e) for e in control.phi_expression)}" if control.phi_expression is not None else ""
     if sys.stderr.isatty():  # a progress bar for a person at a terminal, nothing in scripts and logs
         with click.progressbar(length=xs.size * ys.size, label="grid points", file=sys.stderr) as bar:
+
             def advance(done: int) -> None:
                 bar.update(done - bar.pos)
 
-            ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
-                               description=desc, progress=advance, max_points=max_points)
+            ds = stability_map(
+                control.family(),
+                (xname, xs),
+                (yname, ys),
+                G=G,
+                near=near,
+                closed_form=closed,
+                description=desc,
+                progress=advance,
+                max_points=max_points,
+            )
     else:
-        ds = stability_map(control.family(), (xname, xs), (yname, ys), G=G, near=near, closed_form=closed,
-                           description=desc, max_points=max_points)
+        ds = stability_map(
+            control.family(),
+            (xname, xs),
+            (yname, ys),
+            G=G,
+            near=near,
+            closed_form=closed,
+            description=desc,
+            max_points=max_points,
+        )
     outputs = Outputs(out)
     outputs.dataset("stability_map.nc", ds)
     outputs.figure("stability_map.png", stability_map_plot(ds), dpi=120)
     plt.close("all")
-    counts = {k: int((ds["verdict"].values == v).sum()) for k, v in
-              (("stable", 1), ("inconclusive", 0), ("unstable", -1), ("none", -9))}
-    summary = {**_model_json(control, G), "x": {"name": xname, "values": xs.tolist()},
-               "y": {"name": yname, "values": ys.tolist()}, "counts": counts,
-               "files": {"figure": str(out / "stability_map.png"), "data": str(out / "stability_map.nc")}}
+    counts = {
+        k: int((ds["verdict"].values == v).sum())
+        for k, v in (("stable", 1), ("inconclusive", 0), ("unstable", -1), ("none", -9))
+    }
+    summary = {
+        **_model_json(control, G),
+        "x": {"name": xname, "values": xs.tolist()},
+        "y": {"name": yname, "values": ys.tolist()},
+        "counts": counts,
+        "files": {"figure": str(out / "stability_map.png"), "data": str(out / "stability_map.nc")},
+    }
     outputs.json("stability_map.json", summary)
     outputs.commit()
     if as_json:
         click.echo(dumps_json(summary))
     else:
-        click.echo(f"stability map over {xname} x {yname} ({xs.size} x {ys.size}): {counts}\n"
-                   f"written {out / 'stability_map.png'} and {out / 'stability_map.nc'}")
+        click.echo(
+            f"stability map over {xname} x {yname} ({xs.size} x {ys.size}): {counts}\n"
+            f"written {out / 'stability_map.png'} and {out / 'stability_map.nc'}"
+        )

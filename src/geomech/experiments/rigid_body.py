@@ -20,7 +20,12 @@ def _inertia(values: Any) -> Any:
 
 
 def run_rigid_body(
-    inertia: Any, momentum: Any, *, t_final: float = 50.0, samples: int = 1001, rtol: float = 1e-12,
+    inertia: Any,
+    momentum: Any,
+    *,
+    t_final: float = 50.0,
+    samples: int = 1001,
+    rtol: float = 1e-12,
     max_turns: float = 2000.0,
 ) -> tuple[dict[str, Any], ReducedTrajectory]:
     """Run the comparison and return a JSON-ready summary and the reduced trajectory.
@@ -38,9 +43,15 @@ def run_rigid_body(
     if not (0 < rtol < 1e-3):
         raise InputError(f"Expected `rtol` in (0, 1e-3), got {rtol}.")
     turns = t_final * float(np.linalg.norm(m0)) / float(body.principal_moments.min()) / (2.0 * math.pi)
-    V.work_budget(turns, float(max_turns), f"The number of turns of the body to t_final = {t_final:g} at |omega| "
-                  f"up to {2 * math.pi * turns / t_final:.3g} rad/s", "max_turns (--max-turns)",
-                  "shorten t_final (--t-final)", seconds_each=0.06)
+    V.work_budget(
+        turns,
+        float(max_turns),
+        f"The number of turns of the body to t_final = {t_final:g} at |omega| "
+        f"up to {2 * math.pi * turns / t_final:.3g} rad/s",
+        "max_turns (--max-turns)",
+        "shorten t_final (--t-final)",
+        seconds_each=0.06,
+    )
     t = np.linspace(0.0, t_final, int(samples))
     exact = body.exact_solution(m0)
     traj = GeneralizedSerretAndoyer(body).simulate(m0, t, rtol=rtol, atol=rtol)

@@ -88,9 +88,14 @@ class StudyConfig:
             )
         n = self.t_final / self.h
         # every approach takes n steps (a few hundred ns each in the compiled loops, far more for Adams)
-        V.work_budget(n, float(self.max_steps), f"The number of steps (t_final = {self.t_final:g} over h = {self.h:g})",
-                      "max_steps (--max-steps)", "shorten t_final (--t-final) or take a larger h (--h)",
-                      seconds_each=1e-6)
+        V.work_budget(
+            n,
+            float(self.max_steps),
+            f"The number of steps (t_final = {self.t_final:g} over h = {self.h:g})",
+            "max_steps (--max-steps)",
+            "shorten t_final (--t-final) or take a larger h (--h)",
+            seconds_each=1e-6,
+        )
         if abs(n - round(n)) > 1e-9 * n:
             raise InputError(f"Expected `t_final` to be a whole number of steps h = {self.h}, got {self.t_final}.")
         if not (isinstance(self.save_every, int) and self.save_every >= 1):
@@ -146,10 +151,20 @@ def approaches(cfg: StudyConfig) -> list[Approach]:
     if cfg.extras:
         out += [
             Approach("euler_midpoint", "Euler's equations, midpoint", "euler-equations", ImplicitMidpoint(), False),
-            Approach("euler_splitting2", "Euler's equations, Lie-Poisson splitting (Strang)", "euler-equations",
-                     LiePoissonSplitting(2), False),
-            Approach("euler_splitting4", "Euler's equations, Lie-Poisson splitting (order 4)", "euler-equations",
-                     LiePoissonSplitting(4, "yoshida"), False),
+            Approach(
+                "euler_splitting2",
+                "Euler's equations, Lie-Poisson splitting (Strang)",
+                "euler-equations",
+                LiePoissonSplitting(2),
+                False,
+            ),
+            Approach(
+                "euler_splitting4",
+                "Euler's equations, Lie-Poisson splitting (order 4)",
+                "euler-equations",
+                LiePoissonSplitting(4, "yoshida"),
+                False,
+            ),
             Approach("reduced_gauss2", "Serret-Andoyer, Gauss-Legendre s=2", "reduced", GaussLegendre(2), False),
             Approach("reduced_gauss3", "Serret-Andoyer, Gauss-Legendre s=3", "reduced", GaussLegendre(3), False),
         ]
@@ -165,8 +180,7 @@ def build_model(cfg: StudyConfig) -> _Model:
 
     cfg.validate()
     body = RotorBody.one_rotor(cfg.lambda1, cfg.lambda2, cfg.I3, cfg.J3)
-    control = StructurePreservingControl.one_rotor(body, cfg.phi, p=cfg.p, parameters={"G": cfg.G},
-                                                   probe_radius=cfg.G)
+    control = StructurePreservingControl.one_rotor(body, cfg.phi, p=cfg.p, parameters={"G": cfg.G}, probe_radius=cfg.G)
     system = control.closed_loop()
     reduction = GeneralizedSerretAndoyer(system)
     G = cfg.G
@@ -240,8 +254,9 @@ def run_approach(model: _Model, approach: Approach, cfg: StudyConfig) -> dict[st
     }
 
 
-def run_study(cfg: StudyConfig, *, progress: Callable[[Iterable[Approach]], Iterable[Approach]] | None = None,
-              command: str = "") -> tuple[Any, dict[str, Any], _Model]:
+def run_study(
+    cfg: StudyConfig, *, progress: Callable[[Iterable[Approach]], Iterable[Approach]] | None = None, command: str = ""
+) -> tuple[Any, dict[str, Any], _Model]:
     """Run every approach; return the xarray Dataset, the summary and the model."""
     import xarray as xr
 
@@ -262,22 +277,41 @@ def run_study(cfg: StudyConfig, *, progress: Callable[[Iterable[Approach]], Iter
     hp = model.reduction.reduced_hamiltonian(np.stack([ll, LL], -1), cfg.G, 2)
     ds = xr.Dataset(
         {
-            "lL": (("reduced_approach", "time", "canonical"), np.stack([results[k]["lL"] for k in reduced]),
-                   {"long_name": "Serret-Andoyer variables (l, L), chart about body axis 3",
-                    "units": "rad, kg m^2 / s"}),
-            "h_p": (("L_grid", "l_grid"), hp, {"long_name": "reduced Hamiltonian h_p(l, L) = H_c(U_p(l, L))",
-                                               "units": "J"}),
-            "m": (("approach", "time", "component"), np.stack([results[k]["m"] for k in keys]),
-                  {"long_name": "body angular momentum", "units": "kg m^2 / s"}),
-            "energy_error": (("approach", "time"), np.stack([results[k]["energy_error"] for k in keys]),
-                             {"long_name": "|H_c(t) - H_c(0)|", "units": "J"}),
-            "momentum_error": (("approach", "time"), np.stack([results[k]["momentum_error"] for k in keys]),
-                               {"long_name": "| |m(t)| - G |", "units": "kg m^2 / s"}),
-            "wall_time": (("approach",), np.array([results[k]["wall_time"] for k in keys]),
-                          {"long_name": "run time without compilation", "units": "s"}),
-            "compile_time": (("approach",), np.array([results[k]["compile_time"] for k in keys]),
-                             {"long_name": "compilation (numba, first use) or loading from its cache",
-                              "units": "s"}),
+            "lL": (
+                ("reduced_approach", "time", "canonical"),
+                np.stack([results[k]["lL"] for k in reduced]),
+                {"long_name": "Serret-Andoyer variables (l, L), chart about body axis 3", "units": "rad, kg m^2 / s"},
+            ),
+            "h_p": (
+                ("L_grid", "l_grid"),
+                hp,
+                {"long_name": "reduced Hamiltonian h_p(l, L) = H_c(U_p(l, L))", "units": "J"},
+            ),
+            "m": (
+                ("approach", "time", "component"),
+                np.stack([results[k]["m"] for k in keys]),
+                {"long_name": "body angular momentum", "units": "kg m^2 / s"},
+            ),
+            "energy_error": (
+                ("approach", "time"),
+                np.stack([results[k]["energy_error"] for k in keys]),
+                {"long_name": "|H_c(t) - H_c(0)|", "units": "J"},
+            ),
+            "momentum_error": (
+                ("approach", "time"),
+                np.stack([results[k]["momentum_error"] for k in keys]),
+                {"long_name": "| |m(t)| - G |", "units": "kg m^2 / s"},
+            ),
+            "wall_time": (
+                ("approach",),
+                np.array([results[k]["wall_time"] for k in keys]),
+                {"long_name": "run time without compilation", "units": "s"},
+            ),
+            "compile_time": (
+                ("approach",),
+                np.array([results[k]["compile_time"] for k in keys]),
+                {"long_name": "compilation (numba, first use) or loading from its cache", "units": "s"},
+            ),
         },
         coords={
             "approach": keys,
@@ -305,8 +339,9 @@ def run_study(cfg: StudyConfig, *, progress: Callable[[Iterable[Approach]], Iter
     return ds, summary, model
 
 
-def _summary(cfg: StudyConfig, model: _Model, todo: list[Approach], results: dict[str, dict[str, Any]],
-             command: str) -> dict[str, Any]:
+def _summary(
+    cfg: StudyConfig, model: _Model, todo: list[Approach], results: dict[str, dict[str, Any]], command: str
+) -> dict[str, Any]:
     per = {
         a.key: {
             "label": a.label,
@@ -339,12 +374,14 @@ def _summary(cfg: StudyConfig, model: _Model, todo: list[Approach], results: dic
         },
         "reduced_form_better_whatever_the_method": {
             "claim": "With the same method, the reduced Serret-Andoyer form has smaller energy and momentum "
-                     "errors than Euler's equations and the full 6-D dynamics (Adams on all three"
-                     + ("; the midpoint rule on the reduced form and on Euler's equations" if "euler_midpoint" in E
-                        else "") + ").",
+            "errors than Euler's equations and the full 6-D dynamics (Adams on all three"
+            + ("; the midpoint rule on the reduced form and on Euler's equations" if "euler_midpoint" in E else "")
+            + ").",
             "holds": bool(all(E[red] <= E[other] and M[red] <= M[other] for red, other in comparisons)),
-            "evidence": {f"{red} vs {other}": {"energy": [E[red], E[other]], "momentum": [M[red], M[other]]}
-                         for red, other in comparisons},
+            "evidence": {
+                f"{red} vs {other}": {"energy": [E[red], E[other]], "momentum": [M[red], M[other]]}
+                for red, other in comparisons
+            },
         },
         "all_but_full_6d_keep_the_momentum": {
             "claim": f"Every approach but the full 6-D one keeps |m| = G (here: to {keep_tol:g}).",
@@ -359,10 +396,13 @@ def _summary(cfg: StudyConfig, model: _Model, todo: list[Approach], results: dic
         "parameters": asdict(cfg),
         "choices": {
             "inertias": "not given by the seed; chosen admissible: lambda1 > lambda2 > I3 + J3 and "
-                        "G^2/(2 lambda1) < Hc < G^2/(2 lambda2)",
+            "G^2/(2 lambda1) < Hc < G^2/(2 lambda2)",
             "duration": f"{cfg.t_final} s (the seed gives none)",
-            "initial_state": {"m0": model.m0.tolist(), "(l, L)": model.lL0.tolist(),
-                              "R0 (6-D frame)": model.R0.tolist()},
+            "initial_state": {
+                "m0": model.m0.tolist(),
+                "(l, L)": model.lL0.tolist(),
+                "R0 (6-D frame)": model.R0.tolist(),
+            },
         },
         "approaches": per,
         "claims": claims,
@@ -371,11 +411,22 @@ def _summary(cfg: StudyConfig, model: _Model, todo: list[Approach], results: dic
 
 # -- figures -------------------------------------------------------------------------------------------
 def _styles(keys: list[str]) -> dict[str, dict[str, Any]]:
-    seed_colors = {"full6d_adams": "C0", "euler_adams": "C1", "reduced_adams": "C2", "reduced_generating": "C3",
-                   "reduced_midpoint": "C4"}
+    seed_colors = {
+        "full6d_adams": "C0",
+        "euler_adams": "C1",
+        "reduced_adams": "C2",
+        "reduced_generating": "C3",
+        "reduced_midpoint": "C4",
+    }
     extra = iter(["C5", "C6", "C7", "C8", "C9"])
-    return {k: {"color": seed_colors.get(k) or next(extra), "linestyle": "-" if k in seed_colors else "--",
-                "linewidth": 1.2} for k in keys}
+    return {
+        k: {
+            "color": seed_colors.get(k) or next(extra),
+            "linestyle": "-" if k in seed_colors else "--",
+            "linewidth": 1.2,
+        }
+        for k in keys
+    }
 
 
 def figure5(ds: Any) -> Any:
@@ -386,8 +437,10 @@ def figure5(ds: Any) -> Any:
     keys = list(ds.approach.values)
     style = _styles(keys)
     floor = np.finfo(float).eps * 1e-2
-    for var, ax, title in (("energy_error", axes[0], "(a) energy error $|H_c(t) - H_c(0)|$"),
-                           ("momentum_error", axes[1], "(b) momentum error $|\\,|m(t)| - G\\,|$")):
+    for var, ax, title in (
+        ("energy_error", axes[0], "(a) energy error $|H_c(t) - H_c(0)|$"),
+        ("momentum_error", axes[1], "(b) momentum error $|\\,|m(t)| - G\\,|$"),
+    ):
         for k, lab in zip(keys, ds.label.values):
             ax.semilogy(ds.time, np.maximum(ds[var].sel(approach=k), floor), label=str(lab), **style[k])
         ax.set_title(title, loc="left")
@@ -438,14 +491,26 @@ def figure7(ds: Any, cfg: StudyConfig) -> Any:
     for k in ds.reduced_approach.values:
         lL = ds.lL.sel(reduced_approach=k).values
         label = str(ds.label.sel(approach=k).values)
-        ax.plot(np.angle(np.exp(1j * lL[::7, 0])), lL[::7, 1], next(marker), color=style[str(k)]["color"],
-                markersize=2.0, markerfacecolor="none", markeredgewidth=0.5, linestyle="none", label=label)
+        ax.plot(
+            np.angle(np.exp(1j * lL[::7, 0])),
+            lL[::7, 1],
+            next(marker),
+            color=style[str(k)]["color"],
+            markersize=2.0,
+            markerfacecolor="none",
+            markeredgewidth=0.5,
+            linestyle="none",
+            label=label,
+        )
     ax.axhline(cfg.G, color="0.3", linestyle=":")
     ax.axhline(-cfg.G, color="0.3", linestyle=":")
     ax.set_xlabel("$l$ [rad]")
     ax.set_ylabel("$L$ [kg m$^2$/s]")
-    ax.set_title(f"reduced flow, chart about body axis 3, G = {cfg.G:g}; dashed: $h_p = H_c = {cfg.Hc:g}$",
-                 loc="left", fontsize=9)
+    ax.set_title(
+        f"reduced flow, chart about body axis 3, G = {cfg.G:g}; dashed: $h_p = H_c = {cfg.Hc:g}$",
+        loc="left",
+        fontsize=9,
+    )
     ax.legend(loc="upper right", fontsize=7, markerscale=3)
     fig.tight_layout()
     return fig
@@ -481,6 +546,7 @@ def terminal_progress(items: list[Approach]) -> Iterable[Approach]:
     if not sys.stderr.isatty():
         yield from items
         return
-    with click.progressbar(items, label="integrating", file=sys.stderr,
-                           item_show_func=lambda a: a.label if a else "") as bar:
+    with click.progressbar(
+        items, label="integrating", file=sys.stderr, item_show_func=lambda a: a.label if a else ""
+    ) as bar:
         yield from bar

@@ -12,7 +12,14 @@ __all__ = ["run_adaptive"]
 
 
 def run_adaptive(
-    module: Any, method: Any, Y0: np.ndarray, t0: float, h: float, nsteps: int, save_every: int, OUT: np.ndarray,
+    module: Any,
+    method: Any,
+    Y0: np.ndarray,
+    t0: float,
+    h: float,
+    nsteps: int,
+    save_every: int,
+    OUT: np.ndarray,
     INFO: np.ndarray,
 ) -> int:
     """Integrate each row of ``Y0`` with ``method`` (an AdaptiveAdams), filling ``OUT`` and ``INFO`` as the

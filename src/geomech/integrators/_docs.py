@@ -40,8 +40,10 @@ def _order(row: dict) -> str:
 
 
 def table_markdown() -> str:
-    rows = ["| key | method | order | structure needed | explicit | symplectic | symmetric | keeps Casimirs |",
-            "|---|---|---|---|---|---|---|---|"]
+    rows = [
+        "| key | method | order | structure needed | explicit | symplectic | symmetric | keeps Casimirs |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     yes = {True: "yes", False: "no"}
     for r in methods_table():
         rows.append(

@@ -6,7 +6,6 @@ generating-function method ``gf_all(y, g, Hm, gw, Hw)`` and ``gf_grads(y, g, gw)
 ``W = sum_i H_{q_i} H_{p_i}``. See ``_k_common.py`` for the common loop signature.
 """
 
-
 import numpy as np
 
 # >>> template preamble (removed when compiled)

@@ -267,8 +267,12 @@ def exp_coefficients(t):
     closed forms cancel."""
     if t < 1.0:
         t2 = t * t
-        return (_series(t2, 2, 11, False), _series(t2, 3, 11, False),
-                _series(t2, 2, 11, True), _series(t2, 3, 11, True))
+        return (
+            _series(t2, 2, 11, False),
+            _series(t2, 3, 11, False),
+            _series(t2, 2, 11, True),
+            _series(t2, 3, 11, True),
+        )
     c, s = math.cos(t), math.sin(t)
     a = (1.0 - c) / t**2
     b = (t - s) / t**3
@@ -423,8 +427,12 @@ def mv_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
                 cross(m, f, u)
                 fm = f[0] * m[0] + f[1] * m[1] + f[2] * m[2]
                 for i in range(3):
-                    r[i] = -(m[i] + u[i] + f[i] * fm
-                             - 2.0 * (inertia[i, 0] * f[0] + inertia[i, 1] * f[1] + inertia[i, 2] * f[2]))
+                    r[i] = -(
+                        m[i]
+                        + u[i]
+                        + f[i] * fm
+                        - 2.0 * (inertia[i, 0] * f[0] + inertia[i, 1] * f[1] + inertia[i, 2] * f[2])
+                    )
                     for j in range(3):
                         A[i, j] = f[i] * m[j] - 2.0 * inertia[i, j]
                     A[i, i] += fm

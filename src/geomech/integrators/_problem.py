@@ -149,8 +149,10 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
     for s in (Structure.LIE_POISSON_SPLIT, Structure.LIE_POISSON_QUADRATIC, Structure.LIE_GROUP):
         missing[s] = f"{core.name} is a canonical system in (q, p), not a left-invariant system on T*SO(3)"
     if core.n != 1:
-        missing[Structure.ONE_DOF] = (f"{core.name} has {core.n} degrees of freedom; propagation by the period "
-                                      "needs one (a reduced system: GeneralizedSerretAndoyer(H).reduced_system(G))")
+        missing[Structure.ONE_DOF] = (
+            f"{core.name} has {core.n} degrees of freedom; propagation by the period "
+            "needs one (a reduced system: GeneralizedSerretAndoyer(H).reduced_system(G))"
+        )
     return {"expression": expr, "variables": variables, "missing": missing}
 
 
@@ -192,8 +194,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
         by_cost = sorted(range(3), key=lambda i: (cost[i], i))
         result["split_axis_order"] = (by_cost[0], by_cost[1], by_cost[2])
     hess = sp.Matrix(3, 3, lambda i, j: sp.diff(grad[i], M_SYMBOLS[j]))
-    constant = all(not (e.free_symbols & set(M_SYMBOLS)) or vanishes(sp.diff(e, s))
-                   for e in hess for s in M_SYMBOLS)
+    constant = all(not (e.free_symbols & set(M_SYMBOLS)) or vanishes(sp.diff(e, s)) for e in hess for s in M_SYMBOLS)
     if not constant:
         missing[Structure.LIE_POISSON_QUADRATIC] = "H is not quadratic in m (its Hessian is not constant)"
     else:
@@ -333,12 +334,13 @@ def _gf_python(core: CanonicalSystem) -> dict[str, Any]:
     hw = [[sp.diff(e, v) for v in variables] for e in gw]
     N = len(variables)
     # one function of the four outputs, their common subexpressions shared, split afterwards
-    f_all = compile_vector(list(g) + [e for row in hm for e in row] + list(gw) + [e for row in hw for e in row],
-                           variables)
+    f_all = compile_vector(
+        list(g) + [e for row in hm for e in row] + list(gw) + [e for row in hw for e in row], variables
+    )
 
     def parts(y):
         v = f_all(np.asarray(y, dtype=float))
-        return v[:N], v[N:N + N * N].reshape(N, N), v[N + N * N:2 * N + N * N], v[2 * N + N * N:].reshape(N, N)
+        return v[:N], v[N : N + N * N].reshape(N, N), v[N + N * N : 2 * N + N * N], v[2 * N + N * N :].reshape(N, N)
 
     def gf_all(y, g_out, hm_out, gw_out, hw_out):
         a, b, c, d = parts(y)

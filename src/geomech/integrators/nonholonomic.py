@@ -80,8 +80,9 @@ class Gait:
             e = to_expression(e, f"shapes[{name!r}]", {"t": T_SYMBOL})
             extra = sorted(s.name for s in e.free_symbols - {T_SYMBOL})
             if extra:
-                raise InputError(f"Expected the gait of `{name}` to be a formula in t only, got symbols {extra} "
-                                 f"in {e}.")
+                raise InputError(
+                    f"Expected the gait of `{name}` to be a formula in t only, got symbols {extra} in {e}."
+                )
             names.append(str(name))
             exprs.append(e)
         rows = [[e, sp.diff(e, T_SYMBOL), sp.diff(e, T_SYMBOL, 2)] for e in exprs]
@@ -111,8 +112,9 @@ class _Torques:
         self.fns: list[Callable | None] = [None] * len(self.free)
         for name, spec in tau.items():
             if name not in shape_names:
-                raise InputError(f"`tau` names `{name}`, which is not a shape variable of {system.name} "
-                                 f"({shape_names}).")
+                raise InputError(
+                    f"`tau` names `{name}`, which is not a shape variable of {system.name} ({shape_names})."
+                )
             i = shape_names.index(name)
             if i not in self.free:
                 raise InputError(f"`tau` drives `{name}`, which also has a prescribed gait; give one or the other.")
@@ -120,16 +122,21 @@ class _Torques:
                 fn = spec
             else:
                 e = to_expression(spec, f"tau[{name!r}]", local)
-                undefined = sorted(str(f.func) for f in e.atoms(sp.Function)
-                                   if isinstance(f, sp.core.function.AppliedUndef))
+                undefined = sorted(
+                    str(f.func) for f in e.atoms(sp.Function) if isinstance(f, sp.core.function.AppliedUndef)
+                )
                 if undefined:
-                    raise InputError(f"The torque on `{name}` calls unknown function(s) {undefined}; use sympy's "
-                                     "(sin, cos, exp, tanh, ...) or pass a Python callable f(t, q, qd).")
+                    raise InputError(
+                        f"The torque on `{name}` calls unknown function(s) {undefined}; use sympy's "
+                        "(sin, cos, exp, tanh, ...) or pass a Python callable f(t, q, qd)."
+                    )
                 e = e.xreplace({s: local[s.name] for s in e.free_symbols if s.name in local})
                 extra = sorted(s.name for s in e.free_symbols - set(local.values()))
                 if extra:
-                    raise InputError(f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
-                                     f"coordinates and the velocities ({', '.join(local)}).")
+                    raise InputError(
+                        f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
+                        f"coordinates and the velocities ({', '.join(local)})."
+                    )
                 f = compile_scalar(e, [T_SYMBOL, *system.q, *system.qdot])
                 fn = (lambda f_: lambda t, q, qd: float(f_(np.concatenate([[t], q, qd]))))(f)
             self.fns[self.free.index(i)] = fn
@@ -142,7 +149,7 @@ class _Torques:
 class _Setup:
     system: NonholonomicSystem
     gait: Gait
-    prescribed: list[int]    # shape indices (0..sigma-1) with a gait
+    prescribed: list[int]  # shape indices (0..sigma-1) with a gait
     free_shapes: list[int]
     torques: _Torques
 
@@ -185,9 +192,17 @@ def _by_name(value: Any, names: Sequence[str], argname: str) -> dict[str, float]
     return dict(zip(names, arr.tolist()))
 
 
-def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float = 0.0, q0: Any = None,
-                  rdot0: Any = None, p0: Any = None, qd0: Any = None,
-                  parameters: Mapping[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def initial_state(
+    system: NonholonomicSystem,
+    shapes: Any = None,
+    *,
+    t0: float = 0.0,
+    q0: Any = None,
+    rdot0: Any = None,
+    p0: Any = None,
+    qd0: Any = None,
+    parameters: Mapping[str, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     r"""A consistent initial state ``(q0, qd0)``.
 
     Group coordinates from ``q0`` (default: the identity), shapes from the gait at ``t0``, else ``q0``, else 0;
@@ -211,32 +226,42 @@ def initial_state(system: NonholonomicSystem, shapes: Any = None, *, t0: float =
         if qd0 != "rest":
             raise InputError(f"Expected `qd0` to be velocities or 'rest', got {qd0!r}.")
         if p0 is not None:
-            raise InputError("Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape "
-                             "velocities.")
+            raise InputError(
+                "Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape velocities."
+            )
         qd = np.r_[np.zeros(system.k), _shape_rates(system, setup, rdot0, rd_p)]
         res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
-            raise InputError(f"{system.name} cannot start at rest with these shape velocities: |A(q0) qd0| = {res:.3g} "
-                             "(its constraints involve the shape velocities); give `p0` instead.")
+            raise InputError(
+                f"{system.name} cannot start at rest with these shape velocities: |A(q0) qd0| = {res:.3g} "
+                "(its constraints involve the shape velocities); give `p0` instead."
+            )
         return q, qd
     if qd0 is not None:
-        qd = np.array([_by_name(qd0, [s.name for s in system.qdot], "qd0").get(s.name, 0.0)
-                       for s in system.qdot]) if isinstance(qd0, Mapping) else V.finite(qd0, "qd0").ravel()
+        qd = (
+            np.array([_by_name(qd0, [s.name for s in system.qdot], "qd0").get(s.name, 0.0) for s in system.qdot])
+            if isinstance(qd0, Mapping)
+            else V.finite(qd0, "qd0").ravel()
+        )
         if qd.size != system.n:
             raise InputError(f"Expected `qd0` to have {system.n} entries, got {qd.size}.")
         res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
-            raise InputError(f"`qd0` violates the constraints: |A(q0) qd0| = {res:.3g}; give a velocity in D, or "
-                             "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1).")
+            raise InputError(
+                f"`qd0` violates the constraints: |A(q0) qd0| = {res:.3g}; give a velocity in D, or "
+                "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1)."
+            )
         return q, qd
     red = bkmm_reduction(system)
     rd = _shape_rates(system, setup, rdot0, rd_p)
     p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
     if p.size != red.m:
-        raise InputError(f"Expected `p0` to have {red.m} entries (the nonholonomic momentum of {system.name}, basis: "
-                         f"{red.normalization}), got {p.size}.")
+        raise InputError(
+            f"Expected `p0` to have {red.m} entries (the nonholonomic momentum of {system.name}, basis: "
+            f"{red.normalization}), got {p.size}."
+        )
     rn = red.numeric(parameters)
-    xi = rn.xi(q[system.k:], rd, p)
+    xi = rn.xi(q[system.k :], rd, p)
     lam_inv = _group_rates(system)
     qd = np.r_[lam_inv(q[: system.k]) @ xi, rd]
     return q, qd
@@ -253,14 +278,15 @@ def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.nd
     return rd
 
 
-def _require_positive_kinetic_energy(system: NonholonomicSystem, lda: Any, q: np.ndarray,
-                                     parameters: Mapping[str, float] | None) -> None:
+def _require_positive_kinetic_energy(
+    system: NonholonomicSystem, lda: Any, q: np.ndarray, parameters: Mapping[str, float] | None
+) -> None:
     """Parameter values (a negative mass, a wrong inertia) can make the kinetic energy indefinite on D, where
     the equations have no meaning: say so at the start, with the values, rather than integrate nonsense."""
     M, A = lda.mass_matrix(q), lda.constraint_matrix(q).reshape(system.c, system.n)
     if system.c:
         _, sv, vt = np.linalg.svd(A)
-        X = vt[int(np.sum(sv > 1e-12 * max(1.0, sv.max()))):].T
+        X = vt[int(np.sum(sv > 1e-12 * max(1.0, sv.max()))) :].T
     else:
         X = np.eye(system.n)
     if X.size == 0:
@@ -270,9 +296,11 @@ def _require_positive_kinetic_energy(system: NonholonomicSystem, lda: Any, q: np
     if not low > 1e-12 * max(1.0, float(np.abs(MD).max())):
         values = {k: v for k, v in sorted(system.parameter_values(parameters).items(), key=lambda kv: kv[0].name)}
         shown = ", ".join(f"{k.name}={v:g}" for k, v in values.items())
-        raise InputError(f"The kinetic energy of {system.name} is not positive definite on the constraint distribution "
-                         f"at q0 = {np.round(q, 6).tolist()} (smallest eigenvalue {low:.3g}) with {shown}: check the "
-                         "signs and sizes of the masses and inertias.")
+        raise InputError(
+            f"The kinetic energy of {system.name} is not positive definite on the constraint distribution "
+            f"at q0 = {np.round(q, 6).tolist()} (smallest eigenvalue {low:.3g}) with {shown}: check the "
+            "signs and sizes of the masses and inertias."
+        )
 
 
 def _group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarray]:
@@ -281,8 +309,10 @@ def _group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarra
     def rates(g: np.ndarray) -> np.ndarray:
         Li = f(np.asarray(g, dtype=float))
         if not np.all(np.isfinite(Li)):
-            raise NumericalError(f"The coordinates of {system.group.name} are singular at {np.asarray(g)} (gimbal "
-                                 "lock of the Euler-angle chart); start elsewhere or use another sequence.")
+            raise NumericalError(
+                f"The coordinates of {system.group.name} are singular at {np.asarray(g)} (gimbal "
+                "lock of the Euler-angle chart); start elsewhere or use another sequence."
+            )
         return Li
 
     return rates
@@ -363,19 +393,36 @@ class NonholonomicTrajectory:
                 "work": ("t", self.work, {"long_name": "work done by the shape inputs since the start"}),
                 "constraint_residual": (("t", "constraint"), self.residual, {"long_name": "A(q) qdot"}),
             },
-            coords={"t": ("t", self.t, {"long_name": "time"}), "coordinate": [x.name for x in s.q],
-                    "shape": [r.name for r in s.shape], "momentum_index": np.arange(self.p.shape[1]) + 1,
-                    "constraint": np.arange(s.c) + 1},
-            attrs={"system": s.name, "group": s.group.name, "method": self.method, "status": self.status,
-                   "message": self.message, "geomech_version": __version__,
-                   "parameters": json.dumps({str(k): float(v) for k, v in s.parameters.items()})},
+            coords={
+                "t": ("t", self.t, {"long_name": "time"}),
+                "coordinate": [x.name for x in s.q],
+                "shape": [r.name for r in s.shape],
+                "momentum_index": np.arange(self.p.shape[1]) + 1,
+                "constraint": np.arange(s.c) + 1,
+            },
+            attrs={
+                "system": s.name,
+                "group": s.group.name,
+                "method": self.method,
+                "status": self.status,
+                "message": self.message,
+                "geomech_version": __version__,
+                "parameters": json.dumps({str(k): float(v) for k, v in s.parameters.items()}),
+            },
         )
 
     def to_csv(self, path: str | Path) -> Path:
         """Write the trajectory (one row per time) to ``path``."""
         s = self.system
-        cols = (["t"] + [x.name for x in s.q] + [v.name for v in s.qdot] + [f"p{i + 1}" for i in range(self.p.shape[1])]
-                + [f"tau_{r.name}" for r in s.shape] + ["energy", "work"] + [f"residual{a + 1}" for a in range(s.c)])
+        cols = (
+            ["t"]
+            + [x.name for x in s.q]
+            + [v.name for v in s.qdot]
+            + [f"p{i + 1}" for i in range(self.p.shape[1])]
+            + [f"tau_{r.name}" for r in s.shape]
+            + ["energy", "work"]
+            + [f"residual{a + 1}" for a in range(s.c)]
+        )
         data = np.column_stack([self.t, self.q, self.qd, self.p, self.tau, self.energy, self.work, self.residual])
         path = Path(path)
         with path.open("w", newline="") as fh:
@@ -385,15 +432,37 @@ class NonholonomicTrajectory:
         return path
 
 
-def _finish(setup: _Setup, method: str, t: np.ndarray, q: np.ndarray, qd: np.ndarray, tau: np.ndarray,
-            work: np.ndarray, parameters: Mapping | None, status: int = 0, message: str = "",
-            nfev: int = 0) -> NonholonomicTrajectory:
+def _finish(
+    setup: _Setup,
+    method: str,
+    t: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    work: np.ndarray,
+    parameters: Mapping | None,
+    status: int = 0,
+    message: str = "",
+    nfev: int = 0,
+) -> NonholonomicTrajectory:
     s = setup.system
     lda = lagrange_dalembert(s).numeric(parameters)
     rn = bkmm_reduction(s).numeric(parameters)
-    return NonholonomicTrajectory(s, t, q, qd, rn.momentum(q, qd).reshape(len(t), -1), tau, lda.energy(q, qd),
-                                  lda.constraint_residual(q, qd).reshape(len(t), s.c), work, method, status,
-                                  message, nfev)
+    return NonholonomicTrajectory(
+        s,
+        t,
+        q,
+        qd,
+        rn.momentum(q, qd).reshape(len(t), -1),
+        tau,
+        lda.energy(q, qd),
+        lda.constraint_residual(q, qd).reshape(len(t), s.c),
+        work,
+        method,
+        status,
+        message,
+        nfev,
+    )
 
 
 def _time_grid(t_final: float, t_eval: Any, samples: int, t0: float) -> np.ndarray:
@@ -409,16 +478,19 @@ def _time_grid(t_final: float, t_eval: Any, samples: int, t0: float) -> np.ndarr
         raise InputError(f"Expected `samples` to be an integer from 2 to 1e7, got {samples!r}.")
     te = np.linspace(t0, tf, int(samples))
     if np.any(np.diff(te) <= 0):
-        raise InputError(f"Expected `t_final` - t0 = {tf - t0:.3g} to be resolvable into {samples} distinct times "
-                         "in double precision; take a longer span or fewer samples.")
+        raise InputError(
+            f"Expected `t_final` - t0 = {tf - t0:.3g} to be resolvable into {samples} distinct times "
+            "in double precision; take a longer span or fewer samples."
+        )
     return te
 
 
 # --------------------------------------------------------------------------------------------------
 # (a) full equations with multipliers
 # --------------------------------------------------------------------------------------------------
-def _accelerations(setup: _Setup, funcs: dict, t: float, q: np.ndarray, qd: np.ndarray,
-                   rdd_p: np.ndarray, baumgarte: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _accelerations(
+    setup: _Setup, funcs: dict, t: float, q: np.ndarray, qd: np.ndarray, rdd_p: np.ndarray, baumgarte: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Accelerations of the free coordinates, multipliers and the full shape-force vector at one state."""
     s = setup.system
     x = np.r_[q, qd]
@@ -430,10 +502,10 @@ def _accelerations(setup: _Setup, funcs: dict, t: float, q: np.ndarray, qd: np.n
     nf, c, npr = len(fr), s.c, len(pr)
     K = np.zeros((s.n + c, nf + c + npr))
     K[: s.n, :nf] = M[:, fr]
-    K[: s.n, nf: nf + c] = -A.T
+    K[: s.n, nf : nf + c] = -A.T
     for j, i in enumerate(pr):
         K[i, nf + c + j] = -1.0
-    K[s.n:, :nf] = A[:, fr]
+    K[s.n :, :nf] = A[:, fr]
     rhs = np.r_[F - M[:, pr] @ rdd_p, -Adq - A[:, pr] @ rdd_p - 2.0 * baumgarte * (A @ qd)]
     try:
         z = np.linalg.solve(K, rhs)
@@ -441,8 +513,8 @@ def _accelerations(setup: _Setup, funcs: dict, t: float, q: np.ndarray, qd: np.n
         raise NumericalError(f"The constrained equations are singular at t = {t:.6g}, q = {q}.") from exc
     tau = np.zeros(s.sigma)
     tau[setup.free_shapes] = tau_f
-    tau[setup.prescribed] = z[nf + c:]
-    return z[:nf], z[nf: nf + c], tau
+    tau[setup.prescribed] = z[nf + c :]
+    return z[:nf], z[nf : nf + c], tau
 
 
 #: Default ceiling on right-hand-side evaluations of the adaptive simulators (tens of seconds of work).
@@ -490,21 +562,38 @@ def _integrate(name: str, rhs: Callable, te: np.ndarray, y0: np.ndarray, max_eva
             raise InputError(
                 f"{name}: at the pace of its first {stop.count} evaluations (to t = {stop.t:.6g}) the run to "
                 f"{te[-1]:.6g} needs about {min(stop.projected, 1e300):.3g} evaluations of the equations, above "
-                f"`max_evaluations` = {int(max_evaluations)}; shorten t_final or raise `max_evaluations`.") from None
+                f"`max_evaluations` = {int(max_evaluations)}; shorten t_final or raise `max_evaluations`."
+            ) from None
         raise NumericalError(
             f"{name}: stopped after {stop.count} evaluations of the equations at t = {stop.t:.6g} of "
             f"{te[-1]:.6g} (`max_evaluations`): the motion is faster, or the time span longer, than the budget "
-            "allows; shorten t_final or raise `max_evaluations`.") from None
+            "allows; shorten t_final or raise `max_evaluations`."
+        ) from None
     if sol.status < 0:
         raise NumericalError(f"{name}: the integrator failed at t = {sol.t[-1]:.6g}: {sol.message}")
     return sol
 
 
-def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, shapes: Any = None, tau: Any = None,
-                  q0: Any = None, qd0: Any = None, rdot0: Any = None, p0: Any = None, t0: float = 0.0,
-                  t_eval: Any = None, samples: int = 201, parameters: Mapping[str, float] | None = None,
-                  method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12,
-                  baumgarte: float = 0.0, max_evaluations: int = MAX_EVALUATIONS) -> NonholonomicTrajectory:
+def simulate_full(
+    system: NonholonomicSystem,
+    t_final: float | None = None,
+    *,
+    shapes: Any = None,
+    tau: Any = None,
+    q0: Any = None,
+    qd0: Any = None,
+    rdot0: Any = None,
+    p0: Any = None,
+    t0: float = 0.0,
+    t_eval: Any = None,
+    samples: int = 201,
+    parameters: Mapping[str, float] | None = None,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    baumgarte: float = 0.0,
+    max_evaluations: int = MAX_EVALUATIONS,
+) -> NonholonomicTrajectory:
     """Integrate the Lagrange-d'Alembert equations with multipliers (the index-reduced DAE), method (a).
 
     Parameters
@@ -533,8 +622,9 @@ def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, s
     NonholonomicTrajectory
     """
     setup = _setup(system, shapes, tau)
-    q_init, qd_init = initial_state(system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0,
-                                    parameters=parameters)
+    q_init, qd_init = initial_state(
+        system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0, parameters=parameters
+    )
     te = _time_grid(t_final, t_eval, samples, t0)
     funcs = lagrange_dalembert(system).numeric(parameters).funcs
     fr, pr = setup.free_coordinates(), setup.prescribed_coordinates()
@@ -542,7 +632,7 @@ def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, s
 
     def full_state(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         q, qd = np.empty(system.n), np.empty(system.n)
-        q[fr], qd[fr] = y[:nf], y[nf: 2 * nf]
+        q[fr], qd[fr] = y[:nf], y[nf : 2 * nf]
         r_p, rd_p, rdd_p = setup.gait(t)
         q[pr], qd[pr] = r_p, rd_p
         return q, qd, rdd_p
@@ -550,7 +640,7 @@ def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, s
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         q, qd, rdd_p = full_state(t, y)
         a, _, tau_v = _accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)
-        return np.r_[qd[fr], a, tau_v @ qd[system.k:]]
+        return np.r_[qd[fr], a, tau_v @ qd[system.k :]]
 
     y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
     sol = _integrate("simulate_full", rhs, te, y0, max_evaluations, method=method, rtol=rtol, atol=atol)
@@ -560,26 +650,52 @@ def simulate_full(system: NonholonomicSystem, t_final: float | None = None, *, s
         TAU.append(_accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)[2])
         Q.append(q)
         QD.append(qd)
-    return _finish(setup, f"full ({method})", sol.t, np.array(Q), np.array(QD), np.array(TAU).reshape(len(sol.t), -1),
-                   sol.y[-1], parameters, sol.status, sol.message, sol.nfev)
+    return _finish(
+        setup,
+        f"full ({method})",
+        sol.t,
+        np.array(Q),
+        np.array(QD),
+        np.array(TAU).reshape(len(sol.t), -1),
+        sol.y[-1],
+        parameters,
+        sol.status,
+        sol.message,
+        sol.nfev,
+    )
 
 
 # --------------------------------------------------------------------------------------------------
 # (b) reduced equations
 # --------------------------------------------------------------------------------------------------
-def simulate_reduced(system: NonholonomicSystem, t_final: float | None = None, *, shapes: Any = None,
-                     tau: Any = None, q0: Any = None, qd0: Any = None, rdot0: Any = None, p0: Any = None,
-                     t0: float = 0.0, t_eval: Any = None, samples: int = 201,
-                     parameters: Mapping[str, float] | None = None, method: str = "DOP853", rtol: float = 1e-10,
-                     atol: float = 1e-12, max_evaluations: int = MAX_EVALUATIONS) -> NonholonomicTrajectory:
+def simulate_reduced(
+    system: NonholonomicSystem,
+    t_final: float | None = None,
+    *,
+    shapes: Any = None,
+    tau: Any = None,
+    q0: Any = None,
+    qd0: Any = None,
+    rdot0: Any = None,
+    p0: Any = None,
+    t0: float = 0.0,
+    t_eval: Any = None,
+    samples: int = 201,
+    parameters: Mapping[str, float] | None = None,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    max_evaluations: int = MAX_EVALUATIONS,
+) -> NonholonomicTrajectory:
     """Integrate the BKMM equations (1.1)-(1.3): momentum, shape and reconstruction, method (b).
 
     Same arguments as :func:`simulate_full`. The state is ``(g, r_free, rdot_free, p, W)``; the group
     coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi(r, \\dot r, p)`.
     """
     setup = _setup(system, shapes, tau)
-    q_init, qd_init = initial_state(system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0,
-                                    parameters=parameters)
+    q_init, qd_init = initial_state(
+        system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0, parameters=parameters
+    )
     te = _time_grid(t_final, t_eval, samples, t0)
     red = bkmm_reduction(system)
     rn = red.numeric(parameters)
@@ -591,10 +707,10 @@ def simulate_reduced(system: NonholonomicSystem, t_final: float | None = None, *
     def unpack(t: float, y: np.ndarray):
         g = y[:k]
         r, rd = np.empty(sigma), np.empty(sigma)
-        r[F], rd[F] = y[k: k + nF], y[k + nF: k + 2 * nF]
+        r[F], rd[F] = y[k : k + nF], y[k + nF : k + 2 * nF]
         r_p, rd_p, rdd_p = setup.gait(t)
         r[P], rd[P] = r_p, rd_p
-        p = y[k + 2 * nF: k + 2 * nF + m]
+        p = y[k + 2 * nF : k + 2 * nF + m]
         return g, r, rd, rdd_p, p
 
     def evaluate(t: float, y: np.ndarray):
@@ -629,8 +745,19 @@ def simulate_reduced(system: NonholonomicSystem, t_final: float | None = None, *
         Q.append(q)
         QD.append(qd)
         TAU.append(tau_v)
-    return _finish(setup, f"reduced ({method})", sol.t, np.array(Q), np.array(QD),
-                   np.array(TAU).reshape(len(sol.t), -1), sol.y[-1], parameters, sol.status, sol.message, sol.nfev)
+    return _finish(
+        setup,
+        f"reduced ({method})",
+        sol.t,
+        np.array(Q),
+        np.array(QD),
+        np.array(TAU).reshape(len(sol.t), -1),
+        sol.y[-1],
+        parameters,
+        sol.status,
+        sol.message,
+        sol.nfev,
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -658,10 +785,23 @@ class _DiscreteKernels:
         self.dA = compile_vector(dA, q) if s.c else None
 
 
-def simulate_discrete(system: NonholonomicSystem, t_final: float, h: float, *, shapes: Any = None,
-                      tau: Any = None, q0: Any = None, qd0: Any = None, rdot0: Any = None, p0: Any = None,
-                      t0: float = 0.0, parameters: Mapping[str, float] | None = None, tol: float = 1e-12,
-                      max_iter: int = 30, max_steps: int = 1_000_000) -> NonholonomicTrajectory:
+def simulate_discrete(
+    system: NonholonomicSystem,
+    t_final: float,
+    h: float,
+    *,
+    shapes: Any = None,
+    tau: Any = None,
+    q0: Any = None,
+    qd0: Any = None,
+    rdot0: Any = None,
+    p0: Any = None,
+    t0: float = 0.0,
+    parameters: Mapping[str, float] | None = None,
+    tol: float = 1e-12,
+    max_iter: int = 30,
+    max_steps: int = 1_000_000,
+) -> NonholonomicTrajectory:
     r"""The discrete Lagrange-d'Alembert integrator with the midpoint rule, method (c); second order.
 
     Fixed step ``h`` (``t_final - t0`` is rounded to a whole number of steps). The velocity reported at a node
@@ -674,14 +814,21 @@ def simulate_discrete(system: NonholonomicSystem, t_final: float, h: float, *, s
     if not np.isfinite(h) or h <= 0:
         raise InputError(f"Expected the step `h` to be positive, got {h!r}.")
     span = (float(V.finite(t_final, "t_final")) - float(V.finite(t0, "t0"))) / h
-    V.work_budget(span, float(max_steps), f"The number of steps (t_final - t0 = {span * h:.3g} over h = {h:.3g})",
-                  "max_steps", "take a larger h or a shorter span", seconds_each=2e-4)
+    V.work_budget(
+        span,
+        float(max_steps),
+        f"The number of steps (t_final - t0 = {span * h:.3g} over h = {h:.3g})",
+        "max_steps",
+        "take a larger h or a shorter span",
+        seconds_each=2e-4,
+    )
     nsteps = int(round(span))
     if nsteps < 1:
         raise InputError(f"Expected t_final - t0 >= h, got t_final = {t_final}, t0 = {t0}, h = {h}.")
     h = (float(t_final) - t0) / nsteps
-    q_init, qd_init = initial_state(system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0,
-                                    parameters=parameters)
+    q_init, qd_init = initial_state(
+        system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0, parameters=parameters
+    )
     ker = _DiscreteKernels(system, parameters)
     fr, pr = setup.free_coordinates(), setup.prescribed_coordinates()
     shape_free = [s.k + i for i in setup.free_shapes]
@@ -741,8 +888,10 @@ def simulate_discrete(system: NonholonomicSystem, t_final: float, h: float, *, s
             q1 = q1.copy()
             q1[fr] += dz[:nf]
             lam = lam + dz[nf:]
-        raise ConvergenceError(f"simulate_discrete: Newton did not converge in {max_iter} iterations at "
-                               f"t = {t_next:.6g} (step {h:.3g}, residual {np.abs(R).max():.3g}); reduce h.")
+        raise ConvergenceError(
+            f"simulate_discrete: Newton did not converge in {max_iter} iterations at "
+            f"t = {t_next:.6g} (step {h:.3g}, residual {np.abs(R).max():.3g}); reduce h."
+        )
 
     lda = lagrange_dalembert(system).numeric(parameters)
     times = t0 + h * np.arange(nsteps + 1)
@@ -779,14 +928,37 @@ def simulate_discrete(system: NonholonomicSystem, t_final: float, h: float, *, s
             _, _, tau_full = _accelerations(setup, lda.funcs, tm, x[:n], x[n:], rdd_p)
             tau_v[setup.prescribed] = tau_full[setup.prescribed]
         tau_mid[k] = tau_v
-        work[k + 1] = work[k] + tau_v @ (Q[k + 1, s.k:] - Q[k, s.k:])
+        work[k + 1] = work[k] + tau_v @ (Q[k + 1, s.k :] - Q[k, s.k :])
     TAU = np.vstack([tau_mid, tau_mid[-1:]]) if nsteps else np.zeros((1, s.sigma))
-    out = _finish(setup, f"discrete Lagrange-d'Alembert (midpoint, h = {h:.3g})", times, Q, QD, TAU, work,
-                  parameters, 0, "", nsteps)
+    out = _finish(
+        setup,
+        f"discrete Lagrange-d'Alembert (midpoint, h = {h:.3g})",
+        times,
+        Q,
+        QD,
+        TAU,
+        work,
+        parameters,
+        0,
+        "",
+        nsteps,
+    )
     # The projected node velocities satisfy the constraints exactly; the honest residual of the scheme is that of
     # the centred difference quotient, A(q_k)(q_{k+1} - q_{k-1}) / 2h = O(h^2) (one-sided at the ends).
     V_fd = np.gradient(Q, times, axis=0, edge_order=2) if nsteps >= 2 else QD
     residual = lda.constraint_residual(Q, V_fd).reshape(nsteps + 1, c)
-    return NonholonomicTrajectory(out.system, out.t, out.q, out.qd, out.p, out.tau, out.energy, residual, out.work,
-                                  out.method, out.status, out.message, out.nfev)
-
+    return NonholonomicTrajectory(
+        out.system,
+        out.t,
+        out.q,
+        out.qd,
+        out.p,
+        out.tau,
+        out.energy,
+        residual,
+        out.work,
+        out.method,
+        out.status,
+        out.message,
+        out.nfev,
+    )

@@ -50,8 +50,11 @@ _AUTO: Any = object()
 #: saddle at energy distance dE is passed at speed ~ sqrt(|D^2H| dE); dE at the resolution of H, 1e-14,
 #: gives ~1e-7.)
 _NEAR_CRITICAL = 1e-5
-_STATUS = {1: "did not return within max_steps steps", 2: "left L_bounds or became non-finite",
-           3: "the step size underflowed (y0 at, or the orbit through, a critical point)"}
+_STATUS = {
+    1: "did not return within max_steps steps",
+    2: "left L_bounds or became non-finite",
+    3: "the step size underflowed (y0 at, or the orbit through, a critical point)",
+}
 _KERNELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -64,14 +67,18 @@ def dop853_tableau() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     try:
         from scipy.integrate._ivp import dop853_coefficients as dop
     except ImportError as exc:  # the module has been where it is since scipy 1.0; say so if that changes
-        raise ImportError("PeriodicOrbitPropagator reads Dormand-Prince 8(5,3) coefficients from "
-                          "scipy.integrate._ivp.dop853_coefficients, which this scipy lacks; install scipy>=1.11,<2."
-                          ) from exc
+        raise ImportError(
+            "PeriodicOrbitPropagator reads Dormand-Prince 8(5,3) coefficients from "
+            "scipy.integrate._ivp.dop853_coefficients, which this scipy lacks; install scipy>=1.11,<2."
+        ) from exc
 
     n = dop.N_STAGES
-    return (np.ascontiguousarray(dop.A[:n, :n], dtype=float), np.array(dop.B, dtype=float),
-            np.array(dop.E5, dtype=float), np.array(dop.E3, dtype=float))
-
+    return (
+        np.ascontiguousarray(dop.A[:n, :n], dtype=float),
+        np.array(dop.B, dtype=float),
+        np.array(dop.E5, dtype=float),
+        np.array(dop.E3, dtype=float),
+    )
 
 
 def _kernels(system: CanonicalSystem) -> tuple[Any, str]:
@@ -166,8 +173,9 @@ class PeriodicOrbitPropagator:
         if self.backend == "numba" and not module.orbit_return.signatures:
             start = time.perf_counter()
             module.orbit_return(y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9))
-            module.orbit_states(np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b,
-                                np.empty((1, 2)))
+            module.orbit_states(
+                np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b, np.empty((1, 2))
+            )
             compile_time = time.perf_counter() - start
         start = time.perf_counter()
         TM, YM, info = np.empty(max_steps + 1), np.empty((max_steps + 1, 2)), np.zeros(9)

@@ -57,9 +57,9 @@ _MAX_RATIO = 1.0 / 0.7
 _MAX_STEPS = 20_000
 
 
-
-def one_dof_arguments(system: Any, y0: Any, tol: Any, tol_range: tuple[float, float],
-                      what: str) -> tuple[CanonicalSystem, np.ndarray, float]:
+def one_dof_arguments(
+    system: Any, y0: Any, tol: Any, tol_range: tuple[float, float], what: str
+) -> tuple[CanonicalSystem, np.ndarray, float]:
     """Check the arguments common to the one-degree-of-freedom propagators: ``(system, y0, tol)``."""
     if not isinstance(system, CanonicalSystem) or system.n != 1:
         got = f"n = {system.n}" if isinstance(system, CanonicalSystem) else type(system).__name__

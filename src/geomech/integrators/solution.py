@@ -14,8 +14,15 @@ import numpy as np
 __all__ = ["Failure", "Solution", "STATUS"]
 
 #: Status codes of the compiled loops and their names.
-STATUS = {0: "success", 1: "newton_failed", 2: "nonfinite", 3: "singular_jacobian", 4: "adaptive_failed",
-          5: "not_periodic", 6: "left_chart"}
+STATUS = {
+    0: "success",
+    1: "newton_failed",
+    2: "nonfinite",
+    3: "singular_jacobian",
+    4: "adaptive_failed",
+    5: "not_periodic",
+    6: "left_chart",
+}
 
 
 @dataclass(frozen=True)
@@ -42,9 +49,9 @@ class Failure:
             "adaptive_failed": "the adaptive solver gave up",
             "not_periodic": "the orbit is not periodic (a separatrix, or it leaves L_bounds)",
             "left_chart": "the state reached the end of its chart (a pole of the coordinates, e.g. the "
-                          "Serret-Andoyer L = +-G or the Euler angle theta = 0, pi), where the formula means "
-                          "nothing; switch charts (GeneralizedSerretAndoyer.simulate does) or integrate on the "
-                          "group",
+            "Serret-Andoyer L = +-G or the Euler angle theta = 0, pi), where the formula means "
+            "nothing; switch charts (GeneralizedSerretAndoyer.simulate does) or integrate on the "
+            "group",
         }.get(self.kind, self.kind)
         res = f", residual {self.residual:.3g}" if np.isfinite(self.residual) else ""
         return f"{what} at step {self.step}, t = {self.time:.10g}{where}{res}"

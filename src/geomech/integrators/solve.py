@@ -99,8 +99,10 @@ def _steps(h: Any, t0: Any, t_final: Any, n_steps: Any) -> tuple[float, float, i
     span = float(V.finite(t_final, "t_final")) - t0
     ratio = abs(span) / h
     if not math.isfinite(ratio):
-        raise InputError(f"`t_final - t0` = {span:g} over h = {h:g} is not a finite number of steps; take a "
-                         "larger h or a shorter span.")
+        raise InputError(
+            f"`t_final - t0` = {span:g} over h = {h:g} is not a finite number of steps; take a "
+            "larger h or a shorter span."
+        )
     n = round(ratio)
     if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
         raise InputError(
@@ -110,8 +112,15 @@ def _steps(h: Any, t0: Any, t_final: Any, n_steps: Any) -> tuple[float, float, i
     return math.copysign(h, span), t0, n
 
 
-def _left_chart(system: Any, OUT: np.ndarray, INFO: np.ndarray, save_steps: np.ndarray, t0: float, h: float,
-                batch_shape: tuple[int, ...]) -> list[Failure]:
+def _left_chart(
+    system: Any,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    save_steps: np.ndarray,
+    t0: float,
+    h: float,
+    batch_shape: tuple[int, ...],
+) -> list[Failure]:
     """A failure for each trajectory whose saved states reach the end of the system's chart."""
     failures = []
     for i, lo, hi in getattr(system, "chart", ()):
@@ -120,16 +129,30 @@ def _left_chart(system: Any, OUT: np.ndarray, INFO: np.ndarray, save_steps: np.n
         for b in np.flatnonzero(outside.any(axis=1) & (INFO[:, 0] == 0)):
             k = int(np.argmax(outside[b]))
             INFO[b, 0] = 6
-            failures.append(Failure(kind="left_chart",
-                                    batch_index=tuple(int(j) for j in np.unravel_index(b, batch_shape))
-                                    if batch_shape else (), step=int(save_steps[k]),
-                                    time=t0 + float(save_steps[k]) * h, residual=float("nan")))
+            failures.append(
+                Failure(
+                    kind="left_chart",
+                    batch_index=tuple(int(j) for j in np.unravel_index(b, batch_shape)) if batch_shape else (),
+                    step=int(save_steps[k]),
+                    time=t0 + float(save_steps[k]) * h,
+                    residual=float("nan"),
+                )
+            )
     return failures
 
 
 def _run_compiled(
-    kern: Any, Y0: np.ndarray, h: float, nsteps: int, save_every: int, OUT: np.ndarray, INFO: np.ndarray,
-    tol: float, maxit: int, P: np.ndarray, threads: int,
+    kern: Any,
+    Y0: np.ndarray,
+    h: float,
+    nsteps: int,
+    save_every: int,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    tol: float,
+    maxit: int,
+    P: np.ndarray,
+    threads: int,
 ) -> None:
     B = Y0.shape[0]
     if threads <= 1 or B < 2:
@@ -145,8 +168,15 @@ def _run_compiled(
             fut.result()
 
 
-def _run_periodic(core: Any, method: PeriodicOrbit | Quadrature, Y0: np.ndarray, times: np.ndarray,
-                  OUT: np.ndarray, INFO: np.ndarray, reasons: dict[int, str]) -> tuple[int, float]:
+def _run_periodic(
+    core: Any,
+    method: PeriodicOrbit | Quadrature,
+    Y0: np.ndarray,
+    times: np.ndarray,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+) -> tuple[int, float]:
     """Each row of ``Y0`` by :class:`PeriodicOrbitPropagator` or :class:`QuadraturePropagator`; returns
     (mesh steps or quadrature nodes, compile time)."""
     from ..errors import NumericalError, SingularityError
@@ -159,8 +189,9 @@ def _run_periodic(core: Any, method: PeriodicOrbit | Quadrature, Y0: np.ndarray,
             if isinstance(method, Quadrature):
                 orbit = QuadraturePropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
                 if not np.isfinite(orbit.period):
-                    raise SingularityError(f"The orbit of y0 = {Y0[b].tolist()} is a {orbit.kind}: it has no "
-                                           "period; use an integrator.")
+                    raise SingularityError(
+                        f"The orbit of y0 = {Y0[b].tolist()} is a {orbit.kind}: it has no period; use an integrator."
+                    )
                 OUT[b] = orbit.state(times)
             else:
                 orbit = PeriodicOrbitPropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
@@ -258,12 +289,22 @@ def solve(
         raise InputError(f"Expected `threads` to be a positive integer or None, got {threads!r}.")
     B, d = Y0.shape
     if not isinstance(method, (PeriodicOrbit, Quadrature)):  # those cost per output, not per step
-        V.work_budget(float(B) * nsteps, float(max_steps), f"The number of steps ({nsteps:.3g} of {B} trajectory(ies))",
-                      "max_steps", "take a larger h or a shorter span", seconds_each=1e-7)
+        V.work_budget(
+            float(B) * nsteps,
+            float(max_steps),
+            f"The number of steps ({nsteps:.3g} of {B} trajectory(ies))",
+            "max_steps",
+            "take a larger h or a shorter span",
+            seconds_each=1e-7,
+        )
     n_saved = nsteps // save_every + 2
-    V.memory_budget(float(B) * n_saved * (d + 1), float(memory_limit), f"Keeping every {save_every}-th of "
-                    f"{nsteps:.3g} states of {B} trajectory(ies)", "memory_limit",
-                    f"raise `save_every` (to at least {max(1, int(nsteps * B * (d + 1) * 8 / memory_limit) + 1)})")
+    V.memory_budget(
+        float(B) * n_saved * (d + 1),
+        float(memory_limit),
+        f"Keeping every {save_every}-th of {nsteps:.3g} states of {B} trajectory(ies)",
+        "memory_limit",
+        f"raise `save_every` (to at least {max(1, int(nsteps * B * (d + 1) * 8 / memory_limit) + 1)})",
+    )
     save_steps = np.arange(0, nsteps + 1, save_every)
     if save_steps[-1] != nsteps:
         save_steps = np.append(save_steps, nsteps)
@@ -325,17 +366,20 @@ def solve(
         message = f"{type(method).__name__} on {problem.name}: {failures[0].describe()}{extra}."
         if failures[0].kind in ("newton_failed", "singular_jacobian"):
             message += (
-                f" Reduce h (now {abs(h):g}), or loosen newton_tol (now {tol:g}) / raise max_newton "
-                f"(now {max_newton})."
+                f" Reduce h (now {abs(h):g}), or loosen newton_tol (now {tol:g}) / raise max_newton (now {max_newton})."
             )
     else:
         message = f"{type(method).__name__}: {nsteps} steps of h = {abs(h):g} from t = {t0:g}."
         if isinstance(method, Quadrature):
-            message = (f"Quadrature: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from the "
-                       "time-of-flight integral along the level curve.")
+            message = (
+                f"Quadrature: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from the "
+                "time-of-flight integral along the level curve."
+            )
         elif isinstance(method, PeriodicOrbit):
-            message = (f"PeriodicOrbit: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from one stored "
-                       f"period ({internal} mesh steps in all).")
+            message = (
+                f"PeriodicOrbit: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from one stored "
+                f"period ({internal} mesh steps in all)."
+            )
     if reasons:
         message += " " + reasons[min(reasons)]
     solution = Solution(
@@ -366,4 +410,3 @@ def solve(
         exc.solution = solution  # type: ignore[attr-defined]
         raise exc
     return solution
-

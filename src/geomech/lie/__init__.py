@@ -21,5 +21,20 @@ from .group import LieGroup, Product
 from .groups import S1, SE2, SE3, SO2, SO3, Rn, named_group
 from .matrix_group import MatrixGroup
 
-__all__ = ["LieGroup", "MatrixGroup", "Product", "Rn", "S1", "SE2", "SE3", "SO2", "SO3", "euler", "named_group",
-           "quaternion", "se2", "se3", "so3"]
+__all__ = [
+    "LieGroup",
+    "MatrixGroup",
+    "Product",
+    "Rn",
+    "S1",
+    "SE2",
+    "SE3",
+    "SO2",
+    "SO3",
+    "euler",
+    "named_group",
+    "quaternion",
+    "se2",
+    "se3",
+    "so3",
+]

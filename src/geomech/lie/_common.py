@@ -91,9 +91,7 @@ T_MINUS_SIN_T3 = EvenSeries(
     *_factorial_series(lambda n: F((-1) ** n, factorial(2 * n + 3)), 12), lambda t: (t - np.sin(t)) / t**3
 )
 # (t/2) cot(t/2) = t sin t / (2 (1 - cos t)); no cancellation, radius of convergence 2 pi
-HALF_COT_HALF = EvenSeries(
-    *_factorial_series(_half_cot_half, 6), lambda t: 0.5 * t * np.cos(0.5 * t) / np.sin(0.5 * t)
-)
+HALF_COT_HALF = EvenSeries(*_factorial_series(_half_cot_half, 6), lambda t: 0.5 * t * np.cos(0.5 * t) / np.sin(0.5 * t))
 # (1 - (t/2) cot(t/2)) / t^2 = 1/t^2 - (1 + cos t) / (2 t sin t)
 JINV_D = EvenSeries(
     *_factorial_series(lambda n: -_half_cot_half(n + 1), 12),
@@ -126,9 +124,11 @@ def angles(value: np.ndarray, name: str) -> np.ndarray:
     """``value`` (rotation vectors or angles) if no component exceeds :data:`MAX_ANGLE` in size."""
     big = np.abs(value) > MAX_ANGLE
     if np.any(big):
-        raise InputError(f"Expected the rotation part of `{name}` to be below {MAX_ANGLE:g} rad in size, got "
-                         f"{np.abs(value).max():.3g}{_where(big)}: there the angle modulo 2 pi is lost to "
-                         "round-off; reduce it modulo 2 pi first.")
+        raise InputError(
+            f"Expected the rotation part of `{name}` to be below {MAX_ANGLE:g} rad in size, got "
+            f"{np.abs(value).max():.3g}{_where(big)}: there the angle modulo 2 pi is lost to "
+            "round-off; reduce it modulo 2 pi first."
+        )
     return value
 
 

@@ -279,15 +279,16 @@ class Product(LieGroup):
         self.abelian = all(f.abelian for f in flat)
         self.coordinate_names = sum((f.coordinate_names for f in flat), ())
         if len(set(self.coordinate_names)) != len(self.coordinate_names):
-            raise InputError(f"Expected distinct coordinate names in the product {self.name}, got "
-                             f"{list(self.coordinate_names)}: name the factors' coordinates apart.")
+            raise InputError(
+                f"Expected distinct coordinate names in the product {self.name}, got "
+                f"{list(self.coordinate_names)}: name the factors' coordinates apart."
+            )
         self.algebra_names = sum((f.algebra_names for f in flat), ())
         self._k = np.cumsum([0] + [f.dim for f in flat])
         self._n = np.cumsum([0] + [f.matrix_size for f in flat])
         self._p = np.cumsum([0] + [f.point_dim for f in flat])
         self.chart_angles = sum((tuple(int(o) + i for i in f.chart_angles) for f, o in zip(flat, self._k)), ())
-        self.angle_components = sum((tuple(int(o) + i for i in f.angle_components) for f, o in zip(flat, self._k)),
-                                    ())
+        self.angle_components = sum((tuple(int(o) + i for i in f.angle_components) for f, o in zip(flat, self._k)), ())
 
     # -- splitting and assembling ----------------------------------------------------------------------
     def _split_u(self, u: Any, name: str = "u") -> list[np.ndarray]:
@@ -327,8 +328,10 @@ class Product(LieGroup):
             off[..., :, a:b] = 0.0
             err = np.abs(off).max()
             if err > c.ELEMENT_ATOL:
-                raise InputError(f"Expected `{name}` to be an element of {self.name} (block diagonal), got "
-                                 f"off-diagonal entries of size {err:.3g}.")
+                raise InputError(
+                    f"Expected `{name}` to be an element of {self.name} (block diagonal), got "
+                    f"off-diagonal entries of size {err:.3g}."
+                )
         return g
 
     def exp(self, u: Any) -> np.ndarray:
@@ -338,8 +341,9 @@ class Product(LieGroup):
         return np.concatenate([f.log(x) for f, x in zip(self.factors, self._split_g(g))], -1)
 
     def compose(self, g: Any, h: Any) -> np.ndarray:
-        return self._blocks([f.compose(x, y) for f, x, y in zip(self.factors, self._split_g(g, "g"),
-                                                                  self._split_g(h, "h"))], self._n)
+        return self._blocks(
+            [f.compose(x, y) for f, x, y in zip(self.factors, self._split_g(g, "g"), self._split_g(h, "h"))], self._n
+        )
 
     def inverse(self, g: Any) -> np.ndarray:
         return self._on_g("inverse", g, self._n)
@@ -349,8 +353,9 @@ class Product(LieGroup):
 
     def act(self, g: Any, x: Any) -> np.ndarray:
         x = c.vector(x, "x", self.point_dim)
-        parts = [f.act(gi, x[..., a:b]) for f, gi, a, b in zip(self.factors, self._split_g(g), self._p[:-1],
-                                                               self._p[1:])]
+        parts = [
+            f.act(gi, x[..., a:b]) for f, gi, a, b in zip(self.factors, self._split_g(g), self._p[:-1], self._p[1:])
+        ]
         shape = np.broadcast_shapes(*[p.shape[:-1] for p in parts])
         return np.concatenate([np.broadcast_to(p, shape + p.shape[-1:]) for p in parts], -1)
 
@@ -382,7 +387,7 @@ class Product(LieGroup):
         for f, n0 in zip(self.factors, self._n[:-1]):
             for b in f.sympy_basis():
                 m = sp.zeros(self.matrix_size)
-                m[int(n0): int(n0) + f.matrix_size, int(n0): int(n0) + f.matrix_size] = b
+                m[int(n0) : int(n0) + f.matrix_size, int(n0) : int(n0) + f.matrix_size] = b
                 out.append(sp.ImmutableMatrix(m))
         return tuple(out)
 

@@ -231,8 +231,9 @@ class SE3(_Closed):
     def __init__(self, *names: Any, seq: str = "ZYX"):
         _euler._parse(seq)
         self.seq = seq
-        self.coordinate_names = c.coordinate_names(names, ("x", "y", "z", "phi", "theta", "psi"), "SE(3)",
-                                       "x, y, z and three Euler angles")
+        self.coordinate_names = c.coordinate_names(
+            names, ("x", "y", "z", "phi", "theta", "psi"), "SE(3)", "x, y, z and three Euler angles"
+        )
         self.name = f"SE(3)[{seq}]"
 
     def sympy_element(self, q: Sequence[sp.Expr]) -> tuple[sp.Matrix, sp.Matrix]:
@@ -252,8 +253,7 @@ class SE3(_Closed):
 
     def to_coordinates(self, g: Any) -> np.ndarray:
         g = self.check(g)
-        return np.concatenate([g[..., :3, 3], _euler.from_matrix(g[..., :3, :3], self.seq, on_singular="resolve")],
-                              -1)
+        return np.concatenate([g[..., :3, 3], _euler.from_matrix(g[..., :3, :3], self.seq, on_singular="resolve")], -1)
 
     def _key(self) -> tuple:
         return self.coordinate_names + (self.seq,)
@@ -286,8 +286,10 @@ class SO2(LieGroup):
         err = np.maximum(err, np.abs(g[..., 0, 0] ** 2 + g[..., 1, 0] ** 2 - 1.0))
         bad = err > c.ELEMENT_ATOL
         if np.any(bad):
-            raise InputError(f"Expected `{name}` to be an element of SO(2), a rotation [[cos, -sin], [sin, cos]], "
-                             f"got one off by {float(err.max()):.3g}{c._where(bad)}.")
+            raise InputError(
+                f"Expected `{name}` to be an element of SO(2), a rotation [[cos, -sin], [sin, cos]], "
+                f"got one off by {float(err.max()):.3g}{c._where(bad)}."
+            )
         return g
 
     def _rot(self, a: np.ndarray) -> np.ndarray:
@@ -381,8 +383,10 @@ class Rn(LieGroup):
         err = np.abs(np.where(mask, g - target, 0.0)).max(axis=(-2, -1))
         bad = err > c.ELEMENT_ATOL
         if np.any(bad):
-            raise InputError(f"Expected `{name}` to be an element of {self.name}, a homogeneous translation "
-                             f"[[I, t], [0, 1]], got one off by {float(err.max()):.3g}{c._where(bad)}.")
+            raise InputError(
+                f"Expected `{name}` to be an element of {self.name}, a homogeneous translation "
+                f"[[I, t], [0, 1]], got one off by {float(err.max()):.3g}{c._where(bad)}."
+            )
         return g
 
     def _assemble(self, t: np.ndarray) -> np.ndarray:
@@ -437,8 +441,18 @@ class Rn(LieGroup):
         return self.coordinate_names
 
 
-_NAMED = {"S1": SO2, "SO2": SO2, "SO(2)": SO2, "S^1": SO2, "SE2": SE2, "SE(2)": SE2, "SO3": SO3, "SO(3)": SO3,
-          "SE3": SE3, "SE(3)": SE3}
+_NAMED = {
+    "S1": SO2,
+    "SO2": SO2,
+    "SO(2)": SO2,
+    "S^1": SO2,
+    "SE2": SE2,
+    "SE(2)": SE2,
+    "SO3": SO3,
+    "SO(3)": SO3,
+    "SE3": SE3,
+    "SE(3)": SE3,
+}
 
 
 def named_group(name: Any, *names: Any) -> LieGroup:
@@ -448,6 +462,8 @@ def named_group(name: Any, *names: Any) -> LieGroup:
         return name
     key = str(name).upper().replace(" ", "")
     if key not in _NAMED:
-        raise InputError(f"Expected `group` to be a Lie group (geomech.lie.SE2(...), ...) or one of 'S1' (or "
-                         f"'SO2'), 'SE2', 'SO3', 'SE3', got {name!r}.")
+        raise InputError(
+            f"Expected `group` to be a Lie group (geomech.lie.SE2(...), ...) or one of 'S1' (or "
+            f"'SO2'), 'SE2', 'SO3', 'SE3', got {name!r}."
+        )
     return _NAMED[key](*names)

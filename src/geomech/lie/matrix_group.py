@@ -48,9 +48,19 @@ class MatrixGroup(LieGroup):
     Jacobians); its chart is read numerically by its symbolic twin (:class:`geomech.symbolic.GroupChart`).
     """
 
-    def __init__(self, name: str, basis: Any, *, coordinates: Sequence[Any] | None = None, matrix: Any = None,
-                 inverse: Any = None, identity: Sequence[Any] | None = None, reference: Sequence[Any] | None = None,
-                 angles: Sequence[int] = (), algebra_names: Sequence[str] | None = None):
+    def __init__(
+        self,
+        name: str,
+        basis: Any,
+        *,
+        coordinates: Sequence[Any] | None = None,
+        matrix: Any = None,
+        inverse: Any = None,
+        identity: Sequence[Any] | None = None,
+        reference: Sequence[Any] | None = None,
+        angles: Sequence[int] = (),
+        algebra_names: Sequence[str] | None = None,
+    ):
         self.name = str(name)
         try:
             exact = tuple(sp.ImmutableMatrix(b) for b in basis)
@@ -71,29 +81,34 @@ class MatrixGroup(LieGroup):
         C = self.structure_constants
         resid = np.abs(np.einsum("abd,aij->bdij", C, B) - comm).max()
         if resid > 1e-10 * max(1.0, np.abs(B).max() ** 2):
-            raise InputError(f"The basis of {name} is not closed under the commutator (residual {resid:.3g}): "
-                             "it does not span a Lie algebra.")
+            raise InputError(
+                f"The basis of {name} is not closed under the commutator (residual {resid:.3g}): "
+                "it does not span a Lie algebra."
+            )
         self.abelian = bool(np.abs(C).max() < 1e-14)
         self._symbols: tuple[sp.Symbol, ...] = ()
         if coordinates is not None:
-            self.coordinate_names = c.coordinate_names(tuple(coordinates), [""] * self.dim, name,
-                                                       "one name a dimension")
-            self._symbols = tuple(s if isinstance(s, sp.Symbol) else sp.Symbol(str(s), real=True)
-                                  for s in coordinates)
+            self.coordinate_names = c.coordinate_names(
+                tuple(coordinates), [""] * self.dim, name, "one name a dimension"
+            )
+            self._symbols = tuple(s if isinstance(s, sp.Symbol) else sp.Symbol(str(s), real=True) for s in coordinates)
         else:
             self.coordinate_names = tuple(f"q{i + 1}" for i in range(self.dim))
         self._matrix = None if matrix is None else sp.Matrix(matrix)
         if self._matrix is not None and self._matrix.shape != (self.matrix_size, self.matrix_size):
-            raise InputError(f"Expected the chart `matrix` of {name} to be {self.matrix_size} x {self.matrix_size}, "
-                             f"got {self._matrix.shape}.")
+            raise InputError(
+                f"Expected the chart `matrix` of {name} to be {self.matrix_size} x {self.matrix_size}, "
+                f"got {self._matrix.shape}."
+            )
         if self._matrix is not None and not self._symbols:
             raise InputError(f"Expected `coordinates` with the chart `matrix` of {name}.")
         self._inverse = None if inverse is None else sp.Matrix(inverse)
         self._identity = tuple(sp.sympify(v) for v in (identity if identity is not None else (0,) * self.dim))
         self._reference = tuple(sp.sympify(v) for v in reference) if reference else self._identity
         self.chart_angles = tuple(int(i) for i in angles)
-        self.algebra_names = (tuple(algebra_names) if algebra_names is not None
-                              else tuple(f"xi_{a + 1}" for a in range(self.dim)))
+        self.algebra_names = (
+            tuple(algebra_names) if algebra_names is not None else tuple(f"xi_{a + 1}" for a in range(self.dim))
+        )
 
     @property
     def basis(self) -> np.ndarray:

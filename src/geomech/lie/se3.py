@@ -304,12 +304,7 @@ def _Q(xi: np.ndarray) -> np.ndarray:
     c1 = c.T_MINUS_SIN_T3(theta)[..., None, None]
     c2 = c.SE3_C2(theta)[..., None, None]
     c3 = c.SE3_C3(theta)[..., None, None]
-    return (
-        0.5 * V
-        + c1 * (WV + VW + WVW)
-        + c2 * (WW @ V + V @ WW - 3.0 * WVW)
-        + c3 * (WVW @ W + W @ WVW)
-    )
+    return 0.5 * V + c1 * (WV + VW + WVW) + c2 * (WW @ V + V @ WW - 3.0 * WVW) + c3 * (WVW @ W + W @ WVW)
 
 
 def _left_jacobian(xi: np.ndarray) -> np.ndarray:

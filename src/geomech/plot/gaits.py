@@ -16,8 +16,10 @@ from .phases import _component, _curvature_panel, _draw_loop, _grid, _labels, gr
 
 __all__ = ["gait_paths", "gait_momentum", "gait_connection_field", "gait_curvature_map"]
 
-_STYLE = {"connection": dict(color="C2", ls="--", label=r"connection term $-\mathcal{A}^{nh}\dot r$ alone"),
-          "momentum": dict(color="C1", ls=":", label=r"momentum term $\mathbb{I}^{-1}p$ alone")}
+_STYLE = {
+    "connection": dict(color="C2", ls="--", label=r"connection term $-\mathcal{A}^{nh}\dot r$ alone"),
+    "momentum": dict(color="C1", ls=":", label=r"momentum term $\mathbb{I}^{-1}p$ alone"),
+}
 
 
 def _model(system: Any) -> Any:
@@ -48,8 +50,18 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
             st = _STYLE[name]
             ax.plot(xy[:, 0], xy[:, 1], color=st["color"], ls=st["ls"], lw=1.4, label=st["label"])
             idx = np.linspace(0, len(th) - 1, max(arrows // 2, 2)).astype(int)
-            ax.quiver(xy[idx, 0], xy[idx, 1], np.cos(th[idx]), np.sin(th[idx]), color=st["color"], angles="xy",
-                      scale_units="xy", scale=8.0 / span, width=0.003, alpha=0.7)
+            ax.quiver(
+                xy[idx, 0],
+                xy[idx, 1],
+                np.cos(th[idx]),
+                np.sin(th[idx]),
+                color=st["color"],
+                angles="xy",
+                scale_units="xy",
+                scale=8.0 / span,
+                width=0.003,
+                alpha=0.7,
+            )
     idx = analysis.boundary_indices
     xy = analysis.path.coordinates[idx, :2]
     ax.plot(xy[:, 0], xy[:, 1], "s", color="C0", ms=4, label="full motion (period ends)")
@@ -57,8 +69,11 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
     ax.margins(0.12)  # the heading arrows stick out of the path's bounding box
     ax.legend(loc="best", fontsize=7, framealpha=0.85)
     d = analysis.net_displacement
-    ax.set_title(f"{analysis.system.name}: {analysis.periods} period(s), net g(0)$^{{-1}}$g(NT) = "
-                 f"({d[0]:.3g}, {d[1]:.3g}, {d[2]:.3g})", fontsize=9)
+    ax.set_title(
+        f"{analysis.system.name}: {analysis.periods} period(s), net g(0)$^{{-1}}$g(NT) = "
+        f"({d[0]:.3g}, {d[1]:.3g}, {d[2]:.3g})",
+        fontsize=9,
+    )
     return ax
 
 
@@ -69,8 +84,14 @@ def gait_momentum(analysis: Any, *, ax: Any = None) -> Any:
     if ax is None:
         _, ax = plt.subplots(figsize=(6.0, 3.6))
     if analysis.p.shape[1] == 0:
-        ax.text(0.5, 0.5, r"$S_q = 0$: no nonholonomic momentum" "\n(principally kinematic)", ha="center",
-                va="center", transform=ax.transAxes)
+        ax.text(
+            0.5,
+            0.5,
+            r"$S_q = 0$: no nonholonomic momentum" "\n(principally kinematic)",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
     for i in range(analysis.p.shape[1]):
         ax.plot(analysis.t, analysis.p[:, i], label=f"$p_{{{i + 1}}}$")
     for tb in analysis.t[analysis.boundary_indices]:
@@ -84,8 +105,9 @@ def gait_momentum(analysis: Any, *, ax: Any = None) -> Any:
     return ax
 
 
-def gait_connection_field(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None,
-                          n: int = 21, ax: Any = None) -> Any:
+def gait_connection_field(
+    system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21, ax: Any = None
+) -> Any:
     """A row of :math:`-\\mathcal A^{nh}(r)` as a vector field on a 2-D shape space, the gait ``loop`` on top.
 
     ``system``: a NonholonomicSystem, a :class:`~geomech.analysis.gaits.GaitModel` or a GaitAnalysis (its loop
@@ -120,8 +142,16 @@ def gait_connection_field(system: Any, *, component: Any = None, loop: Any = Non
     return ax
 
 
-def gait_curvature_map(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 121,
-                       ax: Any = None, shade: bool = True) -> Any:
+def gait_curvature_map(
+    system: Any,
+    *,
+    component: Any = None,
+    loop: Any = None,
+    bounds: Any = None,
+    n: int = 121,
+    ax: Any = None,
+    shade: bool = True,
+) -> Any:
     """The curvature :math:`B_{12}` of the nonholonomic connection (one component) as a heat map on a 2-D
     shape space, the gait drawn and the enclosed region shaded by its signed winding number.
 
@@ -140,6 +170,7 @@ def gait_curvature_map(system: Any, *, component: Any = None, loop: Any = None, 
         _, ax = plt.subplots(figsize=(5.6, 4.8))
     _curvature_panel(ax, model, X, Y, B_all[..., c], b, c, loop, shade, "the connection-alone turn")
     _labels(ax, model)
-    ax.set_title(f"{model.name}:\ncurvature of $\\mathcal{{A}}^{{nh}}$, {model.group.algebra_names[c]} component",
-                 fontsize=10)
+    ax.set_title(
+        f"{model.name}:\ncurvature of $\\mathcal{{A}}^{{nh}}$, {model.group.algebra_names[c]} component", fontsize=10
+    )
     return ax

@@ -29,8 +29,16 @@ def _sphere_level_curves(H: Any, G: float, n_levels: int) -> list[np.ndarray]:
     return lines
 
 
-def momentum_sphere(m: Any, *, ax: Any = None, title: str | None = None, energy_curves: Any = None,
-                    chart: Any = None, color: str = "C3", n_levels: int = 16) -> Any:
+def momentum_sphere(
+    m: Any,
+    *,
+    ax: Any = None,
+    title: str | None = None,
+    energy_curves: Any = None,
+    chart: Any = None,
+    color: str = "C3",
+    n_levels: int = 16,
+) -> Any:
     """Draw body momenta ``m`` (shape ``(n, 3)``) on the momentum sphere ``|m| = G`` (3-D axes).
 
     Parameters
@@ -52,8 +60,7 @@ def momentum_sphere(m: Any, *, ax: Any = None, title: str | None = None, energy_
         fig = plt.figure(figsize=(5.5, 5.5))
         ax = fig.add_subplot(projection="3d")
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
-    ax.plot_wireframe(G * np.cos(u) * np.sin(v), G * np.sin(u) * np.sin(v), G * np.cos(v), color="0.9",
-                      linewidth=0.4)
+    ax.plot_wireframe(G * np.cos(u) * np.sin(v), G * np.sin(u) * np.sin(v), G * np.cos(v), color="0.9", linewidth=0.4)
     if energy_curves is not None:
         for line in _sphere_level_curves(energy_curves, G, n_levels):
             ax.plot(line[:, 0], line[:, 1], line[:, 2], color="0.55", linewidth=0.6)
@@ -78,8 +85,9 @@ def momentum_sphere(m: Any, *, ax: Any = None, title: str | None = None, energy_
     return ax
 
 
-def reduced_phase_portrait(sa: Any, G: float, *, axis: int = 2, ax: Any = None, levels: int = 30,
-                           trajectory: Any = None) -> Any:
+def reduced_phase_portrait(
+    sa: Any, G: float, *, axis: int = 2, ax: Any = None, levels: int = 30, trajectory: Any = None
+) -> Any:
     """Level curves of the reduced Hamiltonian :math:`h_p(l, L)` (eq. 21) on the Serret-Andoyer plane.
 
     Parameters

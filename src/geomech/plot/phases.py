@@ -95,8 +95,18 @@ def _draw_loop(ax: Any, loop: Any, color: str = "k") -> np.ndarray:
     return pts
 
 
-def _curvature_panel(ax: Any, system: Any, X: np.ndarray, Y: np.ndarray, B: np.ndarray, b: tuple, c: int,
-                     loop: Any, shade: bool, what: str) -> None:
+def _curvature_panel(
+    ax: Any,
+    system: Any,
+    X: np.ndarray,
+    Y: np.ndarray,
+    B: np.ndarray,
+    b: tuple,
+    c: int,
+    loop: Any,
+    shade: bool,
+    what: str,
+) -> None:
     """Heat map of ``B`` (diverging, centred on 0), the loop, and the region it encloses hatched by its
     winding number (``//`` counterclockwise, ``\\\\`` clockwise, outlined, with a legend) and annotated with
     :math:`-\\iint w B`, which is the phase only for abelian components (S^1, the rotation of SE(2))."""
@@ -122,19 +132,32 @@ def _curvature_panel(ax: Any, system: Any, X: np.ndarray, Y: np.ndarray, B: np.n
         ax.contourf(X, Y, mask.astype(float), levels=[0.5, 1.5], colors="none", hatches=[hatch])
         ax.contour(X, Y, mask.astype(float), levels=[0.5], colors=color, linewidths=1.0)
         wins = sorted(set(w[mask].tolist()), key=abs)
-        handles.append(Patch(facecolor="none", edgecolor=color, hatch=hatch,
-                             label=f"enclosed {text} (winding {', '.join(f'{k:+d}' for k in wins)})"))
+        handles.append(
+            Patch(
+                facecolor="none",
+                edgecolor=color,
+                hatch=hatch,
+                label=f"enclosed {text} (winding {', '.join(f'{k:+d}' for k in wins)})",
+            )
+        )
     dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
     value = -float((w * B).sum() * dA)
     exact = system.group.abelian or c in system.group.angle_components
     note = what if exact else "a phase only to leading order (non-abelian)"
     ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.85)
-    ax.text(0.02, 0.02, f"$-\\iint w\\,B \\approx$ {value:.4g}\n({note})", transform=ax.transAxes, fontsize=8,
-            bbox=dict(facecolor="white", alpha=0.85, lw=0))
+    ax.text(
+        0.02,
+        0.02,
+        f"$-\\iint w\\,B \\approx$ {value:.4g}\n({note})",
+        transform=ax.transAxes,
+        fontsize=8,
+        bbox=dict(facecolor="white", alpha=0.85, lw=0),
+    )
 
 
-def connection_field(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21,
-                     ax: Any = None) -> Any:
+def connection_field(
+    system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21, ax: Any = None
+) -> Any:
     """The row ``component`` of :math:`-A_{loc}(r)` as a vector field on a 2-D shape space.
 
     Following the convention of gait design, the arrows are the body velocity (in that component) a
@@ -162,8 +185,16 @@ def connection_field(system: Any, *, component: Any = None, loop: Any = None, bo
     return ax
 
 
-def curvature_map(system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 121,
-                  ax: Any = None, shade: bool = True) -> Any:
+def curvature_map(
+    system: Any,
+    *,
+    component: Any = None,
+    loop: Any = None,
+    bounds: Any = None,
+    n: int = 121,
+    ax: Any = None,
+    shade: bool = True,
+) -> Any:
     """The curvature :math:`B_{12}` (component ``component``) as a heat map on a 2-D shape space, with
     the gait ``loop`` drawn and the region it encloses hatched by its signed winding number (``//`` and a
     red outline counterclockwise, ``\\\\`` and a blue outline clockwise, with a legend), annotated with
@@ -200,15 +231,26 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
         ax.plot(path.t, path.coordinates[:, 2], color="C0")
         ax.set_xlabel("$t$")
         ax.set_ylabel(r"$\theta$ (unwrapped)")
-        ax.set_title(f"SE(2), position fixed at ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}): net rotation "
-                     f"{path.coordinates[-1, 2] - path.coordinates[0, 2]:.4g} rad")
+        ax.set_title(
+            f"SE(2), position fixed at ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}): net rotation "
+            f"{path.coordinates[-1, 2] - path.coordinates[0, 2]:.4g} rad"
+        )
     elif planar:
         th = path.coordinates[:, 2]
         ax.plot(xy[:, 0], xy[:, 1], color="C0", linewidth=1.6)
         idx = np.linspace(0, len(th) - 1, max(arrows, 2)).astype(int)
         span = float(np.ptp(xy, axis=0).max()) or 1.0
-        ax.quiver(xy[idx, 0], xy[idx, 1], np.cos(th[idx]), np.sin(th[idx]), color="C3", angles="xy",
-                  scale_units="xy", scale=8.0 / span, width=0.004)
+        ax.quiver(
+            xy[idx, 0],
+            xy[idx, 1],
+            np.cos(th[idx]),
+            np.sin(th[idx]),
+            color="C3",
+            angles="xy",
+            scale_units="xy",
+            scale=8.0 / span,
+            width=0.004,
+        )
         ax.plot(*xy[0], "ko", markersize=4)
         ax.set_xlabel("$x$")
         ax.set_ylabel("$y$")
@@ -222,8 +264,9 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
         ax.set_xlabel("$t$")
         unwrapped = set(G.angle_components)
         wrapped = any(i not in unwrapped for i in G.angles)
-        ax.set_ylabel("group coordinates, angles " + ("wrapped" if wrapped else "unwrapped") if G.angles
-                      else "group coordinates")
+        ax.set_ylabel(
+            "group coordinates, angles " + ("wrapped" if wrapped else "unwrapped") if G.angles else "group coordinates"
+        )
         net = f": net {q[-1, 0] - q[0, 0]:.4g}" if q.shape[1] == 1 else ""
         ax.set_title(f"path in {G.name}{net}")
     return ax
@@ -254,6 +297,9 @@ def momentum_solid_angle(phase: Any, *, ax: Any = None, n: int = 400) -> Any:
     pts = G * (np.cos(s * ang) * pole + np.sin(s * ang) * perp[None])
     color = "tab:red" if phase.solid_angle > 0 else "tab:blue"
     ax.plot_surface(pts[..., 0], pts[..., 1], pts[..., 2], color=color, alpha=0.35, linewidth=0, shade=False)
-    ax.set_title(f"$\\Lambda$ = {phase.solid_angle:.6g} sr, geometric {phase.geometric:.6g}, dynamic "
-                 f"{phase.dynamic:.6g}\ntotal {phase.total_wrapped:.6g} (wrapped to (-$\\pi$, $\\pi$])", fontsize=9)
+    ax.set_title(
+        f"$\\Lambda$ = {phase.solid_angle:.6g} sr, geometric {phase.geometric:.6g}, dynamic "
+        f"{phase.dynamic:.6g}\ntotal {phase.total_wrapped:.6g} (wrapped to (-$\\pi$, $\\pi$])",
+        fontsize=9,
+    )
     return ax

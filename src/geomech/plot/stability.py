@@ -18,8 +18,9 @@ _STYLE = {
 }
 
 
-def stability_map_plot(ds: Any, *, variable: str = "verdict", ax: Any = None, title: str | None = None,
-                       boundary: bool = True) -> Any:
+def stability_map_plot(
+    ds: Any, *, variable: str = "verdict", ax: Any = None, title: str | None = None, boundary: bool = True
+) -> Any:
     """Draw a stability map made by :func:`geomech.analysis.stability_map`.
 
     The verdict codes are drawn as coloured cells (green stable, red unstable, orange inconclusive, grey no
@@ -37,8 +38,9 @@ def stability_map_plot(ds: Any, *, variable: str = "verdict", ax: Any = None, ti
     xs, ys = ds[xname].values, ds[yname].values
     if ax is None:
         _, ax = plt.subplots(figsize=(6.4, 4.8))
-    cmap = ListedColormap(["#bdbdbd", _STYLE["unstable"]["color"], _STYLE["inconclusive"]["color"],
-                           _STYLE["stable"]["color"]])
+    cmap = ListedColormap(
+        ["#bdbdbd", _STYLE["unstable"]["color"], _STYLE["inconclusive"]["color"], _STYLE["stable"]["color"]]
+    )
     norm = BoundaryNorm([-10, -5, -0.5, 0.5, 1.5], cmap.N)
     ax.pcolormesh(xs, ys, ds[variable].values.astype(float), cmap=cmap, norm=norm, shading="nearest")
     handles = [Patch(color=_STYLE[k]["color"], label=k) for k in ("stable", "unstable", "inconclusive")]
@@ -57,8 +59,9 @@ def stability_map_plot(ds: Any, *, variable: str = "verdict", ax: Any = None, ti
         jj, ii = jj[(jj > 0) | (ii > 0)], ii[(jj > 0) | (ii > 0)]
         if jj.size:
             ax.plot(xs[ii], ys[jj], "k.", markersize=3)
-            handles.append(plt.Line2D([], [], color="k", marker=".", linestyle="none",
-                                      label="continuation jumped branch"))
+            handles.append(
+                plt.Line2D([], [], color="k", marker=".", linestyle="none", label="continuation jumped branch")
+            )
     if np.any(ds[variable].values == -9):
         handles.append(Patch(color="#bdbdbd", label="no equilibrium"))
     leg = ax.legend(handles=handles, loc="best", fontsize=8, framealpha=0.8)
@@ -69,8 +72,16 @@ def stability_map_plot(ds: Any, *, variable: str = "verdict", ax: Any = None, ti
     return ax
 
 
-def equilibria_phase_portrait(system: Any, G: float, analysis: Any = None, *, axis: int = 2, ax: Any = None,
-                              levels: int = 30, trajectory: Any = None) -> Any:
+def equilibria_phase_portrait(
+    system: Any,
+    G: float,
+    analysis: Any = None,
+    *,
+    axis: int = 2,
+    ax: Any = None,
+    levels: int = 30,
+    trajectory: Any = None,
+) -> Any:
     """Level sets of :math:`h_p` in the Serret-Andoyer plane with the relative equilibria marked by verdict.
 
     Parameters
@@ -105,12 +116,23 @@ def equilibria_phase_portrait(system: Any, G: float, analysis: Any = None, *, ax
             pts = [(x, float(np.sign(eq.m[axis])) * G) for x in (-np.pi, 0.0, np.pi)]
         else:
             l0 = float(np.angle(np.exp(1j * lL[0])))
-            pts = [(l0, float(lL[1]))] + ([(l0 - 2 * np.pi * np.sign(l0), float(lL[1]))]
-                                          if abs(abs(l0) - np.pi) < 1e-9 else [])
+            pts = [(l0, float(lL[1]))] + (
+                [(l0 - 2 * np.pi * np.sign(l0), float(lL[1]))] if abs(abs(l0) - np.pi) < 1e-9 else []
+            )
         for x, y in pts:
             label = style["label"] if rep.verdict not in seen else None
             seen.add(rep.verdict)
-            ax.plot(x, y, linestyle="none", marker=style["marker"], color=style["color"], markersize=9,
-                    markeredgecolor="k", label=label, clip_on=False, zorder=5)
+            ax.plot(
+                x,
+                y,
+                linestyle="none",
+                marker=style["marker"],
+                color=style["color"],
+                markersize=9,
+                markeredgecolor="k",
+                label=label,
+                clip_on=False,
+                zorder=5,
+            )
     ax.legend(loc="upper right", fontsize=8)
     return ax

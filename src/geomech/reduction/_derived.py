@@ -95,8 +95,9 @@ class Derived:
                 lines.append(f"{name}:")
                 lines += [f"  {label} = {_short_text(v)}" for label, _, v in value]
             elif isinstance(value, sp.MatrixBase):
-                rows = ["[" + ", ".join(_short(value[i, j]) for j in range(value.cols)) + "]"
-                        for i in range(value.rows)]
+                rows = [
+                    "[" + ", ".join(_short(value[i, j]) for j in range(value.cols)) + "]" for i in range(value.rows)
+                ]
                 lines.append(f"{name} = [" + (",\n" + " " * (len(name) + 4)).join(rows) + "]")
             else:
                 lines.append(f"{name} = {_short_text(value)}")
@@ -108,9 +109,11 @@ class Derived:
 
         def render() -> dict:
             items = self.items()
-            return {"title": self.title,
-                    "text": {name: _as_text(v) for name, _, v in items},
-                    "latex": {name: self._latex(v) for name, _, v in items}}
+            return {
+                "title": self.title,
+                "text": {name: _as_text(v) for name, _, v in items},
+                "latex": {name: self._latex(v) for name, _, v in items},
+            }
 
         return copy.deepcopy(shared_value(self, "to_dict", render))
 

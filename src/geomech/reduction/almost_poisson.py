@@ -81,8 +81,10 @@ def _lie_bracket(X: sp.Matrix, Y: sp.Matrix, q: list) -> sp.Matrix:
 def jacobiator(J: sp.MatrixBase, z: list, i: int, j: int, k: int) -> sp.Expr:
     r""":math:`\{z^i, \{z^j, z^k\}\} + \text{cyclic}
     = \sum_l J^{il}\partial_l J^{jk} + J^{jl}\partial_l J^{ki} + J^{kl}\partial_l J^{ij}`."""
-    return sum(J[i, l] * sp.diff(J[j, k], z[l]) + J[j, l] * sp.diff(J[k, i], z[l]) + J[k, l] * sp.diff(J[i, j], z[l])
-               for l in range(len(z)))
+    return sum(
+        J[i, l] * sp.diff(J[j, k], z[l]) + J[j, l] * sp.diff(J[k, i], z[l]) + J[k, l] * sp.diff(J[i, j], z[l])
+        for l in range(len(z))
+    )
 
 
 def _D_basis(system: NonholonomicSystem, basis: str) -> tuple[sp.Matrix, str]:
@@ -97,8 +99,10 @@ def _D_basis(system: NonholonomicSystem, basis: str) -> tuple[sp.Matrix, str]:
             e[al] = 1
             cols.append(sp.Matrix.vstack(-Li * A[:, al], e))
         X = sp.Matrix.hstack(*cols).applyfunc(simplify_expr)
-        return X, ("BKMM-adapted: X_i = (e_i(r))_Q spanning S_q, then the horizontal lifts X_alpha = "
-                   "-(A_alpha)_Q + d/dr^alpha; the induced momenta are (p_i, p~_alpha)")
+        return X, (
+            "BKMM-adapted: X_i = (e_i(r))_Q spanning S_q, then the horizontal lifts X_alpha = "
+            "-(A_alpha)_Q + d/dr^alpha; the induced momenta are (p_i, p~_alpha)"
+        )
     if basis == "nullspace":
         A = sp.Matrix(s.constraint_matrix)
         vecs = A.nullspace(simplify=True) if s.c else [sp.eye(s.n)[:, i] for i in range(s.n)]
@@ -152,8 +156,9 @@ class AlmostPoissonStructure(Derived, NumericCache):
         if self.blocks is not None:
             # diag(I(r), M(r)) of the BKMM reduction, whose inverses it has already
             red = bkmm_reduction(self.system)
-            return sp.ImmutableMatrix(sp.diag(*[sp.Matrix(b) for b in (red.locked_inertia_inverse,
-                                                                       red.shape_mass_inverse) if b.rows]))
+            return sp.ImmutableMatrix(
+                sp.diag(*[sp.Matrix(b) for b in (red.locked_inertia_inverse, red.shape_mass_inverse) if b.rows])
+            )
         return simplify_matrix(inverse(self.metric))
 
     @shared_property
@@ -175,8 +180,9 @@ class AlmostPoissonStructure(Derived, NumericCache):
         r""":math:`[X_\alpha, X_\beta]` for :math:`\alpha < \beta` (as n-vectors), row-major over the pairs."""
         X, q = sp.Matrix(self.X), list(self.system.q)
         d = X.cols
-        return tuple(tuple(_lie_bracket(X[:, a], X[:, b], q).applyfunc(simplify_expr)) for a in range(d)
-                     for b in range(a + 1, d))
+        return tuple(
+            tuple(_lie_bracket(X[:, a], X[:, b], q).applyfunc(simplify_expr)) for a in range(d) for b in range(a + 1, d)
+        )
 
     def _pair(self, a: int, b: int) -> sp.Matrix:
         d = self.X.cols
@@ -260,8 +266,11 @@ class AlmostPoissonStructure(Derived, NumericCache):
             for i in range(n):
                 out[(i, n + a, n + b)] = ZK[(a, b)][i]
         for a, b, c in combinations(range(d), 3):
-            cyc = (_lie_bracket(X[:, a], ZK[(b, c)], q) + _lie_bracket(X[:, b], ZK[(c, a)], q)
-                   + _lie_bracket(X[:, c], ZK[(a, b)], q))
+            cyc = (
+                _lie_bracket(X[:, a], ZK[(b, c)], q)
+                + _lie_bracket(X[:, b], ZK[(c, a)], q)
+                + _lie_bracket(X[:, c], ZK[(a, b)], q)
+            )
             out[(n + a, n + b, n + c)] = -(p.T * cyc)[0, 0]
         return out
 
@@ -271,8 +280,9 @@ class AlmostPoissonStructure(Derived, NumericCache):
         s, keys = self.system, self._keys()
         rng = np.random.default_rng(seed)
         syms = self.z + list(s.parameter_symbols)
-        f = compile_vector([[self.jacobiator_direct[k] for k in keys], [self.jacobiator_curvature[k] for k in keys]],
-                           syms)
+        f = compile_vector(
+            [[self.jacobiator_direct[k] for k in keys], [self.jacobiator_curvature[k] for k in keys]], syms
+        )
         args = []
         for _ in range(points):
             pv = s._random_point(rng, self.z)
@@ -301,10 +311,14 @@ class AlmostPoissonStructure(Derived, NumericCache):
             # p = M X G^{-1} pt: the coefficient of pt_e in -<p, cyc> is -(M X G^{-1})[:, e] . cyc
             P = simplify_matrix(simplify_matrix(sp.Matrix(s.mass_matrix) * X) * sp.Matrix(self.metric_inverse))
             for a, b, c in combinations(range(d), 3):
-                cyc = simplify_matrix(_lie_bracket(X[:, a], ZK[(b, c)], q) + _lie_bracket(X[:, b], ZK[(c, a)], q)
-                                      + _lie_bracket(X[:, c], ZK[(a, b)], q))
-                out[(n + a, n + b, n + c)] = sp.Add(*[simplify_expr(-(P[:, e].T * cyc)[0, 0]) * pt
-                                                      for e, pt in enumerate(self.pt)])
+                cyc = simplify_matrix(
+                    _lie_bracket(X[:, a], ZK[(b, c)], q)
+                    + _lie_bracket(X[:, b], ZK[(c, a)], q)
+                    + _lie_bracket(X[:, c], ZK[(a, b)], q)
+                )
+                out[(n + a, n + b, n + c)] = sp.Add(
+                    *[simplify_expr(-(P[:, e].T * cyc)[0, 0]) * pt for e, pt in enumerate(self.pt)]
+                )
         return out
 
     def jacobiator_numeric(self, points: int = 3, seed: int = 0, parameters: dict | None = None) -> np.ndarray:
@@ -348,18 +362,28 @@ class AlmostPoissonStructure(Derived, NumericCache):
     def items(self):
         z, names = self.z, self._latex_names()
         tex = [names.get(v, sp.latex(v)) for v in z]
-        jac = Labelled((f"Jac({z[i]}, {z[j]}, {z[k]})", rf"\mathrm{{Jac}}({tex[i]}, {tex[j]}, {tex[k]})", v)
-                       for (i, j, k), v in self.jacobiators.items())
+        jac = Labelled(
+            (f"Jac({z[i]}, {z[j]}, {z[k]})", rf"\mathrm{{Jac}}({tex[i]}, {tex[j]}, {tex[k]})", v)
+            for (i, j, k), v in self.jacobiators.items()
+        )
         d = self.X.cols
         pairs = [(a, b) for a in range(d) for b in range(a + 1, d)]
         curv = Labelled((f"K_{a + 1}{b + 1}", rf"K_{{{a + 1}{b + 1}}}", K) for (a, b), K in zip(pairs, self.curvature))
-        return [("basis of D (columns)", r"X(q)", self.X), ("basis note", r"\mathrm{basis}", self.basis_note),
-                ("coordinates z", "z", self.z), ("momentum on M", r"p(q, \tilde p)", self.momentum),
-                ("H_M", r"H_{\mathcal M}", self.hamiltonian), ("J_M", r"J_{\mathcal M}", self.tensor),
-                ("curvature of D", r"K_{\alpha\beta} = A[X_\alpha, X_\beta]", curv),
-                ("Jacobi identity holds", r"\mathrm{Jacobi}", str(self.satisfies_jacobi)),
-                ("Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)",
-                 r"\mathrm{Jac}", jac if jac else "none (dim D < 2)")]
+        return [
+            ("basis of D (columns)", r"X(q)", self.X),
+            ("basis note", r"\mathrm{basis}", self.basis_note),
+            ("coordinates z", "z", self.z),
+            ("momentum on M", r"p(q, \tilde p)", self.momentum),
+            ("H_M", r"H_{\mathcal M}", self.hamiltonian),
+            ("J_M", r"J_{\mathcal M}", self.tensor),
+            ("curvature of D", r"K_{\alpha\beta} = A[X_\alpha, X_\beta]", curv),
+            ("Jacobi identity holds", r"\mathrm{Jacobi}", str(self.satisfies_jacobi)),
+            (
+                "Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)",
+                r"\mathrm{Jac}",
+                jac if jac else "none (dim D < 2)",
+            ),
+        ]
 
     def numeric(self, parameters: dict | None = None) -> dict:
         """Compiled ``J(z)``, ``grad H(z)``, ``p(z)`` (the point of M) and ``pt(q, qdot) = X^T M qdot``."""
@@ -458,8 +482,9 @@ class PoissonReduction(Derived, NumericCache):
                 e = sum(mu[a] * red.F[a][i, be] for a in range(k))
                 J[2 * sig + i, sig + be], J[sig + be, 2 * sig + i] = e, -e
             for j in range(m):
-                J[2 * sig + i, 2 * sig + j] = -sum(mu[a] * C[a][b][d] * E[b, i] * E[d, j]
-                                                  for a in range(k) for b in range(k) for d in range(k))
+                J[2 * sig + i, 2 * sig + j] = -sum(
+                    mu[a] * C[a][b][d] * E[b, i] * E[d, j] for a in range(k) for b in range(k) for d in range(k)
+                )
         return sp.ImmutableMatrix(J)
 
     @shared_property
@@ -491,8 +516,10 @@ class PoissonReduction(Derived, NumericCache):
         r"""The reduced Legendre transform :math:`\tilde p_r = \partial l_c/\partial\dot r`,
         :math:`p = \partial l_c/\partial\Omega` (in ``(r, rdot, Omega)``)."""
         lc, red = self.constrained_lagrangian, self.reduction
-        return (simplify_matrix(sp.Matrix(len(red.rdot), 1, [sp.diff(lc, v) for v in red.rdot])),
-                simplify_matrix(sp.Matrix(len(self.omega), 1, [sp.diff(lc, w) for w in self.omega])))
+        return (
+            simplify_matrix(sp.Matrix(len(red.rdot), 1, [sp.diff(lc, v) for v in red.rdot])),
+            simplify_matrix(sp.Matrix(len(self.omega), 1, [sp.diff(lc, w) for w in self.omega])),
+        )
 
     def lagrangian_form(self) -> sp.Matrix:
         r"""Theorem 1.1 carried to :math:`(r, \dot r, p)` by the Legendre transform :math:`\tilde p_r = M\dot r`, minus
@@ -519,15 +546,18 @@ class PoissonReduction(Derived, NumericCache):
 
     def items(self):
         red = self.reduction
-        return [("coordinates", "z", self.z), ("reduced Hamiltonian h", "h", self.hamiltonian),
-                ("C (structure constants)", "C^a_{bd}", [sp.Matrix(c) for c in self.system.group.structure_constants]),
-                ("F", "F^a_{i\\beta}", list(red.F)),
-                ("B (curvature of A_nh)", "B^a_{\\alpha\\beta}", list(red.curvature)),
-                ("reduced tensor", r"J_{\bar{\mathcal M}}", self.tensor),
-                ("Hamilton equations (Thm 1.1)", r"\dot z", self.equations),
-                ("reconstruction", r"\xi", self.reconstruction),
-                ("constrained Lagrangian l_c (Thm 1.2)", "l_c", self.constrained_lagrangian),
-                ("Legendre transform", r"(\tilde p_r, p)", list(self.legendre()))]
+        return [
+            ("coordinates", "z", self.z),
+            ("reduced Hamiltonian h", "h", self.hamiltonian),
+            ("C (structure constants)", "C^a_{bd}", [sp.Matrix(c) for c in self.system.group.structure_constants]),
+            ("F", "F^a_{i\\beta}", list(red.F)),
+            ("B (curvature of A_nh)", "B^a_{\\alpha\\beta}", list(red.curvature)),
+            ("reduced tensor", r"J_{\bar{\mathcal M}}", self.tensor),
+            ("Hamilton equations (Thm 1.1)", r"\dot z", self.equations),
+            ("reconstruction", r"\xi", self.reconstruction),
+            ("constrained Lagrangian l_c (Thm 1.2)", "l_c", self.constrained_lagrangian),
+            ("Legendre transform", r"(\tilde p_r, p)", list(self.legendre())),
+        ]
 
     def numeric(self, parameters: dict | None = None) -> dict:
         gh = sp.Matrix([sp.diff(self.hamiltonian, v) for v in self.z])
@@ -540,4 +570,3 @@ def poisson_reduction(system: NonholonomicSystem, basis: Any = None) -> PoissonR
     ptr = tuple(sp.Symbol(f"pt_{r.name}", real=True) for r in reduction.r)
     omega = tuple(sp.Symbol(f"Omega{i + 1}", real=True) for i in range(reduction.m))
     return PoissonReduction(reduction, ptr, omega)
-

@@ -118,8 +118,7 @@ class ClassicalSerretAndoyer:
         zero = G <= np.finfo(float).tiny
         if np.any(zero):
             raise SingularityError(
-                "The Serret-Andoyer chart is undefined at m = 0 (no invariable plane: k = p/|p| is "
-                "undefined)."
+                "The Serret-Andoyer chart is undefined at m = 0 (no invariable plane: k = p/|p| is undefined)."
             )
         p_perp = np.hypot(p[..., 0], p[..., 1])
         m_perp = np.hypot(m[..., 0], m[..., 1])
@@ -174,8 +173,7 @@ class ClassicalSerretAndoyer:
             if np.any(pole):
                 xv, gv = _first(pole, x, G)
                 raise SingularityError(
-                    f"The Serret-Andoyer chart is singular at {what} = 0 or pi ({name} = {xv!r} = +-G, "
-                    f"G = {gv!r})."
+                    f"The Serret-Andoyer chart is singular at {what} = 0 or pi ({name} = {xv!r} = +-G, G = {gv!r})."
                 )
         sin_beta = np.sqrt((G - L) * (G + L))
         beta = np.arctan2(sin_beta, L)

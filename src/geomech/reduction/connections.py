@@ -88,12 +88,12 @@ class MechanicalConnection:
     @property
     def momentum_coupling_expression(self) -> sp.Matrix:
         """:math:`\\mathbb I_{loc} A_{loc}(r)`, the upper-right block of the reduced mass matrix."""
-        return self.system.reduced_mass_matrix[: self.k, self.k:]
+        return self.system.reduced_mass_matrix[: self.k, self.k :]
 
     @property
     def shape_metric_expression(self) -> sp.Matrix:
         """:math:`m(r)`, the lower-right block (the full shape metric, not the reduced one)."""
-        return self.system.reduced_mass_matrix[self.k:, self.k:]
+        return self.system.reduced_mass_matrix[self.k :, self.k :]
 
     def connection_expression(self, *, numeric: bool = False) -> sp.Matrix:
         """:math:`A_{loc}(r) = \\mathbb I_{loc}^{-1}(\\mathbb I_{loc}A_{loc})`, shape ``(k, n)``.
@@ -122,8 +122,11 @@ class MechanicalConnection:
         rd = sp.Matrix(s.shape_velocities)
         A = self.connection_expression()
         u = xi + A * rd
-        return ((u.T * self.locked_inertia_expression * u)[0, 0] / 2
-                + (rd.T * self.reduced_shape_metric_expression() * rd)[0, 0] / 2 - s.potential)
+        return (
+            (u.T * self.locked_inertia_expression * u)[0, 0] / 2
+            + (rd.T * self.reduced_shape_metric_expression() * rd)[0, 0] / 2
+            - s.potential
+        )
 
     # -- section 2.1: the direct construction on TQ -------------------------------------------------
     @cached_property
@@ -235,8 +238,10 @@ class MechanicalConnection:
     def curvature_2d(self, r: Any) -> np.ndarray:
         """:math:`B_{12}(r)`, shape ``(..., k)``, on a 2-D shape space."""
         if self.n != 2:
-            raise InputError(f"`curvature_2d` needs a 2-D shape space, {self.system.name} has {self.n} shape "
-                             "coordinates; use `curvature`.")
+            raise InputError(
+                f"`curvature_2d` needs a 2-D shape space, {self.system.name} has {self.n} shape "
+                "coordinates; use `curvature`."
+            )
         return self.curvature(r)[..., :, 0, 1]
 
     def curvature_expression(self, *, numeric: bool = False) -> sp.Matrix:

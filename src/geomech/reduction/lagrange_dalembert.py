@@ -198,8 +198,9 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         from .nonholonomic import bkmm_reduction  # BKMM's reduction builds on these equations: imported late
 
         red = bkmm_reduction(self.system, basis)
-        return shared_value(self, "multipliers_on_distribution", lambda: self._multipliers_on_d(red),
-                            extra=red._cache_key)
+        return shared_value(
+            self, "multipliers_on_distribution", lambda: self._multipliers_on_d(red), extra=red._cache_key
+        )
 
     def _multipliers_on_d(self, red: NonholonomicReduction) -> sp.ImmutableMatrix:
         # In body velocities v = (xi, rdot), where everything depends on the shape only: the Lagrange-d'Alembert
@@ -220,14 +221,16 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         mu = sp.Matrix([sp.diff(l, x) for x in xi])
         pr = sp.Matrix(sig, 1, [sp.diff(l, x) for x in rd])
         C = s.group.structure_constants
-        ad_star = sp.Matrix(k, 1, [sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k))
-                                   for d in range(k)])
-        h = sp.Matrix.vstack(_dt(mu, r, rd) - ad_star,
-                             _dt(pr, r, rd) - sp.Matrix(sig, 1, [sp.diff(l, x) for x in r]))
+        ad_star = sp.Matrix(
+            k, 1, [sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k)) for d in range(k)]
+        )
+        h = sp.Matrix.vstack(_dt(mu, r, rd) - ad_star, _dt(pr, r, rd) - sp.Matrix(sig, 1, [sp.diff(l, x) for x in r]))
         Ab = sp.Matrix.hstack(*(sp.Matrix(a) for a in s.body_constraints))
         e = -Nb * (_dt(Ab, r, rd) * column(v)) + Zb.T * h
-        Tb = sp.Matrix.vstack(sp.Matrix.hstack(-sp.Matrix(red.connection), sp.Matrix(red._mu_parts[2])),
-                              sp.Matrix.hstack(sp.eye(sig), sp.zeros(sig, m)))
+        Tb = sp.Matrix.vstack(
+            sp.Matrix.hstack(-sp.Matrix(red.connection), sp.Matrix(red._mu_parts[2])),
+            sp.Matrix.hstack(sp.eye(sig), sp.zeros(sig, m)),
+        )
         ftau = -Zb[k:, :].T * column(self.tau)
         if R != sp.eye(s.c):
             Rinv_T = _simp_matrix(inverse(R)).T
@@ -271,8 +274,9 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         else:
             vecs = A.nullspace(simplify=True)
             X = sp.Matrix.hstack(*[_clear_denominators(v) for v in vecs])
-        lhs = X.T * (sp.Matrix(self.mass_matrix) * column(self.qddot) - self.forces
-                     - self.input_matrix * column(self.tau))
+        lhs = X.T * (
+            sp.Matrix(self.mass_matrix) * column(self.qddot) - self.forces - self.input_matrix * column(self.tau)
+        )
         return _simp_matrix(lhs), sp.ImmutableMatrix(X)
 
     def _latex_names(self) -> dict:
@@ -291,23 +295,34 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         s = self.system
         lhs, X = self.projected_equations
         lam = self.multipliers_on_distribution()
-        return [("equations (= 0)", r"\mathbb M\ddot q - f - A^T\lambda - B\tau", self.equations),
-                ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * column(s.qdot)),
-                ("basis of D X(q) (columns)", r"X(q)", X),
-                ("projected equations X^T(M qddot - f - B tau) (= 0)",
-                 r"X^T(\mathbb M\ddot q - f - B\tau)", lhs),
-                ("multipliers lambda on D", r"\lambda|_{\mathcal D}",
-                 Labelled((f"lambda{a + 1}(q, rdot, p, tau)", rf"\lambda_{{{a + 1}}}", lam[a])
-                          for a in range(s.c)))]
+        return [
+            ("equations (= 0)", r"\mathbb M\ddot q - f - A^T\lambda - B\tau", self.equations),
+            ("constraints (= 0)", r"A(q)\dot q", sp.Matrix(self.constraint_matrix) * column(s.qdot)),
+            ("basis of D X(q) (columns)", r"X(q)", X),
+            ("projected equations X^T(M qddot - f - B tau) (= 0)", r"X^T(\mathbb M\ddot q - f - B\tau)", lhs),
+            (
+                "multipliers lambda on D",
+                r"\lambda|_{\mathcal D}",
+                Labelled((f"lambda{a + 1}(q, rdot, p, tau)", rf"\lambda_{{{a + 1}}}", lam[a]) for a in range(s.c)),
+            ),
+        ]
 
     # ---------------- numeric ----------------
     def numeric(self, parameters: Mapping[str, float] | None = None) -> LagrangeDAlembertNumeric:
         """Compiled numeric functions (vectorised over leading axes) with the given parameter values."""
         s = self.system
         x = list(s.q) + list(s.qdot)
-        funcs = self._compile(parameters, {
-            "M": self.mass_matrix, "f": self.forces, "A": self.constraint_matrix, "Adq": self.constraint_drift,
-            "E": s.energy}, x)
+        funcs = self._compile(
+            parameters,
+            {
+                "M": self.mass_matrix,
+                "f": self.forces,
+                "A": self.constraint_matrix,
+                "Adq": self.constraint_drift,
+                "E": s.energy,
+            },
+            x,
+        )
         return LagrangeDAlembertNumeric(s, funcs)
 
 
@@ -347,15 +362,15 @@ class LagrangeDAlembertNumeric:
         M, f, A, Adq = self.funcs["M"](x), self.funcs["f"](x)[..., 0], self.funcs["A"](x), self.funcs["Adq"](x)[..., 0]
         if tau is not None and s.sigma:
             f = f.copy()
-            f[..., s.k:] += np.asarray(tau, dtype=float)
+            f[..., s.k :] += np.asarray(tau, dtype=float)
         c = s.c
         K = np.zeros(x.shape[:-1] + (s.n + c, s.n + c))
         K[..., : s.n, : s.n] = M
-        K[..., : s.n, s.n:] = -np.swapaxes(A, -1, -2)
-        K[..., s.n:, : s.n] = A
+        K[..., : s.n, s.n :] = -np.swapaxes(A, -1, -2)
+        K[..., s.n :, : s.n] = A
         rhs = np.concatenate([f, -Adq], axis=-1)
         sol = np.linalg.solve(K, rhs[..., None])[..., 0]
-        return sol[..., : s.n], sol[..., s.n:]
+        return sol[..., : s.n], sol[..., s.n :]
 
     def multipliers(self, q: Any, qd: Any, tau: Any = None) -> np.ndarray:
         return self.solve(q, qd, tau)[1]
@@ -385,8 +400,15 @@ def _lda_fields(system: NonholonomicSystem) -> tuple:
     f = sp.Matrix([sp.diff(L, q) for q in s.q]) - p.jacobian(s.q) * column(s.qdot)
     A = sp.Matrix(s.constraint_matrix)
     Adq = _dt(A, s.q, s.qdot) * column(s.qdot)
-    return (qdd, lam, tau, sp.ImmutableMatrix(M), sp.ImmutableMatrix(f.applyfunc(sp.expand)), sp.ImmutableMatrix(A),
-            sp.ImmutableMatrix(Adq.applyfunc(sp.expand)))
+    return (
+        qdd,
+        lam,
+        tau,
+        sp.ImmutableMatrix(M),
+        sp.ImmutableMatrix(f.applyfunc(sp.expand)),
+        sp.ImmutableMatrix(A),
+        sp.ImmutableMatrix(Adq.applyfunc(sp.expand)),
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -431,10 +453,13 @@ def _complement_in_body_frame(s: NonholonomicSystem) -> tuple[sp.ImmutableMatrix
     red = bkmm_reduction(s)
     sig, m = s.sigma, red.m
     Axi = sp.Matrix(s.body_constraints[0])
-    Mb = sp.Matrix.vstack(sp.Matrix.hstack(red.locked_inertia_full, red.coupling),
-                          sp.Matrix.hstack(sp.Matrix(red.coupling).T, red.shape_metric))
-    Xb = sp.Matrix.vstack(sp.Matrix.hstack(red.basis, -sp.Matrix(red.connection)),
-                          sp.Matrix.hstack(sp.zeros(sig, m), sp.eye(sig)))
+    Mb = sp.Matrix.vstack(
+        sp.Matrix.hstack(red.locked_inertia_full, red.coupling),
+        sp.Matrix.hstack(sp.Matrix(red.coupling).T, red.shape_metric),
+    )
+    Xb = sp.Matrix.vstack(
+        sp.Matrix.hstack(red.basis, -sp.Matrix(red.connection)), sp.Matrix.hstack(sp.zeros(sig, m), sp.eye(sig))
+    )
     Ginv = sp.diag(*[sp.Matrix(b) for b in (red.locked_inertia_inverse, red.shape_mass_inverse) if b.rows])
     # A_xi has rank c (checked when the system is built): a right inverse on the group columns
     Yb = sp.Matrix.vstack(_block_right_inverse(Axi, s, s.shape), sp.zeros(sig, s.c))

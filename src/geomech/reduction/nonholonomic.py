@@ -214,8 +214,19 @@ class NonholonomicReduction(Derived, _NumericMixin):
         C, k, r = s.group.structure_constants, s.k, self.r
         out = []
         for a in range(k):
-            out.append(_simp_matrix(sp.Matrix(s.sigma, s.sigma, lambda al, be, a=a: sp.diff(A[a, be], r[al]) - sp.diff(
-                A[a, al], r[be]) - sum(C[a][b][d] * A[b, al] * A[d, be] for b in range(k) for d in range(k)))))
+            out.append(
+                _simp_matrix(
+                    sp.Matrix(
+                        s.sigma,
+                        s.sigma,
+                        lambda al, be, a=a: (
+                            sp.diff(A[a, be], r[al])
+                            - sp.diff(A[a, al], r[be])
+                            - sum(C[a][b][d] * A[b, al] * A[d, be] for b in range(k) for d in range(k))
+                        ),
+                    )
+                )
+            )
         return tuple(out)
 
     @shared_property
@@ -224,8 +235,19 @@ class NonholonomicReduction(Derived, _NumericMixin):
         (Theorem 1.1), one m x sigma matrix per algebra index a."""
         s, A, E = self.system, sp.Matrix(self.connection), sp.Matrix(self.basis)
         C, k, r = s.group.structure_constants, s.k, self.r
-        return tuple(_simp_matrix(sp.Matrix(self.m, s.sigma, lambda i, be, a=a: sp.diff(E[a, i], r[be]) + sum(
-            C[a][b][d] * E[b, i] * A[d, be] for b in range(k) for d in range(k)))) for a in range(k))
+        return tuple(
+            _simp_matrix(
+                sp.Matrix(
+                    self.m,
+                    s.sigma,
+                    lambda i, be, a=a: (
+                        sp.diff(E[a, i], r[be])
+                        + sum(C[a][b][d] * E[b, i] * A[d, be] for b in range(k) for d in range(k))
+                    ),
+                )
+            )
+            for a in range(k)
+        )
 
     # ---------------- momentum equation ----------------
     @shared_property
@@ -295,12 +317,16 @@ class NonholonomicReduction(Derived, _NumericMixin):
         Om = Iinv * p
         Qs, Rs, Ss = [], [], []
         for al in range(s.sigma):
-            chris = sum((sp.diff(M[al, g], r[b]) - sp.diff(M[b, g], r[al]) / 2) * rd[b] * rd[g]
-                        for b in range(s.sigma) for g in range(s.sigma))
+            chris = sum(
+                (sp.diff(M[al, g], r[b]) - sp.diff(M[b, g], r[al]) / 2) * rd[b] * rd[g]
+                for b in range(s.sigma)
+                for g in range(s.sigma)
+            )
             vert = -(p.T * sp.diff(Iinv, r[al]) * p)[0, 0] / 2 if self.m else sp.Integer(0)
             curv = sum(mu[a] * (sp.Matrix(self.curvature[a])[al, :] * rd)[0, 0] for a in range(s.k))
-            fterm = (sum(mu[a] * (sp.Matrix(self.F[a])[:, al].T * Om)[0, 0] for a in range(s.k)) if self.m
-                     else sp.Integer(0))
+            fterm = (
+                sum(mu[a] * (sp.Matrix(self.F[a])[:, al].T * Om)[0, 0] for a in range(s.k)) if self.m else sp.Integer(0)
+            )
             # Each mechanism simplified on its own and the results added: one common denominator over all of
             # them costs minutes (multivariate gcds) for general parameters and reads no better.
             Q = R = S = None
@@ -358,16 +384,20 @@ class NonholonomicReduction(Derived, _NumericMixin):
 
     def items(self):
         H, K, D = self.momentum_coefficients
-        return [("basis e_i(r) (columns)", r"e(r)", self.basis),
-                ("normalization", r"\mathrm{normalization}", self.normalization),
-                ("momentum p(q, qdot)", r"p", self.momentum),
-                ("locked inertia I(r)", r"\mathbb I(r)", self.locked_inertia),
-                ("connection A_nh(r)", r"\mathcal A^{nh}(r)", self.connection),
-                ("reconstruction g^-1 g' (eq. 1.1)", r"g^{-1}\dot g", self.reconstruction),
-                ("momentum equation p' (eq. 1.2)", r"\dot p", self.momentum_rhs),
-                ("H(r)", r"H(r)", list(H)), ("K(r)", r"K(r)", list(K)), ("D(r)", r"D(r)", list(D)),
-                ("shape mass M(r) (eq. 1.3)", r"M(r)", self.shape_mass),
-                ("delta(r, rdot, p) (eq. 1.3)", r"\delta(r, \dot r, p)", self.shape_forces)]
+        return [
+            ("basis e_i(r) (columns)", r"e(r)", self.basis),
+            ("normalization", r"\mathrm{normalization}", self.normalization),
+            ("momentum p(q, qdot)", r"p", self.momentum),
+            ("locked inertia I(r)", r"\mathbb I(r)", self.locked_inertia),
+            ("connection A_nh(r)", r"\mathcal A^{nh}(r)", self.connection),
+            ("reconstruction g^-1 g' (eq. 1.1)", r"g^{-1}\dot g", self.reconstruction),
+            ("momentum equation p' (eq. 1.2)", r"\dot p", self.momentum_rhs),
+            ("H(r)", r"H(r)", list(H)),
+            ("K(r)", r"K(r)", list(K)),
+            ("D(r)", r"D(r)", list(D)),
+            ("shape mass M(r) (eq. 1.3)", r"M(r)", self.shape_mass),
+            ("delta(r, rdot, p) (eq. 1.3)", r"\delta(r, \dot r, p)", self.shape_forces),
+        ]
 
     # ---------------- numeric ----------------
     def _check_basis_at(self, parameters: Mapping[str, float] | None) -> None:
@@ -386,18 +416,27 @@ class NonholonomicReduction(Derived, _NumericMixin):
             if rank_E == self.m or rank_A is None or s.k - rank_A != self.m:
                 return
         shown = ", ".join(f"{k.name} = {v:g}" for k, v in pv.items())
-        raise InputError(f"{s.name}: the body-fixed basis of S_q = D n T(orbit) derived for generic parameter values "
-                         f"(the null space of A_xi with denominators cleared) degenerates at {shown} (rank "
-                         f"{rank_E if rank_E is not None else 'undefined'} < {self.m}) though S_q keeps dimension "
-                         f"{self.m} there; give a basis valid at these values (`basis=` of "
-                         "NonholonomicSystem.from_lagrangian, or bkmm_reduction(system, basis)).")
+        raise InputError(
+            f"{s.name}: the body-fixed basis of S_q = D n T(orbit) derived for generic parameter values "
+            f"(the null space of A_xi with denominators cleared) degenerates at {shown} (rank "
+            f"{rank_E if rank_E is not None else 'undefined'} < {self.m}) though S_q keeps dimension "
+            f"{self.m} there; give a basis valid at these values (`basis=` of "
+            "NonholonomicSystem.from_lagrangian, or bkmm_reduction(system, basis))."
+        )
 
     def numeric(self, parameters: Mapping[str, float] | None = None) -> ReducedNumeric:
         """Compiled reduced equations; variables ``x = (r, rdot, p)`` of shape ``(..., 2 sigma + m)``."""
         self._check_basis_at(parameters)
         x = list(self.r) + list(self.rdot) + list(self.p)
-        exprs = {"pdot": self.momentum_rhs, "M": self.shape_mass, "delta": self.shape_forces,
-                 "xi": self.reconstruction, "A": self.connection, "E": self.basis, "I": self.locked_inertia}
+        exprs = {
+            "pdot": self.momentum_rhs,
+            "M": self.shape_mass,
+            "delta": self.shape_forces,
+            "xi": self.reconstruction,
+            "A": self.connection,
+            "E": self.basis,
+            "I": self.locked_inertia,
+        }
         funcs = self._compile(parameters, exprs, x)
         s = self.system
         mom = self._compile(parameters, {"p": self.momentum}, list(s.q) + list(s.qdot))["p"]
@@ -467,15 +506,18 @@ def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, 
             return sp.ImmutableMatrix(sp.eye(s.k)), "standard basis of the Lie algebra (no constraint on the group)"
         vecs = Axi.nullspace(simplify=True)
         E = sp.Matrix.hstack(*[_clear_denominators(v) for v in vecs]) if vecs else sp.zeros(s.k, 0)
-        return sp.ImmutableMatrix(E), ("null space of the body constraint matrix A_xi(r) by row reduction (one free "
-                                       "component set to 1), each vector then multiplied by the common denominator of "
-                                       "its entries")
+        return sp.ImmutableMatrix(E), (
+            "null space of the body constraint matrix A_xi(r) by row reduction (one free "
+            "component set to 1), each vector then multiplied by the common denominator of "
+            "its entries"
+        )
     names = {x.name: x for x in s.shape}
     try:
         E = sp.Matrix(basis)
     except (TypeError, ValueError, sp.SympifyError) as exc:
-        raise InputError(f"Expected `basis` to be a k x m matrix (k = {s.k}) of expressions in the shape "
-                         f"variables, got {basis!r}.") from exc
+        raise InputError(
+            f"Expected `basis` to be a k x m matrix (k = {s.k}) of expressions in the shape variables, got {basis!r}."
+        ) from exc
     E = E.applyfunc(lambda e: sp.sympify(e).xreplace({x: names.get(x.name, x) for x in sp.sympify(e).free_symbols}))
     if E.rows != s.k and E.cols == s.k:
         E = E.T
@@ -483,15 +525,18 @@ def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, 
         raise InputError(f"Expected `basis` to have {s.k} rows (dim of {s.group.name}), got shape {E.shape}.")
     bad = set().union(*[e.free_symbols for e in E]) & (set(s.group.coordinates) | set(s.qdot))
     if bad:
-        raise InputError(f"Expected `basis` to depend on the shape variables only (it is body-fixed), got "
-                         f"{sorted(map(str, bad))}.")
+        raise InputError(
+            f"Expected `basis` to depend on the shape variables only (it is body-fixed), got {sorted(map(str, bad))}."
+        )
     res = (Axi * E).applyfunc(simplify_expr)
     if any(e != 0 for e in res):
         raise SymbolicError(f"`basis` does not lie in S_q = D_q cap T_q(Orb): A_xi(r) e(r) = {res.tolist()} != 0.")
     expected = s.k - Axi.rank(simplify=True)
     if E.cols != expected or E.rank(simplify=True) != expected:
-        raise InputError(f"Expected `basis` to hold {expected} independent vectors (dim S_q), got {E.cols} of rank "
-                         f"{E.rank(simplify=True)}.")
+        raise InputError(
+            f"Expected `basis` to hold {expected} independent vectors (dim S_q), got {E.cols} of rank "
+            f"{E.rank(simplify=True)}."
+        )
     return sp.ImmutableMatrix(E), "given by the caller"
 
 
@@ -512,8 +557,17 @@ def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
     p = tuple(sp.Symbol(f"p{i + 1}", real=True) for i in range(E.cols))
     rdd = suffixed_symbols("ddot", [r.name for r in s.shape])
     tau = suffixed_symbols("", [f"tau_{r.name}" for r in s.shape])
-    return (E, normalization, p, rdd, tau, sp.ImmutableMatrix(Il), sp.ImmutableMatrix(Gam), sp.ImmutableMatrix(mrr),
-            sp.simplify(V))
+    return (
+        E,
+        normalization,
+        p,
+        rdd,
+        tau,
+        sp.ImmutableMatrix(Il),
+        sp.ImmutableMatrix(Gam),
+        sp.ImmutableMatrix(mrr),
+        sp.simplify(V),
+    )
 
 
 def _basis_matrix(system: NonholonomicSystem, basis: Any) -> sp.ImmutableMatrix:
@@ -526,8 +580,9 @@ def _basis_matrix(system: NonholonomicSystem, basis: Any) -> sp.ImmutableMatrix:
     else:
         rows = [list(row) if isinstance(row, (list, tuple, np.ndarray)) else [row] for row in basis]
     names = {s.name: s for s in (*system.q, *system.parameter_symbols)}
-    return sp.ImmutableMatrix([[to_expression(e, f"basis[{i}][{j}]", names) for j, e in enumerate(row)]
-                               for i, row in enumerate(rows)])
+    return sp.ImmutableMatrix(
+        [[to_expression(e, f"basis[{i}][{j}]", names) for j, e in enumerate(row)] for i, row in enumerate(rows)]
+    )
 
 
 def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> NonholonomicReduction:
@@ -555,6 +610,8 @@ def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> Nonholonomi
         try:
             key = None if basis is None else ("caller", _basis_matrix(system, basis))
         except (TypeError, ValueError, sp.SympifyError) as exc:
-            raise InputError(f"Expected `basis` to be a k x m matrix (k = {system.k}) of expressions in the shape "
-                             f"variables, got {basis!r}.") from exc
+            raise InputError(
+                f"Expected `basis` to be a k x m matrix (k = {system.k}) of expressions in the shape "
+                f"variables, got {basis!r}."
+            ) from exc
     return NonholonomicReduction(system, *_bkmm_fields(system, key))

@@ -68,13 +68,20 @@ def _int0(f: sp.Expr, upper: sp.Expr) -> sp.Expr:
 
 def _require(control: StructurePreservingControl, kind: str, what: str) -> tuple[sp.Expr, ...]:
     if not isinstance(control, StructurePreservingControl) or control.kind != kind or control.phi_of_v is None:
-        raise InputError(f"{what} needs a symbolic {kind} control (StructurePreservingControl."
-                         f"{'one_rotor' if kind == 'one-rotor' else 'diagonal'} with phi a formula in v).")
+        raise InputError(
+            f"{what} needs a symbolic {kind} control (StructurePreservingControl."
+            f"{'one_rotor' if kind == 'one-rotor' else 'diagonal'} with phi a formula in v)."
+        )
     want = np.array([[0.0, 0.0, 1.0]]) if kind == "one-rotor" else np.eye(3)
-    if control.body.axes.shape != want.shape or not np.array_equal(control.body.axes, want) \
-            or not control.body.is_principal:
-        raise InputError(f"{what} is the seed's formula for rotors along the principal axes "
-                         f"{'e3' if kind == 'one-rotor' else 'e1, e2, e3'} of a diagonal Lambda.")
+    if (
+        control.body.axes.shape != want.shape
+        or not np.array_equal(control.body.axes, want)
+        or not control.body.is_principal
+    ):
+        raise InputError(
+            f"{what} is the seed's formula for rotors along the principal axes "
+            f"{'e3' if kind == 'one-rotor' else 'e1, e2, e3'} of a diagonal Lambda."
+        )
     return control.phi_of_v
 
 
@@ -116,8 +123,12 @@ def eq43_reduced_hamiltonian(control: StructurePreservingControl) -> sp.Expr:
     lam3 = _sym("lambda3")
     G1, G2, p3 = _sym("p1"), _sym("p2"), _sym("p3")
     s = sp.sqrt(G_SYM**2 - L_SYM**2)
-    h = (_quadratic() - (G1 * sp.sin(l_SYM) / _sym("lambda1") + G2 * sp.cos(l_SYM) / _sym("lambda2")) * s
-         + L_SYM**2 / (2 * lam3) - (_int0(phis[2], L_SYM) + p3 * L_SYM) / lam3)
+    h = (
+        _quadratic()
+        - (G1 * sp.sin(l_SYM) / _sym("lambda1") + G2 * sp.cos(l_SYM) / _sym("lambda2")) * s
+        + L_SYM**2 / (2 * lam3)
+        - (_int0(phis[2], L_SYM) + p3 * L_SYM) / lam3
+    )
     return h.subs(_values(control))
 
 
@@ -134,8 +145,9 @@ def eq42_reduced_hamiltonian(control: StructurePreservingControl) -> sp.Expr:
     p1, p2, p3 = _sym("p1"), _sym("p2"), _sym("p3")
     s = sp.sqrt(G_SYM**2 - L_SYM**2)
     t = sp.Dummy("t", real=True)
-    integrand = ((phis[0].xreplace({V_SYMBOL: s * sp.sin(t)}) + p1) * sp.cos(t) / lam1
-                 - (phis[1].xreplace({V_SYMBOL: s * sp.cos(t)}) + p2) * sp.sin(t) / lam2)
+    integrand = (phis[0].xreplace({V_SYMBOL: s * sp.sin(t)}) + p1) * sp.cos(t) / lam1 - (
+        phis[1].xreplace({V_SYMBOL: s * sp.cos(t)}) + p2
+    ) * sp.sin(t) / lam2
     integrand = integrand.subs(_values(control))
     lint = sp.integrate(integrand, (t, 0, l_SYM))
     h = _quadratic() + L_SYM**2 / (2 * lam3) - (_int0(phis[2], L_SYM) + p3 * L_SYM) / lam3 - s * lint
@@ -174,7 +186,9 @@ def closed_loop_reduced_expression(control: StructurePreservingControl, axis: in
     """:math:`h_p(l, L) = H_c(U_p(l, L))` of a closed loop (Theorems 4 and 6), from the generic Serret-Andoyer
     machinery."""
     if not control.hamiltonian_is_closed_form:
-        raise SymbolicError("The symbolic reduced Hamiltonian needs a closed-form H_c; sympy found no "
-                            "antiderivative of phi, so H_c is computed by quadrature. Use "
-                            "GeneralizedSerretAndoyer(control.closed_loop()).reduced_system(G) numerically.")
+        raise SymbolicError(
+            "The symbolic reduced Hamiltonian needs a closed-form H_c; sympy found no "
+            "antiderivative of phi, so H_c is computed by quadrature. Use "
+            "GeneralizedSerretAndoyer(control.closed_loop()).reduced_system(G) numerically."
+        )
     return GeneralizedSerretAndoyer(control.closed_loop()).reduced_expression(axis)

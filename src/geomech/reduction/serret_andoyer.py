@@ -268,7 +268,11 @@ class GeneralizedSerretAndoyer:
             return np.stack([-f[..., 1], f[..., 0]], -1)
 
         return CanonicalSystem(
-            n=1, name=f"h_p (axis {axis + 1})", _hamiltonian=ham, _gradient=grad, angle_coordinates=(0,),
+            n=1,
+            name=f"h_p (axis {axis + 1})",
+            _hamiltonian=ham,
+            _gradient=grad,
+            angle_coordinates=(0,),
             chart=((1, -G, G),),
         )
 

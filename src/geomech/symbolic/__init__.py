@@ -5,20 +5,42 @@ on disk (:mod:`.cache`)."""
 from .cache import DISK_CACHE, DiskCache, NumericCache, shared_property, shared_value
 from .charts import GroupChart, group_chart
 from .compile import (
-           M_SYMBOLS,
-           bind_expression,
-           column,
-           compile_matrix,
-           compile_scalar,
-           compile_vector,
-           stack_last,
-           suffixed_symbols,
+    M_SYMBOLS,
+    bind_expression,
+    column,
+    compile_matrix,
+    compile_scalar,
+    compile_vector,
+    stack_last,
+    suffixed_symbols,
 )
 from .formula import FUNCTIONS, parse_formula, to_expression
 from .simplify import clear_denominators, inverse, simplify_expr, simplify_matrix, tidy_trig, time_derivative, vanishes
 
-__all__ = ["GroupChart", "group_chart",
-           "DISK_CACHE", "DiskCache", "NumericCache", "shared_property", "shared_value", "M_SYMBOLS",
-           "bind_expression", "column", "suffixed_symbols", "compile_matrix", "compile_scalar", "compile_vector",
-           "stack_last", "FUNCTIONS", "parse_formula", "to_expression", "clear_denominators", "inverse",
-           "simplify_expr", "simplify_matrix", "tidy_trig", "time_derivative", "vanishes"]
+__all__ = [
+    "GroupChart",
+    "group_chart",
+    "DISK_CACHE",
+    "DiskCache",
+    "NumericCache",
+    "shared_property",
+    "shared_value",
+    "M_SYMBOLS",
+    "bind_expression",
+    "column",
+    "suffixed_symbols",
+    "compile_matrix",
+    "compile_scalar",
+    "compile_vector",
+    "stack_last",
+    "FUNCTIONS",
+    "parse_formula",
+    "to_expression",
+    "clear_denominators",
+    "inverse",
+    "simplify_expr",
+    "simplify_matrix",
+    "tidy_trig",
+    "time_derivative",
+    "vanishes",
+]

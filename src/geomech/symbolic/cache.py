@@ -27,8 +27,15 @@ _SHARED: dict = {}
 _CACHE_FORMAT = "1"
 #: The modules whose code determines the derived objects: their source is part of every on-disk key, so that an
 #: edited derivation never reads results of the code before it.
-_SOURCES = ("reduction/nonholonomic.py", "reduction/lagrange_dalembert.py", "reduction/_derived.py",
-            "reduction/almost_poisson.py", "symbolic/simplify.py", "symbolic/cache.py", "systems/nonholonomic.py")
+_SOURCES = (
+    "reduction/nonholonomic.py",
+    "reduction/lagrange_dalembert.py",
+    "reduction/_derived.py",
+    "reduction/almost_poisson.py",
+    "symbolic/simplify.py",
+    "symbolic/cache.py",
+    "systems/nonholonomic.py",
+)
 
 
 def cache_dir() -> Path | None:
@@ -154,8 +161,14 @@ class NumericCache:
 
     def _compile(self, values: Mapping[str, float] | None, exprs: dict, variables: Sequence[sp.Symbol]) -> dict:
         pv = self.system.parameter_values(values)
-        key = (type(self).__name__, self._cache_key, "compiled", tuple(sorted((s.name, v) for s, v in pv.items())),
-               tuple(exprs), tuple(variables))
+        key = (
+            type(self).__name__,
+            self._cache_key,
+            "compiled",
+            tuple(sorted((s.name, v) for s, v in pv.items())),
+            tuple(exprs),
+            tuple(variables),
+        )
         cache = _SHARED
         if key not in cache:
             out = {}

@@ -136,8 +136,9 @@ class GroupChart:
     def bracket(self, xi: Sequence[sp.Expr], eta: Sequence[sp.Expr]) -> sp.Matrix:
         """:math:`[\\xi, \\eta]^a = C^a_{bd}\\,\\xi^b \\eta^d`."""
         C, k = self.structure_constants, self.dim
-        return sp.Matrix([sp.expand(sum(C[a][b][d] * xi[b] * eta[d] for b in range(k) for d in range(k)))
-                          for a in range(k)])
+        return sp.Matrix(
+            [sp.expand(sum(C[a][b][d] * xi[b] * eta[d] for b in range(k) for d in range(k))) for a in range(k)]
+        )
 
     # -- the chart --------------------------------------------------------------------------------------
     @cached_property
@@ -173,8 +174,10 @@ class GroupChart:
     def _compiled(self) -> tuple[Any, Any]:
         q = list(self.coordinates)
         chart = compile_vector(sp.Matrix(self.matrix).tolist(), q)
-        jac = [[[sp.diff(self.matrix[i, j], c) for c in q] for j in range(self.matrix.cols)]
-               for i in range(self.matrix.rows)]
+        jac = [
+            [[sp.diff(self.matrix[i, j], c) for c in q] for j in range(self.matrix.cols)]
+            for i in range(self.matrix.rows)
+        ]
         return chart, compile_vector(jac, q)
 
     def from_coordinates(self, q: Any) -> np.ndarray:
@@ -208,9 +211,11 @@ class GroupChart:
             else:
                 q, res = self._newton(gi, q, tol, maxiter)
             if res > 1e3 * tol * max(1.0, np.abs(gi).max()):
-                raise ConvergenceError(f"The chart of {self.name} does not reach element {i} of the path (residual "
-                                       f"{res:.3g} at coordinates {np.round(q, 6).tolist()}): a singular point of "
-                                       "the chart, such as gimbal lock of Euler angles.")
+                raise ConvergenceError(
+                    f"The chart of {self.name} does not reach element {i} of the path (residual "
+                    f"{res:.3g} at coordinates {np.round(q, 6).tolist()}): a singular point of "
+                    "the chart, such as gimbal lock of Euler angles."
+                )
             out[i] = q
         return out.reshape(g.shape[:-2] + (self.dim,))
 

@@ -40,8 +40,10 @@ def bind_expression(
     expr = expression
     undefined = sorted({str(f.func) for f in expr.atoms(sp.Function) if isinstance(f, sp.core.function.AppliedUndef)})
     if undefined:
-        raise SymbolicError(f"`{argname}` calls unknown function(s) {undefined}; use sympy's functions (sin, exp, "
-                            "sqrt, tanh, ...), or build the system from a Python callable instead of a formula.")
+        raise SymbolicError(
+            f"`{argname}` calls unknown function(s) {undefined}; use sympy's functions (sin, exp, "
+            "sqrt, tanh, ...), or build the system from a Python callable instead of a formula."
+        )
     names = {str(v): v for v in variables}
     rename = {}
     params_in_expr = set()
@@ -77,17 +79,22 @@ def bind_expression(
         with_values = expr.subs({sp.Symbol(k, real=True): v for k, v in values.items()})
         if with_values.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
             shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
-            raise SymbolicError(f"`{argname}` is not finite at the parameter values {shown} (a division by zero "
-                                "or a pole there); choose other values.")
+            raise SymbolicError(
+                f"`{argname}` is not finite at the parameter values {shown} (a division by zero "
+                "or a pole there); choose other values."
+            )
     return expr, values
 
 
 def _lambdify(exprs: Any, variables: Sequence[sp.Symbol]):
     flat = exprs if isinstance(exprs, list) else [exprs]
     if any(isinstance(e, sp.Basic) and e.has(sp.zoo, sp.oo, -sp.oo, sp.nan) for e in flat):
-        raise SymbolicError("A formula to compile is not finite (it holds a division by zero or a pole at the "
-                            "given parameter values): " + ", ".join(str(e) for e in flat if isinstance(e, sp.Basic)
-                                                                     and e.has(sp.zoo, sp.oo, sp.nan))[:300] + ".")
+        raise SymbolicError(
+            "A formula to compile is not finite (it holds a division by zero or a pole at the "
+            "given parameter values): "
+            + ", ".join(str(e) for e in flat if isinstance(e, sp.Basic) and e.has(sp.zoo, sp.oo, sp.nan))[:300]
+            + "."
+        )
     # numpy for the elementary functions, scipy.special for the rest (elliptic integrals, erf, ...)
     return sp.lambdify(list(variables), exprs, modules=["scipy", "numpy"], cse=True)
 
@@ -112,6 +119,7 @@ def compile_vector(exprs: Any, variables: Sequence[sp.Symbol], *, dtype: Any = f
     shape = arr.shape
     flat = list(arr.ravel())
     if not flat:
+
         def empty(x: np.ndarray) -> np.ndarray:
             return np.zeros(np.shape(x)[:-1] + shape, dtype=dtype)
 
@@ -208,8 +216,10 @@ def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
         flat.extend(sp.sympify(e).xreplace(alias) for e in arr.ravel())
     bad = [e for e in flat if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan)]
     if bad:
-        raise SymbolicError(f"{spec.name}: the formula is not finite at the given parameter values (a division by "
-                            f"zero or a pole there): {str(bad[0])[:200]}; choose other values.")
+        raise SymbolicError(
+            f"{spec.name}: the formula is not finite at the given parameter values (a division by "
+            f"zero or a pole there): {str(bad[0])[:200]}; choose other values."
+        )
     stray = set().union(*(e.free_symbols for e in flat)) - set(alias.values()) if flat else set()
     if stray:
         raise ValueError(f"{spec.name}: symbols {sorted(map(str, stray))} are not variables of the model")
@@ -238,9 +248,7 @@ def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
     if len(lines) == 2:
         lines.append("    return")
     if printer._not_supported:
-        raise NotImplementedError(
-            f"{spec.name}: cannot print {sorted(map(str, printer._not_supported))} for numba"
-        )
+        raise NotImplementedError(f"{spec.name}: cannot print {sorted(map(str, printer._not_supported))} for numba")
     return "\n".join(lines) + "\n"
 
 

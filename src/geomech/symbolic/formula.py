@@ -43,18 +43,36 @@ def _arity(*counts: int) -> tuple[int, ...]:
 
 #: Allowed functions: name -> (sympy function, numbers of arguments accepted).
 FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], tuple[int, ...]]] = {
-    "sin": (sp.sin, _arity(1)), "cos": (sp.cos, _arity(1)), "tan": (sp.tan, _arity(1)),
-    "cot": (sp.cot, _arity(1)), "sec": (sp.sec, _arity(1)), "csc": (sp.csc, _arity(1)),
-    "asin": (sp.asin, _arity(1)), "acos": (sp.acos, _arity(1)), "atan": (sp.atan, _arity(1)),
-    "acot": (sp.acot, _arity(1)), "atan2": (sp.atan2, _arity(2)),
-    "sinh": (sp.sinh, _arity(1)), "cosh": (sp.cosh, _arity(1)), "tanh": (sp.tanh, _arity(1)),
-    "coth": (sp.coth, _arity(1)), "asinh": (sp.asinh, _arity(1)), "acosh": (sp.acosh, _arity(1)),
+    "sin": (sp.sin, _arity(1)),
+    "cos": (sp.cos, _arity(1)),
+    "tan": (sp.tan, _arity(1)),
+    "cot": (sp.cot, _arity(1)),
+    "sec": (sp.sec, _arity(1)),
+    "csc": (sp.csc, _arity(1)),
+    "asin": (sp.asin, _arity(1)),
+    "acos": (sp.acos, _arity(1)),
+    "atan": (sp.atan, _arity(1)),
+    "acot": (sp.acot, _arity(1)),
+    "atan2": (sp.atan2, _arity(2)),
+    "sinh": (sp.sinh, _arity(1)),
+    "cosh": (sp.cosh, _arity(1)),
+    "tanh": (sp.tanh, _arity(1)),
+    "coth": (sp.coth, _arity(1)),
+    "asinh": (sp.asinh, _arity(1)),
+    "acosh": (sp.acosh, _arity(1)),
     "atanh": (sp.atanh, _arity(1)),
-    "exp": (sp.exp, _arity(1)), "log": (sp.log, _arity(1, 2)), "ln": (sp.log, _arity(1)),
-    "sqrt": (sp.sqrt, _arity(1)), "cbrt": (sp.cbrt, _arity(1)),
-    "Abs": (sp.Abs, _arity(1)), "abs": (sp.Abs, _arity(1)), "sign": (sp.sign, _arity(1)),
-    "Min": (sp.Min, _arity(2, 3, 4)), "min": (sp.Min, _arity(2, 3, 4)),
-    "Max": (sp.Max, _arity(2, 3, 4)), "max": (sp.Max, _arity(2, 3, 4)),
+    "exp": (sp.exp, _arity(1)),
+    "log": (sp.log, _arity(1, 2)),
+    "ln": (sp.log, _arity(1)),
+    "sqrt": (sp.sqrt, _arity(1)),
+    "cbrt": (sp.cbrt, _arity(1)),
+    "Abs": (sp.Abs, _arity(1)),
+    "abs": (sp.Abs, _arity(1)),
+    "sign": (sp.sign, _arity(1)),
+    "Min": (sp.Min, _arity(2, 3, 4)),
+    "min": (sp.Min, _arity(2, 3, 4)),
+    "Max": (sp.Max, _arity(2, 3, 4)),
+    "max": (sp.Max, _arity(2, 3, 4)),
 }
 _ALLOWED = ", ".join(sorted(FUNCTIONS))
 _CONSTANTS = {"pi": sp.pi}
@@ -85,8 +103,11 @@ class _Builder:
             return self.binary(node)
         if isinstance(node, ast.Call):
             return self.call(node)
-        raise self.fail(node, f"{_describe(node)} is not allowed in a formula (numbers, symbols, + - * / ** "
-                              f"and the functions {_ALLOWED} are)")
+        raise self.fail(
+            node,
+            f"{_describe(node)} is not allowed in a formula (numbers, symbols, + - * / ** "
+            f"and the functions {_ALLOWED} are)",
+        )
 
     def number(self, node: ast.Constant) -> sp.Expr:
         value = node.value
@@ -147,8 +168,10 @@ class _Builder:
 
     def call(self, node: ast.Call) -> sp.Expr:
         if not isinstance(node.func, ast.Name):
-            raise self.fail(node, f"{_describe(node.func)} cannot be called; only the functions "
-                                  + ", ".join(sorted(FUNCTIONS)) + " can")
+            raise self.fail(
+                node,
+                f"{_describe(node.func)} cannot be called; only the functions " + ", ".join(sorted(FUNCTIONS)) + " can",
+            )
         name = node.func.id
         if name not in FUNCTIONS:
             raise self.fail(node, f"it calls unknown function(s) [{name!r}] (allowed: {_ALLOWED})")
@@ -188,12 +211,27 @@ def _log10(value: sp.Expr) -> float:
 
 
 def _describe(node: ast.AST) -> str:
-    names = {ast.Attribute: "an attribute", ast.Subscript: "a subscript", ast.Compare: "a comparison",
-             ast.BoolOp: "a boolean operation", ast.Lambda: "a lambda", ast.IfExp: "a conditional",
-             ast.List: "a list", ast.Tuple: "a tuple", ast.Dict: "a dict", ast.Set: "a set",
-             ast.ListComp: "a comprehension", ast.GeneratorExp: "a generator", ast.JoinedStr: "an f-string",
-             ast.NamedExpr: "an assignment", ast.Starred: "a starred argument", ast.Call: "a call",
-             ast.Name: "a name", ast.Await: "await", ast.Yield: "yield"}
+    names = {
+        ast.Attribute: "an attribute",
+        ast.Subscript: "a subscript",
+        ast.Compare: "a comparison",
+        ast.BoolOp: "a boolean operation",
+        ast.Lambda: "a lambda",
+        ast.IfExp: "a conditional",
+        ast.List: "a list",
+        ast.Tuple: "a tuple",
+        ast.Dict: "a dict",
+        ast.Set: "a set",
+        ast.ListComp: "a comprehension",
+        ast.GeneratorExp: "a generator",
+        ast.JoinedStr: "an f-string",
+        ast.NamedExpr: "an assignment",
+        ast.Starred: "a starred argument",
+        ast.Call: "a call",
+        ast.Name: "a name",
+        ast.Await: "await",
+        ast.Yield: "yield",
+    }
     if isinstance(node, ast.BinOp):
         return f"the operator {type(node.op).__name__}"
     if isinstance(node, ast.UnaryOp):
@@ -268,7 +306,9 @@ def to_expression(value: object, argname: str, symbols: Mapping[str, sp.Symbol] 
         if value.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
             raise SymbolicError(f"`{argname}` must be finite, got {value}.")
         names = dict(symbols or {})
-        return value.xreplace({s: names[s.name] for s in value.free_symbols
-                               if isinstance(s, sp.Symbol) and s.name in names})
-    raise SymbolicError(f"Expected `{argname}` to be a formula (a string or a sympy expression), got "
-                        f"{type(value).__name__}.")
+        return value.xreplace(
+            {s: names[s.name] for s in value.free_symbols if isinstance(s, sp.Symbol) and s.name in names}
+        )
+    raise SymbolicError(
+        f"Expected `{argname}` to be a formula (a string or a sympy expression), got {type(value).__name__}."
+    )

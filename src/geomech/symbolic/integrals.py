@@ -12,8 +12,14 @@ import sympy as sp
 
 from ..errors import ConvergenceError, InputError, NumericalError
 
-__all__ = ["INTEGRAL_CHOICES", "integral_choice", "symbolic_friendly", "integral_from_zero", "quadrature_from_zero",
-           "ray_quadrature"]
+__all__ = [
+    "INTEGRAL_CHOICES",
+    "integral_choice",
+    "symbolic_friendly",
+    "integral_from_zero",
+    "quadrature_from_zero",
+    "ray_quadrature",
+]
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(16)
 
@@ -129,15 +135,27 @@ def _adaptive(values_at: Callable[[np.ndarray], np.ndarray], what: str, tol: flo
     )
 
 
-def quadrature_from_zero(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, *, what: str = "quadrature",
-                         tol: float = 1e-14, max_panels: int = 256) -> np.ndarray:
+def quadrature_from_zero(
+    f: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    *,
+    what: str = "quadrature",
+    tol: float = 1e-14,
+    max_panels: int = 256,
+) -> np.ndarray:
     """:math:`\\int_0^x f(s)\\,ds` for an array ``x`` (vectorised ``f``), error about ``tol`` relative."""
     x = np.asarray(x, dtype=float)
     return _adaptive(lambda t: x[..., None] * f(x[..., None] * t), what, tol, max_panels)
 
 
-def ray_quadrature(g: Callable[[np.ndarray], np.ndarray], m: np.ndarray, *, what: str = "quadrature",
-                   tol: float = 1e-14, max_panels: int = 256) -> np.ndarray:
+def ray_quadrature(
+    g: Callable[[np.ndarray], np.ndarray],
+    m: np.ndarray,
+    *,
+    what: str = "quadrature",
+    tol: float = 1e-14,
+    max_panels: int = 256,
+) -> np.ndarray:
     """The potential :math:`\\psi(m) = \\int_0^1 g(t m)\\cdot m\\, dt` of a curl-free field ``g`` with
     :math:`\\psi(0) = 0` (``m`` of shape ``(..., 3)``)."""
     m = np.asarray(m, dtype=float)

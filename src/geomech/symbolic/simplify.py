@@ -12,8 +12,15 @@ import numpy as np
 import sympy as sp
 from sympy.simplify.fu import TR2
 
-__all__ = ["simplify_expr", "simplify_matrix", "tidy_trig", "inverse", "time_derivative", "clear_denominators",
-           "vanishes"]
+__all__ = [
+    "simplify_expr",
+    "simplify_matrix",
+    "tidy_trig",
+    "inverse",
+    "time_derivative",
+    "clear_denominators",
+    "vanishes",
+]
 
 #: Above this many terms in a numerator, factoring is skipped (it dominates the cost, and longer numerators
 #: of the examples are irreducible).
@@ -82,16 +89,23 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
         R = _ring(gens)
         rel = [R.gens[i] ** 2 + R.gens[len(pairs) + i] ** 2 - 1 for i in range(len(pairs))]
         n_, den = _Fractions(R, rel).convert(e)
-    except (ValueError, TypeError, ZeroDivisionError, sp.polys.polyerrors.PolynomialError, sp.CoercionFailed,
-            _Unsupported):
+    except (
+        ValueError,
+        TypeError,
+        ZeroDivisionError,
+        sp.polys.polyerrors.PolynomialError,
+        sp.CoercionFailed,
+        _Unsupported,
+    ):
         return _simplify_expr_slow(e, pairs, back)
     if not n_:
         return sp.Integer(0)
     n_, den = _cancel_factors(n_, den, R, len(pairs), rel)
     num = n_.as_expr()
     # The denominator is kept as the product of its irreducible factors (readable, and no costly gcd).
-    den = sp.Mul(*[f.as_expr() ** k for f, k in sorted(den.items(), key=lambda fk: sp.default_sort_key(fk[0].as_expr()))
-                   if k])
+    den = sp.Mul(
+        *[f.as_expr() ** k for f, k in sorted(den.items(), key=lambda fk: sp.default_sort_key(fk[0].as_expr())) if k]
+    )
     if len(n_.terms()) <= _FACTOR_MAX_TERMS:
         num = _factor(n_)
     for S, C in pairs:
@@ -105,8 +119,7 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
 def _factor(p: Any) -> sp.Expr:
     """A ring polynomial as a product of its irreducible factors (cached: the same numerator recurs)."""
     content, factors = p.factor_list()
-    return sp.Mul(sp.Rational(content.numerator, content.denominator),
-                  *[f.as_expr() ** k for f, k in factors])
+    return sp.Mul(sp.Rational(content.numerator, content.denominator), *[f.as_expr() ** k for f, k in factors])
 
 
 class _Unsupported(Exception):

@@ -58,8 +58,13 @@ def hyperregularity_report(c: Any, R: float) -> HyperregularityReport:
             return HyperregularityReport("no", "; ".join(fails), tuple(pts))
         if unknown:
             return HyperregularityReport("unknown", "; ".join(unknown), ())
-        return HyperregularityReport("yes", "phi'(v) != 1 for every real v (sympy)" if c.n_rotors == 1
-                                     else "phi_i'(v) != 1 for every real v and every i (sympy)", ())
+        return HyperregularityReport(
+            "yes",
+            "phi'(v) != 1 for every real v (sympy)"
+            if c.n_rotors == 1
+            else "phi_i'(v) != 1 for every real v and every i (sympy)",
+            (),
+        )
     return _scan_determinant(c, R)
 
 
@@ -90,9 +95,18 @@ def _scalar(c: Any, i: int, R: float) -> tuple[str, str, list[float]]:
     f, v = f[ok], v[ok]
     roots = []
     for k in np.nonzero((f[:-1] == 0) | (f[:-1] * f[1:] < 0))[0][:8]:
-        roots.append(float(v[k]) if f[k] == 0 else float(brentq(
-            lambda x: float(c._dphi(x * c.body.axes[i][None], th)[0, i] @ c.body.axes[i]) - 1.0,
-            v[k], v[k + 1], xtol=1e-14)))
+        roots.append(
+            float(v[k])
+            if f[k] == 0
+            else float(
+                brentq(
+                    lambda x: float(c._dphi(x * c.body.axes[i][None], th)[0, i] @ c.body.axes[i]) - 1.0,
+                    v[k],
+                    v[k + 1],
+                    xtol=1e-14,
+                )
+            )
+        )
     if roots:
         return "no", f"at v = {', '.join(f'{r:.6g}' for r in roots)} (numeric scan and root refinement)", roots
     return "unknown", f"no v with phi'(v) = 1 found on [-{R:g}, {R:g}] (numeric scan; nothing proved)", []
@@ -108,13 +122,17 @@ def _scan_determinant(c: Any, R: float) -> HyperregularityReport:
     det, pts = det[ok], pts[ok]
     if det.size and (det.min() <= 0 <= det.max()):
         k = int(np.argmin(np.abs(det)))
-        return HyperregularityReport("no", f"det(I - A Dphi) changes sign on |m| <= {R:g}; smallest |det| "
-                                     f"{abs(det[k]):.3g} at m = {np.round(pts[k], 6).tolist()}",
-                                     tuple(pts[k].tolist()))
+        return HyperregularityReport(
+            "no",
+            f"det(I - A Dphi) changes sign on |m| <= {R:g}; smallest |det| "
+            f"{abs(det[k]):.3g} at m = {np.round(pts[k], 6).tolist()}",
+            tuple(pts[k].tolist()),
+        )
     if c.phi_expression is not None:
         D = (sp.eye(3) - c._A_sym * c.phi_expression.jacobian(sp.Matrix(M_SYMBOLS))).det()
         D = sp.simplify(D.subs(dict(zip(c._psyms, c.theta()))))
         if D.is_number and D != 0:
             return HyperregularityReport("yes", f"det(I - A Dphi) = {D} is a nonzero constant", ())
-    return HyperregularityReport("unknown", f"det(I - A Dphi) keeps one sign on 4000 samples of |m| <= {R:g} "
-                                 "(numeric scan; nothing proved)", ())
+    return HyperregularityReport(
+        "unknown", f"det(I - A Dphi) keeps one sign on 4000 samples of |m| <= {R:g} (numeric scan; nothing proved)", ()
+    )

@@ -134,14 +134,17 @@ def _parse(expressions: Sequence[Any], variables: Sequence[str], argname: str, r
         names = {str(s) for s in e.free_symbols}
         wrong_vars = sorted(names & ({"v", "m1", "m2", "m3"} - set(variables)))
         if wrong_vars:
-            want = "v alone (v = m3 for the rotor on axis 3, v = m_i for phi_i)" if variables == ("v",) else \
-                "the body momentum m1, m2, m3"
-            raise SymbolicError(f"Expected `{name}` to be a function of {want}, got {e}, which involves "
-                                f"{wrong_vars}.")
+            want = (
+                "v alone (v = m3 for the rotor on axis 3, v = m_i for phi_i)"
+                if variables == ("v",)
+                else "the body momentum m1, m2, m3"
+            )
+            raise SymbolicError(f"Expected `{name}` to be a function of {want}, got {e}, which involves {wrong_vars}.")
         clash = sorted(names & reserved)
         if clash:
-            raise SymbolicError(f"`{name}` uses {clash}, which name the model's own parameters {sorted(reserved)}; "
-                                "rename them.")
+            raise SymbolicError(
+                f"`{name}` uses {clash}, which name the model's own parameters {sorted(reserved)}; rename them."
+            )
         out.append(e)
     return out
 
@@ -166,9 +169,19 @@ class StructurePreservingControl:
         antiderivative; then :attr:`hamiltonian_is_closed_form` is False and quadrature is used).
     """
 
-    def __init__(self, body: RotorBody, kind: str, *, phi_exprs: list[sp.Expr] | None, variables: str,
-                 phi_params: Mapping[str, float], phi_callables: tuple[Any, ...] | None, p: Any,
-                 probe_radius: float, integral: str):
+    def __init__(
+        self,
+        body: RotorBody,
+        kind: str,
+        *,
+        phi_exprs: list[sp.Expr] | None,
+        variables: str,
+        phi_params: Mapping[str, float],
+        phi_callables: tuple[Any, ...] | None,
+        p: Any,
+        probe_radius: float,
+        integral: str,
+    ):
         if not isinstance(body, RotorBody):
             raise InputError(f"Expected `body` to be a RotorBody, got {type(body).__name__}.")
         self.body = body
@@ -188,22 +201,30 @@ class StructurePreservingControl:
         if self._lam_syms is not None:
             model.update({str(s): float(v) for s, v in zip(self._lam_syms, np.diag(body.inertia))})
         self._separable = variables == "v"
-        self._A_sym = (sp.Matrix(np.rint(body.A).astype(int).tolist()) if body.is_principal
-                       else sp.Matrix(body.A.tolist()))
-        self._lam_inv_sym = (sp.diag(*[1 / s for s in self._lam_syms]) if self._lam_syms is not None
-                             else sp.Matrix(np.linalg.inv(body.inertia).tolist()))
+        self._A_sym = (
+            sp.Matrix(np.rint(body.A).astype(int).tolist()) if body.is_principal else sp.Matrix(body.A.tolist())
+        )
+        self._lam_inv_sym = (
+            sp.diag(*[1 / s for s in self._lam_syms])
+            if self._lam_syms is not None
+            else sp.Matrix(np.linalg.inv(body.inertia).tolist())
+        )
         self.parameters: dict[str, float] = {**model, **{k: float(v) for k, v in phi_params.items()}}
         self._names = tuple(sorted(self.parameters))
-        self._lam_idx = (None if self._lam_syms is None
-                         else np.array([self._names.index(str(x)) for x in self._lam_syms]))
+        self._lam_idx = (
+            None if self._lam_syms is None else np.array([self._names.index(str(x)) for x in self._lam_syms])
+        )
         self._p_idx = np.array([self._names.index(str(x)) for x in self._p_syms])
         self._model_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._psyms = tuple(sp.Symbol(k, real=True) for k in self._names)
         if phi_exprs is not None:
-            v_of_m = [sum(int(c) * s if body.is_principal else float(c) * s for c, s in zip(a, M_SYMBOLS))
-                      for a in (np.rint(body.axes) if body.is_principal else body.axes)]
-            comps = [e.xreplace({V_SYMBOL: v_of_m[i]}) for i, e in enumerate(phi_exprs)] if self._separable \
-                else phi_exprs
+            v_of_m = [
+                sum(int(c) * s if body.is_principal else float(c) * s for c, s in zip(a, M_SYMBOLS))
+                for a in (np.rint(body.axes) if body.is_principal else body.axes)
+            ]
+            comps = (
+                [e.xreplace({V_SYMBOL: v_of_m[i]}) for i, e in enumerate(phi_exprs)] if self._separable else phi_exprs
+            )
             self.phi_expression: sp.Matrix | None = sp.Matrix(comps)
             self._phi_1d_exprs = phi_exprs if self._separable else None
             variables_all = [*M_SYMBOLS, *self._psyms]
@@ -214,9 +235,14 @@ class StructurePreservingControl:
             self._dphi = lambda m, th: jac_f(self._cat(m, th))
             if self._separable:
                 fs = [compile_vector([e], [V_SYMBOL, *self._psyms]) for e in phi_exprs]
-                self._phi_1d = [lambda x, th, f=f: f(np.concatenate(
-                    [np.asarray(x, float)[..., None], np.broadcast_to(th, np.shape(x) + th.shape)], -1))[..., 0]
-                    for f in fs]
+                self._phi_1d = [
+                    lambda x, th, f=f: f(
+                        np.concatenate(
+                            [np.asarray(x, float)[..., None], np.broadcast_to(th, np.shape(x) + th.shape)], -1
+                        )
+                    )[..., 0]
+                    for f in fs
+                ]
         else:
             self.phi_expression = None
             self._phi_1d_exprs = None
@@ -236,9 +262,17 @@ class StructurePreservingControl:
 
     # -- constructors -----------------------------------------------------------------------------
     @classmethod
-    def one_rotor(cls, body: RotorBody, phi: Any, *, p: float = 0.0, parameters: Mapping[str, float] | None = None,
-                  dphi: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
-                  integral: str = "auto") -> StructurePreservingControl:
+    def one_rotor(
+        cls,
+        body: RotorBody,
+        phi: Any,
+        *,
+        p: float = 0.0,
+        parameters: Mapping[str, float] | None = None,
+        dphi: Callable[[np.ndarray], np.ndarray] | None = None,
+        probe_radius: float = 1.0,
+        integral: str = "auto",
+    ) -> StructurePreservingControl:
         """The control of eq. (29a) for one rotor: :math:`u = \\varphi'(v)\\,\\dot v`, :math:`v = a\\cdot m`
         (:math:`m_3` for the seed's rotor on axis 3), which keeps :math:`p = \\Gamma - \\varphi(v)` constant.
 
@@ -256,27 +290,56 @@ class StructurePreservingControl:
             machine) and Gauss-Legendre quadrature otherwise; ``"symbolic"`` always tries sympy first.
         """
         if body.n_rotors != 1:
-            raise InputError(f"Expected a body with one rotor for `one_rotor`, got {body.n_rotors}; use "
-                             "`three_rotors`, `diagonal` or `general`.")
-        return cls._build(body, "one-rotor", [phi], "v", parameters, None if dphi is None else [dphi], p,
-                          probe_radius, integral, "dphi")
+            raise InputError(
+                f"Expected a body with one rotor for `one_rotor`, got {body.n_rotors}; use "
+                "`three_rotors`, `diagonal` or `general`."
+            )
+        return cls._build(
+            body,
+            "one-rotor",
+            [phi],
+            "v",
+            parameters,
+            None if dphi is None else [dphi],
+            p,
+            probe_radius,
+            integral,
+            "dphi",
+        )
 
     @classmethod
-    def diagonal(cls, body: RotorBody, phis: Sequence[Any], *, p: Any = 0.0,
-                 parameters: Mapping[str, float] | None = None, derivatives: Sequence[Any] | None = None,
-                 probe_radius: float = 1.0, integral: str = "auto") -> StructurePreservingControl:
+    def diagonal(
+        cls,
+        body: RotorBody,
+        phis: Sequence[Any],
+        *,
+        p: Any = 0.0,
+        parameters: Mapping[str, float] | None = None,
+        derivatives: Sequence[Any] | None = None,
+        probe_radius: float = 1.0,
+        integral: str = "auto",
+    ) -> StructurePreservingControl:
         """Corollary 2: :math:`u_i = \\varphi_i'(v_i)\\,\\dot v_i`, :math:`v_i = a_i\\cdot m` (:math:`m_i` for
         rotors on the principal axes); ``phis`` are expressions in ``v`` or callables with ``derivatives``."""
         phis = list(phis)
         if len(phis) != body.n_rotors:
             raise InputError(f"Expected one phi_i per rotor ({body.n_rotors}), got {len(phis)}.")
-        return cls._build(body, "diagonal", phis, "v", parameters, derivatives, p, probe_radius,
-                          integral, "derivatives")
+        return cls._build(
+            body, "diagonal", phis, "v", parameters, derivatives, p, probe_radius, integral, "derivatives"
+        )
 
     @classmethod
-    def three_rotors(cls, body: RotorBody, phi: Any, *, p: Any = 0.0, parameters: Mapping[str, float] | None = None,
-                     jacobian: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
-                     integral: str = "auto") -> StructurePreservingControl:
+    def three_rotors(
+        cls,
+        body: RotorBody,
+        phi: Any,
+        *,
+        p: Any = 0.0,
+        parameters: Mapping[str, float] | None = None,
+        jacobian: Callable[[np.ndarray], np.ndarray] | None = None,
+        probe_radius: float = 1.0,
+        integral: str = "auto",
+    ) -> StructurePreservingControl:
         """Proposition 5 for three rotors on the principal axes: :math:`u = D\\varphi(m)\\,\\dot m`.
 
         ``phi`` is three expressions in ``m1, m2, m3`` (with parameters), or a callable
@@ -284,18 +347,45 @@ class StructurePreservingControl:
         """
         if body.n_rotors != 3:
             raise InputError(f"Expected a body with three rotors for `three_rotors`, got {body.n_rotors}.")
-        return cls.general(body, phi, p=p, parameters=parameters, jacobian=jacobian, probe_radius=probe_radius,
-                           integral=integral, _kind="three-rotors")
+        return cls.general(
+            body,
+            phi,
+            p=p,
+            parameters=parameters,
+            jacobian=jacobian,
+            probe_radius=probe_radius,
+            integral=integral,
+            _kind="three-rotors",
+        )
 
     @classmethod
-    def general(cls, body: RotorBody, phi: Any, *, p: Any = 0.0, parameters: Mapping[str, float] | None = None,
-                jacobian: Callable[[np.ndarray], np.ndarray] | None = None, probe_radius: float = 1.0,
-                integral: str = "auto", _kind: str = "general") -> StructurePreservingControl:
+    def general(
+        cls,
+        body: RotorBody,
+        phi: Any,
+        *,
+        p: Any = 0.0,
+        parameters: Mapping[str, float] | None = None,
+        jacobian: Callable[[np.ndarray], np.ndarray] | None = None,
+        probe_radius: float = 1.0,
+        integral: str = "auto",
+        _kind: str = "general",
+    ) -> StructurePreservingControl:
         """:math:`u = D\\varphi(m)\\,\\dot m` for any rotor layout, :math:`\\varphi: \\mathbb R^3 \\to \\mathbb R^N`
         (N expressions in ``m1, m2, m3``, or a callable with ``jacobian(m) -> (..., N, 3)``)."""
         if callable(phi) and not isinstance(phi, (str, sp.Basic)):
-            return cls._build(body, _kind, [phi], "m", parameters, None if jacobian is None else [jacobian], p,
-                              probe_radius, integral, "jacobian")
+            return cls._build(
+                body,
+                _kind,
+                [phi],
+                "m",
+                parameters,
+                None if jacobian is None else [jacobian],
+                p,
+                probe_radius,
+                integral,
+                "jacobian",
+            )
         if isinstance(phi, (str, sp.Basic)) and not isinstance(phi, sp.MatrixBase):
             phi = [phi]
         phi = list(phi)
@@ -307,13 +397,23 @@ class StructurePreservingControl:
     def _build(cls, body, kind, phis, variables, parameters, derivs, p, probe_radius, integral, dname):
         if all(callable(f) and not isinstance(f, (str, sp.Basic)) for f in phis):
             if derivs is None or len(list(derivs)) != len(phis) or not all(callable(d) for d in derivs):
-                raise InputError(f"A callable phi needs its derivative: pass `{dname}` "
-                                 f"({'phi_i' if variables == 'v' else 'Dphi'} as callables).")
+                raise InputError(
+                    f"A callable phi needs its derivative: pass `{dname}` "
+                    f"({'phi_i' if variables == 'v' else 'Dphi'} as callables)."
+                )
             if parameters:
                 raise InputError("`parameters` applies to a symbolic phi; a callable carries its own.")
-            return cls(body, kind, phi_exprs=None, variables=variables, phi_params={},
-                       phi_callables=(tuple(phis), tuple(derivs)), p=p, probe_radius=probe_radius,
-                       integral=integral)
+            return cls(
+                body,
+                kind,
+                phi_exprs=None,
+                variables=variables,
+                phi_params={},
+                phi_callables=(tuple(phis), tuple(derivs)),
+                p=p,
+                probe_radius=probe_radius,
+                integral=integral,
+            )
         if any(callable(f) and not isinstance(f, (str, sp.Basic)) for f in phis):
             raise InputError("Expected every phi component to be symbolic, or every one a callable, not a mix.")
         n = body.n_rotors
@@ -341,8 +441,17 @@ class StructurePreservingControl:
                 raise SymbolicError(f"Expected parameter `{k}` to be a number, got {given[k]!r}.") from exc
             if not np.isfinite(values[k]):
                 raise SymbolicError(f"Expected parameter `{k}` to be finite, got {values[k]}.")
-        return cls(body, kind, phi_exprs=exprs, variables=variables, phi_params=values, phi_callables=None, p=p,
-                   probe_radius=probe_radius, integral=integral)
+        return cls(
+            body,
+            kind,
+            phi_exprs=exprs,
+            variables=variables,
+            phi_params=values,
+            phi_callables=None,
+            p=p,
+            probe_radius=probe_radius,
+            integral=integral,
+        )
 
     @property
     def phi_of_v(self) -> tuple[sp.Expr, ...] | None:
@@ -359,6 +468,7 @@ class StructurePreservingControl:
         phis, derivs = callables
         axes = self.body.axes
         if self._separable:
+
             def phi(m, th):
                 v = np.asarray(m, float) @ axes.T
                 return np.stack([np.asarray(f(v[..., i]), float) for i, f in enumerate(phis)], -1)
@@ -376,8 +486,9 @@ class StructurePreservingControl:
         def phi(m, th):
             out = np.asarray(f(np.asarray(m, float)), float)
             if out.shape != np.shape(m)[:-1] + (n,):
-                raise InputError(f"Expected `phi` to return shape (..., {n}), got {out.shape} for m of shape "
-                                 f"{np.shape(m)}.")
+                raise InputError(
+                    f"Expected `phi` to return shape (..., {n}), got {out.shape} for m of shape {np.shape(m)}."
+                )
             return out
 
         def dphi(m, th):
@@ -398,14 +509,18 @@ class StructurePreservingControl:
             fd = np.stack([(self._phi(m + h * e, th) - self._phi(m - h * e, th)) / (2 * h) for e in np.eye(3)], -1)
         ok = np.all(np.isfinite(D), axis=(-1, -2)) & np.all(np.isfinite(fd), axis=(-1, -2))
         if not np.any(ok):
-            raise InputError(f"phi or its derivative is not finite at any of 16 momenta with |m| <= "
-                             f"{self.probe_radius:g}; set `probe_radius` to the size of the momenta of interest.")
+            raise InputError(
+                f"phi or its derivative is not finite at any of 16 momenta with |m| <= "
+                f"{self.probe_radius:g}; set `probe_radius` to the size of the momenta of interest."
+            )
         err = np.abs(D[ok] - fd[ok]).max() / max(1.0, np.abs(fd[ok]).max())
         if err > 1e-5:
             k = int(np.argmax(np.abs(D - fd).max(axis=(-1, -2)) * ok))
-            raise InputError(f"The derivative passed with phi does not match it: relative difference {err:.3g} "
-                             f"from central differences at m = {np.round(m[k], 6).tolist()}; pass the derivative "
-                             "of this phi.")
+            raise InputError(
+                f"The derivative passed with phi does not match it: relative difference {err:.3g} "
+                f"from central differences at m = {np.round(m[k], 6).tolist()}; pass the derivative "
+                "of this phi."
+            )
 
     def theta(self, values: Mapping[str, float] | None = None) -> np.ndarray:
         """The parameter vector (sorted by name), with ``values`` overriding the control's own."""
@@ -425,8 +540,9 @@ class StructurePreservingControl:
         if self._lam_idx is not None:
             lam = theta[self._lam_idx]
             if np.any(lam <= 0):
-                raise InputError(f"Expected the inertias {[str(s) for s in self._lam_syms]} to be positive, got "
-                                 f"{lam.tolist()}.")
+                raise InputError(
+                    f"Expected the inertias {[str(s) for s in self._lam_syms]} to be positive, got {lam.tolist()}."
+                )
             lam_inv = np.diag(1.0 / lam)
         else:
             lam_inv = np.linalg.inv(self.body.inertia)
@@ -458,8 +574,13 @@ class StructurePreservingControl:
             a = self.body.axes[0]
             w = self._model(theta)[0] @ a
             if np.linalg.norm(np.cross(w, a)) <= 1e-12 * np.linalg.norm(w):
-                return ClosedLoopCondition(True, "structural", "Lambda^-1 A Dphi = phi'(v) (Lambda^-1 a) a^T is "
-                                           "symmetric: the rotor axis a is a principal axis of Lambda.", 0.0)
+                return ClosedLoopCondition(
+                    True,
+                    "structural",
+                    "Lambda^-1 A Dphi = phi'(v) (Lambda^-1 a) a^T is "
+                    "symmetric: the rotor axis a is a principal axis of Lambda.",
+                    0.0,
+                )
         pts = self._sample(64)
         asym = self._asymmetry(pts, theta)
         worst = float(asym.max())
@@ -478,23 +599,40 @@ class StructurePreservingControl:
                     zero = sp.count_ops(d) <= _SIMPLIFY_MAX_OPS and sp.simplify(d.subs(subs)) == 0
                     entries.append((i, j, d, zero))
             if all(z for *_, z in entries):
-                return ClosedLoopCondition(True, "symbolic", "Lambda^-1 A Dphi is symmetric (sympy, for these "
-                                           "parameter values).", worst)
+                return ClosedLoopCondition(
+                    True, "symbolic", "Lambda^-1 A Dphi is symmetric (sympy, for these parameter values).", worst
+                )
             if worst <= tol:
-                return ClosedLoopCondition(True, "numeric", f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random "
-                                           "momenta (sympy could not simplify the asymmetry to 0).", worst)
+                return ClosedLoopCondition(
+                    True,
+                    "numeric",
+                    f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random "
+                    "momenta (sympy could not simplify the asymmetry to 0).",
+                    worst,
+                )
             k = int(np.argmax(asym))
             bad = [f"({i + 1},{j + 1}): {sp.simplify(d)}" for i, j, d, z in entries if not z]
-            return ClosedLoopCondition(False, "numeric",
-                                       f"Lambda^-1 A Dphi is not symmetric; asymmetry M_ij - M_ji at {', '.join(bad)}, "
-                                       f"e.g. relative asymmetry {worst:.3g} at m = {np.round(pts[k], 6).tolist()}.",
-                                       worst)
+            return ClosedLoopCondition(
+                False,
+                "numeric",
+                f"Lambda^-1 A Dphi is not symmetric; asymmetry M_ij - M_ji at {', '.join(bad)}, "
+                f"e.g. relative asymmetry {worst:.3g} at m = {np.round(pts[k], 6).tolist()}.",
+                worst,
+            )
         if worst <= tol:
-            return ClosedLoopCondition(True, "numeric", f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random momenta "
-                                       f"with |m| <= {self.probe_radius:g}.", worst)
+            return ClosedLoopCondition(
+                True,
+                "numeric",
+                f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random momenta with |m| <= {self.probe_radius:g}.",
+                worst,
+            )
         k = int(np.argmax(asym))
-        return ClosedLoopCondition(False, "numeric", f"Lambda^-1 A Dphi is not symmetric: relative asymmetry "
-                                   f"{worst:.3g} at m = {np.round(pts[k], 6).tolist()}.", worst)
+        return ClosedLoopCondition(
+            False,
+            "numeric",
+            f"Lambda^-1 A Dphi is not symmetric: relative asymmetry {worst:.3g} at m = {np.round(pts[k], 6).tolist()}.",
+            worst,
+        )
 
     # -- the closed-loop Hamiltonian (eqs. 29b, 41) --------------------------------------------------------
     def _build_hamiltonian(self) -> None:
@@ -524,9 +662,15 @@ class StructurePreservingControl:
                 terms.append(coeff * sp.Integral(f.xreplace({V_SYMBOL: s}), (s, 0, int(a[j]) * M_SYMBOLS[j])))
             return sp.Add(*terms)
         t = sp.Dummy("t", real=True)
-        g = self._lam_inv_sym * self._A_sym * (self.phi_expression if self.phi_expression is not None
-                                                else sp.Matrix([sp.Function(f"phi{i + 1}")(*M_SYMBOLS)
-                                                                for i in range(self.n_rotors)]))
+        g = (
+            self._lam_inv_sym
+            * self._A_sym
+            * (
+                self.phi_expression
+                if self.phi_expression is not None
+                else sp.Matrix([sp.Function(f"phi{i + 1}")(*M_SYMBOLS) for i in range(self.n_rotors)])
+            )
+        )
         gm = g.xreplace({x: t * x for x in M_SYMBOLS})
         return sp.Integral((gm.T * sp.Matrix(M_SYMBOLS))[0, 0], (t, 0, 1))
 
@@ -575,12 +719,14 @@ class StructurePreservingControl:
             total = np.zeros(m.shape[:-1])
             for i, a in enumerate(self.body.axes):
                 coeff = a @ lam_inv @ a
-                total = total + coeff * quadrature_from_zero(lambda x, i=i: self._phi_1d[i](x, theta), m @ a,
-                                                             what=f"the integral of phi_{i + 1} from 0")
+                total = total + coeff * quadrature_from_zero(
+                    lambda x, i=i: self._phi_1d[i](x, theta), m @ a, what=f"the integral of phi_{i + 1} from 0"
+                )
             return total
         A = self.body.A
-        return ray_quadrature(lambda x: self._phi(x, theta) @ (lam_inv @ A).T, m,
-                              what="the closed-loop potential along the ray from 0")
+        return ray_quadrature(
+            lambda x: self._phi(x, theta) @ (lam_inv @ A).T, m, what="the closed-loop potential along the ray from 0"
+        )
 
     # -- numeric closed loop ---------------------------------------------------------------------------
     def phi(self, m: Any, values: Mapping[str, float] | None = None) -> np.ndarray:
@@ -711,8 +857,11 @@ class StructurePreservingControl:
             "parameters": dict(self.parameters),
             "closed_loop_hamiltonian": str(self.hamiltonian_expression),
             "closed_loop_hamiltonian_closed_form": self.hamiltonian_is_closed_form,
-            "condition": {"holds": self.condition.holds, "method": self.condition.method,
-                          "detail": self.condition.detail},
+            "condition": {
+                "holds": self.condition.holds,
+                "method": self.condition.method,
+                "detail": self.condition.detail,
+            },
         }
 
     def __repr__(self) -> str:

@@ -54,8 +54,10 @@ def _chart(group: Any, coordinates: Sequence[Any] | None) -> GroupChart:
         return group if isinstance(group, GroupChart) else GroupChart(G)
     alpha = _symbols(coordinates, "group_coordinates")
     if len(alpha) != G.dim:
-        raise ShapeError(f"Expected {G.dim} `group_coordinates` for {G.name} ({', '.join(G.coordinate_names)}), "
-                         f"got {len(alpha)}: {[str(a) for a in alpha]}.")
+        raise ShapeError(
+            f"Expected {G.dim} `group_coordinates` for {G.name} ({', '.join(G.coordinate_names)}), "
+            f"got {len(alpha)}: {[str(a) for a in alpha]}."
+        )
     return GroupChart(G, alpha)
 
 
@@ -147,8 +149,10 @@ class HolonomicSystem:
         alpha = G.coordinates
         r = _symbols(shape_coordinates, "shape_coordinates")
         if len(r) == 0:
-            raise ShapeError("Expected at least one shape coordinate; a system without shape is a rigid "
-                             "body (use geomech.RigidBody and geomech.analysis.rigid_body_phase).")
+            raise ShapeError(
+                "Expected at least one shape coordinate; a system without shape is a rigid "
+                "body (use geomech.RigidBody and geomech.analysis.rigid_body_phase)."
+            )
         q = alpha + r
         vel_map = {str(k): str(v) for k, v in (velocities or {}).items()}
         qd = tuple(sp.Symbol(vel_map.get(str(s), f"{s}_dot"), real=True) for s in q)
@@ -171,8 +175,20 @@ class HolonomicSystem:
                 f" it is not invariant under {G.name}."
             )
         Mred = _reduced_mass_matrix(G, alpha, M)
-        system = cls(G, alpha, r, qd[: G.dim], qd[G.dim:], expr, sp.Matrix(M), Vr, Mred, values,
-                     tuple(int(i) for i in angle_shapes), name)
+        system = cls(
+            G,
+            alpha,
+            r,
+            qd[: G.dim],
+            qd[G.dim :],
+            expr,
+            sp.Matrix(M),
+            Vr,
+            Mred,
+            values,
+            tuple(int(i) for i in angle_shapes),
+            name,
+        )
         if any(i < 0 or i >= len(r) for i in system.angle_shapes):
             raise InputError(f"Expected `angle_shapes` to index the {len(r)} shape coordinates, got {angle_shapes}.")
         if check_invariance:
@@ -209,15 +225,26 @@ class HolonomicSystem:
         body = G.body_velocity_matrix * sp.Matrix(ad)
         full = expr.xreplace(dict(zip(xi, body)))
         names = {str(a): str(v) for a, v in zip(alpha + r, ad + rd)}
-        return cls.from_lagrangian(full, G, r, group_coordinates=alpha, velocities=names, parameters=values,
-                                   angle_shapes=angle_shapes, name=name, check_invariance=False)
+        return cls.from_lagrangian(
+            full,
+            G,
+            r,
+            group_coordinates=alpha,
+            velocities=names,
+            parameters=values,
+            angle_shapes=angle_shapes,
+            name=name,
+            check_invariance=False,
+        )
 
     def with_parameters(self, **values: float) -> HolonomicSystem:
         """The same system with other parameter values (every parameter already has one)."""
         unknown = sorted(set(values) - set(self.parameters))
         if unknown:
-            raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are "
-                             f"{sorted(self.parameters) or 'none'}.")
+            raise InputError(
+                f"Unknown parameter(s) {unknown}; the parameters of {self.name} are "
+                f"{sorted(self.parameters) or 'none'}."
+            )
         bad = {k: v for k, v in values.items() if not np.isfinite(float(v))}
         if bad:
             raise InputError(f"Expected finite parameter values, got {bad}.")
@@ -330,8 +357,9 @@ class HolonomicSystem:
         B = np.asarray(self.body_velocity_matrix_function()(alpha), dtype=float)
         return np.linalg.solve(B, xi)
 
-    def simulate(self, q0: Any, qdot0: Any, t_eval: Any, *, shape: Any = None, rtol: float = 1e-12,
-                 atol: float = 1e-12) -> Any:
+    def simulate(
+        self, q0: Any, qdot0: Any, t_eval: Any, *, shape: Any = None, rtol: float = 1e-12, atol: float = 1e-12
+    ) -> Any:
         """Integrate the Euler-Lagrange equations of :math:`L` in the coordinates :math:`(\\alpha, r)`.
 
         With ``shape=None`` the whole system moves freely; with a shape path (an object with ``r(t)``,
@@ -352,11 +380,14 @@ class HolonomicSystem:
         qdot0 = V.exact_shape(qdot0, "qdot0", (N,))
         Mf, ff = self._euler_lagrange
         if shape is None:
+
             def rhs(_t, y):
                 acc = np.linalg.solve(Mf(y[:N]), ff(y))
                 return np.concatenate([y[N:], acc])
+
             y0 = np.concatenate([q0, qdot0])
         else:
+
             def rhs(t, y):
                 r, rd, rdd = shape.r(t), shape.rdot(t), shape.rddot(t)
                 q = np.concatenate([y[:k], r])
@@ -364,11 +395,13 @@ class HolonomicSystem:
                 f = ff(np.concatenate([q, y[k:], rd]))
                 acc = np.linalg.solve(Mq[:k, :k], f[:k] - Mq[:k, k:] @ rdd)
                 return np.concatenate([y[k:], acc])
+
             y0 = np.concatenate([q0[:k], qdot0[:k]])
         sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
         if sol.status != 0:
-            raise NumericalError(f"Euler-Lagrange integration of {self.name} failed at t = {sol.t[-1]:.6g}: "
-                                 f"{sol.message}")
+            raise NumericalError(
+                f"Euler-Lagrange integration of {self.name} failed at t = {sol.t[-1]:.6g}: {sol.message}"
+            )
         if shape is not None:
             rs = np.stack([shape.r(t) for t in sol.t])
             rds = np.stack([shape.rdot(t) for t in sol.t])
@@ -382,14 +415,19 @@ class HolonomicSystem:
         """The locked inertia at ``r`` (shape ``(n_r, k, k)``), or :class:`SingularityError` where it is
         singular (the connection :math:`A = \\mathbb I^{-1}J` is undefined there)."""
         I, _, _ = self.shape_matrix(np.atleast_2d(r))
-        V.positive_definite_along(I, r, f"locked inertia of {self.name}",
-                                  "the mechanical connection I^{-1} J is undefined there; keep the shape away from it",
-                                  rtol=1e-12)
+        V.positive_definite_along(
+            I,
+            r,
+            f"locked inertia of {self.name}",
+            "the mechanical connection I^{-1} J is undefined there; keep the shape away from it",
+            rtol=1e-12,
+        )
         return I
 
     def __repr__(self) -> str:
-        return (f"HolonomicSystem({self.name!r}, group={self.group.name}, "
-                f"shape={[str(s) for s in self.shape_coordinates]})")
+        return (
+            f"HolonomicSystem({self.name!r}, group={self.group.name}, shape={[str(s) for s in self.shape_coordinates]})"
+        )
 
 
 def _quadratic_split(expr: sp.Expr, qd: Sequence[sp.Symbol]) -> tuple[sp.Matrix, list, sp.Expr]:

@@ -19,6 +19,7 @@ from .holonomic import HolonomicSystem
 def _rot2(a: sp.Expr) -> sp.Matrix:
     return SO2().sympy_element([a])[0]
 
+
 __all__ = [
     "two_pinned_bodies",
     "planar_point_masses",
@@ -51,12 +52,14 @@ def two_pinned_bodies(I1: float = 1.0, I2: float = 3.0) -> HolonomicSystem:
             f"The locked inertia I1 + I2 = {I1v + I2v:g} of the pinned bodies is singular; give a positive moment."
         )
     L = "I1*theta_dot**2/2 + I2*(theta_dot + psi_dot)**2/2"
-    return HolonomicSystem.from_lagrangian(L, "S1", ["psi"], parameters={"I1": I1v, "I2": I2v},
-                                           angle_shapes=(0,), name="two pinned bodies")
+    return HolonomicSystem.from_lagrangian(
+        L, "S1", ["psi"], parameters={"I1": I1v, "I2": I2v}, angle_shapes=(0,), name="two pinned bodies"
+    )
 
 
-def planar_point_masses(masses: Sequence[float], pair_potential: Any = "-k*mi*mj/d",
-                        parameters: Mapping[str, float] | None = None) -> HolonomicSystem:
+def planar_point_masses(
+    masses: Sequence[float], pair_potential: Any = "-k*mi*mj/d", parameters: Mapping[str, float] | None = None
+) -> HolonomicSystem:
     """The planar N-body problem, N >= 2 point masses with a pairwise potential, G = SE(2).
 
     Group coordinates ``(x, y, theta)``: the centre of mass and the direction of the first Jacobi vector
@@ -110,8 +113,7 @@ def planar_point_masses(masses: Sequence[float], pair_potential: Any = "-k*mi*mj
             dist = sp.sqrt(sp.expand((pos[i] - pos[j]).dot(pos[i] - pos[j])))
             Vexpr += pot.xreplace({d: dist, mi: m[i], mj: m[j]})
     values = {f"m{i + 1}": float(v) for i, v in enumerate(ms)} | pvals
-    return HolonomicSystem.from_lagrangian(T - Vexpr, "SE2", shape, parameters=values,
-                                           name=f"planar {N} point masses")
+    return HolonomicSystem.from_lagrangian(T - Vexpr, "SE2", shape, parameters=values, name=f"planar {N} point masses")
 
 
 def _jacobi_positions(s: list, m: Sequence[sp.Expr], Mj: list) -> list:
@@ -145,8 +147,13 @@ def planar_point_positions(system: HolonomicSystem, q: Any) -> np.ndarray:
     return f(q)
 
 
-def three_link_chain(masses: Sequence[float] = (1.0, 1.0, 1.0), lengths: Sequence[float] = (1.0, 1.0, 1.0),
-                     inertias: Sequence[float] | None = None, *, origin: str = "com") -> HolonomicSystem:
+def three_link_chain(
+    masses: Sequence[float] = (1.0, 1.0, 1.0),
+    lengths: Sequence[float] = (1.0, 1.0, 1.0),
+    inertias: Sequence[float] | None = None,
+    *,
+    origin: str = "com",
+) -> HolonomicSystem:
     """Three planar rigid links joined end to end by two pin joints, free in the plane, G = SE(2).
 
     Link :math:`i` has mass :math:`m_i`, length :math:`l_i` and inertia :math:`J_i` about its centre
@@ -175,8 +182,11 @@ def three_link_chain(masses: Sequence[float] = (1.0, 1.0, 1.0), lengths: Sequenc
         return sp.Matrix([sp.cos(a), sp.sin(a)])
 
     # centres relative to the middle link's centre
-    rel = [-(lsym[1] / 2) * e(angles[1]) - (lsym[0] / 2) * e(angles[0]), sp.zeros(2, 1),
-           (lsym[1] / 2) * e(angles[1]) + (lsym[2] / 2) * e(angles[2])]
+    rel = [
+        -(lsym[1] / 2) * e(angles[1]) - (lsym[0] / 2) * e(angles[0]),
+        sp.zeros(2, 1),
+        (lsym[1] / 2) * e(angles[1]) + (lsym[2] / 2) * e(angles[2]),
+    ]
     base = sp.Matrix([x, y])
     if origin == "com":
         com_rel = sum((mi * ri for mi, ri in zip(m, rel)), sp.zeros(2, 1)) / sum(m)
@@ -193,14 +203,21 @@ def three_link_chain(masses: Sequence[float] = (1.0, 1.0, 1.0), lengths: Sequenc
     for i in range(3):
         v = tdiff(centres[i])
         T += m[i] * v.dot(v) / 2 + J[i] * tdiff(sp.Matrix([angles[i]]))[0] ** 2 / 2
-    values = {f"m{i + 1}": float(ms[i]) for i in range(3)} | {f"l{i + 1}": float(ls[i]) for i in range(3)} | {
-        f"J{i + 1}": float(Js[i]) for i in range(3)}
-    return HolonomicSystem.from_lagrangian(sp.expand(T), "SE2", [a1, a2], parameters=values, angle_shapes=(0, 1),
-                                           name=f"three-link chain ({origin} frame)")
+    values = (
+        {f"m{i + 1}": float(ms[i]) for i in range(3)}
+        | {f"l{i + 1}": float(ls[i]) for i in range(3)}
+        | {f"J{i + 1}": float(Js[i]) for i in range(3)}
+    )
+    return HolonomicSystem.from_lagrangian(
+        sp.expand(T), "SE2", [a1, a2], parameters=values, angle_shapes=(0, 1), name=f"three-link chain ({origin} frame)"
+    )
 
 
-def spacecraft_with_rotors(inertia: Sequence[float] = (3.0, 2.0, 1.0), axes: Any = ((1, 0, 0), (0, 1, 0)),
-                           rotor_inertias: Sequence[float] = (0.2, 0.2)) -> HolonomicSystem:
+def spacecraft_with_rotors(
+    inertia: Sequence[float] = (3.0, 2.0, 1.0),
+    axes: Any = ((1, 0, 0), (0, 1, 0)),
+    rotor_inertias: Sequence[float] = (0.2, 0.2),
+) -> HolonomicSystem:
     """A rigid spacecraft with internal rotors, G = SO(3), shape the rotor angles.
 
     With :math:`\\mathbb I` the locked inertia (rotors included), rotor :math:`k` spinning about the unit
@@ -233,5 +250,6 @@ def spacecraft_with_rotors(inertia: Sequence[float] = (3.0, 2.0, 1.0), axes: Any
         a = [sp.nsimplify(c, rational=True) if abs(c - round(c)) < 1e-15 else c for c in ax[k]]
         l += Jsym[k] * sum(ai * wi for ai, wi in zip(a, w)) * pd + Jsym[k] * pd**2 / 2
     values = {f"I{i + 1}": float(I[i]) for i in range(3)} | {f"Jr{k + 1}": float(Jr[k]) for k in range(n)}
-    return HolonomicSystem.from_reduced(l, "SO3", w, phis, parameters=values, angle_shapes=tuple(range(n)),
-                                        name=f"spacecraft with {n} rotors")
+    return HolonomicSystem.from_reduced(
+        l, "SO3", w, phis, parameters=values, angle_shapes=tuple(range(n)), name=f"spacecraft with {n} rotors"
+    )

@@ -291,5 +291,3 @@ def as_left_invariant(system: Any) -> LeftInvariantSystem:
         f"Expected a left-invariant system on T*SO(3) (LeftInvariantSystem, RigidBody, ...), "
         f"got {type(system).__name__}."
     )
-
-

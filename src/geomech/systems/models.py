@@ -41,8 +41,9 @@ def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind
         except GeomechError:
             raise
         except (Exception, SystemExit) as exc:
-            raise InputError(f"Could not run model file {str(path)!r}: {_describe(exc)} (--debug shows where)."
-                             ) from exc
+            raise InputError(
+                f"Could not run model file {str(path)!r}: {_describe(exc)} (--debug shows where)."
+            ) from exc
         params = dict(params or {})
         if hasattr(module, "build") and callable(module.build):
             try:
@@ -50,20 +51,25 @@ def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind
             except GeomechError:
                 raise
             except TypeError as exc:
-                raise InputError(f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}"
-                                 ) from exc
+                raise InputError(
+                    f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}"
+                ) from exc
             except (Exception, SystemExit) as exc:
-                raise InputError(f"{path.name}: build(**params) failed: {_describe(exc)} (--debug shows where)."
-                                 ) from exc
+                raise InputError(
+                    f"{path.name}: build(**params) failed: {_describe(exc)} (--debug shows where)."
+                ) from exc
             params = {}
         elif hasattr(module, "system"):
             system = module.system
         else:
-            raise InputError(f"Model file {str(path)!r} defines neither `system` (a {kind.__name__}) nor a "
-                             "function `build(**params)` returning one; see docs/nonholonomic.md and docs/phases.md.")
+            raise InputError(
+                f"Model file {str(path)!r} defines neither `system` (a {kind.__name__}) nor a "
+                "function `build(**params)` returning one; see docs/nonholonomic.md and docs/phases.md."
+            )
     if not isinstance(system, kind):
-        raise InputError(f"{path.name}: expected `system` to be a {kind.__name__} ({how}), got "
-                         f"{type(system).__name__}.")
+        raise InputError(
+            f"{path.name}: expected `system` to be a {kind.__name__} ({how}), got {type(system).__name__}."
+        )
     return system.with_parameters(**params) if params else system
 
 

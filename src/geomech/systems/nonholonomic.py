@@ -54,16 +54,18 @@ def _symbols(names: Sequence[Any], argname: str) -> tuple[sp.Symbol, ...]:
         elif isinstance(n, str) and n.isidentifier():
             out.append(sp.Symbol(n, real=True))
         else:
-            raise InputError(f"Expected `{argname}` to hold coordinate names (identifiers or sympy Symbols), "
-                             f"got {n!r}.")
+            raise InputError(
+                f"Expected `{argname}` to hold coordinate names (identifiers or sympy Symbols), got {n!r}."
+            )
     return tuple(out)
 
 
 # --------------------------------------------------------------------------------------------------
 # Parsing user formulas
 # --------------------------------------------------------------------------------------------------
-def _parse(expr: Any, names: dict[str, sp.Symbol], params: dict[str, sp.Symbol], argname: str,
-           dyn: dict | None = None) -> sp.Expr:
+def _parse(
+    expr: Any, names: dict[str, sp.Symbol], params: dict[str, sp.Symbol], argname: str, dyn: dict | None = None
+) -> sp.Expr:
     if isinstance(expr, str):
         local = dict(names)
         local.update(params)
@@ -77,8 +79,10 @@ def _parse(expr: Any, names: dict[str, sp.Symbol], params: dict[str, sp.Symbol],
     if dyn:
         parsed = parsed.subs(dyn["derivatives"]).subs(dyn["functions"])
     if any(isinstance(f, sp.core.function.AppliedUndef) for f in parsed.atoms(sp.Function)):
-        raise SymbolicError(f"`{argname}` contains undefined functions {sorted(map(str, parsed.atoms(sp.Function)))}; "
-                            "write it in the coordinate and velocity symbols (or dynamicsymbols of the coordinates).")
+        raise SymbolicError(
+            f"`{argname}` contains undefined functions {sorted(map(str, parsed.atoms(sp.Function)))}; "
+            "write it in the coordinate and velocity symbols (or dynamicsymbols of the coordinates)."
+        )
     rename = {}
     for s in parsed.free_symbols:
         if s.name in names:
@@ -106,8 +110,10 @@ def _checked_values(symbols: Mapping[str, sp.Symbol], values: Mapping[str, Any],
             raise InputError(f"Expected parameter `{k}` of {owner} to be finite, got {x}.")
         symbol = symbols.get(k)
         if symbol is not None and symbol.is_positive and not x > 0:
-            raise InputError(f"Expected parameter `{k}` of {owner} to be positive (it is a mass, length or inertia "
-                             f"declared positive), got {x:g}.")
+            raise InputError(
+                f"Expected parameter `{k}` of {owner} to be positive (it is a mass, length or inertia "
+                f"declared positive), got {x:g}."
+            )
         out[k] = x
     return out
 
@@ -133,19 +139,27 @@ class InvarianceReport:
         parts = []
         if not self.lagrangian_invariant:
             terms = ", ".join(str(t) for t in self.lagrangian_breaking_terms) or "(terms not isolated)"
-            parts.append(f"the Lagrangian is not invariant under {self.group}: written in body velocities it still "
-                         f"depends on the group variables through the term(s) {terms}")
+            parts.append(
+                f"the Lagrangian is not invariant under {self.group}: written in body velocities it still "
+                f"depends on the group variables through the term(s) {terms}"
+            )
         if not self.constraints_invariant:
             which = ", ".join("#" + str(i) for i in self.breaking_constraints)
-            parts.append(f"the constraint distribution is not invariant under {self.group}: constraint(s) {which} "
-                         "(0-based) change with the group variables beyond a re-combination of the others")
+            parts.append(
+                f"the constraint distribution is not invariant under {self.group}: constraint(s) {which} "
+                "(0-based) change with the group variables beyond a re-combination of the others"
+            )
         return "; ".join(parts) if parts else f"L and the constraints are invariant under {self.group}"
 
     def to_dict(self) -> dict:
-        return {"ok": self.ok, "lagrangian_invariant": self.lagrangian_invariant,
-                "lagrangian_breaking_terms": [str(t) for t in self.lagrangian_breaking_terms],
-                "constraints_invariant": self.constraints_invariant,
-                "breaking_constraints": list(self.breaking_constraints), "message": self.message()}
+        return {
+            "ok": self.ok,
+            "lagrangian_invariant": self.lagrangian_invariant,
+            "lagrangian_breaking_terms": [str(t) for t in self.lagrangian_breaking_terms],
+            "constraints_invariant": self.constraints_invariant,
+            "breaking_constraints": list(self.breaking_constraints),
+            "message": self.message(),
+        }
 
     def to_json(self, **kwargs: Any) -> str:
         import json
@@ -254,8 +268,10 @@ class NonholonomicSystem:
         qnames = [s.name for s in q]
         dup = sorted({n for n in qnames if qnames.count(n) > 1})
         if dup:
-            raise InputError(f"Expected distinct coordinate names, got {dup} both as group and as shape variables "
-                             f"(group {group.name} uses {[s.name for s in group.coordinates]}).")
+            raise InputError(
+                f"Expected distinct coordinate names, got {dup} both as group and as shape variables "
+                f"(group {group.name} uses {[s.name for s in group.coordinates]})."
+            )
         vnames = list(velocities) if velocities is not None else [f"{n}_dot" for n in qnames]
         if len(vnames) != len(q):
             raise InputError(f"Expected {len(q)} velocity names (one per coordinate {qnames}), got {len(vnames)}.")
@@ -271,8 +287,10 @@ class NonholonomicSystem:
             if isinstance(con, (list, tuple, sp.MatrixBase, np.ndarray)):
                 coeffs = [_parse(cf, names, params, f"constraints[{i}][{j}]", dyn) for j, cf in enumerate(list(con))]
                 if len(coeffs) != len(q):
-                    raise ShapeError(f"Expected constraint #{i} to have {len(q)} coefficients (one per coordinate "
-                                     f"{qnames}), got {len(coeffs)}.")
+                    raise ShapeError(
+                        f"Expected constraint #{i} to have {len(q)} coefficients (one per coordinate "
+                        f"{qnames}), got {len(coeffs)}."
+                    )
                 if any(c.free_symbols & set(qd) for c in coeffs):
                     raise InputError(f"Constraint #{i}: the coefficients of a one-form must not contain velocities.")
                 parsed_constraints.append(coeffs)
@@ -282,40 +300,66 @@ class NonholonomicSystem:
         # constraint as "not homogeneous", when the real fault is the shape/group split
         stray = sorted(p for p in params if p.endswith("_dot") or p.endswith("_ddot"))
         if stray:
-            raise InputError(f"{name}: the formulas use {stray}, velocities of coordinates that are neither group "
-                             f"coordinates of {group.name} {[s.name for s in group.coordinates]} nor shape variables "
-                             f"{[s.name for s in r]}; declare them (a shape/group split that does not match L).")
+            raise InputError(
+                f"{name}: the formulas use {stray}, velocities of coordinates that are neither group "
+                f"coordinates of {group.name} {[s.name for s in group.coordinates]} nor shape variables "
+                f"{[s.name for s in r]}; declare them (a shape/group split that does not match L)."
+            )
         rows = [c if isinstance(c, list) else _one_form(c, qd, i) for i, c in enumerate(parsed_constraints)]
         pvals = dict(parameters or {})
         unknown = sorted(set(pvals) - set(params))
         if unknown:
-            raise InputError(f"`parameters` names {unknown}, which appear neither in the Lagrangian nor in the "
-                             f"constraints (parameters found: {sorted(params)}).")
+            raise InputError(
+                f"`parameters` names {unknown}, which appear neither in the Lagrangian nor in the "
+                f"constraints (parameters found: {sorted(params)})."
+            )
         pvals = _checked_values(params, pvals, name)
         if shape_angles is None:
-            greek = set("alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron pi rho "
-                        "sigma tau upsilon phi chi psi omega varphi vartheta".split())
+            greek = set(
+                "alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron pi rho "
+                "sigma tau upsilon phi chi psi omega varphi vartheta".split()
+            )
             shape_angles = [i for i, s in enumerate(r) if s.name.lower().rstrip("0123456789_") in greek]
-        cmat = sp.ImmutableMatrix(len(rows), len(q), [c for row in rows for c in row]) if rows else \
-            sp.ImmutableMatrix(sp.zeros(0, len(q)))
+        cmat = (
+            sp.ImmutableMatrix(len(rows), len(q), [c for row in rows for c in row])
+            if rows
+            else sp.ImmutableMatrix(sp.zeros(0, len(q)))
+        )
         E = None
         if basis is not None:
             # entries parsed one by one (sp.Matrix of strings would sympify them: eval)
-            rows = basis.tolist() if isinstance(basis, sp.MatrixBase) else [
-                list(row) if isinstance(row, (list, tuple)) else [row] for row in basis]
+            rows = (
+                basis.tolist()
+                if isinstance(basis, sp.MatrixBase)
+                else [list(row) if isinstance(row, (list, tuple)) else [row] for row in basis]
+            )
             if not rows or len({len(row) for row in rows}) != 1:
                 raise ShapeError(f"Expected `basis` to be a matrix (a list of equal rows), got {basis!r}.")
-            E = sp.Matrix([[_parse(e, names, params, f"basis[{i}][{j}]", dyn) for j, e in enumerate(row)]
-                           for i, row in enumerate(rows)])
+            E = sp.Matrix(
+                [
+                    [_parse(e, names, params, f"basis[{i}][{j}]", dyn) for j, e in enumerate(row)]
+                    for i, row in enumerate(rows)
+                ]
+            )
             if E.rows != group.dim and E.cols == group.dim:
                 E = E.T
             if E.rows != group.dim:
                 raise ShapeError(f"Expected `basis` to have {group.dim} rows (dim {group.name}), got shape {E.shape}.")
             E = sp.ImmutableMatrix(E)
-        system = cls(name=name, group=group, shape=r, qdot=qd, lagrangian=L, constraint_matrix=cmat,
-                     parameter_symbols=tuple(sorted(params.values(), key=lambda s: s.name)),
-                     parameters=pvals, shape_angles=tuple(shape_angles), description=description,
-                     body_basis=E, basis_note=basis_note)
+        system = cls(
+            name=name,
+            group=group,
+            shape=r,
+            qdot=qd,
+            lagrangian=L,
+            constraint_matrix=cmat,
+            parameter_symbols=tuple(sorted(params.values(), key=lambda s: s.name)),
+            parameters=pvals,
+            shape_angles=tuple(shape_angles),
+            description=description,
+            body_basis=E,
+            basis_note=basis_note,
+        )
         if check:
             system._check_mechanical()
             report = system.check_invariance()
@@ -331,16 +375,36 @@ class NonholonomicSystem:
             raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {sorted(names)}.")
         merged = dict(self.parameters)
         merged.update(_checked_values({s.name: s for s in self.parameter_symbols}, values, self.name))
-        return NonholonomicSystem(self.name, self.group, self.shape, self.qdot, self.lagrangian,
-                                  self.constraint_matrix, self.parameter_symbols, merged, self.shape_angles,
-                                  self.description, self.body_basis, self.basis_note)
+        return NonholonomicSystem(
+            self.name,
+            self.group,
+            self.shape,
+            self.qdot,
+            self.lagrangian,
+            self.constraint_matrix,
+            self.parameter_symbols,
+            merged,
+            self.shape_angles,
+            self.description,
+            self.body_basis,
+            self.basis_note,
+        )
 
     # ---------------- identity for caches ----------------
     @cached_property
     def key(self) -> tuple:
         """What the symbolic derivations depend on (the parameter values are not part of it)."""
-        return (self.group.name, self.group.coordinates, self.group.matrix, self.group.basis, self.shape, self.qdot,
-                self.lagrangian, self.constraint_matrix, self.body_basis)
+        return (
+            self.group.name,
+            self.group.coordinates,
+            self.group.matrix,
+            self.group.basis,
+            self.shape,
+            self.qdot,
+            self.lagrangian,
+            self.constraint_matrix,
+            self.body_basis,
+        )
 
     def __hash__(self) -> int:
         return hash(self.key)
@@ -374,7 +438,7 @@ class NonholonomicSystem:
 
     @property
     def shape_dot(self) -> tuple[sp.Symbol, ...]:
-        return self.qdot[self.k:]
+        return self.qdot[self.k :]
 
     @cached_property
     def xi(self) -> tuple[sp.Symbol, ...]:
@@ -430,7 +494,7 @@ class NonholonomicSystem:
         Lam_inv = self.group.body_velocity_inverse.subs(self.reference_substitution)
         A = self.constraint_matrix.subs(self.reference_substitution)
         Ag = sp.Matrix(A[:, : self.k]) * Lam_inv
-        return (sp.ImmutableMatrix(Ag.applyfunc(simplify_expr)), sp.ImmutableMatrix(A[:, self.k:]))
+        return (sp.ImmutableMatrix(Ag.applyfunc(simplify_expr)), sp.ImmutableMatrix(A[:, self.k :]))
 
     # ---------------- numeric helpers ----------------
     def parameter_values(self, values: Mapping[str, float] | None = None) -> dict:
@@ -439,8 +503,10 @@ class NonholonomicSystem:
         merged.update(values or {})
         missing = sorted(s.name for s in self.parameter_symbols if s.name not in merged)
         if missing:
-            raise InputError(f"{self.name}: no value for parameter(s) {missing}; pass them as "
-                             f"parameters={{{', '.join(repr(m) + ': ...' for m in missing)}}}.")
+            raise InputError(
+                f"{self.name}: no value for parameter(s) {missing}; pass them as "
+                f"parameters={{{', '.join(repr(m) + ': ...' for m in missing)}}}."
+            )
         return {s: float(merged[s.name]) for s in self.parameter_symbols}
 
     def _random_point(self, rng: np.random.Generator, symbols: Sequence[sp.Symbol]) -> dict:
@@ -457,9 +523,11 @@ class NonholonomicSystem:
             if bad or lin:
                 what = "of degree > 2" if bad else "linear"
                 terms = [poly.coeff_monomial(m) * sp.prod([v**e for v, e in zip(self.qdot, m)]) for m in (bad or lin)]
-                raise SymbolicError(f"{self.name}: expected the Lagrangian to be kinetic energy (quadratic in the "
-                                    f"velocities) minus a potential; it has terms {what} in the velocities: "
-                                    f"{', '.join(map(str, terms[:4]))}.")
+                raise SymbolicError(
+                    f"{self.name}: expected the Lagrangian to be kinetic energy (quadratic in the "
+                    f"velocities) minus a potential; it has terms {what} in the velocities: "
+                    f"{', '.join(map(str, terms[:4]))}."
+                )
             if any(not (poly.coeff_monomial(m).free_symbols.isdisjoint(self.qdot)) for m in poly.monoms()):
                 raise SymbolicError(f"{self.name}: the Lagrangian is not polynomial in the velocities.")
         rng = np.random.default_rng(7)
@@ -467,26 +535,36 @@ class NonholonomicSystem:
         M = np.array(self.mass_matrix.subs(pt).evalf(), dtype=float)
         A = np.array(self.constraint_matrix.subs(pt).evalf(), dtype=float).reshape(self.c, self.n)
         _, sv, vt = np.linalg.svd(A) if self.c else (None, np.zeros(0), np.eye(self.n))
-        X = vt[int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0)))):].T
+        X = vt[int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0)))) :].T
         MD = X.T @ M @ X
         if X.size and (np.linalg.eigvalsh(MD).min() <= 1e-12 * max(1.0, np.abs(MD).max())):
             L = self.lagrangian
             absent = [c.name for v, c in zip(self.qdot, self.q) if not (L.has(v) or L.has(c))]
-            hint = (f" The coordinates {absent} appear nowhere in the "
-                    "Lagrangian: is the shape/group split right (a group factor or shape variable L does not "
-                    "depend on)?" if absent else "")
-            raise SymbolicError(f"{self.name}: the kinetic energy is not positive definite on the constraint "
-                                "distribution D at a random configuration; every allowed motion must carry kinetic "
-                                "energy." + hint)
+            hint = (
+                f" The coordinates {absent} appear nowhere in the "
+                "Lagrangian: is the shape/group split right (a group factor or shape variable L does not "
+                "depend on)?"
+                if absent
+                else ""
+            )
+            raise SymbolicError(
+                f"{self.name}: the kinetic energy is not positive definite on the constraint "
+                "distribution D at a random configuration; every allowed motion must carry kinetic "
+                "energy." + hint
+            )
         if self.c:
             if np.linalg.matrix_rank(A, tol=1e-10 * max(1.0, np.abs(A).max())) < self.c:
-                raise InputError(f"{self.name}: the {self.c} constraint one-forms are linearly dependent at a random "
-                                 "configuration; remove the redundant ones.")
+                raise InputError(
+                    f"{self.name}: the {self.c} constraint one-forms are linearly dependent at a random "
+                    "configuration; remove the redundant ones."
+                )
             Ag = np.array(self.body_constraints[0].subs(pt).evalf(), dtype=float)
             if np.linalg.matrix_rank(Ag, tol=1e-10 * max(1.0, np.abs(Ag).max())) < self.c:
-                raise InputError(f"{self.name}: the constraints restrict the shape velocities alone (their group "
-                                 "part has rank < number of constraints), so D_q + T_q(Orb) != T_q Q: BKMM's "
-                                 "dimension assumption fails. Treat such constraints as part of the shape space.")
+                raise InputError(
+                    f"{self.name}: the constraints restrict the shape velocities alone (their group "
+                    "part has rank < number of constraints), so D_q + T_q(Orb) != T_q Q: BKMM's "
+                    "dimension assumption fails. Treat such constraints as part of the shape space."
+                )
 
     def check_invariance(self, *, samples: int = 3, seed: int = 11) -> InvarianceReport:
         r"""Check that :math:`L` and the distribution :math:`\mathcal D` are invariant under :math:`G`.
@@ -525,16 +603,19 @@ class NonholonomicSystem:
         if self.c:
             Lam_inv = self.group.body_velocity_inverse
             Abody = sp.Matrix(self.constraint_matrix[:, : self.k]) * Lam_inv
-            Abody = sp.Matrix.hstack(Abody, sp.Matrix(self.constraint_matrix[:, self.k:]))
+            Abody = sp.Matrix.hstack(Abody, sp.Matrix(self.constraint_matrix[:, self.k :]))
             fA = compile_matrix(Abody, list(gq + self.shape) + list(self.parameter_symbols))
             for _ in range(samples):
                 pt = self._random_point(rng, list(gq + self.shape))
                 args_g = [pt[s] for s in gq + self.shape] + [pt[s] for s in self.parameter_symbols]
-                args_e = [float(v) for v in self.group.reference] + [pt[s] for s in self.shape] + \
-                    [pt[s] for s in self.parameter_symbols]
+                args_e = (
+                    [float(v) for v in self.group.reference]
+                    + [pt[s] for s in self.shape]
+                    + [pt[s] for s in self.parameter_symbols]
+                )
                 Ag, Ae = fA(np.array([args_g, args_e], dtype=float))
                 _, sv, vt = np.linalg.svd(Ae)
-                null = vt[np.sum(sv > 1e-12 * max(sv.max(), 1.0)):].T
+                null = vt[np.sum(sv > 1e-12 * max(sv.max(), 1.0)) :].T
                 res = np.abs(Ag @ null).max(axis=1) if null.size else np.zeros(self.c)
                 scale = np.maximum(np.abs(Ag).max(axis=1), 1.0)
                 bad_rows += [int(i) for i in np.nonzero(res > 1e-9 * scale)[0]]
@@ -542,8 +623,10 @@ class NonholonomicSystem:
         return InvarianceReport(self.group.name, lag_ok, terms, not bad, bad)
 
     def __repr__(self) -> str:
-        return (f"NonholonomicSystem({self.name!r}, group={self.group!r}, shape={[s.name for s in self.shape]}, "
-                f"constraints={self.c})")
+        return (
+            f"NonholonomicSystem({self.name!r}, group={self.group!r}, shape={[s.name for s in self.shape]}, "
+            f"constraints={self.c})"
+        )
 
 
 def _dynamic_map(q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> dict:
@@ -557,17 +640,23 @@ def _one_form(expr: sp.Expr, qd: Sequence[sp.Symbol], index: int) -> list[sp.Exp
     """Coefficients of a constraint given as an expression; it must be linear and homogeneous in ``qd``."""
     e = sp.expand(expr)
     if not (e.free_symbols & set(qd)):
-        raise InputError(f"Constraint #{index} ({expr}) contains no velocity; a velocity constraint is a one-form "
-                         "omega(q) . qdot = 0 (a holonomic constraint f(q) = 0 is written as its differential df).")
+        raise InputError(
+            f"Constraint #{index} ({expr}) contains no velocity; a velocity constraint is a one-form "
+            "omega(q) . qdot = 0 (a holonomic constraint f(q) = 0 is written as its differential df)."
+        )
     try:
         poly = sp.Poly(e, *qd)
     except sp.PolynomialError as exc:
-        raise InputError(f"Constraint #{index} ({expr}) is not linear in the velocities: it is not even polynomial "
-                         f"in {[str(v) for v in qd]}.") from exc
+        raise InputError(
+            f"Constraint #{index} ({expr}) is not linear in the velocities: it is not even polynomial "
+            f"in {[str(v) for v in qd]}."
+        ) from exc
     for mon in poly.monoms():
         deg = sum(mon)
         if deg != 1:
             kind = "has a velocity-free term (not homogeneous)" if deg == 0 else f"has a term of degree {deg}"
-            raise InputError(f"Constraint #{index} ({expr}) is not linear homogeneous in the velocities: it {kind}. "
-                             "Only constraints omega(q) . qdot = 0 are supported.")
+            raise InputError(
+                f"Constraint #{index} ({expr}) is not linear homogeneous in the velocities: it {kind}. "
+                "Only constraints omega(q) . qdot = 0 are supported."
+            )
     return [poly.coeff_monomial(v) for v in qd]

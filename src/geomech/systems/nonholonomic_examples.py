@@ -62,8 +62,9 @@ def _no_slip(vx: sp.Expr, vy: sp.Expr, heading: sp.Expr) -> sp.Expr:
 def _tidy(expr: sp.Expr, velocities: tuple[sp.Symbol, ...]) -> sp.Expr:
     """A polynomial in the velocities with each coefficient trigonometrically simplified (readable output)."""
     poly = sp.Poly(sp.expand(expr), *velocities)
-    return sum(sp.factor_terms(sp.trigsimp(c)) * sp.prod([v**e for v, e in zip(velocities, mon)])
-               for mon, c in poly.terms())
+    return sum(
+        sp.factor_terms(sp.trigsimp(c)) * sp.prod([v**e for v, e in zip(velocities, mon)]) for mon, c in poly.terms()
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -93,8 +94,9 @@ _SNAKEBOARD_DOC = """
     (rotation about the point where the wheel axes meet).
 """
 
-_BKMM_BASIS = ("BKMM's body-fixed basis e = (-2 r cos(phi)**2, 0, sin(2 phi)) (Bloch, Krishnaprasad, Marsden, "
-               "Murray 1996)")
+_BKMM_BASIS = (
+    "BKMM's body-fixed basis e = (-2 r cos(phi)**2, 0, sin(2 phi)) (Bloch, Krishnaprasad, Marsden, Murray 1996)"
+)
 
 
 @lru_cache(maxsize=None)
@@ -103,15 +105,23 @@ def _snakeboard(bkmm: bool) -> NonholonomicSystem:
     x, y, th, psi, phi = _q("x", "y", "theta", "psi", "phi")
     xd, yd, thd, psid, phid = _v("x", "y", "theta", "psi", "phi")
     Jt = m * r**2 if bkmm else J + J0 + 2 * J1
-    L = (m / 2 * (xd**2 + yd**2) + Jt / 2 * thd**2 + J0 * thd * psid + J0 / 2 * psid**2 + J1 * phid**2)
+    L = m / 2 * (xd**2 + yd**2) + Jt / 2 * thd**2 + J0 * thd * psid + J0 / 2 * psid**2 + J1 * phid**2
     back = _no_slip(xd + r * sp.sin(th) * thd, yd - r * sp.cos(th) * thd, th + phi)
     front = _no_slip(xd - r * sp.sin(th) * thd, yd + r * sp.cos(th) * thd, th - phi)
     basis = sp.Matrix([-2 * r * sp.cos(phi) ** 2, 0, sp.sin(2 * phi)])
-    desc = ("snakeboard (BKMM 1996): a board with a rotor and two wheel pairs steered opposite; "
-            + ("inertia normalised as in BKMM, J + J0 + 2 J1 = m r^2" if bkmm else "general inertias m, r, J, J0, J1"))
+    desc = "snakeboard (BKMM 1996): a board with a rotor and two wheel pairs steered opposite; " + (
+        "inertia normalised as in BKMM, J + J0 + 2 J1 = m r^2" if bkmm else "general inertias m, r, J, J0, J1"
+    )
     return NonholonomicSystem.from_lagrangian(
-        L, SE2(x, y, th), (psi, phi), [_tidy(back, (xd, yd, thd)), _tidy(front, (xd, yd, thd))],
-        name="snakeboard_bkmm" if bkmm else "snakeboard", description=desc, basis=basis, basis_note=_BKMM_BASIS)
+        L,
+        SE2(x, y, th),
+        (psi, phi),
+        [_tidy(back, (xd, yd, thd)), _tidy(front, (xd, yd, thd))],
+        name="snakeboard_bkmm" if bkmm else "snakeboard",
+        description=desc,
+        basis=basis,
+        basis_note=_BKMM_BASIS,
+    )
 
 
 def snakeboard(**values: float) -> NonholonomicSystem:
@@ -162,12 +172,17 @@ def _roller_racer() -> NonholonomicSystem:
     q, qd = (x, y, th, phi), (xd, yd, thd, phid)
     X2d = sum(sp.diff(X2, a) * b for a, b in zip(q, qd))
     Y2d = sum(sp.diff(Y2, a) * b for a, b in zip(q, qd))
-    L = (m1 / 2 * (xd**2 + yd**2) + I1 / 2 * thd**2 + m2 / 2 * (X2d**2 + Y2d**2) + I2 / 2 * (thd + phid) ** 2)
+    L = m1 / 2 * (xd**2 + yd**2) + I1 / 2 * thd**2 + m2 / 2 * (X2d**2 + Y2d**2) + I2 / 2 * (thd + phid) ** 2
     cons = [_no_slip(xd, yd, th), _tidy(_no_slip(X2d, Y2d, th + phi), qd)]
     return NonholonomicSystem.from_lagrangian(
-        _tidy(L, qd), SE2(x, y, th), (phi,), cons, name="roller_racer",
+        _tidy(L, qd),
+        SE2(x, y, th),
+        (phi,),
+        cons,
+        name="roller_racer",
         description="roller racer (Tsakiris and Krishnaprasad): two planar bodies joined by a pivot, a wheel pair "
-                    "at each body's centre of mass; phi is the relative angle (body 2 heads theta + phi)")
+        "at each body's centre of mass; phi is the relative angle (body 2 heads theta + phi)",
+    )
 
 
 def roller_racer(**values: float) -> NonholonomicSystem:
@@ -199,10 +214,14 @@ def _bicycle() -> NonholonomicSystem:
     rear = _no_slip(xd, yd, th)
     front = _no_slip(xd - b * sp.sin(th) * thd, yd + b * sp.cos(th) * thd, th + sig)
     return NonholonomicSystem.from_lagrangian(
-        _tidy(L, qd), SE2(x, y, th), (phi, sig), [rear, _tidy(front, qd)],
+        _tidy(L, qd),
+        SE2(x, y, th),
+        (phi, sig),
+        [rear, _tidy(front, qd)],
         name="simplified_bicycle",
         description="simplified bicycle (Getz and Marsden 1995): a point mass on a leaning frame, rear wheel and "
-                    "steered front wheel rolling without lateral slip")
+        "steered front wheel rolling without lateral slip",
+    )
 
 
 def simplified_bicycle(**values: float) -> NonholonomicSystem:
@@ -231,8 +250,13 @@ def _sleigh() -> NonholonomicSystem:
     xd, yd, thd = _v("x", "y", "theta")
     L = m / 2 * ((xd - a * sp.sin(th) * thd) ** 2 + (yd + a * sp.cos(th) * thd) ** 2) + I / 2 * thd**2
     return NonholonomicSystem.from_lagrangian(
-        sp.expand(L), SE2(x, y, th), (), [_no_slip(xd, yd, th)], name="chaplygin_sleigh",
-        description="Chaplygin sleigh: a planar body on a knife edge at (x, y), centre of mass a ahead of it")
+        sp.expand(L),
+        SE2(x, y, th),
+        (),
+        [_no_slip(xd, yd, th)],
+        name="chaplygin_sleigh",
+        description="Chaplygin sleigh: a planar body on a knife edge at (x, y), centre of mass a ahead of it",
+    )
 
 
 def chaplygin_sleigh(**values: float) -> NonholonomicSystem:
@@ -255,8 +279,13 @@ def _disk() -> NonholonomicSystem:
     L = m / 2 * (xd**2 + yd**2) + I / 2 * thd**2 + J / 2 * phid**2
     cons = [xd - R * sp.cos(th) * phid, yd - R * sp.sin(th) * phid]
     return NonholonomicSystem.from_lagrangian(
-        L, SE2(x, y, th), (phi,), cons, name="rolling_disk",
-        description="vertical rolling disk: contact point (x, y), heading theta, rolling angle phi")
+        L,
+        SE2(x, y, th),
+        (phi,),
+        cons,
+        name="rolling_disk",
+        description="vertical rolling disk: contact point (x, y), heading theta, rolling angle phi",
+    )
 
 
 def rolling_disk(**values: float) -> NonholonomicSystem:
@@ -279,14 +308,21 @@ def _geared(scaled: bool) -> NonholonomicSystem:
     x, y, th, psi = _q("x", "y", "theta", "psi")
     xd, yd, thd, psid = _v("x", "y", "theta", "psi")
     # A rotor whose axle sits a distance a ahead of the body's reference point (x, y).
-    L = (m / 2 * ((xd - a * sp.sin(th) * thd) ** 2 + (yd + a * sp.cos(th) * thd) ** 2) + J / 2 * thd**2
-         + J0 / 2 * (thd + psid) ** 2)
+    L = (
+        m / 2 * ((xd - a * sp.sin(th) * thd) ** 2 + (yd + a * sp.cos(th) * thd) ** 2)
+        + J / 2 * thd**2
+        + J0 / 2 * (thd + psid) ** 2
+    )
     factor = (2 + sp.sin(psi)) if scaled else 1
     return NonholonomicSystem.from_lagrangian(
-        sp.expand(L), SE2(x, y, th), (psi,), [factor * (thd - k * psid)],
+        sp.expand(L),
+        SE2(x, y, th),
+        (psi,),
+        [factor * (thd - k * psid)],
         name="geared_body_scaled" if scaled else "geared_body",
         description="planar body whose heading is geared to a rotor, theta' = k psi' (an integrable constraint "
-                    "written as a one-form" + (", multiplied by 2 + sin(psi)" if scaled else "") + ")")
+        "written as a one-form" + (", multiplied by 2 + sin(psi)" if scaled else "") + ")",
+    )
 
 
 def geared_body(*, scaled: bool = False, **values: float) -> NonholonomicSystem:
@@ -315,9 +351,14 @@ def _car() -> NonholonomicSystem:
     L = m / 2 * (xd**2 + yd**2) + I / 2 * thd**2 + J / 2 * psid**2 + K / 2 * phid**2
     cons = [sp.cos(th) * xd + sp.sin(th) * yd - R * psid, _no_slip(xd, yd, th), thd - R / ell * sp.tan(phi) * psid]
     return NonholonomicSystem.from_lagrangian(
-        L, SE2(x, y, th), (psi, phi), cons, name="kinematic_car",
+        L,
+        SE2(x, y, th),
+        (psi, phi),
+        cons,
+        name="kinematic_car",
         description="kinematic car: rear axle at (x, y) heading theta, rear wheel angle psi (radius R), steering "
-                    "angle phi, wheelbase ell; principally kinematic (S_q = 0)")
+        "angle phi, wheelbase ell; principally kinematic (S_q = 0)",
+    )
 
 
 def kinematic_car(**values: float) -> NonholonomicSystem:
@@ -342,17 +383,22 @@ def _ball() -> NonholonomicSystem:
     xd, yd, phd, thd, psd = _v("x", "y", "phi", "theta", "psi")
     R = SO3().sympy_element([ph, th, ps])[0]  # 3-1-3: Rz(phi) Rx(theta) Rz(psi)
     Rd = sum((R.diff(a) * b for a, b in zip((ph, th, ps), (phd, thd, psd))), sp.zeros(3))
-    body = (R.T * Rd).applyfunc(sp.trigsimp)      # hat of the body angular velocity omega
-    space = (Rd * R.T).applyfunc(sp.trigsimp)     # hat of the spatial angular velocity Omega = R omega
+    body = (R.T * Rd).applyfunc(sp.trigsimp)  # hat of the body angular velocity omega
+    space = (Rd * R.T).applyfunc(sp.trigsimp)  # hat of the spatial angular velocity Omega = R omega
     w = (body[2, 1], body[0, 2], body[1, 0])
     Om = (space[2, 1], space[0, 2], space[1, 0])
     L = m / 2 * (xd**2 + yd**2) + (I1 * w[0] ** 2 + I2 * w[1] ** 2 + I3 * w[2] ** 2) / 2
     # the contact point, a distance r below the centre, does not slip: x' + Omega x (-r e3) = 0
     cons = [xd - r * Om[1], yd + r * Om[0]]
     return NonholonomicSystem.from_lagrangian(
-        sp.expand(L), SE2(x, y, ph), (th, ps), cons, name="chaplygin_ball",
+        sp.expand(L),
+        SE2(x, y, ph),
+        (th, ps),
+        cons,
+        name="chaplygin_ball",
         description="Chaplygin's ball: a sphere (radius r, mass m, centre of mass at its centre, principal moments "
-                    "I1, I2, I3) rolling without slipping on a plane; attitude R = Rz(phi) Rx(theta) Rz(psi)")
+        "I1, I2, I3) rolling without slipping on a plane; attitude R = Rz(phi) Rx(theta) Rz(psi)",
+    )
 
 
 def chaplygin_ball(**values: float) -> NonholonomicSystem:

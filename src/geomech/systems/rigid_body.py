@@ -69,9 +69,7 @@ class RigidBody:
             tensor = 0.5 * (arr + arr.T)
             moments, axes = np.linalg.eigh(tensor)
             if np.any(moments <= 0):
-                raise InputError(
-                    f"Expected `inertia` to be positive definite, got eigenvalues {moments.tolist()}."
-                )
+                raise InputError(f"Expected `inertia` to be positive definite, got eigenvalues {moments.tolist()}.")
             if np.linalg.det(axes) < 0:
                 axes[:, 2] *= -1
             diagonal = bool(np.all(tensor == np.diag(np.diag(tensor))))

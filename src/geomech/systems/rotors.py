@@ -97,8 +97,9 @@ class RotorBody:
         elif lam.shape != (3, 3):
             raise InputError(f"Expected `inertia` to have shape (3,) or (3, 3), got {lam.shape}.")
         if not np.allclose(lam, lam.T, rtol=1e-12, atol=1e-14 * np.abs(lam).max()):
-            raise InputError(f"Expected `inertia` to be symmetric, got max |Lambda - Lambda^T| = "
-                             f"{np.abs(lam - lam.T).max():.3g}.")
+            raise InputError(
+                f"Expected `inertia` to be symmetric, got max |Lambda - Lambda^T| = {np.abs(lam - lam.T).max():.3g}."
+            )
         lam = 0.5 * (lam + lam.T)
         eig = np.linalg.eigvalsh(lam)
         if eig[0] <= 0:
@@ -116,8 +117,9 @@ class RotorBody:
         if self.rotor_inertia is not None:
             J = np.atleast_1d(V.positive(self.rotor_inertia, "rotor_inertia")).astype(float)
             if J.shape != (axes.shape[0],):
-                raise InputError(f"Expected `rotor_inertia` to have one entry per rotor ({axes.shape[0]}), "
-                                 f"got shape {J.shape}.")
+                raise InputError(
+                    f"Expected `rotor_inertia` to have one entry per rotor ({axes.shape[0]}), got shape {J.shape}."
+                )
             J.setflags(write=False)
         for arr in (lam, axes):
             arr.setflags(write=False)
@@ -149,8 +151,9 @@ class RotorBody:
         return cls(np.diag(lam), np.eye(3), J, name="rigid body with three rotors on the principal axes")
 
     @classmethod
-    def pyramid(cls, inertia: Any, J: Any, *, elevation: float = ISOTROPIC_PYRAMID_ELEVATION,
-                azimuth: float = 0.0) -> RotorBody:
+    def pyramid(
+        cls, inertia: Any, J: Any, *, elevation: float = ISOTROPIC_PYRAMID_ELEVATION, azimuth: float = 0.0
+    ) -> RotorBody:
         """Four wheels in a pyramid: :math:`a_k = (\\cos\\beta\\cos\\alpha_k, \\cos\\beta\\sin\\alpha_k,
         \\sin\\beta)`, :math:`\\alpha_k = \\alpha_0 + k\\pi/2`.
 
@@ -187,8 +190,10 @@ class RotorBody:
     def require_rotor_inertia(self, feature: str) -> np.ndarray:
         """The rotors' axial moments, or an :class:`InputError` saying ``feature`` needs them."""
         if self.rotor_inertia is None:
-            raise InputError(f"{feature} needs the rotors' axial moments of inertia; build the body with "
-                             "`rotor_inertia` (J3=... for RotorBody.one_rotor).")
+            raise InputError(
+                f"{feature} needs the rotors' axial moments of inertia; build the body with "
+                "`rotor_inertia` (J3=... for RotorBody.one_rotor)."
+            )
         return self.rotor_inertia
 
     @property
@@ -287,8 +292,9 @@ class RotorBody:
         return out
 
     # -- open-loop equations (eqs. 26, 38) -----------------------------------------------------------
-    def vector_field(self, R: np.ndarray, m: np.ndarray, Gamma: np.ndarray, u: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def vector_field(
+        self, R: np.ndarray, m: np.ndarray, Gamma: np.ndarray, u: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:math:`(\\dot R, \\dot m, \\dot\\gamma, \\dot\\Gamma)` of eqs. (26), (38) for one state and torque ``u``."""
         w = self.angular_velocity(m, Gamma)
         return R @ hat(w, check=False), np.cross(m, w), self.rotor_rates(m, Gamma), np.asarray(u, dtype=float)
@@ -354,8 +360,9 @@ class RotorBody:
         scale = max(1.0, float(np.abs(y0).max()))
         status, message = 0, "success"
         if t_eval[-1] > t_eval[0]:
-            sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0, method="DOP853", t_eval=t_eval, rtol=rtol,
-                            atol=atol * scale)
+            sol = solve_ivp(
+                rhs, (t_eval[0], t_eval[-1]), y0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol * scale
+            )
             Y, nfev = sol.y.T, sol.nfev
             if sol.status < 0 or Y.shape[0] != t_eval.size:
                 status, message = -1, f"integration failed at t = {sol.t[-1]:.6g}: {sol.message}"
@@ -366,8 +373,12 @@ class RotorBody:
         else:
             Y, nfev = np.broadcast_to(y0, (t_eval.size, y0.size)).copy(), 0
         R, m, gam, Gam = Y[:, :9].reshape(-1, 3, 3), Y[:, 9:12], Y[:, 12 : 12 + n], Y[:, 12 + n :]
-        u = np.array([u_fn(t, R[i], m[i], gam[i], Gam[i]) if np.all(np.isfinite(Y[i])) else np.full(n, np.nan)
-                      for i, t in enumerate(t_eval)]).reshape(-1, n)
+        u = np.array(
+            [
+                u_fn(t, R[i], m[i], gam[i], Gam[i]) if np.all(np.isfinite(Y[i])) else np.full(n, np.nan)
+                for i, t in enumerate(t_eval)
+            ]
+        ).reshape(-1, n)
         return RotorTrajectory(t_eval, R, m, gam, Gam, u, self, status, message, nfev)
 
     def to_json(self) -> dict[str, Any]:
@@ -391,6 +402,7 @@ def _torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
     if hasattr(torque, "feedback"):
         return lambda t, R, m, gam, Gam: np.asarray(torque.feedback(m, Gam), dtype=float).reshape(n)
     if callable(torque):
+
         def u(t, R, m, gam, Gam):
             val = np.asarray(torque(t, R, m, gam, Gam), dtype=float)
             if val.size != n:
@@ -398,8 +410,10 @@ def _torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
             return val.reshape(n)
 
         return u
-    raise InputError(f"Expected `torque` to be None, a callable u(t, R, m, gamma, Gamma) or a feedback law "
-                     f"with .feedback(m, Gamma), got {type(torque).__name__}.")
+    raise InputError(
+        f"Expected `torque` to be None, a callable u(t, R, m, gamma, Gamma) or a feedback law "
+        f"with .feedback(m, Gamma), got {type(torque).__name__}."
+    )
 
 
 @dataclass(frozen=True, eq=False)
