@@ -6,14 +6,14 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import jv
 
-from geomech.analysis.gaits import (
+from geomech.analysis import (
     GaitModel,
+    ShapeLoop,
     analyse_gait,
     connection_line_integral,
     gait_curvature_integral,
     gait_loop,
 )
-from geomech.analysis.phases import ShapeLoop
 from geomech.errors import InputError, ShapeError, SingularityError
 from geomech.lie import se2
 from geomech.systems.nonholonomic_examples import kinematic_car, snakeboard_bkmm

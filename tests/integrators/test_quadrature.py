@@ -14,7 +14,7 @@ from scipy.special import ellipk
 
 from geomech import CanonicalSystem, LeftInvariantSystem, RigidBody
 from geomech.errors import ConvergenceError, InputError, ShapeError, SingularityError
-from geomech.integrators.quadrature import QuadraturePropagator, SerretAndoyerPropagator
+from geomech.integrators import QuadraturePropagator, SerretAndoyerPropagator
 from geomech.lie import so3
 from geomech.reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
 

@@ -10,7 +10,7 @@ import sympy as sp
 
 import geomech as gm
 from geomech.integrators._problem import make_problem
-from geomech.integrators.methods import _composition_weights
+from geomech.integrators.methods._lie_poisson import _composition_weights
 from geomech.integrators.solve import solve
 
 

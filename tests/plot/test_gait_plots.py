@@ -7,7 +7,7 @@ matplotlib = pytest.importorskip("matplotlib")
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from geomech.analysis.gaits import GaitModel, analyse_gait  # noqa: E402
+from geomech.analysis import GaitModel, analyse_gait  # noqa: E402
 from geomech.plot.gaits import gait_connection_field, gait_curvature_map, gait_momentum, gait_paths  # noqa: E402
 from geomech.systems.nonholonomic_examples import snakeboard_bkmm  # noqa: E402
 

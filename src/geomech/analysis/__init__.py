@@ -9,28 +9,19 @@ from .equilibria import (
     find_equilibria,
     refine_equilibrium,
 )
-from .gaits import (
-    GaitAnalysis,
-    GaitModel,
-    analyse_gait,
-    connection_line_integral,
-    gait_curvature_integral,
-    gait_loop,
-)
+from .gait_model import GaitModel, gait_loop
+from .gaits import GaitAnalysis, analyse_gait, connection_line_integral, gait_curvature_integral
+from .group_paths import GroupPath, decompose_displacement, integrate_on_group
 from .phases import (
-    GroupPath,
     PhaseSplit,
     Reconstruction,
-    ShapeLoop,
-    bind_loop,
     curvature_integral,
-    decompose_displacement,
     geometric_phase,
-    integrate_on_group,
     phases,
     reconstruct,
 )
 from .rigid_body_phase import RigidBodyPhase, rigid_body_phase, spherical_polygon_area
+from .shape_loops import ShapeLoop, bind_loop
 from .stability import (
     VERDICT_CODES,
     PerturbationGrowth,

@@ -13,7 +13,8 @@ from scipy.integrate import solve_ivp
 from .. import _validate as V
 from ..errors import InputError, NumericalError
 from ..lie._common import wrap_angle
-from .phases import _periodic_integral, integrate_on_group
+from .group_paths import integrate_on_group
+from .shape_loops import periodic_integral
 
 __all__ = ["RigidBodyPhase", "rigid_body_phase", "spherical_polygon_area"]
 
@@ -63,7 +64,7 @@ class RigidBodyPhase:
     difference: float | None
     attitude_residual: float | None
     body: Any = field(repr=False, default=None)
-    m0: np.ndarray = field(repr=False, default=None)  # type: ignore[assignment]
+    m0: np.ndarray | None = field(repr=False, default=None)
 
     def momentum_curve(self, n: int = 400) -> np.ndarray:
         """One period of the body momentum :math:`m(t)` (user's body frame), shape ``(n, 3)``."""
@@ -168,7 +169,7 @@ def rigid_body_phase(
         ldot = sa.reduced_vector_field(lL, G, axis=a)[..., 0]
         return np.stack([-(s - lL[..., 1] / G) * ldot, ldot], -1)
 
-    Lam, dl = _periodic_integral(integrand, T, rtol=1e-14, what="solid angle")
+    Lam, dl = periodic_integral(integrand, T, rtol=1e-14, what="solid angle")
     if abs(abs(dl) - 2 * np.pi) > 1e-6:
         raise NumericalError(
             f"The Serret-Andoyer angle l advanced by {dl:.9g} over a period instead of +-2 pi; "

@@ -66,7 +66,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
     -2 pi turns I2/(I1 + I2) + mu T/(I1 + I2) (from the conservation law
     (I1 + I2) theta' + I2 psi' = mu), and theta(T) - theta(0) reconstructed on the group.
     """
-    from ..analysis.phases import ShapeLoop, phases, reconstruct
+    from ..analysis import ShapeLoop, phases, reconstruct
     from ..systems.holonomic_examples import two_pinned_bodies
 
     if not (math.isfinite(period) and period > 0):
@@ -281,7 +281,7 @@ def loop_cmd(
     the curvature integral over the enclosed area (Stokes) on a 2-D shape space, and the net motion
     g(0)^-1 g(T) reconstructed on the group (eq. 2.2).
     """
-    from ..analysis.phases import ShapeLoop, curvature_integral, phases, reconstruct
+    from ..analysis import ShapeLoop, curvature_integral, phases, reconstruct
 
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
@@ -347,6 +347,6 @@ def loop_cmd(
 
 
 def _winding(system: Any, loop: Any) -> np.ndarray:
-    from ..analysis.phases import bind_loop
+    from ..analysis.shape_loops import bind_loop
 
     return bind_loop(system, loop)

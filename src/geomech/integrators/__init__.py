@@ -31,7 +31,8 @@ from .nonholonomic import (
     simulate_reduced,
 )
 from .periodic import PeriodicOrbitPropagator
-from .quadrature import CriticalPoint, OrbitIntegral, QuadraturePropagator, SerretAndoyerPropagator
+from .quadrature import CriticalPoint, OrbitIntegral, QuadraturePropagator
+from .serret_andoyer_propagator import SerretAndoyerPropagator
 from .solution import Failure, Solution
 from .solve import compatible_methods, solve
 

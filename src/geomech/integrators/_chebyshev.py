@@ -49,7 +49,7 @@ class _Piecewise:
     @classmethod
     def fit(
         cls,
-        fun: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        fun: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
         edges: np.ndarray,
         floor: np.ndarray,
         ctol: float,

@@ -10,7 +10,8 @@ the level curves :math:`H = E`, and the time of flight along a curve is
 
 For the reduced Serret-Andoyer system :math:`h_p(l, L)` (eq. 21 of the Serret-Andoyer paper) this is
 eq. (11) there; :class:`QuadraturePropagator` does it for any :class:`~geomech.systems.CanonicalSystem`
-with ``n = 1`` and :class:`SerretAndoyerPropagator` adds the reconstruction of the attitude (Theorem 3).
+with ``n = 1``, and :class:`~geomech.integrators.serret_andoyer_propagator.SerretAndoyerPropagator` adds the
+reconstruction of the attitude (Theorem 3).
 
 Method
 ------
@@ -46,7 +47,7 @@ from ..errors import ConvergenceError, InputError, NumericalError, SingularityEr
 from ..systems.canonical import CanonicalSystem
 from ._chebyshev import _chebeval, _Piecewise
 
-__all__ = ["CriticalPoint", "OrbitIntegral", "QuadraturePropagator", "SerretAndoyerPropagator"]
+__all__ = ["CriticalPoint", "OrbitIntegral", "QuadraturePropagator", "one_dof_arguments"]
 
 _EPS = float(np.finfo(float).eps)
 _AUTO: Any = object()
@@ -204,7 +205,7 @@ class QuadraturePropagator:
         if self._s.shape != (2,):
             raise InputError(f"Expected `scale` to be a pair (s_q, s_p), got {scale!r}.")
         self._lo, self._hi = lo / self._s[1], hi / self._s[1]
-        self._P = angle_period / self._s[0] if angle_period else None
+        self._P: float | None = float(angle_period / self._s[0]) if angle_period else None
         self.nfev = 0
         z0 = y0 / self._s
         E = self._H(z0[None])[0]
@@ -220,7 +221,9 @@ class QuadraturePropagator:
             self.energy_tol = V.positive_scalar(energy_tol, "energy_tol")
         self._z0 = z0
         self._hmax = 0.25 * max(1.0, float(np.max(np.abs(z0))))
-        self.winding, self.saddles, self.equilibrium = 0, (), None
+        self.winding = 0
+        self.saddles: tuple[CriticalPoint, ...] = ()
+        self.equilibrium: CriticalPoint | None = None
         self.period = self.period_error = math.inf
         self.turning_points, self.turning_times = np.empty((0, 2)), np.empty(0)
         self.L_range = (float(y0[1]), float(y0[1]))
@@ -343,7 +346,7 @@ class QuadraturePropagator:
             pred = z + h * tangent
             res = self._correct(pred) if self._inside(pred) else None
             ok = res is not None
-            if ok:
+            if res is not None:
                 zc, gc = res
                 tn = direction * np.array([gc[1], -gc[0]]) / np.linalg.norm(gc)
                 turn = math.acos(min(1.0, float(tangent @ tn)))
@@ -377,7 +380,7 @@ class QuadraturePropagator:
                 s = float(d @ chord) / float(chord @ chord)
                 if -1e-12 <= s <= 1 + 1e-12 and np.linalg.norm(d - s * chord) <= 0.1 * h and tangent @ t0 > 0.5:
                     pts.append(target)
-                    return pts, "closed", round(w / self._P) if w else 0
+                    return pts, "closed", round(w / self._P) if w and self._P else 0
             pts.append(zc)
             z, g, tangent = zc, gc, tn
             rho = np.linalg.norm(g) / max(np.linalg.norm(self._hess(z), 2), 1e-300)
@@ -442,7 +445,7 @@ class QuadraturePropagator:
         self._run_u = np.array([[pts[r[1], r[0]], pts[r[2], r[0]]] for r in runs])
         guides = [(pts[r[1] : r[2] + 1, r[0]], pts[r[1] : r[2] + 1, 1 - r[0]]) for r in runs]
 
-        def arcs(sig: np.ndarray, root: np.ndarray) -> np.ndarray:
+        def arcs(sig: np.ndarray, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             kind = self._run_kind[root]
             u0, u1 = self._run_u[root, 0], self._run_u[root, 1]
             u = u0 + (sig - root) * (u1 - u0)
@@ -525,9 +528,9 @@ class QuadraturePropagator:
             if c.size < 3:
                 continue
             dc = _cheb.chebder(c)
-            for x in _cheb.chebroots(dc):
-                if abs(x.imag) < 1e-8 and -1 - 1e-9 <= x.real <= 1 + 1e-9:
-                    x = float(np.clip(x.real, -1, 1))
+            for root in _cheb.chebroots(dc):
+                if abs(root.imag) < 1e-8 and -1 - 1e-9 <= root.real <= 1 + 1e-9:
+                    x = float(np.clip(root.real, -1, 1))
                     for _ in range(5):  # roots of the companion matrix, refined by Newton on v'
                         d2 = _cheb.chebval(x, _cheb.chebder(dc))
                         if d2 == 0:
@@ -600,6 +603,7 @@ class QuadraturePropagator:
         n = np.floor(t / self.period)
         z = self._table(t - n * self.period)
         if self.winding:
+            assert self._P is not None  # a rotation winds only where q is an angle
             z[..., 0] += n * (self.winding * self._P)
         return z * self._s
 
@@ -639,108 +643,3 @@ class QuadraturePropagator:
             f"QuadraturePropagator(kind={self.kind!r}, energy={self.energy:.17g}, period={self.period:.17g}, "
             f"winding={self.winding})"
         )
-
-
-class SerretAndoyerPropagator:
-    """Exact motion of a left-invariant system :math:`H(m)` on :math:`T^*SO(3)`: :math:`(l, L)(t)` by
-    quadrature (eq. 11) and the attitude by the reconstruction of Theorem 3,
-
-    .. math::
-
-        R = S\\,R_z(\\varphi)R_x(\\theta)R_z(l)\\,C^T,\\quad \\cos\\theta = L/G,\\quad
-        \\varphi(t) = \\varphi_0 + \\int_0^t \\dot\\varphi\\,ds,
-
-    :math:`\\dot\\varphi` (:meth:`GeneralizedSerretAndoyer.phi_rate`) integrated by the same quadrature: a
-    fixed advance per period of :math:`(l, L)` plus a periodic part.
-
-    Parameters
-    ----------
-    reduction : GeneralizedSerretAndoyer, or a system it accepts (LeftInvariantSystem, RigidBody).
-    m0 : (3,) the initial body momentum, ``G = |m0|``. R0 : (3, 3) the initial attitude (default I).
-    axis : the chart's body axis (0-based; 2 is the paper's). Default: axis 3 if the orbit keeps
-        ``|L|/G <= reduction.switch_at`` there, else the chart where it stays farthest from the poles.
-    tol : as in :class:`QuadraturePropagator`.
-
-    Attributes
-    ----------
-    orbit (the :class:`QuadraturePropagator` of :math:`h_p`), kind, energy, period, G, axis, p (spatial
-    momentum), S (spatial frame, ``S e3 = p/G``), phi0, pole_ratio (max ``|L|/G`` on the orbit: near 1 the
-    chart and :math:`\\dot\\varphi` are near their singularity).
-    """
-
-    def __init__(self, reduction: Any, m0: Any, *, R0: Any = None, axis: int | None = None, tol: float = 1e-12):
-        from ..lie import euler
-        from ..reduction.serret_andoyer import GeneralizedSerretAndoyer, spatial_frame
-
-        sa = reduction if isinstance(reduction, GeneralizedSerretAndoyer) else GeneralizedSerretAndoyer(reduction)
-        self.reduction, self.m0 = sa, V.exact_shape(m0, "m0", (3,))
-        self.G = G = float(np.linalg.norm(self.m0))
-        if G == 0:
-            raise InputError("Expected `m0` to be nonzero: the momentum sphere |m| = G needs G > 0.")
-        R0 = np.eye(3) if R0 is None else V.rotation_matrix(R0, "R0")
-        if axis is not None and (isinstance(axis, bool) or axis not in (0, 1, 2)):
-            raise InputError(f"Expected `axis` to be a body axis index 0, 1 or 2 or None, got {axis!r}.")
-        best, failures = None, []
-        for k in [axis] if axis is not None else [2, 0, 1]:
-            try:
-                y0 = sa.charts[k].forward(self.m0)
-                orbit = QuadraturePropagator(sa.reduced_system(G, k), y0, L_bounds=(-G, G), tol=tol)
-            except SingularityError as exc:
-                if axis is not None:
-                    raise
-                failures.append(f"axis {k + 1}: {exc}")
-                continue
-            ratio = max(abs(orbit.L_range[0]), abs(orbit.L_range[1])) / G
-            if best is None or ratio < best[1]:
-                best = (k, ratio, orbit)
-            if ratio <= sa.switch_at:
-                break
-        if best is None:
-            raise SingularityError("No Serret-Andoyer chart covers the orbit: " + " | ".join(failures))
-        self.axis, self.pole_ratio, self.orbit = best
-        self.p = R0 @ self.m0
-        self.S = spatial_frame(self.p)
-        self.phi0 = float(euler.from_matrix(self.S.T @ R0 @ sa.charts[self.axis].permutation, seq="ZXZ")[0])
-        self._phi = None
-        if self.orbit.kind != "separatrix":
-            self._phi = self.orbit.integral(lambda y: sa.phi_rate(y, G, self.axis))
-
-    @classmethod
-    def from_reduced(cls, reduction: Any, lL0: Any, G: float, *, axis: int = 2, tol: float = 1e-12):
-        """Start from ``(l0, L0)`` in the chart about ``axis``, with ``phi0 = 0`` and ``p = G e3`` (``S = I``)."""
-        from ..reduction.serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart
-
-        lL0, G = V.exact_shape(lL0, "lL0", (2,)), V.positive_scalar(G, "G")
-        R0 = GeneralizedSerretAndoyer.attitude(np.eye(3), 0.0, lL0[1], lL0[0], G, axis)
-        return cls(reduction, SerretAndoyerChart(axis).inverse(lL0, G), R0=R0, axis=axis, tol=tol)
-
-    kind = property(lambda self: self.orbit.kind)
-    energy = property(lambda self: self.orbit.energy)
-    period = property(lambda self: self.orbit.period)
-
-    def state(self, t: Any) -> np.ndarray:
-        """:math:`(l, L)(t)` in the chart about :attr:`axis` (``l`` lifted), shape ``t.shape + (2,)``."""
-        return self.orbit.state(t)
-
-    def phi(self, t: Any) -> np.ndarray:
-        """The reconstruction angle :math:`\\varphi(t)` (continuous, not reduced modulo 2 pi)."""
-        self.orbit._require_periodic("phi")
-        return self.phi0 + self._phi(t)
-
-    @property
-    def phi_per_period(self) -> float:
-        """The advance of :math:`\\varphi` over one period of :math:`(l, L)`: R(t + T) = exp(that * p/G) R(t)."""
-        self.orbit._require_periodic("phi_per_period")
-        return self._phi.per_period
-
-    def momentum(self, t: Any) -> np.ndarray:
-        """Body momentum :math:`m(t)`, shape ``t.shape + (3,)``."""
-        return self.reduction.charts[self.axis].inverse(self.state(t), self.G)
-
-    def attitude(self, t: Any) -> np.ndarray:
-        """Attitude :math:`R(t)` (body to space), shape ``t.shape + (3, 3)``."""
-        y, phi = self.state(t), self.phi(t)
-        return self.reduction.attitude(self.S, phi, y[..., 1], y[..., 0], self.G, self.axis)
-
-    def __repr__(self) -> str:
-        return f"SerretAndoyerPropagator(axis={self.axis + 1}, G={self.G:.17g}, {self.orbit!r})"

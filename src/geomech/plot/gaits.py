@@ -23,7 +23,7 @@ _STYLE = {
 
 
 def _model(system: Any) -> Any:
-    from ..analysis.gaits import GaitModel
+    from ..analysis.gait_model import GaitModel
 
     if isinstance(system, GaitModel):
         return system
@@ -110,7 +110,7 @@ def gait_connection_field(
 ) -> Any:
     """A row of :math:`-\\mathcal A^{nh}(r)` as a vector field on a 2-D shape space, the gait ``loop`` on top.
 
-    ``system``: a NonholonomicSystem, a :class:`~geomech.analysis.gaits.GaitModel` or a GaitAnalysis (its loop
+    ``system``: a NonholonomicSystem, a :class:`~geomech.analysis.gait_model.GaitModel` or a GaitAnalysis (its loop
     is drawn unless another is given). As for holonomic systems (:func:`~geomech.plot.phases.connection_field`)
     the arrows are the body velocity a unit shape velocity along each axis produces, so a loop that runs with
     the arrows gains in that component through the connection term. ``component``: an index or a name

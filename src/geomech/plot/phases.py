@@ -163,7 +163,7 @@ def connection_field(
     Following the convention of gait design, the arrows are the body velocity (in that component) a
     unit shape velocity along each axis would produce, so a loop that runs along the arrows gains
     :math:`-\\oint A` in it. ``component`` is an index or a name (``"theta"``, ``"x"``, ``"omega"``...);
-    default the rotation. ``loop`` (a :class:`~geomech.analysis.phases.ShapeLoop`) is drawn on top.
+    default the rotation. ``loop`` (a :class:`~geomech.analysis.shape_loops.ShapeLoop`) is drawn on top.
     """
     import matplotlib.pyplot as plt
 

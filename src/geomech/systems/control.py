@@ -17,26 +17,9 @@ keeps :math:`p = \\Gamma - \\varphi(m)` constant (Lemma 4 (i)), so along the clo
 
     F(m) = D_1H_f(m, \\varphi(m) + p) = \\Lambda^{-1}\\bigl(m - A(\\varphi(m) + p)\\bigr).
 
-**The exact existence condition.** Eq. (27a) asks :math:`\\nabla H_c = F` exactly (Lemma 4 (ii)), and
-on a star-shaped domain :math:`F` is a gradient if and only if its Jacobian
-:math:`DF = \\Lambda^{-1}(I - A\\,D\\varphi)` is symmetric, i.e. iff
-
-.. math::
-
-    \\Lambda^{-1} A\\, D\\varphi(m) \\ \\text{is symmetric for every } m
-
-(for three rotors on the principal axes: :math:`\\partial_j\\varphi_i/\\lambda_i = \\partial_i\\varphi_j/\\lambda_j`).
-The condition printed in Proposition 5, :math:`D\\varphi` symmetric, is neither necessary nor
-sufficient unless the :math:`\\lambda_i` involved are equal: :math:`\\varphi = (a m_2, a m_1, 0)` has a
-symmetric :math:`D\\varphi` and no :math:`H_c` when :math:`\\lambda_1 \\ne \\lambda_2`, while
-:math:`\\varphi = (\\lambda_1 c\\, m_2, \\lambda_2 c\\, m_1, 0)` has an :math:`H_c` and a non-symmetric
-:math:`D\\varphi`. A :math:`\\varphi` that fails the condition is rejected with the reason.
-
-Then :math:`H_c(m) = \\tfrac12 m\\cdot\\Lambda^{-1}m - (Ap)\\cdot\\Lambda^{-1}m - \\psi(m)` with
-:math:`\\nabla\\psi = \\Lambda^{-1}A\\varphi` and :math:`\\psi(0) = 0`: the constant of integration is fixed
-by integrating from 0. For one rotor on axis 3 this is eq. (29b), for the diagonal controls of
-Corollary 2 eq. (41). :math:`\\psi` is computed by sympy where it finds an antiderivative (checked by
-differentiation at random points) and by Gauss-Legendre quadrature otherwise.
+**The exact existence condition** (Lemma 4 (ii)) is :math:`\\Lambda^{-1}A\\,D\\varphi(m)` symmetric for every
+:math:`m`, not the printed :math:`D\\varphi` symmetric; it and the closed-loop potential :math:`\\psi` are in
+:mod:`geomech.systems._closed_loop`.
 
 **One rotor, eq. (29a).** With :math:`\\varphi(m) = \\varphi(m_3)` the control is
 :math:`u = \\varphi'(m_3)\\,\\dot m_3` and Euler's equation (30c) gives
@@ -53,7 +36,6 @@ Eq. (29a) as printed has :math:`(1/\\lambda_1 - 1/\\lambda_2)`, the opposite sig
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -63,7 +45,16 @@ from .. import _validate as V
 from ..errors import InputError, SymbolicError
 from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
 from ..symbolic.formula import parse_formula
-from ..symbolic.integrals import integral_choice, integral_from_zero, quadrature_from_zero, ray_quadrature
+from ..symbolic.integrals import integral_choice, quadrature_from_zero, ray_quadrature
+from ._closed_loop import (
+    ClosedLoopCondition,
+    ClosedLoopFamily,
+    Lemma4Check,
+    existence_condition,
+    lemma4_check,
+    potential_integral,
+    symbolic_potential,
+)
 from ._hyperregularity import V_SYMBOL, HyperregularityReport, hyperregularity_report
 from .left_invariant import LeftInvariantSystem
 from .rotors import RotorBody
@@ -76,42 +67,6 @@ __all__ = [
     "Lemma4Check",
     "StructurePreservingControl",
 ]
-
-#: The asymmetry of Lambda^-1 A Dphi is simplified symbolically only up to this size (sympy operations).
-_SIMPLIFY_MAX_OPS = 400
-
-
-@dataclass(frozen=True)
-class ClosedLoopCondition:
-    """Whether :math:`\\Lambda^{-1}A\\,D\\varphi` is symmetric, i.e. whether a closed-loop Hamiltonian exists.
-
-    ``method`` is ``"symbolic"`` (sympy simplified the asymmetry to 0 for these parameter values),
-    ``"numeric"`` (checked at random points, to ``tolerance`` relative) or ``"structural"`` (one rotor on
-    a principal axis: a 1x1 block). ``detail`` says what was checked and, when it fails, where.
-    """
-
-    holds: bool
-    method: str
-    detail: str
-    max_asymmetry: float
-
-
-@dataclass(frozen=True)
-class Lemma4Check:
-    """Lemma 4 (ii), :math:`\\nabla H_c(m) = D_1H_f(m, \\Gamma(m))`, at random states.
-
-    ``gradient_route`` says how :math:`\\nabla H_c` was obtained independently of :math:`F`: by sympy
-    differentiation of the closed-form :math:`H_c`, or by 4th-order central differences of the
-    quadrature :math:`H_c`.
-    """
-
-    max_error: float
-    max_relative_error: float
-    n_points: int
-    gradient_route: str
-
-    def passed(self, rtol: float = 1e-8) -> bool:
-        return self.max_relative_error <= rtol
 
 
 def _real(expr: sp.Expr) -> sp.Expr:
@@ -248,7 +203,7 @@ class StructurePreservingControl:
             self._phi_1d_exprs = None
             self._phi, self._dphi, self._phi_1d = self._wrap_callables(phi_callables)
             self._check_derivative()
-        self.condition = self._check_condition()
+        self.condition = existence_condition(self)
         if not self.condition.holds:
             raise InputError(
                 f"This phi has no closed-loop Hamiltonian: {self.condition.detail} A control u = Dphi(m) m' "
@@ -541,7 +496,8 @@ class StructurePreservingControl:
             lam = theta[self._lam_idx]
             if np.any(lam <= 0):
                 raise InputError(
-                    f"Expected the inertias {[str(s) for s in self._lam_syms]} to be positive, got {lam.tolist()}."
+                    f"Expected the inertias {[str(s) for s in self._lam_syms or ()]} to be positive, "
+                    f"got {lam.tolist()}."
                 )
             lam_inv = np.diag(1.0 / lam)
         else:
@@ -559,81 +515,6 @@ class StructurePreservingControl:
         return r * x / np.linalg.norm(x, axis=1, keepdims=True)
 
     # -- the existence condition --------------------------------------------------------------------
-    def _asymmetry(self, m: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        lam_inv, _ = self._model(theta)
-        with np.errstate(all="ignore"):
-            M = lam_inv @ self.body.A @ self._dphi(m, theta)
-        scale = np.maximum(np.abs(M).max(axis=(-1, -2)), np.abs(lam_inv).max())
-        rel = np.abs(M - np.swapaxes(M, -1, -2)).max(axis=(-1, -2)) / scale
-        return np.where(np.isfinite(rel), rel, 0.0)
-
-    def _check_condition(self, theta: np.ndarray | None = None) -> ClosedLoopCondition:
-        theta = self.theta() if theta is None else theta
-        if self.n_rotors == 1 and self._separable:
-            # One scalar phi(a.m): Lambda^-1 A Dphi = phi' (Lambda^-1 a) a^T, symmetric iff a is a principal axis.
-            a = self.body.axes[0]
-            w = self._model(theta)[0] @ a
-            if np.linalg.norm(np.cross(w, a)) <= 1e-12 * np.linalg.norm(w):
-                return ClosedLoopCondition(
-                    True,
-                    "structural",
-                    "Lambda^-1 A Dphi = phi'(v) (Lambda^-1 a) a^T is "
-                    "symmetric: the rotor axis a is a principal axis of Lambda.",
-                    0.0,
-                )
-        pts = self._sample(64)
-        asym = self._asymmetry(pts, theta)
-        worst = float(asym.max())
-        tol = 1e-9
-        if self.phi_expression is not None:
-            M = self._lam_inv_sym * self._A_sym * self.phi_expression.jacobian(sp.Matrix(M_SYMBOLS))
-            # Exact rationals (the binary values of the floats), so that an asymmetry that cancels for these
-            # values simplifies to exactly 0 rather than to a round-off residue.
-            subs = {s: sp.Rational(float(x)) for s, x in zip(self._psyms, theta)}
-            entries = []
-            for i in range(3):
-                for j in range(i + 1, 3):
-                    d = M[i, j] - M[j, i]
-                    # simplified only below a size bound (a rule, not a timer); larger ones are checked
-                    # numerically below
-                    zero = sp.count_ops(d) <= _SIMPLIFY_MAX_OPS and sp.simplify(d.subs(subs)) == 0
-                    entries.append((i, j, d, zero))
-            if all(z for *_, z in entries):
-                return ClosedLoopCondition(
-                    True, "symbolic", "Lambda^-1 A Dphi is symmetric (sympy, for these parameter values).", worst
-                )
-            if worst <= tol:
-                return ClosedLoopCondition(
-                    True,
-                    "numeric",
-                    f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random "
-                    "momenta (sympy could not simplify the asymmetry to 0).",
-                    worst,
-                )
-            k = int(np.argmax(asym))
-            bad = [f"({i + 1},{j + 1}): {sp.simplify(d)}" for i, j, d, z in entries if not z]
-            return ClosedLoopCondition(
-                False,
-                "numeric",
-                f"Lambda^-1 A Dphi is not symmetric; asymmetry M_ij - M_ji at {', '.join(bad)}, "
-                f"e.g. relative asymmetry {worst:.3g} at m = {np.round(pts[k], 6).tolist()}.",
-                worst,
-            )
-        if worst <= tol:
-            return ClosedLoopCondition(
-                True,
-                "numeric",
-                f"Lambda^-1 A Dphi symmetric to {tol:g} at 64 random momenta with |m| <= {self.probe_radius:g}.",
-                worst,
-            )
-        k = int(np.argmax(asym))
-        return ClosedLoopCondition(
-            False,
-            "numeric",
-            f"Lambda^-1 A Dphi is not symmetric: relative asymmetry {worst:.3g} at m = {np.round(pts[k], 6).tolist()}.",
-            worst,
-        )
-
     # -- the closed-loop Hamiltonian (eqs. 29b, 41) --------------------------------------------------------
     def _build_hamiltonian(self) -> None:
         m = sp.Matrix(M_SYMBOLS)
@@ -641,72 +522,14 @@ class StructurePreservingControl:
         quad = (m.T * self._lam_inv_sym * m)[0, 0] / 2 - ((self._A_sym * p).T * self._lam_inv_sym * m)[0, 0]
         psi = None
         if self.phi_expression is not None:
-            psi = self._symbolic_potential()
+            psi = symbolic_potential(self)
         self.potential_expression: sp.Expr | None = psi
         self.hamiltonian_is_closed_form = psi is not None
         if psi is not None:
             self.hamiltonian_expression = quad - psi
         else:
-            self.hamiltonian_expression = quad - self._potential_integral()
+            self.hamiltonian_expression = quad - potential_integral(self)
         self._psi_f = None if psi is None else compile_scalar(psi, [*M_SYMBOLS, *self._psyms])
-
-    def _potential_integral(self) -> sp.Expr:
-        """:math:`\\psi` as an unevaluated integral, for display when sympy has no antiderivative."""
-        s = sp.Dummy("s", real=True)
-        if self._separable and self.body.is_principal:
-            terms = []
-            for i, a in enumerate(np.rint(self.body.axes).astype(int)):
-                j = int(np.argmax(np.abs(a)))
-                coeff = (sp.Matrix(a.tolist()).T * self._lam_inv_sym * sp.Matrix(a.tolist()))[0, 0]
-                f = self._phi_1d_exprs[i] if self._phi_1d_exprs is not None else sp.Function(f"phi{i + 1}")(V_SYMBOL)
-                terms.append(coeff * sp.Integral(f.xreplace({V_SYMBOL: s}), (s, 0, int(a[j]) * M_SYMBOLS[j])))
-            return sp.Add(*terms)
-        t = sp.Dummy("t", real=True)
-        g = (
-            self._lam_inv_sym
-            * self._A_sym
-            * (
-                self.phi_expression
-                if self.phi_expression is not None
-                else sp.Matrix([sp.Function(f"phi{i + 1}")(*M_SYMBOLS) for i in range(self.n_rotors)])
-            )
-        )
-        gm = g.xreplace({x: t * x for x in M_SYMBOLS})
-        return sp.Integral((gm.T * sp.Matrix(M_SYMBOLS))[0, 0], (t, 0, 1))
-
-    def _symbolic_potential(self) -> sp.Expr | None:
-        g = self._lam_inv_sym * self._A_sym * self.phi_expression
-        m1, m2, m3 = M_SYMBOLS
-        # The path 0 -> (m1,0,0) -> (m1,m2,0) -> m: three one-dimensional integrals, each easier for sympy
-        # than the ray integral, and exact for a curl-free g.
-        pieces = [(g[0].xreplace({m2: 0, m3: 0}), m1), (g[1].xreplace({m3: 0}), m2), (g[2], m3)]
-        psi = sp.Integer(0)
-        for integrand, var in pieces:
-            if integrand == 0:
-                continue
-            val = integral_from_zero(integrand, var, var, self._integral)
-            if val is None:
-                return None
-            psi += val
-        if not self._verify_potential(psi, g):
-            return None
-        return psi
-
-    def _verify_potential(self, psi: sp.Expr, g: sp.Matrix) -> bool:
-        variables = [*M_SYMBOLS, *self._psyms]
-        try:
-            grad = compile_vector([sp.diff(psi, s) for s in M_SYMBOLS], variables)
-            gf = compile_vector(list(g), variables)
-            val = compile_scalar(psi, variables)
-        except Exception:  # noqa: BLE001 - lambdify cannot print some special functions; quadrature then
-            return False
-        x = self._cat(self._sample(12, seed=11), self.theta())
-        with np.errstate(all="ignore"):
-            a, b, v0 = grad(x), gf(x), val(self._cat(np.zeros((1, 3)), self.theta()))
-        ok = np.all(np.isfinite(b), axis=-1)
-        if not np.any(ok) or not np.all(np.isfinite(a[ok])) or not np.all(np.isfinite(v0)):
-            return False
-        return bool(np.abs(a[ok] - b[ok]).max() <= 1e-9 * max(1.0, np.abs(b[ok]).max()) and abs(v0[0]) < 1e-12)
 
     def potential(self, m: Any, theta: np.ndarray | None = None) -> np.ndarray:
         """:math:`\\psi(m)` with :math:`\\nabla\\psi = \\Lambda^{-1}A\\varphi(m)`, :math:`\\psi(0) = 0`."""
@@ -719,9 +542,11 @@ class StructurePreservingControl:
             total = np.zeros(m.shape[:-1])
             for i, a in enumerate(self.body.axes):
                 coeff = a @ lam_inv @ a
-                total = total + coeff * quadrature_from_zero(
-                    lambda x, i=i: self._phi_1d[i](x, theta), m @ a, what=f"the integral of phi_{i + 1} from 0"
-                )
+
+                def phi_i(x: np.ndarray, i: int = i) -> np.ndarray:
+                    return self._phi_1d[i](x, theta)
+
+                total = total + coeff * quadrature_from_zero(phi_i, m @ a, what=f"the integral of phi_{i + 1} from 0")
             return total
         A = self.body.A
         return ray_quadrature(
@@ -808,35 +633,9 @@ class StructurePreservingControl:
 
     # -- checks --------------------------------------------------------------------------------------------
     def lemma4_check(self, n: int = 32, seed: int = 3) -> Lemma4Check:
-        """Check Lemma 4 (ii), :math:`\\nabla H_c(m) = D_1H_f(m, \\Gamma(m))`, at ``n`` random momenta.
-
-        :math:`D_1H_f` comes from the body's free Hamiltonian (eq. 24 / 37) at :math:`\\Gamma = \\varphi(m)+p`;
-        :math:`\\nabla H_c` from sympy's derivative of the closed-form :math:`H_c` or, for a quadrature
-        :math:`H_c`, from 4th-order central differences of it.
-        """
-        m = self._sample(int(n), seed=seed)
-        with np.errstate(all="ignore"):
-            ok = np.all(np.isfinite(self.phi(m)), axis=-1)
-        m = m[ok]
-        d1 = self.body.angular_velocity(m, self.rotor_momentum(m))
-        if self.hamiltonian_is_closed_form:
-            variables = [*M_SYMBOLS, *self._psyms]
-            grad = compile_vector([sp.diff(self.hamiltonian_expression, s) for s in M_SYMBOLS], variables)
-            g = grad(self._cat(m, self.theta()))
-            route = "sympy derivative of the closed-form H_c"
-        else:
-            h = 1e-3 * max(self.probe_radius, 1e-3)
-            cols = []
-            for j in range(3):
-                e = np.zeros(3)
-                e[j] = h
-                H = [self.closed_loop_hamiltonian(m + c * e) for c in (-2, -1, 1, 2)]
-                cols.append((H[0] - 8 * H[1] + 8 * H[2] - H[3]) / (12 * h))
-            g = np.stack(cols, -1)
-            route = "4th-order central differences of the quadrature H_c"
-        err = np.abs(g - d1).max(axis=-1)
-        rel = err / np.maximum(np.abs(d1).max(axis=-1), 1e-300)
-        return Lemma4Check(float(err.max()), float(rel.max()), int(m.shape[0]), route)
+        """Check Lemma 4 (ii), :math:`\\nabla H_c(m) = D_1H_f(m, \\Gamma(m))`, at ``n`` random momenta
+        (:func:`~geomech.systems._closed_loop.lemma4_check`)."""
+        return lemma4_check(self, n, seed)
 
     def hyperregularity(self, *, scan_radius: float | None = None) -> HyperregularityReport:
         """Whether :math:`H_c` is hyperregular: :math:`\\varphi'(v) \\ne 1` (one rotor, Theorem 4),
@@ -867,40 +666,3 @@ class StructurePreservingControl:
     def __repr__(self) -> str:
         phi = "callable" if self.phi_expression is None else [str(e) for e in self.phi_expression]
         return f"StructurePreservingControl({self.kind}, phi={phi}, parameters={self.parameters})"
-
-
-class ClosedLoopFamily:
-    """The closed loop :math:`H_c` as a function of the control's parameters.
-
-    ``family(k=0.6, lambda2=2.1)`` returns a :class:`LeftInvariantSystem` built from compiled callables
-    (:math:`H_c`, the exact gradient :math:`F` and Hessian :math:`DF`); the existence condition is
-    re-checked numerically for the new values, since it can depend on them.
-    """
-
-    def __init__(self, control: StructurePreservingControl):
-        self.control = control
-        self.names = control._names
-
-    def __call__(self, **values: float) -> LeftInvariantSystem:
-        c = self.control
-        theta = c.theta(values)
-        if values:
-            cond = c._check_condition(theta)
-            if not cond.holds:
-                raise InputError(f"For {values} this phi has no closed-loop Hamiltonian: {cond.detail}")
-        label = ", ".join(f"{k}={v:g}" for k, v in zip(c._names, theta))
-        lam_inv, p = c._model(theta)
-        Ap, A, axes = p @ c.body.axes, c.body.A, c.body.axes
-        eye = np.eye(3)
-
-        # Unchecked closures (LeftInvariantSystem validates its arguments): these run in Newton's inner loops.
-        def gradient(m: np.ndarray) -> np.ndarray:
-            return (m - Ap - c._phi(m, theta) @ axes) @ lam_inv.T
-
-        def hessian(m: np.ndarray) -> np.ndarray:
-            H = lam_inv @ (eye - A @ c._dphi(m, theta))
-            return 0.5 * (H + np.swapaxes(H, -1, -2))
-
-        return LeftInvariantSystem.from_callable(
-            lambda m: c.closed_loop_hamiltonian(m, theta), gradient, hessian, name=f"closed loop H_c ({label})"
-        )

@@ -1,0 +1,93 @@
+"""Integration methods: small immutable values with an order, traits, and the structure they need.
+
+Each method names the structure of system it needs (:class:`Structure`); :func:`~geomech.integrators.solve`
+checks it against the system before any work and raises :class:`IncompatibleMethodError`, naming both
+and the methods that would work, when they do not fit. :data:`REGISTRY` lists one instance of each
+method, for documentation tables and test parametrisation (as GeometricIntegrators.jl does).
+
+References (short keys as in the docstrings):
+
+- [HLW] Hairer, Lubich & Wanner, *Geometric Numerical Integration*, 2nd ed., Springer 2006.
+- [HNW] Hairer, Norsett & Wanner, *Solving ODEs I*, 2nd ed., Springer 1993.
+- [MV] Moser & Veselov, Discrete versions of some classical integrable systems and factorization of
+  matrix polynomials, Comm. Math. Phys. 139 (1991).
+- [LLM] Lee, Leok & McClamroch, Lie group variational integrators for the full body problem, Comput.
+  Methods Appl. Mech. Engrg. 196 (2007).
+- [MW] Marsden & West, Discrete mechanics and variational integrators, Acta Numerica (2001).
+- [Y] Yoshida, Construction of higher order symplectic integrators, Phys. Lett. A 150 (1990).
+- [SA] the Serret-Andoyer paper (seeds/000), section 8.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ...errors import InputError
+from ._base import IncompatibleMethodError, Method, Structure
+from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
+from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams
+from ._lie_poisson import LieGroupVariational, LiePoissonSplitting, MoserVeselov, PeriodicOrbit, Quadrature
+
+__all__ = [
+    "Structure",
+    "IncompatibleMethodError",
+    "Method",
+    "RK4",
+    "AdamsBashforthMoulton4",
+    "AdaptiveAdams",
+    "SymplecticEuler",
+    "StormerVerlet",
+    "ImplicitMidpoint",
+    "GeneratingFunction",
+    "GaussLegendre",
+    "LiePoissonSplitting",
+    "MoserVeselov",
+    "LieGroupVariational",
+    "PeriodicOrbit",
+    "Quadrature",
+    "REGISTRY",
+    "get_method",
+    "methods_table",
+]
+
+
+REGISTRY: dict[str, Method] = {
+    m.key: m
+    for m in (
+        RK4(),
+        AdamsBashforthMoulton4(),
+        AdaptiveAdams(),
+        SymplecticEuler("A"),
+        SymplecticEuler("B"),
+        StormerVerlet(),
+        ImplicitMidpoint(),
+        GeneratingFunction(),
+        GaussLegendre(1),
+        GaussLegendre(2),
+        GaussLegendre(3),
+        LiePoissonSplitting(2),
+        LiePoissonSplitting(4, "yoshida"),
+        LiePoissonSplitting(4, "suzuki"),
+        MoserVeselov(),
+        LieGroupVariational("cayley"),
+        LieGroupVariational("exp"),
+        PeriodicOrbit(),
+        Quadrature(),
+    )
+}
+
+
+def get_method(method: Any) -> Method:
+    """A :class:`Method` from an instance or a registry key (``"rk4"``, ``"implicit_midpoint"``, ...)."""
+    if isinstance(method, Method):
+        return method
+    if isinstance(method, str) and method in REGISTRY:
+        return REGISTRY[method]
+    raise InputError(
+        f"Expected `method` to be a geomech.integrators method or one of {sorted(REGISTRY)}, got {method!r}."
+    )
+
+
+def methods_table() -> list[dict[str, Any]]:
+    """Every registered method's traits (for documentation tables)."""
+    return [m.describe() for m in REGISTRY.values()]

@@ -1,0 +1,100 @@
+"""General-purpose methods, for any system: RK4, Adams-Bashforth-Moulton 4, adaptive Adams ([HNW])."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from ...errors import InputError
+from ._base import Method, Structure
+
+
+@dataclass(frozen=True)
+class RK4(Method):
+    """The classical fourth-order Runge-Kutta method.
+
+    Order 4; explicit; not symplectic nor symmetric. Structure: any ODE. Cost per step: 4 evaluations of
+    the right-hand side. Reference: [HNW] II.1.
+    """
+
+    structure: ClassVar[Structure] = Structure.ODE
+    explicit: ClassVar[bool] = True
+    kernel: ClassVar[str] = "rk4_run"
+
+    @property
+    def order(self) -> int:
+        return 4
+
+    @property
+    def key(self) -> str:
+        return "rk4"
+
+
+@dataclass(frozen=True)
+class AdamsBashforthMoulton4(Method):
+    """Fixed-step Adams-Bashforth-Moulton predictor-corrector of order 4 in PECE mode, started by RK4.
+
+    Order 4; explicit (a linear multistep method, so not symplectic). Structure: any ODE. Cost per step:
+    2 evaluations of the right-hand side (4 for each of the three starting RK4 steps).
+    Reference: [HNW] III.1.
+    """
+
+    structure: ClassVar[Structure] = Structure.ODE
+    explicit: ClassVar[bool] = True
+    kernel: ClassVar[str] = "abm4_run"
+
+    @property
+    def order(self) -> int:
+        return 4
+
+    @property
+    def key(self) -> str:
+        return "abm4"
+
+
+@dataclass(frozen=True)
+class AdaptiveAdams(Method):
+    """Variable-order, variable-step Adams method with error control, output every ``h``.
+
+    Wraps the well-kept Fortran solvers of scipy: ``solver="vode"`` (VODE in its non-stiff Adams mode,
+    orders 1-12; the closest to MATLAB's ``ode113`` that the Serret-Andoyer paper used) or
+    ``solver="lsoda"`` (Adams switching to BDF where the problem is stiff). Order: variable, 1 to 12
+    (``order`` is the largest); implicit (Adams-Moulton correctors solved by fixed-point iteration, so no
+    Jacobian is needed); not structure-preserving. Structure: any ODE. Cost: as
+    many evaluations as the tolerances require; runs through Python (not compiled).
+    Reference: [HNW] III.7; Brown, Byrne & Hindmarsh, VODE, SIAM J. Sci. Stat. Comput. 10 (1989).
+
+    Parameters
+    ----------
+    rtol, atol : float
+        Relative and absolute tolerances of the local error estimate.
+    solver : {"vode", "lsoda"}
+    max_steps : int
+        Internal steps allowed between two outputs.
+    """
+
+    rtol: float = 1e-6
+    atol: float = 1e-8
+    solver: str = "vode"
+    max_steps: int = 100_000
+    structure: ClassVar[Structure] = Structure.ODE
+    explicit: ClassVar[bool] = False
+    variable_order: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        for name in ("rtol", "atol"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 < value < 1):
+                raise InputError(f"Expected `{name}` in (0, 1), got {value!r}.")
+        if self.solver not in ("vode", "lsoda"):
+            raise InputError(f"Expected `solver` to be 'vode' or 'lsoda', got {self.solver!r}.")
+        if not (isinstance(self.max_steps, int) and self.max_steps > 0):
+            raise InputError(f"Expected `max_steps` to be a positive integer, got {self.max_steps!r}.")
+
+    @property
+    def order(self) -> int:
+        return 12
+
+    @property
+    def key(self) -> str:
+        return "adams"

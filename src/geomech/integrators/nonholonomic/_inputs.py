@@ -1,0 +1,280 @@
+"""Inputs of the nonholonomic simulators: gaits (shapes prescribed as formulas in t), torques on the free
+shapes, and the initial state consistent with the constraints."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ... import _validate as V
+from ...errors import InputError, NumericalError
+from ...reduction import bkmm_reduction, lagrange_dalembert
+from ...symbolic.compile import compile_matrix, compile_scalar, compile_vector
+from ...symbolic.formula import to_expression
+from ...systems.nonholonomic import NonholonomicSystem
+
+T_SYMBOL = sp.Symbol("t", real=True)
+
+
+# --------------------------------------------------------------------------------------------------
+# Inputs: gaits and torques
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Gait:
+    """Prescribed shape motions :math:`r_P(t)` with their first and second derivatives (exact).
+
+    Build with :meth:`from_expressions` (``{"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}``).
+    """
+
+    names: tuple[str, ...]
+    expressions: tuple[sp.Expr, ...]
+    _fn: Callable = field(repr=False, compare=False)
+
+    @classmethod
+    def from_expressions(cls, shapes: Mapping[str, Any] | None) -> Gait:
+        shapes = dict(shapes or {})
+        names, exprs = [], []
+        for name, e in shapes.items():
+            e = to_expression(e, f"shapes[{name!r}]", {"t": T_SYMBOL})
+            extra = sorted(s.name for s in e.free_symbols - {T_SYMBOL})
+            if extra:
+                raise InputError(
+                    f"Expected the gait of `{name}` to be a formula in t only, got symbols {extra} in {e}."
+                )
+            names.append(str(name))
+            exprs.append(e)
+        rows = [[e, sp.diff(e, T_SYMBOL), sp.diff(e, T_SYMBOL, 2)] for e in exprs]
+        f = compile_matrix(sp.Matrix(len(rows), 3, sum(rows, [])), [T_SYMBOL])
+
+        def fn(t: float) -> np.ndarray:
+            return f(np.array([float(t)]))
+
+        return cls(tuple(names), tuple(exprs), fn)
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(r, rdot, rddot)`` of the prescribed shapes at time ``t``."""
+        v = self._fn(t)
+        return v[:, 0], v[:, 1], v[:, 2]
+
+
+class _Torques:
+    """Torques on the free shapes: formulas in ``t``, the coordinates and the velocities (by name), or callables
+    ``f(t, q, qd)``."""
+
+    def __init__(self, system: NonholonomicSystem, free: Sequence[int], tau: Mapping[str, Any] | None):
+        shape_names = [r.name for r in system.shape]
+        self.free = list(free)
+        tau = dict(tau or {})
+        local = {s.name: s for s in system.q + system.qdot}
+        local["t"] = T_SYMBOL
+        self.fns: list[Callable | None] = [None] * len(self.free)
+        for name, spec in tau.items():
+            if name not in shape_names:
+                raise InputError(
+                    f"`tau` names `{name}`, which is not a shape variable of {system.name} ({shape_names})."
+                )
+            i = shape_names.index(name)
+            if i not in self.free:
+                raise InputError(f"`tau` drives `{name}`, which also has a prescribed gait; give one or the other.")
+            if callable(spec):
+                fn = spec
+            else:
+                e = to_expression(spec, f"tau[{name!r}]", local)
+                undefined = sorted(
+                    str(f.func) for f in e.atoms(sp.Function) if isinstance(f, sp.core.function.AppliedUndef)
+                )
+                if undefined:
+                    raise InputError(
+                        f"The torque on `{name}` calls unknown function(s) {undefined}; use sympy's "
+                        "(sin, cos, exp, tanh, ...) or pass a Python callable f(t, q, qd)."
+                    )
+                e = e.xreplace({s: local[s.name] for s in e.free_symbols if s.name in local})
+                extra = sorted(s.name for s in e.free_symbols - set(local.values()))
+                if extra:
+                    raise InputError(
+                        f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
+                        f"coordinates and the velocities ({', '.join(local)})."
+                    )
+                f = compile_scalar(e, [T_SYMBOL, *system.q, *system.qdot])
+                fn = (lambda f_: lambda t, q, qd: float(f_(np.concatenate([[t], q, qd]))))(f)
+            self.fns[self.free.index(i)] = fn
+
+    def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        return np.array([0.0 if f is None else float(f(t, q, qd)) for f in self.fns])
+
+
+@dataclass
+class _Setup:
+    system: NonholonomicSystem
+    gait: Gait
+    prescribed: list[int]  # shape indices (0..sigma-1) with a gait
+    free_shapes: list[int]
+    torques: _Torques
+
+    @property
+    def n(self) -> int:
+        return self.system.n
+
+    def free_coordinates(self) -> list[int]:
+        s = self.system
+        return list(range(s.k)) + [s.k + i for i in self.free_shapes]
+
+    def prescribed_coordinates(self) -> list[int]:
+        return [self.system.k + i for i in self.prescribed]
+
+
+def _setup(system: NonholonomicSystem, shapes: Any, tau: Any) -> _Setup:
+    if not isinstance(system, NonholonomicSystem):
+        raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
+    gait = shapes if isinstance(shapes, Gait) else Gait.from_expressions(shapes)
+    names = [r.name for r in system.shape]
+    unknown = [n for n in gait.names if n not in names]
+    if unknown:
+        raise InputError(f"The gait names {unknown}, which are not shape variables of {system.name} ({names}).")
+    prescribed = [names.index(n) for n in gait.names]
+    free = [i for i in range(system.sigma) if i not in prescribed]
+    return _Setup(system, gait, prescribed, free, _Torques(system, free, tau))
+
+
+def _by_name(value: Any, names: Sequence[str], argname: str) -> dict[str, float]:
+    if value is None:
+        return {}
+    if isinstance(value, Mapping):
+        unknown = sorted(set(value) - set(names))
+        if unknown:
+            raise InputError(f"`{argname}` names {unknown}, which are not among {list(names)}.")
+        return {k: float(v) for k, v in value.items()}
+    arr = V.finite(value, argname).ravel()
+    if arr.size != len(names):
+        raise InputError(f"Expected `{argname}` to have {len(names)} entries ({list(names)}), got {arr.size}.")
+    return dict(zip(names, arr.tolist()))
+
+
+def initial_state(
+    system: NonholonomicSystem,
+    shapes: Any = None,
+    *,
+    t0: float = 0.0,
+    q0: Any = None,
+    rdot0: Any = None,
+    p0: Any = None,
+    qd0: Any = None,
+    parameters: Mapping[str, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    r"""A consistent initial state ``(q0, qd0)``.
+
+    Group coordinates from ``q0`` (default: the identity), shapes from the gait at ``t0``, else ``q0``, else 0;
+    shape velocities from the gait, else ``rdot0``, else 0; the group velocity from the reconstruction
+    equation (1.1) with nonholonomic momentum ``p0`` (default 0), so that the constraints hold. For the
+    snakeboard starting at :math:`\phi = 0` this is :math:`\dot x = \dot y = \dot\theta = 0`. An explicit ``qd0``
+    is used as given after checking the constraints; ``qd0="rest"`` is the group at rest (:math:`\dot g = 0`)
+    with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
+    constraints (when they involve the shape velocities).
+    """
+    setup = _setup(system, shapes, None)
+    names = [s.name for s in system.q]
+    given = _by_name(q0, names, "q0")
+    q = np.array([given.get(n, 0.0) for n in names])
+    r_p, rd_p, _ = setup.gait(t0)
+    for j, i in enumerate(setup.prescribed):
+        q[system.k + i] = r_p[j]
+    lda = lagrange_dalembert(system).numeric(parameters)
+    _require_positive_kinetic_energy(system, lda, q, parameters)
+    if isinstance(qd0, str):
+        if qd0 != "rest":
+            raise InputError(f"Expected `qd0` to be velocities or 'rest', got {qd0!r}.")
+        if p0 is not None:
+            raise InputError(
+                "Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape velocities."
+            )
+        qd = np.r_[np.zeros(system.k), _shape_rates(system, setup, rdot0, rd_p)]
+        res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
+        if res > 1e-9 * max(1.0, np.abs(qd).max()):
+            raise InputError(
+                f"{system.name} cannot start at rest with these shape velocities: |A(q0) qd0| = {res:.3g} "
+                "(its constraints involve the shape velocities); give `p0` instead."
+            )
+        return q, qd
+    if qd0 is not None:
+        qd = (
+            np.array([_by_name(qd0, [s.name for s in system.qdot], "qd0").get(s.name, 0.0) for s in system.qdot])
+            if isinstance(qd0, Mapping)
+            else V.finite(qd0, "qd0").ravel()
+        )
+        if qd.size != system.n:
+            raise InputError(f"Expected `qd0` to have {system.n} entries, got {qd.size}.")
+        res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
+        if res > 1e-9 * max(1.0, np.abs(qd).max()):
+            raise InputError(
+                f"`qd0` violates the constraints: |A(q0) qd0| = {res:.3g}; give a velocity in D, or "
+                "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1)."
+            )
+        return q, qd
+    red = bkmm_reduction(system)
+    rd = _shape_rates(system, setup, rdot0, rd_p)
+    p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
+    if p.size != red.m:
+        raise InputError(
+            f"Expected `p0` to have {red.m} entries (the nonholonomic momentum of {system.name}, basis: "
+            f"{red.normalization}), got {p.size}."
+        )
+    rn = red.numeric(parameters)
+    xi = rn.xi(q[system.k :], rd, p)
+    lam_inv = _group_rates(system)
+    qd = np.r_[lam_inv(q[: system.k]) @ xi, rd]
+    return q, qd
+
+
+def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.ndarray) -> np.ndarray:
+    """Shape velocities at the start: the gait's where prescribed, else ``rdot0``, else 0."""
+    rd = np.zeros(system.sigma)
+    rd_given = _by_name(rdot0, [r.name for r in system.shape], "rdot0")
+    for i, r in enumerate(system.shape):
+        rd[i] = rd_given.get(r.name, 0.0)
+    for j, i in enumerate(setup.prescribed):
+        rd[i] = rd_p[j]
+    return rd
+
+
+def _require_positive_kinetic_energy(
+    system: NonholonomicSystem, lda: Any, q: np.ndarray, parameters: Mapping[str, float] | None
+) -> None:
+    """Parameter values (a negative mass, a wrong inertia) can make the kinetic energy indefinite on D, where
+    the equations have no meaning: say so at the start, with the values, rather than integrate nonsense."""
+    M, A = lda.mass_matrix(q), lda.constraint_matrix(q).reshape(system.c, system.n)
+    if system.c:
+        _, sv, vt = np.linalg.svd(A)
+        X = vt[int(np.sum(sv > 1e-12 * max(1.0, sv.max()))) :].T
+    else:
+        X = np.eye(system.n)
+    if X.size == 0:
+        return
+    MD = X.T @ M @ X
+    low = float(np.linalg.eigvalsh(0.5 * (MD + MD.T)).min())
+    if not low > 1e-12 * max(1.0, float(np.abs(MD).max())):
+        values = {k: v for k, v in sorted(system.parameter_values(parameters).items(), key=lambda kv: kv[0].name)}
+        shown = ", ".join(f"{k.name}={v:g}" for k, v in values.items())
+        raise InputError(
+            f"The kinetic energy of {system.name} is not positive definite on the constraint distribution "
+            f"at q0 = {np.round(q, 6).tolist()} (smallest eigenvalue {low:.3g}) with {shown}: check the "
+            "signs and sizes of the masses and inertias."
+        )
+
+
+def _group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarray]:
+    f = compile_vector(sp.Matrix(system.group.body_velocity_inverse).tolist(), list(system.group.coordinates))
+
+    def rates(g: np.ndarray) -> np.ndarray:
+        Li = f(np.asarray(g, dtype=float))
+        if not np.all(np.isfinite(Li)):
+            raise NumericalError(
+                f"The coordinates of {system.group.name} are singular at {np.asarray(g)} (gimbal "
+                "lock of the Euler-angle chart); start elsewhere or use another sequence."
+            )
+        return Li
+
+    return rates
