@@ -202,10 +202,10 @@ def write_set(out: str | Path, writers: dict[str, Callable[[Path], Any]]) -> lis
     try:
         for name, write in writers.items():
             target = out / name
-            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{target.stem}.", suffix=f".partial{target.suffix}")
+            fd, tmp_name = tempfile.mkstemp(dir=out, prefix=f".{target.stem}.", suffix=f".partial{target.suffix}")
             os.close(fd)
-            staged[Path(tmp)] = target
-            write(Path(tmp))
+            staged[Path(tmp_name)] = target
+            write(Path(tmp_name))
         mask = 0o666 & ~_umask()
         held: list[Any] = []
         in_main = threading.current_thread() is threading.main_thread()

@@ -14,7 +14,7 @@ to :math:`\\chi(S^2) = 2`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -164,7 +164,7 @@ def refine_equilibrium(
     nm = np.linalg.norm(m)
     if nm == 0:
         raise InputError("Expected `m_guess` to be nonzero.")
-    G = nm if G is None else V.positive_scalar(G, "G")
+    G = cast(float, nm) if G is None else V.positive_scalar(G, "G")  # the norm is a np.float64, a float
     m = G * m / nm
     S = np.diag([1.0, G])
 

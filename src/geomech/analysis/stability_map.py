@@ -36,8 +36,8 @@ def _axis_values(spec: Any, argname: str) -> tuple[str, np.ndarray]:
 
 def stability_map(
     family: Callable[..., Any],
-    x: tuple[str, Sequence[float]],
-    y: tuple[str, Sequence[float]],
+    x: tuple[str, Sequence[float] | np.ndarray],
+    y: tuple[str, Sequence[float] | np.ndarray],
     *,
     G: float = 1.0,
     near: Any = None,
@@ -116,6 +116,7 @@ def stability_map(
             done += 1
             values = {**fixed, xname: float(xs[i]), yname: float(ys[j])}
             if margin is not None:
+                assert closed_form is not None  # margin exists only with closed_form
                 margin[j, i] = float(closed_form(values))
             system = family(**values)
             # All equilibria, continued from the previous grid point's (a full search when that is not

@@ -159,7 +159,7 @@ cli.add_command(stability_cmd)
 cli.add_command(stability_map_cmd)
 
 
-def _say(kind: str, message: str) -> None:
+def _say(kind: str, message: object) -> None:
     """One line on stderr."""
     line = " ".join(str(message).split())
     click.echo(f"geomech: {kind}: {line}" if kind else f"geomech: {line}", err=True)

@@ -269,7 +269,7 @@ def simulate_cmd(
     from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
 
     system = _system(name, model, _pairs(params, "--param", True))
-    kw = dict(
+    kw: dict[str, Any] = dict(
         shapes=_pairs(shapes, "--shape", False),
         tau=_pairs(taus, "--tau", False),
         q0=_pairs(q0s, "--q0", True),

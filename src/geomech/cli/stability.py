@@ -30,7 +30,7 @@ def _control(
     from ..systems.control import StructurePreservingControl
     from ..systems.rotors import RotorBody
 
-    phis = tuple(parse_formula(f, "--phi") for f in phis)
+    phi_exprs = tuple(parse_formula(f, "--phi") for f in phis)
     if not np.isfinite(G) or G <= 0:
         raise click.BadParameter(f"expected a positive momentum magnitude, got {G}", param_hint="'--G'")
     if len(lambdas) == 2:
@@ -46,14 +46,14 @@ def _control(
                 f"as in section 6.3), got {lambdas[0]:g} <= {lambdas[1]:g}; relabel the axes",
                 param_hint="'--lambda'",
             )
-        if len(phis) != 1:
+        if len(phi_exprs) != 1:
             raise click.BadParameter(
-                f"one rotor takes one --phi (a function of v = m3), got {len(phis)}", param_hint="'--phi'"
+                f"one rotor takes one --phi (a function of v = m3), got {len(phi_exprs)}", param_hint="'--phi'"
             )
         if p is not None and len(p) != 1:
             raise click.BadParameter(f"one rotor takes one --p value, got {len(p)}", param_hint="'--p'")
         return StructurePreservingControl.one_rotor(
-            body, phis[0], p=0.0 if p is None else p[0], parameters=params, probe_radius=G
+            body, phi_exprs[0], p=0.0 if p is None else p[0], parameters=params, probe_radius=G
         )
     if I3 is not None:
         raise click.BadParameter(
@@ -61,20 +61,20 @@ def _control(
             param_hint="'--I3'",
         )
     body = RotorBody.three_rotors(lambdas)
-    if len(phis) != 3:
+    if len(phi_exprs) != 3:
         raise click.BadParameter(
             f"three rotors take three --phi (each in v, Corollary 2, or each in m1, m2, m3, "
-            f"Proposition 5), got {len(phis)}",
+            f"Proposition 5), got {len(phi_exprs)}",
             param_hint="'--phi'",
         )
     pv = (0.0, 0.0, 0.0) if p is None else p
     if len(pv) != 3:
         raise click.BadParameter(f"three rotors take three --p values, got {len(pv)}", param_hint="'--p'")
     # Proposition 5 (phi of m1, m2, m3) or Corollary 2 (each phi_i of v).
-    uses_m = any({"m1", "m2", "m3"} & {s.name for s in f.free_symbols} for f in phis)
+    uses_m = any({"m1", "m2", "m3"} & {s.name for s in f.free_symbols} for f in phi_exprs)
     if uses_m:
-        return StructurePreservingControl.three_rotors(body, list(phis), p=pv, parameters=params, probe_radius=G)
-    return StructurePreservingControl.diagonal(body, list(phis), p=pv, parameters=params, probe_radius=G)
+        return StructurePreservingControl.three_rotors(body, list(phi_exprs), p=pv, parameters=params, probe_radius=G)
+    return StructurePreservingControl.diagonal(body, list(phi_exprs), p=pv, parameters=params, probe_radius=G)
 
 
 def _model_json(control: Any, G: float) -> dict[str, Any]:

@@ -217,7 +217,7 @@ def run_approach(model: _Model, approach: Approach, cfg: StudyConfig) -> dict[st
 
     n_steps = round(cfg.t_final / cfg.h)
     every = 1 if n_steps <= FULL_RESOLUTION_STEPS else cfg.save_every
-    kw = dict(h=cfg.h, t_final=cfg.t_final, save_every=every, newton_tol=cfg.newton_tol)
+    kw: dict[str, Any] = dict(h=cfg.h, t_final=cfg.t_final, save_every=every, newton_tol=cfg.newton_tol)
     start = time.perf_counter()
     if approach.representation == "reduced":
         sol = solve(model.reduction.reduced_system(cfg.G), approach.method, y0=model.lL0, **kw)
@@ -255,7 +255,7 @@ def run_approach(model: _Model, approach: Approach, cfg: StudyConfig) -> dict[st
 
 
 def run_study(
-    cfg: StudyConfig, *, progress: Callable[[Iterable[Approach]], Iterable[Approach]] | None = None, command: str = ""
+    cfg: StudyConfig, *, progress: Callable[[list[Approach]], Iterable[Approach]] | None = None, command: str = ""
 ) -> tuple[Any, dict[str, Any], _Model]:
     """Run every approach; return the xarray Dataset, the summary and the model."""
     import xarray as xr

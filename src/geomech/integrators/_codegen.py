@@ -92,6 +92,7 @@ def compiled_module(model_src: str, tag: str) -> Any:
             write_atomic(path, source)  # concurrent processes never import a half-written file
         name = f"geomech_kernels_{tag}_{digest}"
         spec = importlib.util.spec_from_file_location(name, path)
+        assert spec is not None and spec.loader is not None  # always set for a ``.py`` file location
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         spec.loader.exec_module(module)

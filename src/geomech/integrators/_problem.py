@@ -104,6 +104,7 @@ _ANALYSIS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def make_problem(system: Any, *, attitude: bool) -> Problem:
     """Classify ``system``; raises :class:`InputError` for something that is not a system."""
+    core: CanonicalSystem | LeftInvariantSystem
     if isinstance(system, CanonicalSystem):
         core = system
         analysis = _ANALYSIS.get(core)

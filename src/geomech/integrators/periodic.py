@@ -233,6 +233,7 @@ class PeriodicOrbitPropagator:
         if self.kind == "equilibrium":
             return np.broadcast_to(self.y0, t.shape + (2,)).copy()
         if self._use_quadrature:
+            assert self.quadrature is not None  # set whenever it is used
             return self.quadrature.state(t)
         T = self.period
         if t.size and np.max(np.abs(t)) > T / _EPS:

@@ -184,6 +184,7 @@ def _run_periodic(
     from .quadrature import QuadraturePropagator
 
     steps, compile_time = 0, 0.0
+    orbit: QuadraturePropagator | PeriodicOrbitPropagator
     for b in range(Y0.shape[0]):
         try:
             if isinstance(method, Quadrature):

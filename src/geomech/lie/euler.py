@@ -101,7 +101,9 @@ def _levi_civita(i: int, j: int, k: int) -> float:
     return float((i - j) * (j - k) * (k - i) / 2)
 
 
-def _pairs(q: np.ndarray, axes: tuple[int, int, int]) -> tuple[np.ndarray, ...]:
+def _pairs(
+    q: np.ndarray, axes: tuple[int, int, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]:
     r"""Half-angle pairs of the intrinsic sequence ``R = R_i(a) R_j(b) R_k(c)`` from ``q = (w, x, y, z)``.
 
     Returns ``(p0, p1, r0, r1, kappa, offset)`` with, for ``B = b + offset``,

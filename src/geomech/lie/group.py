@@ -271,7 +271,7 @@ class Product(LieGroup):
             flat.extend(f.factors if isinstance(f, Product) else [f])
         if len(flat) < 2:
             raise InputError("Expected at least two factors for a product group.")
-        self.factors = tuple(flat)
+        self.factors: tuple[LieGroup, ...] = tuple(flat)
         self.name = " x ".join(f.name for f in flat)
         self.dim = sum(f.dim for f in flat)
         self.matrix_size = sum(f.matrix_size for f in flat)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -23,7 +23,8 @@ def _sphere_level_curves(H: Any, G: float, n_levels: int) -> list[np.ndarray]:
     gen = contourpy.contour_generator(lon, col, E)
     lines = []
     for level in np.linspace(E.min(), E.max(), n_levels + 2)[1:-1]:
-        for seg in gen.lines(level):
+        # the default line type gives a list of (n, 2) arrays; the stubs' return type covers every line type
+        for seg in cast("list[np.ndarray]", gen.lines(level)):
             a, c = seg[:, 0], seg[:, 1]
             lines.append(G * np.stack([np.cos(a) * np.sin(c), np.sin(a) * np.sin(c), np.cos(c)], -1))
     return lines

@@ -3,11 +3,14 @@ portrait of a closed loop with its relative equilibria marked by verdict."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import InputError
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
 
 __all__ = ["stability_map_plot", "equilibria_phase_portrait"]
 
@@ -43,7 +46,7 @@ def stability_map_plot(
     )
     norm = BoundaryNorm([-10, -5, -0.5, 0.5, 1.5], cmap.N)
     ax.pcolormesh(xs, ys, ds[variable].values.astype(float), cmap=cmap, norm=norm, shading="nearest")
-    handles = [Patch(color=_STYLE[k]["color"], label=k) for k in ("stable", "unstable", "inconclusive")]
+    handles: list[Artist] = [Patch(color=_STYLE[k]["color"], label=k) for k in ("stable", "unstable", "inconclusive")]
     if boundary and "ec_determinant" in ds:
         det = ds["ec_determinant"].values
         if np.nanmin(det) < 0 < np.nanmax(det):

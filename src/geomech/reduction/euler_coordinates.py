@@ -30,7 +30,7 @@ from .. import _validate as V
 from ..errors import SingularityError
 from ..lie import euler
 from ..symbolic.compile import M_SYMBOLS, compile_vector
-from ..systems.left_invariant import as_left_invariant
+from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 
 __all__ = ["EulerCoordinates", "body_angular_velocity"]
 
@@ -208,6 +208,9 @@ class EulerCoordinates:
     """
 
     __slots__ = ("_cache", "system")
+
+    system: LeftInvariantSystem
+    _cache: dict[Any, Any]
 
     #: The coordinate symbols :math:`(\phi, \theta, \psi, \Phi, \Theta, \Psi)` (sympy, real).
     symbols: tuple[sp.Symbol, ...] = EULER_SYMBOLS

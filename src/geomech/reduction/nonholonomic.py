@@ -604,6 +604,7 @@ def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> Nonholonomi
     """
     if not isinstance(system, NonholonomicSystem):
         raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
+    key: tuple[str, Any] | None
     if basis is None and system.body_basis is not None:
         key = ("model", system.body_basis)
     else:

@@ -31,7 +31,7 @@ The formula for :math:`\\dot\\varphi` is the first two components of the body an
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import sympy as sp
@@ -394,16 +394,16 @@ class GeneralizedSerretAndoyer:
         switches: list[tuple[float, int, int]] = []
         nfev, status, message = 0, 0, "success"
         while True:
-
-            def rhs(_t: float, z: np.ndarray, axis: int = axis) -> np.ndarray:
+            # the cast only works around mypy#13087 (narrowing is not applied to a default value)
+            def rhs(_t: float, z: np.ndarray, axis: int = cast(int, axis)) -> np.ndarray:
                 f = self.reduced_vector_field(z[:2], G, axis)
                 return np.array([f[0], f[1], self.phi_rate(z[:2], G, axis)])
 
             def leave(_t: float, z: np.ndarray) -> float:
                 return abs(z[1]) - self.switch_at * G
 
-            leave.terminal = True
-            leave.direction = 1
+            cast(Any, leave).terminal = True  # event attributes read by solve_ivp
+            cast(Any, leave).direction = 1
             if t_end > t0:
                 sol = solve_ivp(
                     rhs, (t0, t_end), y, method="DOP853", rtol=rtol, atol=atol * G, dense_output=True, events=leave

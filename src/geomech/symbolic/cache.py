@@ -10,7 +10,7 @@ import pickle
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import sympy as sp
 
@@ -158,6 +158,12 @@ class NumericCache:
     """Compile expressions with the parameter values substituted, once per set of values (shared store)."""
 
     system: Any
+
+    if TYPE_CHECKING:
+
+        @property
+        def _cache_key(self) -> Any:
+            """The symbolic content of the owner, provided by every subclass."""
 
     def _compile(self, values: Mapping[str, float] | None, exprs: dict, variables: Sequence[sp.Symbol]) -> dict:
         pv = self.system.parameter_values(values)

@@ -209,7 +209,8 @@ class FunctionSpec:
 
 def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
     alias = {v: sp.Symbol(f"_a{i}") for i, v in enumerate(spec.variables)}
-    shapes, flat = [], []
+    shapes: list[tuple[int, ...]] = []
+    flat: list[Any] = []
     for out in spec.outputs:
         arr = np.array(out, dtype=object)
         shapes.append(arr.shape)

@@ -301,7 +301,7 @@ def to_expression(value: object, argname: str, symbols: Mapping[str, sp.Symbol] 
         number = float(value)  # type: ignore[arg-type]
         if not math.isfinite(number):
             raise SymbolicError(f"Expected `{argname}` to be finite, got {number}.")
-        return sp.Integer(int(value)) if isinstance(value, int) else sp.Float(number)  # type: ignore[arg-type]
+        return sp.Integer(int(value)) if isinstance(value, int) else sp.Float(number)
     if isinstance(value, sp.Basic):
         if value.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
             raise SymbolicError(f"`{argname}` must be finite, got {value}.")

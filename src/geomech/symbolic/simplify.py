@@ -176,6 +176,7 @@ class _Fractions:
         except KeyError:
             pass
         R = self.R
+        out: tuple[Any, dict]
         if e.is_Symbol:
             out = (self.gen[e], {})
         elif e.is_Rational:
@@ -194,6 +195,7 @@ class _Fractions:
                 num += n
             out = (self.reduce(num), lcm)
         elif e.is_Mul:
+            den: dict[Any, int]
             num, den = R.one, {}
             for a in e.args:
                 n, d = self.convert(a)

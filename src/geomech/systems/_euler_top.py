@@ -243,7 +243,7 @@ class EulerTopSolution:
     stable: bool | None = None
     # Working-frame data: w = R m; amplitudes of (w0, w1, w2) with their signs (for an axisymmetric body
     # _amp[0] is the signed precession rate), phase u0, quarter period K, k'^2.
-    _R: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    _R: np.ndarray | None = field(default=None, repr=False)
     _amp: tuple[float, float, float] = field(default=(0.0, 0.0, 0.0), repr=False)
     _u0: float = field(default=0.0, repr=False)
     _K: float = field(default=0.0, repr=False)
@@ -407,6 +407,7 @@ class EulerTopSolution:
         if fam in ("spherical", "steady") or (fam == "axisymmetric" and self.rate == 0.0):
             return np.broadcast_to(np.asarray(self.m0), t.shape + (3,)).copy()
         m0 = np.asarray(self.m0)
+        assert self._R is not None  # set for every family that moves
         if fam == "axisymmetric":
             w = self._R @ m0
             phase = self._amp[0] * t

@@ -32,12 +32,13 @@ def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind
     if not path.is_file():
         raise InputError(f"Model file {str(path)!r} does not exist.")
     spec = importlib.util.spec_from_file_location(f"geomech_model_{abs(hash(str(path)))}", path)
+    assert spec is not None and spec.loader is not None  # always set for a ``.py`` file location
     module = importlib.util.module_from_spec(spec)
     # A model file is code by design; what it prints goes to stderr (stdout may be --json), and neither an
     # exception nor sys.exit inside it escapes as anything but one error naming the file.
     with contextlib.redirect_stdout(sys.stderr):
         try:
-            spec.loader.exec_module(module)  # type: ignore[union-attr]
+            spec.loader.exec_module(module)
         except GeomechError:
             raise
         except (Exception, SystemExit) as exc:

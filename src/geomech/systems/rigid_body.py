@@ -53,6 +53,12 @@ class RigidBody:
 
     __slots__ = ("tensor", "principal_moments", "principal_axes", "system", "_diagonal")
 
+    tensor: np.ndarray
+    principal_moments: np.ndarray
+    principal_axes: np.ndarray
+    system: LeftInvariantSystem
+    _diagonal: bool
+
     def __init__(self, inertia: Any):
         arr = V.finite(inertia, "inertia")
         if arr.shape == (3,):

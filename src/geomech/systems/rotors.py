@@ -41,7 +41,7 @@ angular momentum :math:`\\pi = R m` constant; the energy changes at the rate
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -137,7 +137,7 @@ class RotorBody:
         inertia is :math:`(\\lambda_1, \\lambda_2, I_3 + J_3)`.
         """
         lam = V.positive(np.array([lambda1, lambda2, I3], dtype=float), "(lambda1, lambda2, I3)")
-        J = None if J3 is None else [V.positive_scalar(J3, "J3")]
+        J = None if J3 is None else np.array([V.positive_scalar(J3, "J3")])
         return cls(np.diag(lam), np.array([[0.0, 0.0, 1.0]]), J, name="rigid body with one rotor on axis 3")
 
     @classmethod
@@ -259,6 +259,7 @@ class RotorBody:
         n = self.n_rotors
         Gam = sp.symbols(f"Gamma1:{n + 1}", real=True)
         lam_syms, J_syms = self.symbols()
+        Js: Sequence[Any]
         m = sp.Matrix(M_SYMBOLS)
         A = sp.Matrix(self.A.tolist()) if not self.is_principal else sp.Matrix(np.rint(self.A).astype(int).tolist())
         if lam_syms is not None:
