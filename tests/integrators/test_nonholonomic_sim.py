@@ -205,3 +205,12 @@ def test_bad_torques_and_unphysical_parameters_are_reported():
     bad = dataclasses.replace(s, parameters={**s.parameters, "m": -1.0})
     with pytest.raises(InputError, match="not positive definite.*m=-1"):
         simulate_reduced(bad, 0.1, shapes=GAIT)
+
+
+@pytest.mark.parametrize("simulate", [simulate_full, simulate_reduced])
+def test_a_simulation_needs_an_end_time_or_output_times(simulate):
+    s = chaplygin_sleigh(m=1.0, I_c=0.5, a=0.3)
+    with pytest.raises(InputError, match="`t_final` or `t_eval`"):
+        simulate(s, p0=[0.1, 0.0])
+    traj = simulate(s, t_eval=[0.0, 0.5, 1.0], p0=[0.1, 0.0])  # output times alone are enough
+    assert traj.t.tolist() == [0.0, 0.5, 1.0]
