@@ -21,8 +21,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q
 
+# The quick loop: no slow runs, and the compiled kernels and derivations kept in .test-cache/ between runs
 test-fast: $(STAMP)
-	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q -m "not slow"
+	GEOMECH_TEST_ROOT=$(CURDIR)/.test-cache MPLBACKEND=Agg $(PY) -m pytest -n 2 -q -m "not slow"
 
 fuzz: $(STAMP)
 	GEOMECH_FUZZ_EXAMPLES=$${GEOMECH_FUZZ_EXAMPLES:-300} MPLBACKEND=Agg $(PY) -m pytest -q -s -p no:xdist \
@@ -34,4 +35,4 @@ lint: $(STAMP)
 	$(VENV)/bin/mypy
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .hypothesis
+	rm -rf $(VENV) demo-output .pytest_cache .hypothesis .test-cache

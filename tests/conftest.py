@@ -11,6 +11,8 @@ settings.load_profile("geomech")
 
 #: Everything the tests (and the processes they start) cache goes under one temporary directory per run,
 #: shared by the xdist workers (they inherit the controller's environment): never the user's home or cache.
+#: A run may be given a directory that outlives it instead (`make test-fast` keeps .test-cache/ in the
+#: checkout, so that kernels compiled by one run are loaded by the next).
 _ROOT_VAR = "GEOMECH_TEST_ROOT"
 
 
@@ -19,6 +21,7 @@ def pytest_configure(config):
         os.environ[_ROOT_VAR] = tempfile.mkdtemp(prefix="geomech-tests-")
         config._geomech_test_root = os.environ[_ROOT_VAR]
     root = os.environ[_ROOT_VAR]
+    os.makedirs(root, mode=0o700, exist_ok=True)
     # numba reads its cache directory when it is first imported: set before any test imports it.
     os.environ["NUMBA_CACHE_DIR"] = os.path.join(root, "numba")
     os.environ["MPLCONFIGDIR"] = os.path.join(root, "matplotlib")

@@ -15,9 +15,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import geomech as gm
-from geomech.analysis.phases import ShapeLoop
+from geomech.analysis import ShapeLoop
 from geomech.errors import GeomechError
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, snakeboard
+
+#: Fuzzing is a long verification run: `make test` and `make fuzz` run it, `make test-fast` does not.
+pytestmark = pytest.mark.slow
 
 EXAMPLES = int(os.environ.get("GEOMECH_FUZZ_EXAMPLES", "20"))
 

@@ -17,6 +17,9 @@ from hypothesis import strategies as st
 
 from geomech.cli._args import _is_number
 
+#: Fuzzing is a long verification run: `make test` and `make fuzz` run it, `make test-fast` does not.
+pytestmark = pytest.mark.slow
+
 EXAMPLES = int(os.environ.get("GEOMECH_FUZZ_EXAMPLES", "20"))
 TIMEOUT = float(os.environ.get("GEOMECH_FUZZ_TIMEOUT", "60"))
 

@@ -11,6 +11,7 @@ from geomech.errors import InputError
 from geomech.experiments import serret_andoyer_study as study
 
 
+@pytest.mark.slow  # the whole study through the command line: over 10 s each
 def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path), "--t-final", "2", "--json"])
     out, err = capsys.readouterr()
@@ -65,6 +66,7 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     )
 
 
+@pytest.mark.slow  # the whole study through the command line: over 10 s each
 def test_cli_lambda_sets_the_inertias(tmp_path, capsys):
     code = main(
         [
