@@ -1,6 +1,7 @@
 """Simulation: ``solve(system, method, ...)``, the integrators (compiled where they are fixed-step), and
 exact propagation of one-degree-of-freedom systems by quadrature."""
 
+from ._one_dof import CriticalPoint, OrbitIntegral
 from .methods import (
     REGISTRY,
     RK4,
@@ -31,7 +32,7 @@ from .nonholonomic import (
     simulate_reduced,
 )
 from .periodic import PeriodicOrbitPropagator
-from .quadrature import CriticalPoint, OrbitIntegral, QuadraturePropagator
+from .quadrature import QuadraturePropagator
 from .serret_andoyer_propagator import SerretAndoyerPropagator
 from .solution import Failure, Solution
 from .solve import compatible_methods, solve

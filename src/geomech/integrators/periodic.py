@@ -38,8 +38,9 @@ import numpy as np
 from .. import _validate as V
 from ..errors import InputError, SingularityError
 from ..systems.canonical import CanonicalSystem
+from ._one_dof import one_dof_arguments
 from ._problem import make_problem
-from .quadrature import QuadraturePropagator, one_dof_arguments
+from .quadrature import QuadraturePropagator
 
 __all__ = ["PeriodicOrbitPropagator", "dop853_tableau"]
 

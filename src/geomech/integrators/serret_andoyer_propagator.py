@@ -10,7 +10,8 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import InputError, SingularityError
-from .quadrature import OrbitIntegral, QuadraturePropagator
+from ._one_dof import OrbitIntegral
+from .quadrature import QuadraturePropagator
 
 __all__ = ["SerretAndoyerPropagator"]
 

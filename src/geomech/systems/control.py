@@ -44,7 +44,6 @@ import sympy as sp
 from .. import _validate as V
 from ..errors import InputError, SymbolicError
 from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
-from ..symbolic.formula import parse_formula
 from ..symbolic.integrals import integral_choice, quadrature_from_zero, ray_quadrature
 from ._closed_loop import (
     ClosedLoopCondition,
@@ -55,6 +54,7 @@ from ._closed_loop import (
     potential_integral,
     symbolic_potential,
 )
+from ._control_phi import parse_phi, wrap_phi_callables
 from ._hyperregularity import V_SYMBOL, HyperregularityReport, hyperregularity_report
 from .left_invariant import LeftInvariantSystem
 from .rotors import RotorBody
@@ -67,41 +67,6 @@ __all__ = [
     "Lemma4Check",
     "StructurePreservingControl",
 ]
-
-
-def _real(expr: sp.Expr) -> sp.Expr:
-    return expr.xreplace({s: sp.Symbol(str(s), real=True) for s in expr.free_symbols})
-
-
-def _parse(expressions: Sequence[Any], variables: Sequence[str], argname: str, reserved: set[str]) -> list[sp.Expr]:
-    out = []
-    for k, e in enumerate(expressions):
-        name = argname if len(expressions) == 1 else f"{argname}[{k}]"
-        if isinstance(e, str):
-            e = parse_formula(e, name)
-        if isinstance(e, (int, float)):
-            e = sp.Float(e) if isinstance(e, float) else sp.Integer(e)
-        if not isinstance(e, sp.Basic):
-            raise SymbolicError(f"Expected `{name}` to be a sympy expression or a string, got {type(e).__name__}.")
-        e = _real(sp.sympify(e))
-        if e.has(sp.I) or e.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
-            raise SymbolicError(f"`{name}` must be a finite real expression, got {e}.")
-        names = {str(s) for s in e.free_symbols}
-        wrong_vars = sorted(names & ({"v", "m1", "m2", "m3"} - set(variables)))
-        if wrong_vars:
-            want = (
-                "v alone (v = m3 for the rotor on axis 3, v = m_i for phi_i)"
-                if variables == ("v",)
-                else "the body momentum m1, m2, m3"
-            )
-            raise SymbolicError(f"Expected `{name}` to be a function of {want}, got {e}, which involves {wrong_vars}.")
-        clash = sorted(names & reserved)
-        if clash:
-            raise SymbolicError(
-                f"`{name}` uses {clash}, which name the model's own parameters {sorted(reserved)}; rename them."
-            )
-        out.append(e)
-    return out
 
 
 class StructurePreservingControl:
@@ -201,7 +166,9 @@ class StructurePreservingControl:
         else:
             self.phi_expression = None
             self._phi_1d_exprs = None
-            self._phi, self._dphi, self._phi_1d = self._wrap_callables(phi_callables)
+            self._phi, self._dphi, self._phi_1d = wrap_phi_callables(
+                phi_callables, self.body.axes, self._separable, self.n_rotors
+            )
             self._check_derivative()
         self.condition = existence_condition(self)
         if not self.condition.holds:
@@ -376,7 +343,7 @@ class StructurePreservingControl:
         reserved = {"p"} if n == 1 else {f"p{i + 1}" for i in range(n)}
         reserved |= set() if lam_syms is None else {str(s) for s in lam_syms}
         names_ok = ("v",) if variables == "v" else ("m1", "m2", "m3")
-        exprs = _parse(phis, names_ok, "phi", reserved)
+        exprs = parse_phi(phis, names_ok, "phi", reserved)
         given = {str(k): v for k, v in dict(parameters or {}).items()}
         used = sorted({str(s) for e in exprs for s in e.free_symbols} - set(names_ok))
         missing = sorted(set(used) - set(given))
@@ -418,41 +385,6 @@ class StructurePreservingControl:
     def _cat(self, m: np.ndarray, theta: np.ndarray) -> np.ndarray:
         m = np.asarray(m, dtype=float)
         return np.concatenate([m, np.broadcast_to(theta, m.shape[:-1] + theta.shape)], -1)
-
-    def _wrap_callables(self, callables):
-        phis, derivs = callables
-        axes = self.body.axes
-        if self._separable:
-
-            def phi(m, th):
-                v = np.asarray(m, float) @ axes.T
-                return np.stack([np.asarray(f(v[..., i]), float) for i, f in enumerate(phis)], -1)
-
-            def dphi(m, th):
-                v = np.asarray(m, float) @ axes.T
-                d = np.stack([np.asarray(f(v[..., i]), float) for i, f in enumerate(derivs)], -1)
-                return d[..., :, None] * axes
-
-            phi_1d = [lambda x, th, f=f: np.asarray(f(x), float) for f in phis]
-            return phi, dphi, phi_1d
-        f, jac = phis[0], derivs[0]
-        n = self.n_rotors
-
-        def phi(m, th):
-            out = np.asarray(f(np.asarray(m, float)), float)
-            if out.shape != np.shape(m)[:-1] + (n,):
-                raise InputError(
-                    f"Expected `phi` to return shape (..., {n}), got {out.shape} for m of shape {np.shape(m)}."
-                )
-            return out
-
-        def dphi(m, th):
-            out = np.asarray(jac(np.asarray(m, float)), float)
-            if out.shape != np.shape(m)[:-1] + (n, 3):
-                raise InputError(f"Expected `jacobian` to return shape (..., {n}, 3), got {out.shape}.")
-            return out
-
-        return phi, dphi, None
 
     def _check_derivative(self) -> None:
         """A callable phi comes with its derivative: check it against central differences of phi."""

@@ -33,17 +33,14 @@ import sympy as sp
 
 from ..errors import InputError, ShapeError, SymbolicError
 from ..symbolic.charts import GroupChart, group_chart
-from ..symbolic.compile import compile_matrix, compile_vector
 from ..symbolic.formula import parse_formula
 from ..symbolic.simplify import simplify_expr
+from ._invariance import InvarianceReport, invariance_report
 
 __all__ = [
     "NonholonomicSystem",
     "InvarianceReport",
 ]
-
-#: Relative tolerance of the numeric invariance tests (random points, exact formulas: round-off only).
-_INVARIANCE_RTOL = 1e-9
 
 
 def _symbols(names: Sequence[Any], argname: str) -> tuple[sp.Symbol, ...]:
@@ -121,59 +118,6 @@ def _checked_values(symbols: Mapping[str, sp.Symbol], values: Mapping[str, Any],
 # --------------------------------------------------------------------------------------------------
 # The system
 # --------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class InvarianceReport:
-    """Outcome of the G-invariance checks of the Lagrangian and of the constraint distribution."""
-
-    group: str
-    lagrangian_invariant: bool
-    lagrangian_breaking_terms: tuple[sp.Expr, ...]
-    constraints_invariant: bool
-    breaking_constraints: tuple[int, ...]
-
-    @property
-    def ok(self) -> bool:
-        return self.lagrangian_invariant and self.constraints_invariant
-
-    def message(self) -> str:
-        parts = []
-        if not self.lagrangian_invariant:
-            terms = ", ".join(str(t) for t in self.lagrangian_breaking_terms) or "(terms not isolated)"
-            parts.append(
-                f"the Lagrangian is not invariant under {self.group}: written in body velocities it still "
-                f"depends on the group variables through the term(s) {terms}"
-            )
-        if not self.constraints_invariant:
-            which = ", ".join("#" + str(i) for i in self.breaking_constraints)
-            parts.append(
-                f"the constraint distribution is not invariant under {self.group}: constraint(s) {which} "
-                "(0-based) change with the group variables beyond a re-combination of the others"
-            )
-        return "; ".join(parts) if parts else f"L and the constraints are invariant under {self.group}"
-
-    def to_dict(self) -> dict:
-        return {
-            "ok": self.ok,
-            "lagrangian_invariant": self.lagrangian_invariant,
-            "lagrangian_breaking_terms": [str(t) for t in self.lagrangian_breaking_terms],
-            "constraints_invariant": self.constraints_invariant,
-            "breaking_constraints": list(self.breaking_constraints),
-            "message": self.message(),
-        }
-
-    def to_json(self, **kwargs: Any) -> str:
-        import json
-
-        return json.dumps(self.to_dict(), **kwargs)
-
-    def to_latex(self) -> str:
-        terms = r",\; ".join(sp.latex(t) for t in self.lagrangian_breaking_terms) or r"\text{none}"
-        return rf"\text{{{self.message().split(':')[0]}}}:\; {terms}"
-
-    def __str__(self) -> str:
-        return self.message()
-
-
 def _random_values(symbols: Sequence[sp.Symbol], rng: np.random.Generator) -> dict:
     # Parameters drawn positive (masses, lengths); coordinates and velocities anywhere in a unit box.
     return {s: float(rng.uniform(0.6, 1.7)) for s in symbols}
@@ -575,52 +519,7 @@ class NonholonomicSystem:
         round-off is a real dependence); the report names the terms of :math:`L` that depend on :math:`g`
         (after trigonometric simplification) and the constraints that break invariance.
         """
-        rng = np.random.default_rng(seed)
-        gq = self.group.coordinates
-        L_body = self.lagrangian.subs(self.body_substitution)
-        L_id = L_body.subs(self.reference_substitution)
-        variables = list(gq + self.shape + self.xi + self.shape_dot)
-        f_both = compile_vector([L_body, L_id], variables + list(self.parameter_symbols))
-        lag_ok = True
-        for _ in range(samples):
-            pt = self._random_point(rng, variables)
-            a, b = f_both(np.array([pt[s] for s in variables + list(self.parameter_symbols)], dtype=float))
-            if abs(a - b) > _INVARIANCE_RTOL * max(1.0, abs(a), abs(b)):
-                lag_ok = False
-                break
-        terms: tuple = ()
-        if not lag_ok:
-            diff = sp.expand(sp.expand_trig(L_body - L_id))
-            vel = list(self.xi + self.shape_dot)
-            poly = sp.Poly(diff, *vel)
-            found = []
-            for mon, coeff in zip(poly.monoms(), poly.coeffs()):
-                cs = sp.simplify(coeff)
-                if cs != 0:
-                    found.append(cs * sp.prod([v**e for v, e in zip(vel, mon)]))
-            terms = tuple(found)
-        bad_rows: list[int] = []
-        if self.c:
-            Lam_inv = self.group.body_velocity_inverse
-            Abody = sp.Matrix(self.constraint_matrix[:, : self.k]) * Lam_inv
-            Abody = sp.Matrix.hstack(Abody, sp.Matrix(self.constraint_matrix[:, self.k :]))
-            fA = compile_matrix(Abody, list(gq + self.shape) + list(self.parameter_symbols))
-            for _ in range(samples):
-                pt = self._random_point(rng, list(gq + self.shape))
-                args_g = [pt[s] for s in gq + self.shape] + [pt[s] for s in self.parameter_symbols]
-                args_e = (
-                    [float(v) for v in self.group.reference]
-                    + [pt[s] for s in self.shape]
-                    + [pt[s] for s in self.parameter_symbols]
-                )
-                Ag, Ae = fA(np.array([args_g, args_e], dtype=float))
-                _, sv, vt = np.linalg.svd(Ae)
-                null = vt[np.sum(sv > 1e-12 * max(sv.max(), 1.0)) :].T
-                res = np.abs(Ag @ null).max(axis=1) if null.size else np.zeros(self.c)
-                scale = np.maximum(np.abs(Ag).max(axis=1), 1.0)
-                bad_rows += [int(i) for i in np.nonzero(res > 1e-9 * scale)[0]]
-        bad = tuple(sorted(set(bad_rows)))
-        return InvarianceReport(self.group.name, lag_ok, terms, not bad, bad)
+        return invariance_report(self, samples=samples, seed=seed)
 
     def __repr__(self) -> str:
         return (
