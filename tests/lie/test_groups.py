@@ -372,6 +372,17 @@ def test_non_elements_are_rejected(case):
         G.log(g)
 
 
+def test_a_product_refuses_coupling_between_its_factors_and_says_where():
+    G = SE2() * SO2("psi")
+    g = G.random(1, size=3)
+    G.check(g)  # block diagonal: an element
+    g[2, 0, 3] = 1e-3  # couples the SE(2) block to the SO(2) block in the third element only
+    with pytest.raises(
+        InputError, match=r"SE\(2\) x SO\(2\) \(block diagonal\), got one off by 0\.001 at batch index \(2,\)"
+    ):
+        G.check(g)
+
+
 def test_a_basis_that_is_not_an_algebra_is_refused():
     X = np.zeros((2, 3, 3))
     X[0, 0, 1] = 1.0

@@ -159,13 +159,23 @@ def rigid_motion(value: Any, name: str, n: int) -> np.ndarray:
         np.abs(bottom).max(axis=-1),
         np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(n)).max(axis=(-2, -1)),
     )
-    bad = (err > ELEMENT_ATOL) | (np.linalg.det(R) <= 0)
+    refuse_non_elements(
+        err,
+        name,
+        f"SE({n}), a homogeneous matrix [[R, t], [0, 1]] with R^T R = I and det R = +1",
+        bad=(err > ELEMENT_ATOL) | (np.linalg.det(R) <= 0),
+    )
+    return arr
+
+
+def refuse_non_elements(err: np.ndarray, name: str, what: str, *, bad: np.ndarray | None = None) -> None:
+    """Raise :class:`InputError` where ``err`` (the distance of each of a batch of matrices from the group,
+    entrywise) exceeds :data:`ELEMENT_ATOL` (or where ``bad``), naming the group (``what``) and where."""
+    bad = err > ELEMENT_ATOL if bad is None else bad
     if np.any(bad):
         raise InputError(
-            f"Expected `{name}` to be an element of SE({n}), a homogeneous matrix [[R, t], [0, 1]] with "
-            f"R^T R = I and det R = +1, got one off by {float(err.max()):.3g}{_where(bad)}."
+            f"Expected `{name}` to be an element of {what}, got one off by {float(np.max(err)):.3g}{_where(bad)}."
         )
-    return arr
 
 
 def batch_shape_of(batch_shape: Any) -> tuple[int, ...]:

@@ -326,12 +326,7 @@ class Product(LieGroup):
             f.check(g[..., a:b, a:b], name)
             off = g[..., a:b, :].copy()
             off[..., :, a:b] = 0.0
-            err = np.abs(off).max()
-            if err > c.ELEMENT_ATOL:
-                raise InputError(
-                    f"Expected `{name}` to be an element of {self.name} (block diagonal), got "
-                    f"off-diagonal entries of size {err:.3g}."
-                )
+            c.refuse_non_elements(np.abs(off).max(axis=(-2, -1)), name, f"{self.name} (block diagonal)")
         return g
 
     def exp(self, u: Any) -> np.ndarray:

@@ -284,12 +284,7 @@ class SO2(LieGroup):
         g = c.matrix(g, name, 2)
         err = np.maximum(np.abs(g[..., 0, 0] - g[..., 1, 1]), np.abs(g[..., 0, 1] + g[..., 1, 0]))
         err = np.maximum(err, np.abs(g[..., 0, 0] ** 2 + g[..., 1, 0] ** 2 - 1.0))
-        bad = err > c.ELEMENT_ATOL
-        if np.any(bad):
-            raise InputError(
-                f"Expected `{name}` to be an element of SO(2), a rotation [[cos, -sin], [sin, cos]], "
-                f"got one off by {float(err.max()):.3g}{c._where(bad)}."
-            )
+        c.refuse_non_elements(err, name, "SO(2), a rotation [[cos, -sin], [sin, cos]]")
         return g
 
     def _rot(self, a: np.ndarray) -> np.ndarray:
@@ -381,12 +376,7 @@ class Rn(LieGroup):
         mask = np.ones((self.matrix_size, self.matrix_size), dtype=bool)
         mask[: self.dim, self.dim] = False
         err = np.abs(np.where(mask, g - target, 0.0)).max(axis=(-2, -1))
-        bad = err > c.ELEMENT_ATOL
-        if np.any(bad):
-            raise InputError(
-                f"Expected `{name}` to be an element of {self.name}, a homogeneous translation "
-                f"[[I, t], [0, 1]], got one off by {float(err.max()):.3g}{c._where(bad)}."
-            )
+        c.refuse_non_elements(err, name, f"{self.name}, a homogeneous translation [[I, t], [0, 1]]")
         return g
 
     def _assemble(self, t: np.ndarray) -> np.ndarray:
