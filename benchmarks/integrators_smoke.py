@@ -65,10 +65,10 @@ def main() -> None:
         "abm4",
     ):
         t = time.perf_counter()
-        first = solve(red, key, y0=y0, h=1e-3, n_steps=10)
+        first = solve(red, key, y0=y0, h=1e-3, t_final=10 * 1e-3)
         setup = time.perf_counter() - t
         best = best_run_time(
-            lambda key=key: solve(red, key, y0=y0, h=1e-3, n_steps=args.steps, save_every=args.steps), args.repeats
+            lambda key=key: solve(red, key, y0=y0, h=1e-3, t_final=args.steps * 1e-3, saveat=2), args.repeats
         )
         print(
             f"  {key:22s} {best / args.steps * 1e9:8.1f} ns/step   (compile {first.stats['compile_time']:.2f} s, "
@@ -81,11 +81,11 @@ def main() -> None:
     m0 /= np.linalg.norm(m0, axis=1, keepdims=True)
     n = 200
     for key in ("strang", "splitting_4_suzuki"):
-        solve(hc, key, m0=m0[:2], h=1e-2, n_steps=2)
+        solve(hc, key, m0=m0[:2], h=1e-2, t_final=2 * 1e-2)
         for threads in (1, 2):
             best = best_run_time(
                 lambda key=key, threads=threads: solve(
-                    hc, key, m0=m0, h=1e-2, n_steps=n, save_every=n, threads=threads
+                    hc, key, m0=m0, h=1e-2, t_final=n * 1e-2, saveat=2, threads=threads
                 ),
                 max(2, args.repeats // 2),
             )

@@ -52,7 +52,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 import geomech as gm
-from geomech.integrators import AdaptiveAdams, QuadraturePropagator, compatible_methods, get_method, solve
+from geomech.integrators import AdaptiveAdams, Kind, QuadraturePropagator, compatible_methods, get_method, solve
 from geomech.integrators.periodic import PeriodicOrbitPropagator
 
 HERE = Path(__file__).resolve().parent
@@ -272,11 +272,28 @@ def drift_ratio(prob: Problem, Y: np.ndarray) -> float:
     return float(np.max(dE[half:]) / max(np.max(dE[1:half]), 1e-300))
 
 
-def run_geomech(prob: Problem, key: str, method: Any, h: float, T: float, ref: np.ndarray, repeats: int) -> dict:
+def saved_times(n: int, every: int, h: float, T: float) -> Any:
+    """``saveat`` keeping every ``every``-th of the times ``k h``, k = 0..n (n h = T), and T."""
+    if n % every == 0:
+        return n // every + 1
+    times = h * np.append(np.arange(0, n + 1, every), n).astype(float)
+    times[-1] = T
+    return times
+
+
+def run_geomech(
+    prob: Problem, key: str, method: Any, h: float, T: float, ref: np.ndarray, repeats: int, tol: float | None = None
+) -> dict:
+    """A fixed-step method with step ``h``, or an adaptive one with tolerance ``tol`` and an output every ``h``."""
     n = int(round(T / h))
     save = max(1, n // N_ENERGY)
     kwargs = prob.init_kwargs()
-    first = solve(prob.system, method, h=h, t_final=T, save_every=save, raise_on_failure=False, **kwargs)
+    kwargs["saveat"] = saved_times(n, save, h, T)
+    if get_method(method).kind is Kind.ADAPTIVE:
+        kwargs.update(rtol=tol, atol=tol)
+    else:
+        kwargs["h"] = h
+    first = solve(prob.system, method, t_final=T, raise_on_failure=False, **kwargs)
     rec = {
         "solver": "geomech",
         "method": key,
@@ -286,11 +303,9 @@ def run_geomech(prob: Problem, key: str, method: Any, h: float, T: float, ref: n
         "compile_time": first.stats["compile_time"],
     }
     if not first.success:
-        rec.update(status=first.status, message=first.message)
+        rec.update(status=first.status.value, message=first.message)
         return rec
-    wall, sol, call = best_run_time(
-        lambda: solve(prob.system, method, h=h, t_final=T, save_every=save, **kwargs), repeats
-    )
+    wall, sol, call = best_run_time(lambda: solve(prob.system, method, t_final=T, **kwargs), repeats)
     Y = sol.states
     rec.update(
         status="success",
@@ -434,9 +449,11 @@ def method_order(key: str) -> int:
 # -- the throughput measurements ------------------------------------------------------------------------
 def midpoint_step_cost(prob: ReducedClosedLoop, repeats: int, n: int) -> dict:
     kwargs = prob.init_kwargs()
-    solve(prob.system, "implicit_midpoint", h=1e-3, n_steps=10, **kwargs)
+    solve(prob.system, "implicit_midpoint", h=1e-3, t_final=10 * 1e-3, **kwargs)
     wall, sol, _ = best_run_time(
-        lambda: solve(prob.system, "implicit_midpoint", h=1e-3, n_steps=n, save_every=n, **kwargs), repeats, budget=6.0
+        lambda: solve(prob.system, "implicit_midpoint", h=1e-3, t_final=n * 1e-3, saveat=2, **kwargs),
+        repeats,
+        budget=6.0,
     )
     return {"h": 1e-3, "n_steps": n, "ns_per_step": wall / n * 1e9, "newton_per_step": sol.stats["n_newton"] / n}
 
@@ -452,11 +469,11 @@ def splitting_throughput(repeats: int, batch: int, n: int) -> list[dict]:
     out = []
     for sysname, system in (("closed loop H_c", closed_loop), ("free body [3, 2, 1]", gm.RigidBody([3, 2, 1]))):
         for key in ("strang", "splitting_4_yoshida", "splitting_4_suzuki"):
-            solve(system, key, m0=m0[:2], h=1e-2, n_steps=2)
+            solve(system, key, m0=m0[:2], h=1e-2, t_final=2 * 1e-2)
             for threads in (1, 2):
                 wall, _, _ = best_run_time(
                     lambda system=system, key=key, threads=threads: solve(
-                        system, key, m0=m0, h=1e-2, n_steps=n, save_every=n, threads=threads
+                        system, key, m0=m0, h=1e-2, t_final=n * 1e-2, saveat=2, threads=threads
                     ),
                     repeats,
                     budget=6.0,
@@ -640,14 +657,15 @@ def main(argv: list[str] | None = None) -> int:
         log(f"problem {prob.name}: references")
         ref = references(prob, hy, log)
         recs: list[dict] = []
-        # adams and the periodic orbit have rows of their own; lgvi_exp is lgvi at a higher cost
-        keys = [k for k in compatible_methods(prob.system) if k not in ("adams", "lgvi_exp", "periodic_orbit")]
+        # the fixed-step methods; adams and the exact propagators have rows of their own, lgvi_exp is lgvi at a
+        # higher cost
+        keys = [k for k in compatible_methods(prob.system) if get_method(k).kind is Kind.FIXED_STEP and k != "lgvi_exp"]
         for key in keys:
             for h in hgrid[method_order(key)]:
                 recs.append(run_geomech(prob, key, key, h, T_SHORT, ref["short"], repeats))
             log(f"  {key}: " + brief(recs[-len(hgrid[method_order(key)]) :]))
         for tol in ADAMS_TOLS_QUICK if quick else ADAMS_TOLS:
-            rec = run_geomech(prob, "adams", AdaptiveAdams(rtol=tol, atol=tol), 1.0, T_SHORT, ref["short"], repeats)
+            rec = run_geomech(prob, "adams", AdaptiveAdams(), 1.0, T_SHORT, ref["short"], repeats, tol=tol)
             rec.update(param="tol", value=tol)
             recs.append(rec)
         log("  adams (VODE, output every 1): " + brief([r for r in recs if r["method"] == "adams"]))

@@ -114,10 +114,10 @@ def _reduced():
 
 
 def _sleigh_run(t_final, v):
-    from geomech.integrators.nonholonomic import simulate_reduced
+    from geomech.integrators import BKMM
 
     s = chaplygin_sleigh(m=1.0, a=0.5, I_c=0.2)
-    return simulate_reduced(s, t_final, samples=11, p0=[v, 0.1]).q
+    return gm.solve(s, BKMM(), t_final=t_final, saveat=11, p0=[v, 0.1]).q
 
 
 def _finite(value) -> bool:

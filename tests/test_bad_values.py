@@ -95,7 +95,7 @@ def test_an_automatic_basis_that_degenerates_at_the_given_values_is_named_and_a_
     """At beta = 0 the generic null-space basis has two parallel vectors though S_q keeps dimension 2: a one-line
     error (once a KeyError 'ComplexInfinity'); the basis (cos b, sin b, 0), (0, -s, 1), valid for every beta, runs,
     and the reduced simulation agrees with the full one (an independent route)."""
-    from geomech.integrators.nonholonomic import simulate_full, simulate_reduced
+    from geomech.integrators import BKMM, LagrangeDAlembert
     from geomech.lie import SE2
     from geomech.systems.nonholonomic import NonholonomicSystem
 
@@ -105,7 +105,7 @@ def test_an_automatic_basis_that_degenerates_at_the_given_values_is_named_and_a_
     )
     gait = {"s": "0.2*sin(2*pi*t)"}
     with pytest.raises(InputError, match=r"slider: the body-fixed basis .* degenerates at .*beta = 0,.*\(rank 1 < 2\)"):
-        simulate_reduced(auto, 1.0, shapes=gait, p0=[0.1, 0.1])
+        gm.solve(auto, BKMM(), t_final=1.0, shapes=gait, p0=[0.1, 0.1])
     good = NonholonomicSystem.from_lagrangian(
         SLIDER_L,
         SE2("x", "y", "theta"),
@@ -115,8 +115,8 @@ def test_an_automatic_basis_that_degenerates_at_the_given_values_is_named_and_a_
         name="slider",
         basis=[["cos(beta)", "0"], ["sin(beta)", "-s"], ["0", "1"]],
     )
-    red = simulate_reduced(good, 1.0, shapes=gait, p0=[0.1, 0.1])
-    full = simulate_full(good, 1.0, shapes=gait, p0=[0.1, 0.1])
+    red = gm.solve(good, BKMM(), t_final=1.0, shapes=gait, p0=[0.1, 0.1])
+    full = gm.solve(good, LagrangeDAlembert(), t_final=1.0, shapes=gait, p0=[0.1, 0.1])
     assert np.abs(red.q[-1] - red.q[0]).max() > 1e-2  # it moves
     np.testing.assert_allclose(red.q[-1], full.q[-1], rtol=0, atol=1e-7)
 

@@ -19,7 +19,7 @@ def reduced():
 
 def test_solve_refuses_an_output_that_would_not_fit_before_allocating_it(reduced):
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    with pytest.raises(InputError, match=r"22.4 GiB.*raise `save_every` \(to at least 12\)"):
+    with pytest.raises(InputError, match=r"22.4 GiB.*save fewer times \(`saveat`\)"):
         gm.solve(reduced, "rk4", y0=[0.3, 0.2], h=1e-9, t_final=1.0)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # kB: nothing was allocated
 
@@ -39,7 +39,7 @@ def test_solve_refuses_oversized_runs_with_the_knob_that_raises_the_bound(reduce
 
 
 def test_raising_the_bound_runs_it(reduced):
-    sol = gm.solve(reduced, "rk4", y0=[0.3, 0.2], h=1e-3, t_final=1.0, save_every=100, max_steps=1000)
+    sol = gm.solve(reduced, "rk4", y0=[0.3, 0.2], h=1e-3, t_final=1.0, saveat=np.linspace(0, 1, 11), max_steps=1000)
     assert sol.status == "success" and len(sol.t) == 11
 
 
@@ -94,16 +94,19 @@ def test_a_trajectory_that_reaches_the_end_of_its_chart_is_a_failure_where_it_do
     """H = -l drives L' = 1: from L = 0 the chart L in (-1, 1) ends at t = 1."""
     import sympy as sp
 
+    from geomech.integrators import Kind, get_method
     from geomech.systems import CanonicalSystem
 
     l, L = sp.symbols("l L", real=True)
     sys = CanonicalSystem.from_expression(-l + 0 * L, (l,), (L,), chart=((1, -1.0, 1.0),))
-    sol = gm.solve(sys, method, y0=[0.0, 0.0], h=0.01, t_final=2.0, raise_on_failure=False)
+    # a step of 0.01, or (adaptive) output times 0.01 apart
+    times = {"h": 0.01} if get_method(method).kind is Kind.FIXED_STEP else {"saveat": 201}
+    sol = gm.solve(sys, method, y0=[0.0, 0.0], **times, t_final=2.0, raise_on_failure=False)
     assert sol.status == "left_chart" and "end of its chart" in sol.message
     assert abs(sol.failures[0].time - 1.0) <= 0.011
     with pytest.raises(NumericalError, match="end of its chart"):
-        gm.solve(sys, method, y0=[0.0, 0.0], h=0.01, t_final=2.0)
-    assert gm.solve(sys, method, y0=[0.0, 0.0], h=0.01, t_final=0.5).status == "success"
+        gm.solve(sys, method, y0=[0.0, 0.0], **times, t_final=2.0)
+    assert gm.solve(sys, method, y0=[0.0, 0.0], **times, t_final=0.5).status == "success"
 
 
 def test_the_serret_andoyer_reduced_system_knows_its_chart():
@@ -116,19 +119,19 @@ GAIT = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
 
 
 def test_nonholonomic_simulations_are_bounded_by_their_projected_cost():
-    from geomech.integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
+    from geomech.integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
     from geomech.systems.nonholonomic_examples import snakeboard
 
     s = snakeboard(**SNAKE)
-    for sim in (simulate_full, simulate_reduced):
+    for method in (LagrangeDAlembert(), BKMM()):
         with pytest.raises(InputError, match=r"needs about .* evaluations .* above `max_evaluations` = 200000"):
-            sim(s, 1e6, shapes=GAIT)
+            gm.solve(s, method, t_final=1e6, shapes=GAIT)
     # a run just past its budget is stopped where it is, and says so
-    with pytest.raises(NumericalError, match=r"stopped after 3000 evaluations of the equations at t = .* raise"):
-        simulate_reduced(s, 10.0, shapes=GAIT, max_evaluations=3000)
-    assert simulate_reduced(s, 1.0, shapes=GAIT, max_evaluations=50_000).t[-1] == 1.0
+    with pytest.raises(NumericalError, match=r"stopped after 3000 evaluations, of 10: .* raise `max_evaluations`"):
+        gm.solve(s, BKMM(), t_final=10.0, shapes=GAIT, max_evaluations=3000)
+    assert gm.solve(s, BKMM(), t_final=1.0, shapes=GAIT, max_evaluations=50_000).t[-1] == 1.0
     with pytest.raises(InputError, match=r"above the limit `max_steps` = 1e\+06"):
-        simulate_discrete(s, 1e9, 1e-3, shapes=GAIT)
+        gm.solve(s, DiscreteLagrangeDAlembert(), t_final=1e9, h=1e-3, shapes=GAIT)
 
 
 def test_a_stability_map_grid_is_bounded_before_any_work():

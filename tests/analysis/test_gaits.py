@@ -60,16 +60,19 @@ def test_drive_gait_momentum_gain_is_the_bessel_closed_form(board):
 
 
 def test_reconstruction_agrees_with_full_simulation(board):
-    from geomech.integrators.nonholonomic import simulate_full
+    from geomech import solve
+    from geomech.integrators import LagrangeDAlembert
 
     q0 = {"x": 0.4, "y": -1.1, "theta": 0.7}
     a = analyse_gait(board, ROTATE, period=1.0, periods=2, p0=[0.35], g0=q0, samples_per_period=101)
-    tr = simulate_full(
+    tr = solve(
         board.system,
+        LagrangeDAlembert(),
+        t_final=a.t[-1],
+        saveat=a.t,
         shapes={k: v.replace("T", "1.0") for k, v in ROTATE.items()},
         q0=q0,
         p0=[0.35],
-        t_eval=a.t,
         rtol=1e-12,
         atol=1e-13,
     )
@@ -79,14 +82,17 @@ def test_reconstruction_agrees_with_full_simulation(board):
 
 
 def test_reconstruction_agrees_with_reduced_simulation(board):
-    from geomech.integrators.nonholonomic import simulate_reduced
+    from geomech import solve
+    from geomech.integrators import BKMM
 
     a = analyse_gait(board, DRIVE, period=1.0, periods=2, p0=[-0.2], samples_per_period=51)
-    tr = simulate_reduced(
+    tr = solve(
         board.system,
+        BKMM(),
+        t_final=a.t[-1],
+        saveat=a.t,
         shapes={k: v.replace("T", "1.0") for k, v in DRIVE.items()},
         p0=[-0.2],
-        t_eval=a.t,
         rtol=1e-12,
         atol=1e-13,
     )

@@ -8,7 +8,7 @@ import pytest
 
 from geomech.cli.main import cli, main
 from geomech.cli.nonholonomic import derive_cmd, simulate_cmd
-from geomech.integrators.nonholonomic import simulate_full
+from geomech.integrators import LagrangeDAlembert, solve
 from geomech.systems.nonholonomic_examples import snakeboard
 
 for _cmd in (derive_cmd, simulate_cmd):
@@ -45,8 +45,11 @@ def test_simulate_snakeboard_json_matches_the_library(capsys, tmp_path):
     code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--json", "--out", str(tmp_path))
     assert code == 0, err
     data = json.loads(out)
-    ref = simulate_full(
-        snakeboard(m=1, r=0.5, J=0.18, J0=0.05, J1=0.01), 1.0, shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+    ref = solve(
+        snakeboard(m=1, r=0.5, J=0.18, J0=0.05, J1=0.01),
+        LagrangeDAlembert(),
+        t_final=1.0,
+        shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"},
     )
     for k in ("x", "y", "theta"):
         assert data["final_configuration"][k] == pytest.approx(ref.final()[k], abs=1e-9)

@@ -7,7 +7,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 import geomech as gm
-from geomech.integrators.methods import REGISTRY
+from geomech.integrators.methods import REGISTRY, Kind
 from geomech.integrators.solve import solve
 
 Y0 = np.array([0.3, 0.2])
@@ -46,7 +46,7 @@ def test_test_model_is_the_reduction_of_the_closed_loop(closed_loop, closed_loop
 def test_convergence_order(key, steps, closed_loop_reduced, reference, fitted_order):
     method = REGISTRY[key]
     errors = [
-        np.abs(solve(closed_loop_reduced, method, y0=Y0, h=T / n, n_steps=n, save_every=n).states[-1] - reference).max()
+        np.abs(solve(closed_loop_reduced, method, y0=Y0, h=T / n, t_final=T, saveat=2).states[-1] - reference).max()
         for n in steps
     ]
     order = fitted_order(T / np.array(steps), errors)
@@ -59,7 +59,7 @@ def test_stormer_verlet_order_on_a_separable_problem(pendulum, fitted_order):
     ref = ref.y[:, -1]
     steps = np.array([20, 40, 80, 160, 320])
     errors = [
-        np.abs(solve(pendulum, "stormer_verlet", y0=y0, h=t1 / n, n_steps=n).states[-1] - ref).max() for n in steps
+        np.abs(solve(pendulum, "stormer_verlet", y0=y0, h=t1 / n, t_final=t1).states[-1] - ref).max() for n in steps
     ]
     assert abs(fitted_order(t1 / steps, errors) - 2) < 0.2
 
@@ -116,8 +116,8 @@ def test_generating_function_h2_term_derived_from_the_hamilton_jacobi_equation()
 def test_generating_function_method_is_not_the_midpoint_rule(closed_loop_reduced):
     diffs = []
     for h in (0.1, 0.05):
-        gf = solve(closed_loop_reduced, "generating_function", y0=Y0, h=h, n_steps=1).states[-1]
-        mp = solve(closed_loop_reduced, "implicit_midpoint", y0=Y0, h=h, n_steps=1).states[-1]
+        gf = solve(closed_loop_reduced, "generating_function", y0=Y0, h=h, t_final=h).states[-1]
+        mp = solve(closed_loop_reduced, "implicit_midpoint", y0=Y0, h=h, t_final=h).states[-1]
         diffs.append(np.abs(gf - mp).max())
     # both are second order, so one step differs at O(h^3), far above round-off
     assert diffs[0] > 1e-6
@@ -127,7 +127,7 @@ def test_generating_function_method_is_not_the_midpoint_rule(closed_loop_reduced
     for key, symmetric in (("implicit_midpoint", True), ("generating_function", False)):
         gaps = []
         for h in (0.2, 0.1):
-            forward = solve(closed_loop_reduced, key, y0=Y0, h=h, n_steps=1).states[-1]
+            forward = solve(closed_loop_reduced, key, y0=Y0, h=h, t_final=h).states[-1]
             back = solve(closed_loop_reduced, key, y0=forward, h=h, t0=h, t_final=0.0).states[-1]
             gaps.append(np.abs(back - Y0).max())
         if symmetric:
@@ -154,7 +154,9 @@ def test_agrees_with_the_exact_free_body_through_its_reduction(key, body):
     n = 100 if method.order < 4 else 20
     errors = []
     for steps in (n, 2 * n):
-        sol = solve(red, method, y0=chart.forward(m0), h=t1 / steps, t_final=t1, backend="python")
+        # an adaptive method is told its output times (one every t1 / steps), a fixed-step one its step
+        times = {"saveat": steps + 1} if method.kind is Kind.ADAPTIVE else {"h": t1 / steps}
+        sol = solve(red, method, y0=chart.forward(m0), t_final=t1, backend="python", **times)
         assert sol.stats["backend"] == "python"
         errors.append(np.abs(chart.inverse(sol.states[-1], G) - exact).max())
     tol = {1: 0.1, 2: 1e-3, 4: 1e-6, 6: 1e-8, 12: 1e-5}[method.order]
@@ -180,7 +182,7 @@ def _quarters(energy):
 
 @pytest.mark.parametrize("key", SYMPLECTIC_KEYS)
 def test_symplectic_energy_error_is_bounded(key, closed_loop_reduced):
-    sol = solve(closed_loop_reduced, key, y0=Y0, h=0.1, n_steps=20_000, save_every=10)
+    sol = solve(closed_loop_reduced, key, y0=Y0, h=0.1, t_final=2000.0, saveat=2001)
     first, last = _quarters(sol.energy)
     assert last < 1.2 * first + 1e-14, (first, last)
 
@@ -188,7 +190,7 @@ def test_symplectic_energy_error_is_bounded(key, closed_loop_reduced):
 @pytest.mark.parametrize("key", ["rk4", "abm4"])
 def test_non_symplectic_energy_error_drifts(key, closed_loop_reduced):
     # the contrast that makes the bounded-error test meaningful: same problem, same step
-    sol = solve(closed_loop_reduced, key, y0=Y0, h=0.1, n_steps=20_000, save_every=10)
+    sol = solve(closed_loop_reduced, key, y0=Y0, h=0.1, t_final=2000.0, saveat=2001)
     first, last = _quarters(sol.energy)
     assert last > 2.5 * first
 
@@ -209,7 +211,7 @@ LONG_RUN_STEP = {
 @pytest.mark.parametrize("key", SYMPLECTIC_KEYS + ["gauss_legendre_1"])
 def test_symplectic_energy_error_is_bounded_over_a_million_steps(key, closed_loop_reduced):
     h = LONG_RUN_STEP[key]
-    sol = solve(closed_loop_reduced, key, y0=Y0, h=h, n_steps=1_000_000, save_every=100)
+    sol = solve(closed_loop_reduced, key, y0=Y0, h=h, t_final=1_000_000 * h, saveat=10_001)
     first, last = _quarters(sol.energy)
     assert first > 1e-11, first
     assert last < 1.02 * first + 1e-14, (first, last)

@@ -18,7 +18,7 @@ def test_solve_periodic_orbit_matches_the_elliptic_solution_for_a_batch():
     G = float(np.linalg.norm(m0[0]))
     red = GeneralizedSerretAndoyer(body).reduced_system(G)
     y0 = CHART.forward(m0)
-    sol = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=y0, h=50.0, t_final=1000.0)
+    sol = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=y0, saveat=21, t_final=1000.0)
     assert sol.status == "success" and sol.states.shape == (2, 21, 2)
     for b in range(2):
         exact = body.exact_solution(m0[b]).momentum(sol.t)
@@ -30,7 +30,7 @@ def test_solve_periodic_orbit_matches_the_elliptic_solution_for_a_batch():
 def test_periodic_orbit_refuses_systems_and_reports_a_separatrix():
     body = gm.RigidBody([1.0, 2.0, 3.0])
     with pytest.raises(IncompatibleMethodError, match="canonical"):
-        solve(body, "periodic_orbit", m0=[1.0, 0.3, 0.2], h=0.1, t_final=1.0)
+        solve(body, "periodic_orbit", m0=[1.0, 0.3, 0.2], saveat=11, t_final=1.0)
     # on the separatrix E = G^2 / (2 I2): no period; status data with the reason, raised by default
     G = 1.0
     red = GeneralizedSerretAndoyer(body).reduced_system(G)
@@ -38,11 +38,11 @@ def test_periodic_orbit_refuses_systems_and_reports_a_separatrix():
     a = np.sqrt((1 / I2 - 1 / I3) / (1 / I1 - 1 / I3))  # m1^2/I1 + m3^2/I3 = 1/I2 with m1^2 + m3^2 = 1
     m_sep = np.array([a, 0.0, np.sqrt(1 - a * a)])
     sol = solve(
-        red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0, raise_on_failure=False
+        red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), saveat=6, t_final=5.0, raise_on_failure=False
     )
     assert sol.status == "not_periodic" and "separatrix" in sol.message
     with pytest.raises(NumericalError, match="separatrix"):
-        solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), h=1.0, t_final=5.0)
+        solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m_sep), saveat=6, t_final=5.0)
 
 
 def test_a_users_system_at_t_1000_against_a_quadruple_precision_reference():
@@ -53,7 +53,7 @@ def test_a_users_system_at_t_1000_against_a_quadruple_precision_reference():
     H = gm.LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2 + m3**4 / 10 + m1 + m2 + m3)
     hp = GeneralizedSerretAndoyer(H).reduced_system(G=1.0, axis=2)
     reference = np.array([1.06372235899792973734668062106347905, 0.139836427795311357602754631055249157])
-    sol = solve(hp, PeriodicOrbit(tol=1e-15), y0=[0.3, 0.2], h=100.0, t_final=1000.0)
+    sol = solve(hp, PeriodicOrbit(tol=1e-15), y0=[0.3, 0.2], saveat=11, t_final=1000.0)
     np.testing.assert_allclose(sol.states[-1], reference, atol=1e-12)
 
 
@@ -62,11 +62,11 @@ def test_solve_by_quadrature_matches_the_elliptic_solution_and_the_periodic_orbi
     m0 = np.array([0.3, 0.5, 0.8])
     G = float(np.linalg.norm(m0))
     red = GeneralizedSerretAndoyer(body).reduced_system(G)
-    sol = solve(red, gm.integrators.Quadrature(L_bounds=(-G, G)), y0=CHART.forward(m0), h=250.0, t_final=1000.0)
+    sol = solve(red, gm.integrators.Quadrature(L_bounds=(-G, G)), y0=CHART.forward(m0), saveat=5, t_final=1000.0)
     assert sol.status == "success" and "time-of-flight" in sol.message
     np.testing.assert_allclose(CHART.inverse(sol.states, G), body.exact_solution(m0).momentum(sol.t), atol=1e-10)
     assert np.abs(sol.energy_error).max() < 1e-13
-    by_period = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m0), h=250.0, t_final=1000.0)
+    by_period = solve(red, PeriodicOrbit(L_bounds=(-G, G)), y0=CHART.forward(m0), saveat=5, t_final=1000.0)
     np.testing.assert_allclose(sol.states, by_period.states, atol=1e-10)
 
 
@@ -79,7 +79,7 @@ def test_quadrature_reports_a_separatrix_as_status_data():
         red,
         gm.integrators.Quadrature(L_bounds=(-1.0, 1.0)),
         y0=CHART.forward(m_sep),
-        h=1.0,
+        saveat=6,
         t_final=5.0,
         raise_on_failure=False,
     )

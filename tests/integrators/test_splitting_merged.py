@@ -32,12 +32,18 @@ def _unmerged(system, m0, h, n_steps, order, composition, axis_order):
 
 
 @pytest.mark.parametrize("composition", ["yoshida", "suzuki"])
-@pytest.mark.parametrize("save_every", [1, 7, 40])
-def test_merged_equals_unmerged_to_round_off(closed_loop, m_start, composition, save_every):
+@pytest.mark.parametrize("every", [1, 7, 40])
+def test_merged_equals_unmerged_to_round_off(closed_loop, m_start, composition, every):
     method = gm.integrators.LiePoissonSplitting(4, composition)
     rng = np.random.default_rng(3)
     m0 = np.vstack([m_start, rng.normal(size=(3, 3)) * 0.6])
-    sol = solve(closed_loop, method, m0=m0, h=0.05, n_steps=40, save_every=save_every, threads=1)
+    # every `every`-th of the 40 steps saved, and the last
+    saved = np.arange(0, 41, every)
+    saved = np.append(saved, 40) if saved[-1] != 40 else saved
+    saveat = 0.05 * saved
+    saveat[-1] = 2.0
+    sol = solve(closed_loop, method, m0=m0, h=0.05, t_final=2.0, saveat=saveat, threads=1)
+    assert sol.t.size == saved.size
     axis_order = make_problem(closed_loop, attitude=False).split_axis_order
     steps = np.round((sol.t - sol.t[0]) / 0.05).astype(int)
     for b in range(m0.shape[0]):
@@ -52,5 +58,5 @@ def test_merging_saves_sub_flows(closed_loop):
     seq = gm.integrators.LiePoissonSplitting(4, "suzuki").sequence((0, 1, 2))
     assert len(seq) == 21 and seq[0][0] == seq[-1][0]
     assert sum(f for a, f in seq if a == 2) == pytest.approx(1.0, abs=1e-15)  # each axis flows for h in all
-    sol = solve(closed_loop, "splitting_4_suzuki", m0=[0.3, 0.2, 0.9], h=0.01, n_steps=100, save_every=100)
+    sol = solve(closed_loop, "splitting_4_suzuki", m0=[0.3, 0.2, 0.9], h=0.01, t_final=1.0, saveat=2)
     assert sol.stats["n_rhs"] == 100 * 21  # flows counted as in one step's sequence (before FSAL)

@@ -14,7 +14,7 @@ from typing import Any
 import click
 
 from .._storage import dumps_json
-from ..errors import InputError
+from ..errors import InputError, NumericalError
 from ..lie.groups import SE2
 from ..symbolic.formula import parse_formula
 from ..systems.models import example_system, load_model
@@ -266,7 +266,7 @@ def simulate_cmd(
     the constraints (constraints on the shape velocities) it starts with nonholonomic momentum 0 instead,
     and the summary says so.
     """
-    from ..integrators.nonholonomic import simulate_discrete, simulate_full, simulate_reduced
+    from ..integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, solve
 
     system = _system(name, model, _pairs(params, "--param", True))
     kw: dict[str, Any] = dict(
@@ -282,29 +282,48 @@ def simulate_cmd(
         from ..integrators.nonholonomic import initial_state
 
         try:
-            initial_state(system, kw["shapes"], q0=kw["q0"], rdot0=kw["rdot0"], qd0="rest")
-            kw["qd0"], start = "rest", "at rest (group velocity 0)"
+            initial_state(system, kw["shapes"], q0=kw["q0"], rdot0=kw["rdot0"], qdot0="rest")
+            kw["qdot0"], start = "rest", "at rest (group velocity 0)"
         except InputError as exc:
             if "cannot start at rest" not in str(exc):
                 raise
             start = "nonholonomic momentum 0 (rest violates the constraints)"
     with activity(f"simulating {system.name} ({method}) to t = {t_final:g}"):
         if method == "discrete":
-            traj = simulate_discrete(system, t_final, step, max_steps=max_steps, **kw)
+            sol = solve(
+                system,
+                DiscreteLagrangeDAlembert(),
+                t_final=t_final,
+                h=step,
+                max_steps=max_steps,
+                raise_on_failure=False,
+                **kw,
+            )
         else:
-            sim = simulate_full if method == "full" else simulate_reduced
-            traj = sim(system, t_final, samples=samples, max_evaluations=max_evaluations, **kw)
-    summary = {"initial_state": start, **traj.summary()}
+            integrator = LagrangeDAlembert() if method == "full" else BKMM()
+            sol = solve(
+                system,
+                integrator,
+                t_final=t_final,
+                saveat=samples,
+                max_evaluations=max_evaluations,
+                raise_on_failure=False,
+                **kw,
+            )
+    if not sol.success:
+        raise NumericalError(sol.message)
+    label = _method_label(sol, step)
+    summary = {"initial_state": start, **_summary(sol, label)}
     if out is not None:
         outputs = Outputs(out)
-        outputs.file("trajectory.csv", traj.to_csv)
-        ds = traj.to_dataset()
+        outputs.file("trajectory.csv", sol.to_csv)
+        ds = sol.to_dataset()
         argv = (click.get_current_context().obj or {}).get("argv", sys.argv[1:])
         ds.attrs["command"] = "geomech " + " ".join(shlex.quote(a) for a in argv)
         ds.attrs["initial_state"] = start
         outputs.dataset("trajectory.nc", ds)
         outputs.json("summary.json", summary)
-        outputs.figure("path.png", _plot_path(traj), dpi=110)
+        outputs.figure("path.png", _plot_path(sol, label), dpi=110)
         summary["files"] = outputs.paths()
         outputs.commit()
     if as_json:
@@ -322,17 +341,55 @@ def simulate_cmd(
     )
 
 
-def _plot_path(traj) -> Any:
+def _method_label(sol, step: float) -> str:
+    """The method as the summary names it: the CLI's ``--method`` with the solver or the step."""
+    from ..integrators import BKMM, LagrangeDAlembert
+
+    m = sol.method
+    if isinstance(m, LagrangeDAlembert):
+        return f"full ({m.solver})"
+    if isinstance(m, BKMM):
+        return f"reduced ({m.solver})"
+    return f"discrete Lagrange-d'Alembert (midpoint, h = {step:.3g})"
+
+
+def _summary(sol, label: str) -> dict[str, Any]:
+    """The JSON summary of a nonholonomic run (a :class:`~geomech.Solution` of one trajectory)."""
+    import numpy as np
+
+    s = sol.system
+    residual = np.abs(sol.constraint_residual)
+    return {
+        "system": s.name,
+        "method": label,
+        "t_final": float(sol.t[-1]),
+        "initial_velocity": {v.name: float(x) for v, x in zip(s.qdot, sol.qdot[0])},
+        "initial_momentum": [float(x) for x in sol.p[0]],
+        "final_configuration": {c.name: float(x) for c, x in zip(s.q, sol.q[-1])},
+        "final_velocity": {v.name: float(x) for v, x in zip(s.qdot, sol.qdot[-1])},
+        "nonholonomic_momentum": [float(x) for x in sol.p[-1]],
+        "constraint_residual_max": float(residual.max(initial=0.0)),
+        "constraint_residual_final": float(residual[-1].max(initial=0.0)),
+        "work_by_shape_inputs": float(sol.work[-1]),
+        "energy_initial": float(sol.energy[0]),
+        "energy_final": float(sol.energy[-1]),
+        "energy_change_minus_work": float(sol.energy[-1] - sol.energy[0] - sol.work[-1]),
+        "status": sol.status.value,
+        "message": sol.message,
+    }
+
+
+def _plot_path(sol, label: str) -> Any:
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
     import numpy as np
 
-    s = traj.system
+    s = sol.system
     fig, ax = plt.subplots(figsize=(5, 5))
     if isinstance(s.group.numeric, SE2):  # the planar picture: the path with its headings
-        x, y, th = traj.q[:, 0], traj.q[:, 1], traj.q[:, 2]
+        x, y, th = sol.q[:, 0], sol.q[:, 1], sol.q[:, 2]
         ax.plot(x, y, lw=1.5)
         step = max(1, len(x) // 12)
         arrow = 0.05 * max(np.ptp(x), np.ptp(y), 1e-3)
@@ -351,9 +408,9 @@ def _plot_path(traj) -> Any:
         ax.set_ylabel(s.q[1].name)
     else:
         for j, c in enumerate(s.group.coordinates):
-            ax.plot(traj.t, traj.q[:, j], label=c.name)
+            ax.plot(sol.t, sol.q[:, j], label=c.name)
         ax.set_xlabel("t")
         ax.legend()
-    ax.set_title(f"{s.name}: {traj.method}")
+    ax.set_title(f"{s.name}: {label}")
     fig.tight_layout()
     return fig

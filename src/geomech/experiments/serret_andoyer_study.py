@@ -140,7 +140,7 @@ def approaches(cfg: StudyConfig) -> list[Approach]:
         LiePoissonSplitting,
     )
 
-    adams = AdaptiveAdams(rtol=cfg.adams_tol, atol=cfg.adams_tol)
+    adams = AdaptiveAdams()  # tolerance cfg.adams_tol, given to solve() (run_approach)
     out = [
         Approach("full6d_adams", "full 6-D, Adams", "euler-angles-6d", adams, True),
         Approach("euler_adams", "Euler's equations, Adams", "euler-equations", adams, True),
@@ -210,14 +210,31 @@ FULL_RESOLUTION_STEPS = 2_000_000
 saved states only, to bound memory."""
 
 
+def _output_times(cfg: StudyConfig, every: int) -> np.ndarray:
+    """Every ``every``-th time of the grid ``k h`` from 0 to ``t_final``, and ``t_final``."""
+    n_steps = round(cfg.t_final / cfg.h)
+    steps = np.arange(0, n_steps + 1, every)
+    if steps[-1] != n_steps:
+        steps = np.append(steps, n_steps)
+    times = cfg.h * steps.astype(float)
+    times[-1] = cfg.t_final  # not h * n_steps, which may round past t_final
+    return times
+
+
 def run_approach(model: _Model, approach: Approach, cfg: StudyConfig) -> dict[str, Any]:
     """Integrate one approach; return its saved times and body momenta, its errors (maxima over every step
     of ``h`` when there are at most :data:`FULL_RESOLUTION_STEPS`) and its timings."""
+    from ..integrators.methods import Kind
     from ..integrators.solve import solve
 
     n_steps = round(cfg.t_final / cfg.h)
     every = 1 if n_steps <= FULL_RESOLUTION_STEPS else cfg.save_every
-    kw: dict[str, Any] = dict(h=cfg.h, t_final=cfg.t_final, save_every=every, newton_tol=cfg.newton_tol)
+    # the fixed-step methods step by h, Adams outputs every h (the seed's): both at the same times
+    kw: dict[str, Any] = dict(t_final=cfg.t_final, saveat=_output_times(cfg, every))
+    if approach.method.kind is Kind.ADAPTIVE:
+        kw.update(rtol=cfg.adams_tol, atol=cfg.adams_tol)
+    else:
+        kw.update(h=cfg.h, newton_tol=cfg.newton_tol)
     start = time.perf_counter()
     if approach.representation == "reduced":
         sol = solve(model.reduction.reduced_system(cfg.G), approach.method, y0=model.lL0, **kw)
@@ -249,7 +266,7 @@ def run_approach(model: _Model, approach: Approach, cfg: StudyConfig) -> dict[st
         "wall_time": wall,
         "compile_time": compile_time,
         "n_rhs": int(sol.stats.get("n_rhs", 0) or 0),
-        "status": sol.status,
+        "status": sol.status.value,
         "lL": sol.states[keep, :2] if approach.representation == "reduced" else None,
     }
 

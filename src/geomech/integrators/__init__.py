@@ -3,14 +3,18 @@ exact propagation of one-degree-of-freedom systems by quadrature."""
 
 from ._one_dof import CriticalPoint, OrbitIntegral
 from .methods import (
+    BKMM,
     REGISTRY,
     RK4,
     AdamsBashforthMoulton4,
     AdaptiveAdams,
+    DiscreteLagrangeDAlembert,
     GaussLegendre,
     GeneratingFunction,
     ImplicitMidpoint,
     IncompatibleMethodError,
+    Kind,
+    LagrangeDAlembert,
     LieGroupVariational,
     LiePoissonSplitting,
     Method,
@@ -23,21 +27,21 @@ from .methods import (
     get_method,
     methods_table,
 )
-from .nonholonomic import (
-    Gait,
-    NonholonomicTrajectory,
-    initial_state,
-    simulate_discrete,
-    simulate_full,
-    simulate_reduced,
-)
+from .nonholonomic import Gait, initial_state
 from .periodic import PeriodicOrbitPropagator
 from .quadrature import QuadraturePropagator
 from .serret_andoyer_propagator import SerretAndoyerPropagator
-from .solution import Failure, Solution
-from .solve import compatible_methods, solve
+from .solution import QUANTITIES, Failure, Solution, Status
+from .solve import DEFAULT_SAVEAT, compatible_methods, solve
 
 __all__ = [
+    "BKMM",
+    "DEFAULT_SAVEAT",
+    "DiscreteLagrangeDAlembert",
+    "Kind",
+    "LagrangeDAlembert",
+    "QUANTITIES",
+    "Status",
     "REGISTRY",
     "RK4",
     "AdamsBashforthMoulton4",
@@ -53,7 +57,6 @@ __all__ = [
     "LiePoissonSplitting",
     "Method",
     "MoserVeselov",
-    "NonholonomicTrajectory",
     "OrbitIntegral",
     "PeriodicOrbit",
     "Quadrature",
@@ -68,8 +71,5 @@ __all__ = [
     "get_method",
     "initial_state",
     "methods_table",
-    "simulate_discrete",
-    "simulate_full",
-    "simulate_reduced",
     "solve",
 ]

@@ -16,20 +16,18 @@ def run_adaptive(
     method: Any,
     Y0: np.ndarray,
     t0: float,
-    h: float,
-    nsteps: int,
-    save_every: int,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
     OUT: np.ndarray,
     INFO: np.ndarray,
 ) -> int:
-    """Integrate each row of ``Y0`` with ``method`` (an AdaptiveAdams), filling ``OUT`` and ``INFO`` as the
-    compiled loops do; returns the number of internal steps taken (summed over the batch)."""
+    """Integrate each row of ``Y0`` from ``t0`` with ``method`` (an AdaptiveAdams), saving at ``times`` and
+    filling ``OUT`` and ``INFO`` as the compiled loops do (``INFO[b, 1]`` is the index of the first output
+    time not reached); returns the number of internal steps taken (summed over the batch)."""
     rhs = module.rhs
     d = Y0.shape[1]
+    rtol, atol = tolerances
     steps_total = 0
-    save_steps = list(range(save_every, nsteps + 1, save_every))
-    if not save_steps or save_steps[-1] != nsteps:
-        save_steps.append(nsteps)
     for b in range(Y0.shape[0]):
         count = [0]
         buf = np.empty(d)
@@ -40,26 +38,26 @@ def run_adaptive(
             return buf.copy()
 
         solver = ode(f)
-        options: dict[str, Any] = {"rtol": method.rtol, "atol": method.atol, "nsteps": method.max_steps}
+        options: dict[str, Any] = {"rtol": rtol, "atol": atol, "nsteps": method.max_steps}
         if method.solver == "vode":
             options["method"] = "adams"
         solver.set_integrator(method.solver, **options)
         solver.set_initial_value(Y0[b], t0)
-        OUT[b, 0] = Y0[b]
-        reached = 0
-        for isave, k in enumerate(save_steps, start=1):
+        for k, t in enumerate(times):
+            if t == t0:
+                OUT[b, k] = Y0[b]
+                continue
             with warnings.catch_warnings():
                 # VODE/LSODA report trouble as a warning and an unsuccessful flag; the flag is what counts
                 warnings.simplefilter("ignore", UserWarning)
-                y = solver.integrate(t0 + k * h)
+                y = solver.integrate(t)
             if not solver.successful() or not np.all(np.isfinite(y)):
                 INFO[b, 0] = 4 if not solver.successful() else 2
-                INFO[b, 1] = reached + 1  # the first step past the last state reached
+                INFO[b, 1] = k
                 INFO[b, 2] = np.nan
-                OUT[b, isave:] = np.nan
+                OUT[b, k:] = np.nan
                 break
-            OUT[b, isave] = y
-            reached = k
+            OUT[b, k] = y
         INFO[b, 4] = count[0]
         iwork = getattr(getattr(solver, "_integrator", None), "iwork", None)
         if iwork is not None and len(iwork) > 10:

@@ -8,16 +8,22 @@ from .methods import REGISTRY, methods_table
 
 HEADER = """# Integrators
 
-`geomech.solve(system, method, *, y0 | m0 [, R0], h, t_final, ...)` integrates a system with a method; a
-method is a small immutable value with its order and traits, and the structure it needs. An incompatible
-pair fails before any work (`IncompatibleMethodError`, which names the methods that would apply). Numerical
-failure (a Newton iteration that does not converge, a non-finite state) is status data in the `Solution`,
-raised by default with the step, the time and the residual.
+`geomech.solve(system, method, *, t_final, saveat, h | rtol, atol, <initial state>, ...)` integrates a system
+with a method; a method is a small immutable value with its kind, order and traits, and the structure it
+needs. Times are given one way: the end `t_final`, the output times `saveat` (a number of equally spaced
+times or the times themselves), and the step `h` of a fixed-step method or the tolerances `rtol`/`atol` of
+an adaptive one; an exact propagator takes neither. The initial state is `y0 = (q, p)` for a canonical
+system, `m0` (and `R0` for the attitude) for a left-invariant one, `q0` with `qdot0` (or `rdot0` and `p0`)
+for a Lagrangian system on G x S with constraints. An incompatible pair fails before any work
+(`IncompatibleMethodError`, which names the methods that would apply). Numerical failure (a Newton iteration
+that does not converge, a non-finite state, an adaptive solver that gives up, an exhausted budget) is status
+data in the `Solution`, raised by default with the step, the time and the residual, the partial solution
+attached.
 
-Fixed-step methods run in loops compiled with numba from the symbolic model (cached on disk); adaptive
-Adams wraps scipy's VODE/LSODA. `geomech.integrators.QuadraturePropagator` propagates one-degree-of-freedom
-systems exactly by quadrature, at a cost that does not grow with t. Speed and accuracy beside scipy and
-heyoka: `benchmarks/README.md`.
+Fixed-step methods on Hamiltonian systems run in loops compiled with numba from the symbolic model (cached
+on disk); adaptive Adams wraps scipy's VODE/LSODA, the Lagrangian methods scipy's solve_ivp solvers. The
+exact propagators give the state of a one-degree-of-freedom system at any time from one period, at a cost
+that does not grow with t. Speed and accuracy beside scipy and heyoka: `benchmarks/README.md`.
 
 This table is generated from `geomech.integrators.REGISTRY` (`python -m geomech.integrators._docs`).
 
@@ -34,21 +40,23 @@ def _summary(key: str) -> str:
 
 
 def _order(row: dict) -> str:
+    if row["order"] is None:
+        return "none (exact up to `tol`)"
     if row["variable_order"]:
         return f"1-{row['order']} (variable)"
-    return "exact" if row["order"] == 0 else str(row["order"])
+    return str(row["order"])
 
 
 def table_markdown() -> str:
     rows = [
-        "| key | method | order | structure needed | explicit | symplectic | symmetric | keeps Casimirs |",
-        "|---|---|---|---|---|---|---|---|",
+        "| key | method | kind | order | structure needed | explicit | symplectic | symmetric | keeps Casimirs |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
-    yes = {True: "yes", False: "no"}
+    yes = {True: "yes", False: "no", None: "-"}
     for r in methods_table():
         rows.append(
-            f"| `{r['key']}` | {_summary(r['key'])} | {_order(r)} | {r['structure']} | {yes[r['explicit']]} | "
-            f"{yes[r['symplectic']]} | {yes[r['symmetric']]} | {yes[r['preserves_casimirs']]} |"
+            f"| `{r['key']}` | {_summary(r['key'])} | {r['kind']} | {_order(r)} | {r['structure']} | "
+            f"{yes[r['explicit']]} | {yes[r['symplectic']]} | {yes[r['symmetric']]} | {yes[r['preserves_casimirs']]} |"
         )
     return "\n".join(rows) + "\n"
 

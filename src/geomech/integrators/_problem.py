@@ -22,6 +22,7 @@ from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
 from ..symbolic.simplify import vanishes
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
+from ..systems.nonholonomic import NonholonomicSystem
 from . import _codegen
 from .methods import Structure
 
@@ -34,8 +35,8 @@ _R_SYMBOLS = sp.symbols("r0:9", real=True)
 class Problem:
     """A system as the solver sees it (internal)."""
 
-    kind: str  # "canonical" | "lie_poisson"
-    layout: str  # "qp" | "m" | "mR"
+    kind: str  # "canonical" | "lie_poisson" | "lagrangian"
+    layout: str  # "qp" | "m" | "mR" | "qv"
     dim: int
     system: Any  # the object the user passed
     core: Any  # CanonicalSystem or LeftInvariantSystem
@@ -44,6 +45,18 @@ class Problem:
     missing: dict[Structure, str] = field(default_factory=dict)
     split_axis_order: tuple[int, int, int] = (0, 1, 2)
     inertia_tensor: np.ndarray | None = None
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """A name for each component of the state."""
+        if self.kind == "canonical":
+            return tuple(str(v) for v in self.variables)
+        if self.kind == "lagrangian":
+            return tuple(s.name for s in self.core.q) + tuple(s.name for s in self.core.qdot)
+        names: tuple[str, ...] = ("m1", "m2", "m3")
+        if self.layout == "mR":
+            names += tuple(f"R{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+        return names
 
     @property
     def name(self) -> str:
@@ -105,6 +118,24 @@ _ANALYSIS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def make_problem(system: Any, *, attitude: bool) -> Problem:
     """Classify ``system``; raises :class:`InputError` for something that is not a system."""
     core: CanonicalSystem | LeftInvariantSystem
+    if isinstance(system, NonholonomicSystem):
+        if attitude:
+            raise InputError(f"`R0` applies to left-invariant systems on T*SO(3); {system.name} is Lagrangian.")
+        why = (
+            f"{system.name} is a Lagrangian system on G x S with constraints, integrated by the methods of "
+            "Structure.LAGRANGIAN"
+        )
+        missing: dict[Structure, str] = {s: why for s in Structure if s is not Structure.LAGRANGIAN}
+        return Problem(
+            kind="lagrangian",
+            layout="qv",
+            dim=2 * system.n,
+            system=system,
+            core=system,
+            expression=system.lagrangian,
+            variables=tuple(system.q) + tuple(system.qdot),
+            missing=missing,
+        )
     if isinstance(system, CanonicalSystem):
         core = system
         analysis = _ANALYSIS.get(core)
@@ -117,8 +148,8 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
         core = as_left_invariant(system)
     except InputError:
         raise InputError(
-            "Expected `system` to be a CanonicalSystem or a left-invariant system (LeftInvariantSystem, "
-            f"RigidBody, ...), got {type(system).__name__}."
+            "Expected `system` to be a CanonicalSystem, a left-invariant system (LeftInvariantSystem, "
+            f"RigidBody, ...) or a NonholonomicSystem, got {type(system).__name__}."
         ) from None
     analysis = _ANALYSIS.get(core)
     if analysis is None:
@@ -149,6 +180,10 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
                 break
     for s in (Structure.LIE_POISSON_SPLIT, Structure.LIE_POISSON_QUADRATIC, Structure.LIE_GROUP):
         missing[s] = f"{core.name} is a canonical system in (q, p), not a left-invariant system on T*SO(3)"
+    missing[Structure.LAGRANGIAN] = (
+        f"{core.name} is a canonical system in (q, p), not a Lagrangian system on G x S "
+        "(build one with NonholonomicSystem.from_lagrangian)"
+    )
     if core.n != 1:
         missing[Structure.ONE_DOF] = (
             f"{core.name} has {core.n} degrees of freedom; propagation by the period "
@@ -166,6 +201,10 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
     }
     missing[Structure.SEPARABLE_CANONICAL] = missing[Structure.CANONICAL]
     missing[Structure.ONE_DOF] = missing[Structure.CANONICAL]
+    missing[Structure.LAGRANGIAN] = (
+        f"{core.name} is a Hamiltonian on so(3)*, not a Lagrangian system on G x S "
+        "(build one with NonholonomicSystem.from_lagrangian)"
+    )
     result: dict[str, Any] = {"expression": None, "variables": tuple(M_SYMBOLS), "missing": missing}
     if core.expression is None:
         why = f"{core.name} was built from a Python callable; build it with LeftInvariantSystem.from_expression"

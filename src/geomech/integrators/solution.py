@@ -1,27 +1,76 @@
-"""The result of :func:`geomech.integrators.solve`: an immutable trajectory that knows its system.
+"""The result of :func:`geomech.solve`: one immutable trajectory type for every system and method.
 
-Numerical failure is data here (``status``, ``failures``), as in diffrax: :func:`solve` raises it as an
-exception only when asked to (the default), and the exception carries the partial :class:`Solution`.
+Numerical failure is data here (``status``, ``failures``), as in diffrax: :func:`~geomech.solve` raises it as
+an exception only when asked to (the default), and the exception carries the partial :class:`Solution`.
 """
 
 from __future__ import annotations
 
+import enum
+import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Failure", "Solution", "STATUS"]
+__all__ = ["Failure", "Solution", "STATUS", "Status", "QUANTITIES"]
 
-#: Status codes of the compiled loops and their names.
+
+class Status(str, enum.Enum):
+    """How a run ended: ``SUCCESS`` or the kind of its first failure (equal to its value as a string)."""
+
+    SUCCESS = "success"
+    NEWTON_FAILED = "newton_failed"
+    NONFINITE = "nonfinite"
+    SINGULAR_JACOBIAN = "singular_jacobian"
+    ADAPTIVE_FAILED = "adaptive_failed"
+    NOT_PERIODIC = "not_periodic"
+    LEFT_CHART = "left_chart"
+    SINGULAR_CONSTRAINTS = "singular_constraints"
+    BUDGET_EXHAUSTED = "budget_exhausted"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+#: Status codes of the compiled loops (the first column of their INFO array).
 STATUS = {
-    0: "success",
-    1: "newton_failed",
-    2: "nonfinite",
-    3: "singular_jacobian",
-    4: "adaptive_failed",
-    5: "not_periodic",
-    6: "left_chart",
+    0: Status.SUCCESS,
+    1: Status.NEWTON_FAILED,
+    2: Status.NONFINITE,
+    3: Status.SINGULAR_JACOBIAN,
+    4: Status.ADAPTIVE_FAILED,
+    5: Status.NOT_PERIODIC,
+    6: Status.LEFT_CHART,
+    7: Status.SINGULAR_CONSTRAINTS,
+    8: Status.BUDGET_EXHAUSTED,
+}
+
+_WHAT = {
+    Status.NEWTON_FAILED: "Newton's method did not converge",
+    Status.SINGULAR_JACOBIAN: "the Newton matrix is singular",
+    Status.NONFINITE: "the state became non-finite",
+    Status.ADAPTIVE_FAILED: "the adaptive solver gave up",
+    Status.NOT_PERIODIC: "the orbit is not periodic (a separatrix, or it leaves L_bounds)",
+    Status.LEFT_CHART: "the state reached the end of its chart (a pole of the coordinates, e.g. the "
+    "Serret-Andoyer L = +-G or the Euler angle theta = 0, pi), where the formula means nothing; switch "
+    "charts (GeneralizedSerretAndoyer.simulate does) or integrate on the group",
+    Status.SINGULAR_CONSTRAINTS: "the constrained equations of motion became singular (the constraints are "
+    "dependent there, or the mass matrix is degenerate)",
+    Status.BUDGET_EXHAUSTED: "the run used up its budget of evaluations (`max_evaluations`)",
+}
+
+#: Quantities a solution may carry along its trajectory: name -> (description, component dimension or None).
+QUANTITIES: dict[str, tuple[str, str | None]] = {
+    "energy": ("energy (the Hamiltonian, or kinetic plus potential energy)", None),
+    "casimir": ("Casimir |m| of so(3)*", None),
+    "spatial_momentum": ("spatial angular momentum p = R m", "axis"),
+    "momentum": ("nonholonomic momentum (components in the reduction's basis)", "momentum_index"),
+    "tau": ("generalized force on each shape variable (given, or required by the prescribed shapes)", "shape"),
+    "work": ("work done by the shape forces since the start", None),
+    "constraint_residual": ("constraint residual A(q) qdot", "constraint"),
 }
 
 
@@ -29,65 +78,72 @@ STATUS = {
 class Failure:
     """Where and why one trajectory of a run failed.
 
-    ``batch_index`` is the position in the (flattened) batch, ``step`` the step that failed (the state
-    saved before it is the last valid one), ``time`` the time at the start of that step, ``residual`` the
-    max-norm of the implicit equations at the last Newton iterate (NaN when not applicable).
+    ``batch_index`` is the position in the batch, ``step`` the step that failed (the state saved before it
+    is the last valid one; for adaptive methods, the number of the first output time not reached), ``time``
+    the time at the start of that step (the last time reached), ``residual`` the max-norm of the implicit
+    equations at the last Newton iterate (NaN when not applicable), ``detail`` the solver's own words.
     """
 
-    kind: str
+    kind: Status
     batch_index: tuple[int, ...]
     step: int
     time: float
     residual: float
+    detail: str = ""
 
     def describe(self) -> str:
         where = f" (batch index {self.batch_index})" if self.batch_index else ""
-        what = {
-            "newton_failed": "Newton's method did not converge",
-            "singular_jacobian": "the Newton matrix is singular",
-            "nonfinite": "the state became non-finite",
-            "adaptive_failed": "the adaptive solver gave up",
-            "not_periodic": "the orbit is not periodic (a separatrix, or it leaves L_bounds)",
-            "left_chart": "the state reached the end of its chart (a pole of the coordinates, e.g. the "
-            "Serret-Andoyer L = +-G or the Euler angle theta = 0, pi), where the formula means "
-            "nothing; switch charts (GeneralizedSerretAndoyer.simulate does) or integrate on the "
-            "group",
-        }.get(self.kind, self.kind)
+        what = _WHAT.get(Status(self.kind), str(self.kind))
         res = f", residual {self.residual:.3g}" if np.isfinite(self.residual) else ""
-        return f"{what} at step {self.step}, t = {self.time:.10g}{where}{res}"
+        detail = f": {self.detail}" if self.detail else ""
+        return f"{what} at step {self.step}, t = {self.time:.10g}{where}{res}{detail}"
+
+
+_LAYOUT_VIEWS = {
+    "qp": ("q", "p"),
+    "m": ("m",),
+    "mR": ("m", "R"),
+    "qv": ("q", "qdot"),
+}
 
 
 @dataclass(frozen=True, eq=False)
 class Solution:
-    """A trajectory, or a batch of trajectories, computed by :func:`~geomech.integrators.solve`.
+    """A trajectory, or a batch of trajectories, computed by :func:`~geomech.solve`.
 
     Attributes
     ----------
     t : ndarray, shape (n_save,)
-        Times of the saved states: ``t0``, every ``save_every`` steps, and the final time.
+        Times of the saved states (``saveat``).
     states : ndarray, shape (*batch, n_save, d)
-        The saved states in the method's layout: ``(q, p)`` for a canonical system, ``m`` or
-        ``(m, R)`` (R row-major) for a left-invariant one. After a failure, a trajectory's later states are
-        NaN (see ``failures``).
+        The saved states in the system's layout (``layout``): ``"qp"``, canonical ``(q, p)``; ``"m"`` or
+        ``"mR"``, body momentum and attitude (R row-major) of a left-invariant system; ``"qv"``,
+        coordinates and velocities ``(q, qdot)`` of a Lagrangian system. After a failure, a trajectory's
+        later states are NaN (see ``failures``).
     system, method
         What was integrated and how.
-    energy : ndarray, shape (*batch, n_save), or None
-        The Hamiltonian along the trajectory.
-    casimir : ndarray, shape (*batch, n_save), or None
-        :math:`|m|` (left-invariant systems).
-    spatial_momentum : ndarray, shape (*batch, n_save, 3), or None
-        :math:`p = R m`, when the attitude was integrated.
-    status : str
-        ``"success"`` or the kind of the first failure (``"newton_failed"``, ``"singular_jacobian"``,
-        ``"nonfinite"``, ``"adaptive_failed"``).
+    layout : str
+    labels : tuple of str
+        A name for each component of the state.
+    quantities : mapping of str to ndarray
+        What the run knows along the trajectory, each of shape ``(*batch, n_save[, k])``: ``energy``,
+        ``casimir`` (:math:`|m|`), ``spatial_momentum`` (:math:`p = R m`), and for a Lagrangian system
+        with constraints ``momentum`` (the nonholonomic momentum), ``tau``, ``work``,
+        ``constraint_residual`` (see :data:`QUANTITIES`). Each is also an attribute.
+    status : Status
+        ``Status.SUCCESS`` or the kind of the first failure (compares equal to its string value).
     message : str
         A sentence for people.
     failures : tuple of Failure
         One entry per failed trajectory.
     stats : dict
-        Counters: ``n_steps`` (per trajectory), ``n_rhs`` (right-hand-side or gradient evaluations, summed
-        over the batch), ``n_newton`` (Newton iterations, summed), ``backend`` (``"numba"`` or
-        ``"python"``), ``compile_time`` and ``run_time`` in seconds.
+        Counters: ``n_steps`` (steps, or output times, per trajectory), ``n_internal_steps``, ``n_rhs``
+        (right-hand-side evaluations, summed over the batch), ``n_newton`` (summed), ``backend``,
+        ``compile_time`` and ``run_time`` in seconds.
+    parameters : mapping
+        The parameter values the system was evaluated with.
+    group_dim : int or None
+        For the ``"qv"`` layout: how many of the coordinates are the group's (the rest are shapes).
     """
 
     t: np.ndarray
@@ -95,25 +151,32 @@ class Solution:
     system: Any
     method: Any
     layout: str
-    energy: np.ndarray | None = None
-    casimir: np.ndarray | None = None
-    spatial_momentum: np.ndarray | None = None
-    status: str = "success"
+    labels: tuple[str, ...] = ()
+    quantities: Mapping[str, np.ndarray] = field(default_factory=dict)
+    status: Status = Status.SUCCESS
     message: str = ""
     failures: tuple[Failure, ...] = ()
     stats: dict[str, Any] = field(default_factory=dict)
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    group_dim: int | None = None
 
     def __post_init__(self) -> None:
-        for name in ("t", "states", "energy", "casimir", "spatial_momentum"):
-            value = getattr(self, name)
+        object.__setattr__(self, "status", Status(self.status))
+        quantities = {k: v for k, v in self.quantities.items() if v is not None}
+        unknown = set(quantities) - set(QUANTITIES)
+        if unknown:
+            raise ValueError(f"Unknown quantities {sorted(unknown)}; known: {sorted(QUANTITIES)}.")
+        for value in [self.t, self.states, *quantities.values()]:
             if isinstance(value, np.ndarray):
                 value.setflags(write=False)
+        object.__setattr__(self, "quantities", MappingProxyType(quantities))
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
 
     # -- views --------------------------------------------------------------------------------------
     @property
     def success(self) -> bool:
         """Whether every trajectory reached the final time."""
-        return self.status == "success"
+        return self.status is Status.SUCCESS
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
@@ -128,17 +191,42 @@ class Solution:
         if self.layout not in layouts:
             raise AttributeError(f"`{what}` is not defined for a solution with state layout {self.layout!r}.")
 
+    def _half(self, second: bool) -> np.ndarray:
+        n = self.states.shape[-1] // 2
+        return self.states[..., n:] if second else self.states[..., :n]
+
     @property
     def q(self) -> np.ndarray:
-        """Canonical coordinates, shape ``(*batch, n_save, n)``."""
-        self._need(("qp",), "q")
-        return self.states[..., : self.states.shape[-1] // 2]
+        """Coordinates (canonical, or of a Lagrangian system), shape ``(*batch, n_save, n)``."""
+        self._need(("qp", "qv"), "q")
+        return self._half(False)
+
+    @property
+    def qdot(self) -> np.ndarray:
+        """Velocities of a Lagrangian system, shape ``(*batch, n_save, n)``."""
+        self._need(("qv",), "qdot")
+        return self._half(True)
 
     @property
     def p(self) -> np.ndarray:
-        """Canonical momenta, shape ``(*batch, n_save, n)``."""
+        """Momenta: the canonical momenta (layout ``"qp"``), or the nonholonomic momentum of a Lagrangian
+        system (its ``momentum`` quantity), shape ``(*batch, n_save, k)``."""
+        if self.layout == "qv":
+            return self._quantity("momentum")
         self._need(("qp",), "p")
-        return self.states[..., self.states.shape[-1] // 2 :]
+        return self._half(True)
+
+    @property
+    def g(self) -> np.ndarray:
+        """Group coordinates of a Lagrangian system on G x S, shape ``(*batch, n_save, dim G)``."""
+        self._need(("qv",), "g")
+        return self.q[..., : self.group_dim]
+
+    @property
+    def r(self) -> np.ndarray:
+        """Shape coordinates of a Lagrangian system on G x S, shape ``(*batch, n_save, dim S)``."""
+        self._need(("qv",), "r")
+        return self.q[..., self.group_dim :]
 
     @property
     def m(self) -> np.ndarray:
@@ -152,32 +240,184 @@ class Solution:
         self._need(("mR",), "R")
         return self.states[..., 3:].reshape(self.states.shape[:-1] + (3, 3))
 
+    def _quantity(self, name: str) -> np.ndarray:
+        try:
+            return self.quantities[name]
+        except KeyError:
+            hint = " Pass R0 to solve() to integrate the attitude." if name == "spatial_momentum" else ""
+            raise AttributeError(
+                f"This solution ({self.layout!r} layout) has no `{name}`; it has {sorted(self.quantities)}.{hint}"
+            ) from None
+
+    @property
+    def energy(self) -> np.ndarray:
+        """The energy (Hamiltonian, or kinetic plus potential) along the trajectory, shape ``(*batch, n_save)``."""
+        return self._quantity("energy")
+
+    @property
+    def casimir(self) -> np.ndarray:
+        """:math:`|m|` along the trajectory (left-invariant systems)."""
+        return self._quantity("casimir")
+
+    @property
+    def spatial_momentum(self) -> np.ndarray:
+        """:math:`p = R m`, shape ``(*batch, n_save, 3)``, when the attitude was integrated."""
+        return self._quantity("spatial_momentum")
+
+    @property
+    def momentum(self) -> np.ndarray:
+        """The nonholonomic momentum of a Lagrangian system (the same as :attr:`p` for the ``"qv"`` layout)."""
+        return self._quantity("momentum")
+
+    @property
+    def tau(self) -> np.ndarray:
+        """The generalized force on each shape variable, given or required by the prescribed shapes."""
+        return self._quantity("tau")
+
+    @property
+    def work(self) -> np.ndarray:
+        """The work done by the shape forces since the start."""
+        return self._quantity("work")
+
+    @property
+    def constraint_residual(self) -> np.ndarray:
+        """:math:`A(q)\\dot q` along the trajectory, shape ``(*batch, n_save, constraints)``."""
+        return self._quantity("constraint_residual")
+
     # -- invariants --------------------------------------------------------------------------------
+    def _drift(self, name: str) -> np.ndarray:
+        x = self._quantity(name)
+        d = x - x[..., :1] if x.ndim == len(self.batch_shape) + 1 else x - x[..., :1, :]
+        if x.ndim > len(self.batch_shape) + 1:
+            d = np.linalg.norm(d, axis=-1)
+        return np.nanmax(np.abs(d), axis=-1)
+
     @property
     def energy_error(self) -> np.ndarray:
-        """:math:`\\max_k |H(y_k) - H(y_0)|` per trajectory, shape ``batch``."""
-        if self.energy is None:
-            raise AttributeError(f"{self.system!r} has no energy to compare.")
-        return np.nanmax(np.abs(self.energy - self.energy[..., :1]), axis=-1)
+        """:math:`\\max_k |E(y_k) - E(y_0)|` per trajectory, shape ``batch``."""
+        return self._drift("energy")
 
     @property
     def casimir_error(self) -> np.ndarray:
         """:math:`\\max_k \\bigl||m_k| - |m_0|\\bigr|` per trajectory, shape ``batch``."""
-        if self.casimir is None:
-            raise AttributeError("This solution has no Casimir (not a left-invariant system).")
-        return np.nanmax(np.abs(self.casimir - self.casimir[..., :1]), axis=-1)
+        return self._drift("casimir")
 
     @property
     def momentum_error(self) -> np.ndarray:
         """:math:`\\max_k |p_k - p_0|` (spatial momentum), shape ``batch``."""
-        if self.spatial_momentum is None:
-            raise AttributeError("The attitude was not integrated: pass R0 to solve() to get p = R m.")
-        diff = self.spatial_momentum - self.spatial_momentum[..., :1, :]
-        return np.nanmax(np.linalg.norm(diff, axis=-1), axis=-1)
+        return self._drift("spatial_momentum")
+
+    # -- export ------------------------------------------------------------------------------------
+    def _fields(self) -> list[tuple[str, np.ndarray, tuple[str, ...], str]]:
+        """(name, array, component dimensions, description) for every view and quantity."""
+        n_b = len(self.batch_shape)
+        out = []
+        for view in _LAYOUT_VIEWS[self.layout]:
+            arr = getattr(self, view)
+            if view == "R":
+                dims: tuple[str, ...] = ("row", "column")
+                what = "attitude, body to space"
+            elif view == "m":
+                dims, what = ("axis",), "body angular momentum"
+            else:
+                dims = ("coordinate",)
+                what = {"q": "coordinates", "p": "canonical momenta", "qdot": "velocities"}[view]
+            out.append((view, arr, dims, what))
+        for name, arr in self.quantities.items():
+            what, dim = QUANTITIES[name]
+            extra = arr.ndim - n_b - 1
+            comp = (dim,) if extra == 1 and dim else tuple(f"{name}_{i}" for i in range(extra))
+            out.append((name, arr, comp, what))
+        return out
+
+    def to_dataset(self, units: Mapping[str, str] | None = None) -> Any:
+        """The solution as a self-describing :class:`xarray.Dataset` (write it with ``.to_netcdf``).
+
+        One variable per view of the state (``q``, ``p``, ``qdot``, ``m``, ``R``) and per quantity, over
+        the dimensions ``batch_0, ...`` (if any), ``t`` and the components. Attributes: the system, the
+        method, the status, the message, the parameters (JSON), the run statistics and the geomech
+        version. ``units`` maps a variable name (or ``"t"``) to its unit, written as its ``units``
+        attribute; geomech itself is unit-free (every quantity is in the units of the parameters).
+        """
+        import xarray as xr
+
+        from .._version import __version__
+
+        units = dict(units or {})
+        batch_dims = tuple(f"batch_{i}" for i in range(len(self.batch_shape)))
+        data = {}
+        for name, arr, comp, what in self._fields():
+            attrs = {"long_name": what}
+            if name in units:
+                attrs["units"] = units[name]
+            data[name] = (batch_dims + ("t",) + comp, np.asarray(arr), attrs)
+        coords: dict[str, Any] = {"t": ("t", np.asarray(self.t), {"long_name": "time", **_unit(units, "t")})}
+        if self.layout in ("qp", "qv") and self.labels:
+            coords["coordinate"] = list(self.labels[: len(self.labels) // 2])
+        if self.layout in ("m", "mR"):
+            coords["axis"] = [1, 2, 3]
+        if self.layout == "qv" and self.group_dim is not None and "tau" in self.quantities:
+            coords["shape"] = list(self.labels[self.group_dim : len(self.labels) // 2])
+        for _name, arr, comp, _ in self._fields():
+            for dim, size in zip(comp, np.shape(arr)[len(batch_dims) + 1 :]):
+                if dim not in coords:
+                    coords[dim] = np.arange(size) + 1
+        stats = {k: v for k, v in self.stats.items() if isinstance(v, (int, float, str))}
+        return xr.Dataset(
+            data,
+            coords=coords,
+            attrs={
+                "system": getattr(self.system, "name", type(self.system).__name__),
+                "method": repr(self.method),
+                "layout": self.layout,
+                "status": self.status.value,
+                "message": self.message,
+                "parameters": json.dumps({str(k): float(v) for k, v in self.parameters.items()}),
+                "stats": json.dumps(stats),
+                "units": "those of the parameters (geomech is unit-free)",
+                "geomech_version": __version__,
+            },
+        )
+
+    def to_csv(self, path: Any) -> Any:
+        """Write one trajectory (no batch) as CSV, one row per saved time; returns the path."""
+        import csv
+        from pathlib import Path
+
+        if self.batch_shape:
+            raise ValueError(f"to_csv writes one trajectory; this solution has batch shape {self.batch_shape}.")
+        cols, blocks = ["t"], [self.t[:, None]]
+        for name, arr, _, _ in self._fields():
+            flat = np.asarray(arr).reshape(len(self.t), -1)
+            n = len(self.labels) // 2
+            if name in ("q", "p", "qdot") and self.labels:
+                head = list(self.labels[:n] if name == "q" else self.labels[n:])
+            elif flat.shape[1] == 1:
+                head = [name]
+            else:
+                head = [f"{name}{i + 1}" for i in range(flat.shape[1])]
+            cols += head
+            blocks.append(flat)
+        path = Path(path)
+        with path.open("w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(cols)
+            w.writerows(np.hstack(blocks).tolist())
+        return path
+
+    def final(self) -> dict[str, float]:
+        """The last saved state by component name (one trajectory)."""
+        if self.batch_shape:
+            raise ValueError(f"final() reads one trajectory; this solution has batch shape {self.batch_shape}.")
+        return {name: float(v) for name, v in zip(self.labels, self.states[-1])}
 
     def __repr__(self) -> str:
         name = getattr(self.system, "name", type(self.system).__name__)
         return (
             f"Solution({self.method!r} on {name}: {len(self.t)} saved states of batch {self.batch_shape}, "
-            f"t in [{self.t[0]:g}, {self.t[-1]:g}], status {self.status!r})"
+            f"t in [{self.t[0]:g}, {self.t[-1]:g}], status {self.status.value!r})"
         )
+
+
+def _unit(units: Mapping[str, str], name: str) -> dict[str, str]:
+    return {"units": units[name]} if name in units else {}

@@ -6,6 +6,7 @@ import math
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,14 +19,16 @@ from .methods import (
     REGISTRY,
     AdaptiveAdams,
     IncompatibleMethodError,
+    Kind,
     Method,
     PeriodicOrbit,
     Quadrature,
     get_method,
 )
-from .solution import STATUS, Failure, Solution
+from .nonholonomic._continuous import MAX_EVALUATIONS
+from .solution import STATUS, Failure, Solution, Status
 
-__all__ = ["solve", "compatible_methods"]
+__all__ = ["solve", "compatible_methods", "DEFAULT_SAVEAT"]
 
 
 def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
@@ -87,38 +90,175 @@ def _initial_states(problem: Problem, y0: Any, m0: Any, R0: Any) -> tuple[np.nda
     return Y.reshape(-1, 12).copy(), shape
 
 
-def _steps(h: Any, t0: Any, t_final: Any, n_steps: Any) -> tuple[float, float, int]:
-    h = V.positive_scalar(h, "h")
+@dataclass(frozen=True)
+class _Times:
+    """When a run steps and what it saves (internal). Sizes are known before any array is built, so that
+    the work and memory bounds are checked first."""
+
+    t0: float
+    t_final: float
+    h: float | None  # the signed step of a fixed-step method
+    n_steps: int  # steps of a fixed-step method, output intervals otherwise
+    save_every: int = 1  # the compiled loop keeps every save_every-th state (and the last)
+    k: np.ndarray | None = None  # fixed step: the step indices of the saveat times (None: every kept state)
+    given: np.ndarray | None = None  # other methods: the saveat times (None: `count` equally spaced)
+    count: int = 0
+
+    @property
+    def n_kernel_saved(self) -> int:
+        """How many states the loop keeps."""
+        if self.h is None:
+            return self.n_saved
+        return self.n_steps // self.save_every + 1 + (self.n_steps % self.save_every != 0)
+
+    @property
+    def n_saved(self) -> int:
+        """How many states the Solution holds."""
+        if self.h is None:
+            return len(self.given) if self.given is not None else self.count
+        return len(self.k) if self.k is not None else self.n_kernel_saved
+
+    def kernel_steps(self) -> np.ndarray:
+        """The step indices of the states the loop keeps (fixed step)."""
+        saved = np.arange(0, self.n_steps + 1, self.save_every)
+        return saved if saved[-1] == self.n_steps else np.append(saved, self.n_steps)
+
+    @property
+    def pick(self) -> np.ndarray | None:
+        """Which of the loop's states are asked for (None: all)."""
+        return None if self.k is None else np.searchsorted(self.kernel_steps(), self.k)
+
+    @property
+    def t(self) -> np.ndarray:
+        """The saved times."""
+        if self.h is None:
+            if self.given is not None:
+                return self.given
+            t = np.linspace(self.t0, self.t_final, self.count)
+            t[-1] = self.t_final
+            return t
+        steps = self.k if self.k is not None else self.kernel_steps()
+        return self.t0 + self.h * steps.astype(float)
+
+
+def _times(method: Method, t0: Any, t_final: Any, h: Any, saveat: Any, rtol: Any, atol: Any) -> _Times:
+    """The time grid of a run, from the one way times are given: ``t_final``, ``saveat``, and ``h`` (fixed
+    step) or ``rtol``/``atol`` (adaptive)."""
+    name = type(method).__name__
     t0 = float(V.finite(t0, "t0"))
-    if (t_final is None) == (n_steps is None):
-        raise InputError("Give exactly one of `t_final` and `n_steps`.")
-    if n_steps is not None:
-        if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
-            raise InputError(f"Expected `n_steps` to be a positive integer, got {n_steps!r}.")
-        return h, t0, int(n_steps)
-    span = float(V.finite(t_final, "t_final")) - t0
-    ratio = abs(span) / h
-    if not math.isfinite(ratio):
+    if t_final is None:
+        raise InputError("Expected `t_final`, the end of the integration (it may be before `t0`).")
+    t_final = float(V.finite(t_final, "t_final"))
+    span = t_final - t0
+    if span == 0.0:
+        raise InputError(f"Expected `t_final` to differ from `t0` = {t0:g}.")
+    count = _saveat_count(saveat)
+    if method.kind is Kind.FIXED_STEP:
+        if rtol is not None or atol is not None:
+            raise InputError(
+                f"{name} takes fixed steps: give the step `h`, not `rtol`/`atol` (those are for adaptive methods "
+                f"such as {', '.join(k for k, m in REGISTRY.items() if m.kind is Kind.ADAPTIVE)})."
+            )
+        if h is None:
+            raise InputError(f"{name} takes fixed steps: give the step `h` (a positive number).")
+        h = V.positive_scalar(h, "h")
+        ratio = abs(span) / h
+        if not math.isfinite(ratio):
+            raise InputError(
+                f"`t_final - t0` = {span:g} over h = {h:g} is not a finite number of steps; take a larger h or a "
+                "shorter span."
+            )
+        n = round(ratio)
+        if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
+            raise InputError(
+                f"Expected `t_final - t0` = {span:g} to be a whole number of steps h = {h:g}, got {ratio:.12g} "
+                "steps; choose h = |t_final - t0| / N."
+            )
+        h = math.copysign(h, span)
+        if saveat is None:
+            return _Times(t0, t_final, h, n, 1)
+        if count:
+            if n % (count - 1):
+                raise InputError(
+                    f"`saveat` = {count} equally spaced times are not on the step grid of {name}: {count - 1} "
+                    f"intervals do not divide the {n} steps of h = {abs(h):g}; choose `saveat` - 1 a divisor of "
+                    f"{n}, or give the times t0 + k h."
+                )
+            return _Times(t0, t_final, h, n, n // (count - 1))
+        wanted = _saveat(saveat, t0, t_final)
+        k_float = (wanted - t0) / h
+        k = np.rint(k_float).astype(np.int64)
+        off = np.abs(k_float - k) > 1e-9 * np.maximum(1.0, np.abs(k_float))
+        if np.any(off):
+            bad = float(wanted[np.argmax(off)])
+            raise InputError(
+                f"`saveat` time {bad:.12g} is not on the step grid t0 + k h (h = {abs(h):g}) of {name}; give times "
+                "t0 + k h, or use an adaptive method, which saves at any time."
+            )
+        inner = k[(k > 0) & (k < n)]  # the loop always keeps the first and the last state
+        every = int(np.gcd.reduce(inner)) if inner.size else n
+        return _Times(t0, t_final, h, n, every, k=k)
+    if h is not None:
+        what = "chooses its own steps" if method.kind is Kind.ADAPTIVE else "takes no steps in time"
         raise InputError(
-            f"`t_final - t0` = {span:g} over h = {h:g} is not a finite number of steps; take a "
-            "larger h or a shorter span."
+            f"{name} {what}: do not give `h`; give the output times as `saveat` (times, or their number)"
+            + (" and the tolerances as `rtol`/`atol`." if method.kind is Kind.ADAPTIVE else ".")
         )
-    n = round(ratio)
-    if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
+    if method.kind is Kind.EXACT and (rtol is not None or atol is not None):
+        raise InputError(f"{name} is an exact propagator: its accuracy is its own `tol`, not `rtol`/`atol`.")
+    if saveat is None or count:
+        n_out = count or DEFAULT_SAVEAT
+        return _Times(t0, t_final, None, n_out - 1, count=n_out)
+    given = _saveat(saveat, t0, t_final)
+    return _Times(t0, t_final, None, len(given) - 1, given=given)
+
+
+#: Output times of an adaptive method or an exact propagator when ``saveat`` is not given.
+DEFAULT_SAVEAT = 201
+
+
+def _saveat_count(saveat: Any) -> int:
+    """The number of output times when ``saveat`` is one, else 0."""
+    if isinstance(saveat, (int, np.integer)) and not isinstance(saveat, bool):
+        if not 2 <= saveat <= 2**53:
+            raise InputError(f"Expected `saveat`, a number of output times, to be at least 2, got {saveat}.")
+        return int(saveat)
+    return 0
+
+
+def _saveat(saveat: Any, t0: float, t_final: float) -> np.ndarray:
+    """``saveat`` given as times: checked to run from ``t0`` towards ``t_final``."""
+    t = V.finite(saveat, "saveat").ravel().astype(float)
+    if t.size < 1:
+        raise InputError("Expected `saveat` to hold at least one time (or to be their number).")
+    sign = 1.0 if t_final > t0 else -1.0
+    if t.size > 1 and np.any(sign * np.diff(t) <= 0):
         raise InputError(
-            f"Expected `t_final - t0` = {span:g} to be a positive whole number of steps h = {h:g}, got "
-            f"{ratio:.12g} steps; choose h = |t_final - t0| / N, or pass `n_steps`."
+            "Expected `saveat` to be strictly " + ("increasing" if sign > 0 else "decreasing (t_final < t0)") + "."
         )
-    return math.copysign(h, span), t0, n
+    lo, hi = min(t0, t_final), max(t0, t_final)
+    if t.min() < lo or t.max() > hi:
+        raise InputError(f"Expected every `saveat` time within [{lo:g}, {hi:g}] (t0 to t_final).")
+    return t
+
+
+def _tolerances(method: Method, rtol: Any, atol: Any) -> tuple[float, float]:
+    r, a = method.default_tolerances
+    out = []
+    for name, value, default in (("rtol", rtol, r), ("atol", atol, a)):
+        value = default if value is None else value
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not 0 < value < 1:
+            raise InputError(f"Expected `{name}` in (0, 1), got {value!r}.")
+        out.append(float(value))
+    return out[0], out[1]
 
 
 def _left_chart(
     system: Any,
     OUT: np.ndarray,
     INFO: np.ndarray,
-    save_steps: np.ndarray,
-    t0: float,
-    h: float,
+    steps: np.ndarray,
+    times: np.ndarray,
     batch_shape: tuple[int, ...],
 ) -> list[Failure]:
     """A failure for each trajectory whose saved states reach the end of the system's chart."""
@@ -131,14 +271,18 @@ def _left_chart(
             INFO[b, 0] = 6
             failures.append(
                 Failure(
-                    kind="left_chart",
-                    batch_index=tuple(int(j) for j in np.unravel_index(b, batch_shape)) if batch_shape else (),
-                    step=int(save_steps[k]),
-                    time=t0 + float(save_steps[k]) * h,
+                    kind=Status.LEFT_CHART,
+                    batch_index=_batch_index(int(b), batch_shape),
+                    step=int(steps[k]),
+                    time=float(times[k]),
                     residual=float("nan"),
                 )
             )
     return failures
+
+
+def _batch_index(b: int, batch_shape: tuple[int, ...]) -> tuple[int, ...]:
+    return tuple(int(j) for j in np.unravel_index(b, batch_shape)) if batch_shape else ()
 
 
 def _run_compiled(
@@ -202,7 +346,7 @@ def _run_periodic(
             INFO[b, 4] = orbit.nfev
         except NumericalError as exc:
             OUT[b] = np.nan
-            OUT[b, 0] = Y0[b]
+            OUT[b, times == 0.0] = Y0[b]
             INFO[b, 0], INFO[b, 1], INFO[b, 2] = 5, 1, np.nan
             reasons[b] = str(exc)
     return steps, compile_time
@@ -212,15 +356,24 @@ def solve(
     system: Any,
     method: Any,
     *,
+    t_final: float,
+    h: float | None = None,
+    saveat: Any = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    t0: float = 0.0,
     y0: Any = None,
     m0: Any = None,
     R0: Any = None,
-    h: float,
-    t_final: float | None = None,
-    n_steps: int | None = None,
-    t0: float = 0.0,
-    save_every: int = 1,
+    q0: Any = None,
+    qdot0: Any = None,
+    rdot0: Any = None,
+    p0: Any = None,
+    shapes: Any = None,
+    tau: Any = None,
+    parameters: Any = None,
     max_steps: int = V.MAX_STEPS,
+    max_evaluations: int = MAX_EVALUATIONS,
     memory_limit: float = V.MEMORY_LIMIT,
     newton_tol: float = 1e-14,
     max_newton: int = 20,
@@ -228,44 +381,66 @@ def solve(
     backend: str = "auto",
     threads: int | None = None,
 ) -> Solution:
-    """Integrate ``system`` with ``method`` from ``t0`` to ``t_final`` with fixed steps ``h``.
+    """Integrate ``system`` with ``method`` from ``t0`` to ``t_final``.
+
+    Times are given one way, as in diffrax: the end ``t_final`` (before ``t0`` integrates backwards), the
+    output times ``saveat``, and the step ``h`` for a fixed-step method or the tolerances ``rtol``/``atol``
+    for an adaptive one (an exact propagator takes neither). A method's kind is ``method.kind``.
 
     Parameters
     ----------
-    system : CanonicalSystem, LeftInvariantSystem, RigidBody, ...
+    system : CanonicalSystem, LeftInvariantSystem, RigidBody, NonholonomicSystem, ...
         A canonical system takes its initial state as ``y0 = (q, p)``; a left-invariant system as ``m0``
-        and, to integrate the attitude as well (and get the spatial momentum ``p = R m``), ``R0``.
+        and, to integrate the attitude as well (and get the spatial momentum ``p = R m``), ``R0``; a
+        Lagrangian system on G x S (with constraints or none) as ``q0`` with ``qdot0``, ``rdot0`` or ``p0``.
     method : Method or str
-        A method value (``GaussLegendre(3)``, ``LiePoissonSplitting(order=4)``, ...) or a registry key
-        (``"implicit_midpoint"``, see :data:`~geomech.integrators.REGISTRY`). An incompatible pair raises
-        :class:`~geomech.integrators.IncompatibleMethodError` before any work.
+        A method value (``GaussLegendre(3)``, ``LiePoissonSplitting(order=4)``, ``BKMM()``, ...) or a
+        registry key (``"implicit_midpoint"``, see :data:`~geomech.integrators.REGISTRY`). An incompatible
+        pair raises :class:`~geomech.integrators.IncompatibleMethodError` before any work, naming the
+        methods that fit.
+    t_final : float
+        The end of the integration; for a fixed-step method ``t_final - t0`` is a whole number of steps.
+    h : float
+        The step of a fixed-step method.
+    saveat : int or array_like, optional
+        The output times: a number of equally spaced times from ``t0`` to ``t_final``, or the times
+        themselves (for a fixed-step method, on its grid ``t0 + k h``). Default: every step of a fixed-step
+        method, :data:`DEFAULT_SAVEAT` times otherwise.
+    rtol, atol : float, optional
+        Tolerances of an adaptive method (default: the method's ``default_tolerances``).
+    t0 : float
     y0, m0 : array_like, shape (..., d) or (..., 3)
         Initial state(s); leading axes are a batch, integrated in one call.
     R0 : array_like, shape (..., 3, 3), optional
         Initial attitude(s), body to space; broadcast against ``m0``.
-    h : float
-        Step size (for :class:`AdaptiveAdams`, the output interval).
-    t_final, n_steps :
-        The end, as a time (``t_final - t0`` must be a whole number of steps) or a number of steps.
-    t0 : float
-    save_every : int
-        Keep every ``save_every``-th state (and always the first and the last).
+    q0, qdot0, rdot0, p0 :
+        The initial state of a Lagrangian system: coordinates, and velocities given as all of them
+        (``qdot0``), or as the shape rates with the nonholonomic momentum (``rdot0``, ``p0``); see
+        :func:`~geomech.integrators.initial_state`.
+    shapes, tau : mapping, optional
+        A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a
+        :class:`~geomech.integrators.Gait`) and the torques on its free shapes.
+    parameters : mapping, optional
+        Values of a Lagrangian system's parameters not stored in it.
     max_steps : int
-        Ceiling on steps times trajectories (default 1e9, tens of seconds to minutes of compiled work):
-        a larger run is refused before it starts, with its estimated cost; raise it to run one.
+        Ceiling on steps times trajectories of a fixed-step method (default 1e9, tens of seconds to minutes
+        of compiled work): a larger run is refused before it starts, with its estimated cost.
+    max_evaluations : int
+        Ceiling on right-hand-side evaluations of an adaptive method on a Lagrangian system (default
+        200,000): a run projected far above it is refused after a short pilot, and a run that reaches it
+        stops with the status ``budget_exhausted``.
     memory_limit : float
-        Ceiling in bytes (default 2 GiB) on the saved states: more is refused before any allocation; raise
-        ``save_every`` or this limit.
+        Ceiling in bytes (default 2 GiB) on the saved states: more is refused before any allocation.
     newton_tol : float
-        Implicit methods: Newton stops when its correction (or the error its contraction rate
-        predicts) is below ``newton_tol * max(1, |y|)``.
+        Implicit methods: Newton stops when its correction (or the error its contraction rate predicts) is
+        below ``newton_tol * max(1, |y|)``.
     max_newton : int
         Newton iterations allowed per step before the step is declared failed.
     raise_on_failure : bool
         Raise :class:`~geomech.errors.ConvergenceError` (Newton, adaptive solver) or
-        :class:`~geomech.errors.NumericalError` (non-finite state, singular Newton matrix) when a trajectory
-        fails; the exception's ``solution`` attribute holds the partial result. With False, failures are
-        reported in ``Solution.status`` and ``Solution.failures`` only.
+        :class:`~geomech.errors.NumericalError` (non-finite state, singular equations, exhausted budget) when
+        a trajectory fails; the exception's ``solution`` attribute holds the partial result. With False,
+        failures are reported in ``Solution.status`` and ``Solution.failures`` only.
     backend : {"auto", "numba", "python"}
         ``"auto"`` compiles the loops with numba for systems given by a formula and runs them as Python
         otherwise.
@@ -279,57 +454,95 @@ def solve(
     method = get_method(method)
     problem = make_problem(system, attitude=R0 is not None)
     _check_compatible(problem, method)
-    Y0, batch_shape = _initial_states(problem, y0, m0, R0)
-    h, t0, nsteps = _steps(h, t0, t_final, n_steps)
-    if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
-        raise InputError(f"Expected `save_every` to be a positive integer, got {save_every!r}.")
+    times = _times(method, t0, t_final, h, saveat, rtol, atol)
+    t0 = float(t0)
     tol = V.positive_scalar(newton_tol, "newton_tol")
     if isinstance(max_newton, bool) or not isinstance(max_newton, (int, np.integer)) or max_newton < 1:
         raise InputError(f"Expected `max_newton` to be a positive integer, got {max_newton!r}.")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise InputError(f"Expected `threads` to be a positive integer or None, got {threads!r}.")
+    tolerances = _tolerances(method, rtol, atol) if method.kind is Kind.ADAPTIVE else None
+    if problem.kind == "lagrangian":
+        for name, value in (("y0", y0), ("m0", m0)):
+            if value is not None:
+                raise InputError(
+                    f"{problem.name} is a Lagrangian system: give its initial state as `q0` with `qdot0`, or "
+                    f"with `rdot0` and `p0`; not `{name}`."
+                )
+        from .nonholonomic._solve import solve_lagrangian
+
+        solution = solve_lagrangian(
+            system,
+            method,
+            times,
+            t0=t0,
+            q0=q0,
+            qdot0=qdot0,
+            rdot0=rdot0,
+            p0=p0,
+            shapes=shapes,
+            tau=tau,
+            parameters=parameters,
+            tolerances=tolerances,
+            max_steps=max_steps,
+            max_evaluations=max_evaluations,
+            memory_limit=memory_limit,
+            newton_tol=tol,
+            max_newton=int(max_newton),
+        )
+        return _finish(solution, raise_on_failure)
+    for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes), ("tau", tau)):
+        if value is not None:
+            raise InputError(f"`{name}` applies to Lagrangian systems on G x S; {problem.name} is not one.")
+    if parameters is not None:
+        raise InputError(f"`parameters` applies to Lagrangian systems; {problem.name} holds its parameter values.")
+    Y0, batch_shape = _initial_states(problem, y0, m0, R0)
     B, d = Y0.shape
-    if not isinstance(method, (PeriodicOrbit, Quadrature)):  # those cost per output, not per step
+    if method.kind is Kind.FIXED_STEP:
         V.work_budget(
-            float(B) * nsteps,
+            float(B) * times.n_steps,
             float(max_steps),
-            f"The number of steps ({nsteps:.3g} of {B} trajectory(ies))",
+            f"The number of steps ({times.n_steps:.3g} of {B} trajectory(ies))",
             "max_steps",
             "take a larger h or a shorter span",
             seconds_each=1e-7,
         )
-    n_saved = nsteps // save_every + 2
     V.memory_budget(
-        float(B) * n_saved * (d + 1),
+        float(B) * times.n_kernel_saved * (d + 1),
         float(memory_limit),
-        f"Keeping every {save_every}-th of {nsteps:.3g} states of {B} trajectory(ies)",
+        f"Keeping {times.n_kernel_saved:.3g} states of {B} trajectory(ies)",
         "memory_limit",
-        f"raise `save_every` (to at least {max(1, int(nsteps * B * (d + 1) * 8 / memory_limit) + 1)})",
+        "save fewer times (`saveat`)",
     )
-    save_steps = np.arange(0, nsteps + 1, save_every)
-    if save_steps[-1] != nsteps:
-        save_steps = np.append(save_steps, nsteps)
-    OUT = np.empty((B, len(save_steps), d))
+    if method.kind is Kind.FIXED_STEP:
+        saved_steps = times.kernel_steps()
+        saved_t = t0 + float(times.h) * saved_steps.astype(float)  # type: ignore[arg-type]
+    else:
+        saved_t = times.t
+        saved_steps = np.arange(len(saved_t))
+    OUT = np.empty((B, len(saved_steps), d))
     INFO = np.zeros((B, 5))
     module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)
     compile_time = 0.0
     t_start = time.perf_counter()
     reasons: dict[int, str] = {}
     if isinstance(method, AdaptiveAdams):
+        assert tolerances is not None
         with np.errstate(all="ignore"):
-            internal = run_adaptive(module, method, Y0, t0, h, nsteps, save_every, OUT, INFO)
+            internal = run_adaptive(module, method, Y0, t0, saved_t, tolerances, OUT, INFO)
     elif isinstance(method, (PeriodicOrbit, Quadrature)):
-        internal, compile_time = _run_periodic(problem.core, method, Y0, h * save_steps, OUT, INFO, reasons)
+        internal, compile_time = _run_periodic(problem.core, method, Y0, saved_t - t0, OUT, INFO, reasons)
         t_start += compile_time
     else:
         kern = getattr(module, method.kernel)
         P = np.ascontiguousarray(method.constants(problem), dtype=float)
+        h_step, nsteps, every = float(times.h), times.n_steps, times.save_every  # type: ignore[arg-type]
         if used == "numba" and not kern.signatures:
             # the first call compiles (or loads numba's disk cache): timed apart on a one-step problem
             from numba.core.errors import NumbaError
 
             try:
-                kern(Y0[:1].copy(), h, 1, 1, np.empty((1, 2, d)), np.zeros((1, 5)), tol, int(max_newton), P)
+                kern(Y0[:1].copy(), h_step, 1, 1, np.empty((1, 2, d)), np.zeros((1, 5)), tol, int(max_newton), P)
             except NumbaError:
                 # a function sympy prints but numba cannot compile: the same loop in Python
                 if backend == "numba":
@@ -342,61 +555,70 @@ def solve(
         if used != "numba" or B * nsteps < 20_000:
             n_threads = 1
         with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
-            _run_compiled(kern, Y0, h, nsteps, save_every, OUT, INFO, tol, int(max_newton), P, int(n_threads))
+            _run_compiled(kern, Y0, h_step, nsteps, every, OUT, INFO, tol, int(max_newton), P, int(n_threads))
         internal = B * nsteps
     run_time = time.perf_counter() - t_start
 
     failures = []
     for b in np.flatnonzero(INFO[:, 0] != 0):
         step = int(INFO[b, 1])
+        if method.kind is Kind.FIXED_STEP:
+            when = t0 + (step - 1) * float(times.h)  # type: ignore[arg-type]
+        else:
+            when = float(saved_t[max(step - 1, 0)])
         failures.append(
             Failure(
-                kind=STATUS.get(int(INFO[b, 0]), "failed"),
-                batch_index=tuple(int(i) for i in np.unravel_index(b, batch_shape)) if batch_shape else (),
+                kind=STATUS.get(int(INFO[b, 0]), Status.NONFINITE),
+                batch_index=_batch_index(int(b), batch_shape),
                 step=step,
-                time=t0 + (step - 1) * h,
+                time=when,
                 residual=float(INFO[b, 2]),
+                detail=reasons.get(int(b), ""),
             )
         )
-    failures += _left_chart(system, OUT, INFO, save_steps, t0, h, batch_shape)
+    failures += _left_chart(system, OUT, INFO, saved_steps, saved_t, batch_shape)
+    pick = times.pick
+    if pick is not None:
+        OUT = OUT[:, pick]
     states = OUT.reshape(batch_shape + OUT.shape[1:])
     inv = problem.invariants(states)
-    status = failures[0].kind if failures else "success"
+    status = failures[0].kind if failures else Status.SUCCESS
+    name = type(method).__name__
     if failures:
         extra = f" ({len(failures)} of {B} trajectories failed)" if B > 1 else ""
-        message = f"{type(method).__name__} on {problem.name}: {failures[0].describe()}{extra}."
-        if failures[0].kind in ("newton_failed", "singular_jacobian"):
+        message = f"{name} on {problem.name}: {failures[0].describe()}{extra}."
+        if failures[0].kind in (Status.NEWTON_FAILED, Status.SINGULAR_JACOBIAN):
             message += (
-                f" Reduce h (now {abs(h):g}), or loosen newton_tol (now {tol:g}) / raise max_newton (now {max_newton})."
+                f" Reduce h (now {abs(float(times.h)):g}), or loosen newton_tol (now {tol:g}) / raise max_newton "  # type: ignore[arg-type]
+                f"(now {max_newton})."
             )
+    elif method.kind is Kind.FIXED_STEP:
+        message = f"{name}: {times.n_steps} steps of h = {abs(float(times.h)):g} from t = {t0:g}."  # type: ignore[arg-type]
+    elif isinstance(method, Quadrature):
+        message = (
+            f"Quadrature: {len(saved_t)} outputs from t = {t0:g}, each from the time-of-flight integral along the "
+            "level curve."
+        )
+    elif isinstance(method, PeriodicOrbit):
+        message = (
+            f"PeriodicOrbit: {len(saved_t)} outputs from t = {t0:g}, each from one stored period ({internal} mesh "
+            "steps in all)."
+        )
     else:
-        message = f"{type(method).__name__}: {nsteps} steps of h = {abs(h):g} from t = {t0:g}."
-        if isinstance(method, Quadrature):
-            message = (
-                f"Quadrature: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from the "
-                "time-of-flight integral along the level curve."
-            )
-        elif isinstance(method, PeriodicOrbit):
-            message = (
-                f"PeriodicOrbit: {nsteps} outputs every {abs(h):g} from t = {t0:g}, each from one stored "
-                f"period ({internal} mesh steps in all)."
-            )
-    if reasons:
-        message += " " + reasons[min(reasons)]
+        message = f"{name}: {len(saved_t)} outputs from t = {t0:g} to {float(t_final):g}, {internal} internal steps."
     solution = Solution(
-        t=t0 + h * save_steps.astype(float),
+        t=times.t,
         states=states,
         system=system,
         method=method,
         layout=problem.layout,
-        energy=inv["energy"],
-        casimir=inv["casimir"],
-        spatial_momentum=inv["spatial_momentum"],
+        labels=problem.labels,
+        quantities={k: v for k, v in inv.items() if v is not None},
         status=status,
         message=message,
         failures=tuple(failures),
         stats={
-            "n_steps": nsteps,
+            "n_steps": times.n_steps,
             "n_internal_steps": internal,
             "n_rhs": int(INFO[:, 4].sum()),
             "n_newton": int(INFO[:, 3].sum()),
@@ -404,10 +626,17 @@ def solve(
             "compile_time": compile_time,
             "run_time": run_time,
         },
+        parameters=dict(getattr(problem.core, "parameters", {}) or {}),
     )
-    if failures and raise_on_failure:
-        cls = ConvergenceError if status in ("newton_failed", "adaptive_failed") else NumericalError
-        exc = cls(message + " Pass raise_on_failure=False to get the partial solution instead.")
+    return _finish(solution, raise_on_failure)
+
+
+def _finish(solution: Solution, raise_on_failure: bool) -> Solution:
+    """``solution``, or its failure raised with the partial solution attached."""
+    if solution.failures and raise_on_failure:
+        failing = solution.status in (Status.NEWTON_FAILED, Status.ADAPTIVE_FAILED)
+        cls = ConvergenceError if failing else NumericalError
+        exc = cls(solution.message + " Pass raise_on_failure=False to get the partial solution instead.")
         exc.solution = solution  # type: ignore[attr-defined]
         raise exc
     return solution

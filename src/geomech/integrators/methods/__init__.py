@@ -16,6 +16,8 @@ References (short keys as in the docstrings):
 - [MW] Marsden & West, Discrete mechanics and variational integrators, Acta Numerica (2001).
 - [Y] Yoshida, Construction of higher order symplectic integrators, Phys. Lett. A 150 (1990).
 - [SA] the Serret-Andoyer paper (seeds/000), section 8.
+- [KM] Koon & Marsden, The geometric structure of nonholonomic mechanics (seeds/004).
+- [CM] Cortes & Martinez, Non-holonomic integrators, Nonlinearity 14 (2001).
 """
 
 from __future__ import annotations
@@ -23,13 +25,15 @@ from __future__ import annotations
 from typing import Any
 
 from ...errors import InputError
-from ._base import IncompatibleMethodError, Method, Structure
+from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams
+from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
 from ._lie_poisson import LieGroupVariational, LiePoissonSplitting, MoserVeselov, PeriodicOrbit, Quadrature
 
 __all__ = [
     "Structure",
+    "Kind",
     "IncompatibleMethodError",
     "Method",
     "RK4",
@@ -45,6 +49,9 @@ __all__ = [
     "LieGroupVariational",
     "PeriodicOrbit",
     "Quadrature",
+    "LagrangeDAlembert",
+    "BKMM",
+    "DiscreteLagrangeDAlembert",
     "REGISTRY",
     "get_method",
     "methods_table",
@@ -73,6 +80,9 @@ REGISTRY: dict[str, Method] = {
         LieGroupVariational("exp"),
         PeriodicOrbit(),
         Quadrature(),
+        LagrangeDAlembert(),
+        BKMM(),
+        DiscreteLagrangeDAlembert(),
     )
 }
 

@@ -22,6 +22,20 @@ class Structure(str, enum.Enum):
     LIE_POISSON_QUADRATIC = "Lie-Poisson so(3)* with quadratic Hamiltonian (free rigid body)"
     LIE_GROUP = "Lie group SO(3) hyperregular Lagrangian"
     ONE_DOF = "canonical with one degree of freedom"
+    LAGRANGIAN = "Lagrangian on G x S with velocity constraints (none: holonomic)"
+
+
+class Kind(str, enum.Enum):
+    """How a method advances in time, which decides how :func:`~geomech.solve` is told the times.
+
+    ``FIXED_STEP`` methods take a step ``h``; ``ADAPTIVE`` ones choose their steps to meet ``rtol`` and
+    ``atol``; ``EXACT`` propagators do not step in time at all (the state at any time from a closed form or
+    one period), so their cost does not grow with t. All three save the state at ``saveat``.
+    """
+
+    FIXED_STEP = "fixed step"
+    ADAPTIVE = "adaptive"
+    EXACT = "exact propagator"
 
 
 class IncompatibleMethodError(InputError):
@@ -33,7 +47,11 @@ class Method:
     """Base of every method (abstract). Subclasses set the class-level traits and ``kernel``."""
 
     structure: ClassVar[Structure]
-    explicit: ClassVar[bool] = False
+    kind: ClassVar[Kind] = Kind.FIXED_STEP
+    default_tolerances: ClassVar[tuple[float, float]] = (1e-6, 1e-8)
+    """``(rtol, atol)`` of an adaptive method when :func:`~geomech.solve` is not given them."""
+    explicit: ClassVar[bool | None] = False
+    """Whether a step needs no solve; None for exact propagators, which take no steps."""
     symplectic: ClassVar[bool] = False
     symmetric: ClassVar[bool] = False
     preserves_casimirs: ClassVar[bool] = False
@@ -45,7 +63,8 @@ class Method:
     """Model functions the compiled loop calls."""
 
     @property
-    def order(self) -> int:  # pragma: no cover - every concrete method overrides
+    def order(self) -> int | None:  # pragma: no cover - every concrete method overrides
+        """The convergence order; None for an exact propagator (its accuracy is its ``tol``)."""
         raise NotImplementedError
 
     @property
@@ -54,8 +73,8 @@ class Method:
         return type(self).__name__
 
     @property
-    def implicit(self) -> bool:
-        return not self.explicit
+    def implicit(self) -> bool | None:
+        return None if self.explicit is None else not self.explicit
 
     def constants(self, problem: Any) -> np.ndarray:
         """Constants passed to the compiled loop (the ``P`` argument)."""
@@ -66,6 +85,7 @@ class Method:
         return {
             "key": self.key,
             "method": repr(self),
+            "kind": self.kind.value,
             "order": self.order,
             "variable_order": self.variable_order,
             "structure": self.structure.value,

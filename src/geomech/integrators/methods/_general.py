@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from ...errors import InputError
-from ._base import Method, Structure
+from ._base import Kind, Method, Structure
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,7 @@ class AdamsBashforthMoulton4(Method):
 
 @dataclass(frozen=True)
 class AdaptiveAdams(Method):
-    """Variable-order, variable-step Adams method with error control, output every ``h``.
+    """Variable-order, variable-step Adams method with error control (the ``rtol`` and ``atol`` given to solve).
 
     Wraps the well-kept Fortran solvers of scipy: ``solver="vode"`` (VODE in its non-stiff Adams mode,
     orders 1-12; the closest to MATLAB's ``ode113`` that the Serret-Andoyer paper used) or
@@ -66,26 +66,19 @@ class AdaptiveAdams(Method):
 
     Parameters
     ----------
-    rtol, atol : float
-        Relative and absolute tolerances of the local error estimate.
     solver : {"vode", "lsoda"}
     max_steps : int
         Internal steps allowed between two outputs.
     """
 
-    rtol: float = 1e-6
-    atol: float = 1e-8
     solver: str = "vode"
     max_steps: int = 100_000
     structure: ClassVar[Structure] = Structure.ODE
+    kind: ClassVar[Kind] = Kind.ADAPTIVE
     explicit: ClassVar[bool] = False
     variable_order: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        for name in ("rtol", "atol"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 < value < 1):
-                raise InputError(f"Expected `{name}` in (0, 1), got {value!r}.")
         if self.solver not in ("vode", "lsoda"):
             raise InputError(f"Expected `solver` to be 'vode' or 'lsoda', got {self.solver!r}.")
         if not (isinstance(self.max_steps, int) and self.max_steps > 0):

@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ...errors import InputError
-from ._base import Method, Structure
+from ._base import Kind, Method, Structure
 
 
 def _composition_weights(order: int, composition: str) -> tuple[float, ...]:
@@ -178,9 +178,10 @@ class PeriodicOrbit(Method):
     the state at t is the state at t mod T: one period is integrated (Dormand-Prince 8(5,3) with error
     control, compiled), its end located on the section through y0 by Newton, and each output is one
     Runge-Kutta step from the stored mesh point before it (:class:`~geomech.integrators.PeriodicOrbitPropagator`).
-    Order: 8 within the period; the error does not grow with t beyond ``t * period_error / T``. ``h`` is only
-    the output interval. Explicit; not symplectic, but the energy error is that of one period, bounded for all
-    t. Structure: canonical with n = 1. Cost per trajectory: about (0.1 ms + compile once) for the period,
+    Kind: exact propagator (no steps in t; the states are given at ``saveat``); the period is integrated to
+    order 8 with error control, and the error does not grow with t beyond ``t * period_error / T``. Not
+    symplectic, but the energy error is that of one period, bounded for all t. Structure: canonical with
+    n = 1. Cost per trajectory: about (0.1 ms + compile once) for the period,
     then one step per output, independent of t. A separatrix, an equilibrium that the period cannot resolve
     or an orbit that leaves ``L_bounds`` is a failure (``not_periodic``) with the reason in the message.
     Reference: [HNW] II.10 (DOP853); eq. (11) of the Serret-Andoyer paper (periodicity).
@@ -196,7 +197,8 @@ class PeriodicOrbit(Method):
     tol: float = 1e-14
     L_bounds: tuple[float, float] | None = None
     structure: ClassVar[Structure] = Structure.ONE_DOF
-    explicit: ClassVar[bool] = True
+    kind: ClassVar[Kind] = Kind.EXACT
+    explicit: ClassVar[bool | None] = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.tol, (int, float)) and 1e-15 <= self.tol <= 1e-6):
@@ -204,8 +206,8 @@ class PeriodicOrbit(Method):
         object.__setattr__(self, "L_bounds", _bounds(self.L_bounds))
 
     @property
-    def order(self) -> int:
-        return 8
+    def order(self) -> None:
+        return None
 
     @property
     def key(self) -> str:
@@ -214,13 +216,13 @@ class PeriodicOrbit(Method):
 
 @dataclass(frozen=True)
 class Quadrature(Method):
-    """Exact propagation of a one-degree-of-freedom orbit by quadrature (eq. (11) of [SA] for any H).
+    """Exact propagation of a one-degree-of-freedom orbit by quadrature (equation (11) of [SA], for any H).
 
     The period is the integral :math:`T = \\oint dq / (\\partial H/\\partial p)` along the level curve of
     :math:`H(y_0)`, the state at t is found from the time-of-flight integral at ``t mod T`` and periodicity
     (:class:`~geomech.integrators.QuadraturePropagator`): no time stepping, so the cost does not grow with
-    t and the energy error is that of the level curve, bounded for all t. ``h`` is only the output
-    interval. Order: none (exact up to ``tol``; ``order`` reports 0). Structure: canonical with n = 1.
+    t and the energy error is that of the level curve, bounded for all t. Kind: exact propagator (the states
+    are given at ``saveat``); no order (exact up to ``tol``; ``order`` is None). Structure: canonical with n = 1.
     Cost per trajectory: tracing the level curve and building Chebyshev tables (tens of ms), then a table
     look-up per output. A separatrix, an equilibrium or a level curve that leaves ``L_bounds`` is a failure
     (``not_periodic``) with the reason in the message. Reference: eq. (11) of the Serret-Andoyer paper.
@@ -236,7 +238,8 @@ class Quadrature(Method):
     tol: float = 1e-12
     L_bounds: tuple[float, float] | None = None
     structure: ClassVar[Structure] = Structure.ONE_DOF
-    explicit: ClassVar[bool] = True
+    kind: ClassVar[Kind] = Kind.EXACT
+    explicit: ClassVar[bool | None] = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.tol, (int, float)) and 1e-15 <= self.tol <= 1e-3):
@@ -244,8 +247,8 @@ class Quadrature(Method):
         object.__setattr__(self, "L_bounds", _bounds(self.L_bounds))
 
     @property
-    def order(self) -> int:
-        return 0
+    def order(self) -> None:
+        return None
 
     @property
     def key(self) -> str:

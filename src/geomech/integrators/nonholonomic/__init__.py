@@ -1,15 +1,16 @@
-r"""Simulation of nonholonomic systems with symmetry, three ways that agree as the step shrinks.
+r"""Lagrangian systems on G x S with velocity constraints through :func:`~geomech.solve`: three methods that
+agree as the step shrinks.
 
-* :func:`simulate_full`: the Lagrange-d'Alembert equations in coordinates, the multipliers solved at every
-  evaluation from the differentiated constraints (the index-reduced DAE
-  :math:`\mathbb M\ddot q - A^T\lambda = f + B\tau`, :math:`A\ddot q + \dot A\dot q = 0`), integrated by scipy;
+* :class:`~geomech.integrators.LagrangeDAlembert`: the Lagrange-d'Alembert equations in coordinates, the
+  multipliers solved at every evaluation from the differentiated constraints (the index-reduced DAE
+  :math:`\mathbb M\ddot q - A^T\lambda = f + B\tau`, :math:`A\ddot q + \dot A\dot q = 0`), stepped by scipy;
   the constraint residual :math:`A(q)\dot q` is recorded (it drifts, slowly, since only its derivative is
   enforced; ``baumgarte=alpha`` adds :math:`2\alpha A\dot q` to damp the drift).
-* :func:`simulate_reduced`: the BKMM equations (1.1)-(1.3) of the nonholonomic seed: momentum and shape
-  equations for :math:`(r, \dot r, p)` and the reconstruction :math:`\dot q_G = \Lambda(q_G)^{-1}\xi`; the
-  velocity satisfies the constraints exactly at every instant.
-* :func:`simulate_discrete`: a discrete Lagrange-d'Alembert integrator with the midpoint discrete Lagrangian
-  :math:`L_d(q_0, q_1) = hL\big(\tfrac{q_0+q_1}{2}, \tfrac{q_1-q_0}{h}\big)`,
+* :class:`~geomech.integrators.BKMM`: the BKMM equations (1.1)-(1.3) of the nonholonomic seed: momentum and
+  shape equations for :math:`(r, \dot r, p)` and the reconstruction :math:`\dot q_G = \Lambda(q_G)^{-1}\xi`;
+  the velocity satisfies the constraints exactly at every instant.
+* :class:`~geomech.integrators.DiscreteLagrangeDAlembert`: a discrete Lagrange-d'Alembert integrator with the
+  midpoint discrete Lagrangian :math:`L_d(q_0, q_1) = hL\big(\tfrac{q_0+q_1}{2}, \tfrac{q_1-q_0}{h}\big)`,
 
   .. math::
 
@@ -28,17 +29,7 @@ prescribed shapes the torques that realise the gait are computed, and the work t
 
 from __future__ import annotations
 
-from ._continuous import MAX_EVALUATIONS, simulate_full, simulate_reduced
-from ._discrete import simulate_discrete
+from ._continuous import MAX_EVALUATIONS
 from ._inputs import Gait, initial_state
-from ._trajectory import NonholonomicTrajectory
 
-__all__ = [
-    "Gait",
-    "NonholonomicTrajectory",
-    "simulate_full",
-    "simulate_reduced",
-    "simulate_discrete",
-    "initial_state",
-    "MAX_EVALUATIONS",
-]
+__all__ = ["Gait", "initial_state", "MAX_EVALUATIONS"]

@@ -1,5 +1,7 @@
-"""The adaptive simulators, :func:`simulate_full` (Lagrange-d'Alembert in coordinates) and
-:func:`simulate_reduced` (the BKMM equations), with their work bounded before and during the run."""
+"""The adaptive engines of :func:`~geomech.solve` for a Lagrangian system: the Lagrange-d'Alembert equations in
+coordinates (:class:`~geomech.integrators.LagrangeDAlembert`) and the BKMM equations
+(:class:`~geomech.integrators.BKMM`), stepped by scipy's solvers with their work bounded before and during the
+run and their failures returned as data with the states reached."""
 
 from __future__ import annotations
 
@@ -7,14 +9,14 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy import integrate as _scipy_integrate
 
 from ... import _validate as V
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
-from ...systems.nonholonomic import NonholonomicSystem
-from ._inputs import _group_rates, _setup, initial_state
-from ._trajectory import NonholonomicTrajectory, _accelerations, _finish, _time_grid
+from ..solution import Status
+from ._inputs import _group_rates, _Setup
+from ._trajectory import _accelerations, _Raw
 
 #: Default ceiling on right-hand-side evaluations of the adaptive simulators (tens of seconds of work).
 MAX_EVALUATIONS = 200_000
@@ -34,14 +36,15 @@ def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) 
     limit = int(V.positive_scalar(max_evaluations, "max_evaluations"))
     t_start, t_end = t_span
     count = 0
-    t_max = t_start
+    t_far = t_start
 
     def counted(t: float, y: np.ndarray) -> np.ndarray:
-        nonlocal count, t_max
+        nonlocal count, t_far
         count += 1
-        t_max = max(t_max, t)
-        if count == _PILOT and limit > _PILOT and t_max > t_start:
-            projected = count * (t_end - t_start) / (t_max - t_start)
+        if abs(t - t_start) > abs(t_far - t_start):
+            t_far = t
+        if count == _PILOT and limit > _PILOT and t_far != t_start:
+            projected = count * (t_end - t_start) / (t_far - t_start)
             if projected > 2.0 * limit:
                 raise _OverBudget(t, count, projected)
         if count > limit:
@@ -51,82 +54,97 @@ def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) 
     return counted
 
 
-def _integrate(name: str, rhs: Callable, te: np.ndarray, y0: np.ndarray, max_evaluations: Any, **kw: Any) -> Any:
-    """solve_ivp within a budget of evaluations; a failure or an exhausted budget says where and why."""
+def _adaptive(
+    name: str,
+    rhs: Callable,
+    y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    solver: str,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+) -> tuple[np.ndarray, Any, int, int]:
+    """Integrate from ``t0``, saving at ``times`` by the solver's dense output (as solve_ivp does).
+
+    Returns the saved states (NaN past a failure), the failure as ``(status, index of the first time not
+    reached, last time reached, detail, residual)`` or None, the number of evaluations and of steps.
+    """
+    rtol, atol = tolerances
+    Y = np.full((len(times), y0.size), np.nan)
+    k = 0
+    while k < len(times) and times[k] == t0:
+        Y[k] = y0
+        k += 1
+    if k == len(times):
+        return Y, None, 0, 0
+    counted = _budgeted(rhs, max_evaluations, (t0, float(times[-1])))
+    step = getattr(_scipy_integrate, solver)(counted, t0, y0, float(times[-1]), rtol=rtol, atol=atol)
+    sign = 1.0 if times[-1] > t0 else -1.0
+    failure = None
+    n_steps = 0
     try:
-        sol = solve_ivp(_budgeted(rhs, max_evaluations, (te[0], te[-1])), (te[0], te[-1]), y0, t_eval=te, **kw)
+        while k < len(times):
+            message = step.step()
+            n_steps += 1
+            if step.status == "failed":
+                failure = (Status.ADAPTIVE_FAILED, k, float(step.t), str(message), float("nan"))
+                break
+            if not np.all(np.isfinite(step.y)):
+                failure = (Status.NONFINITE, k, float(step.t_old), "", float("nan"))
+                break
+            dense = step.dense_output()
+            while k < len(times) and sign * (times[k] - step.t) <= 0:
+                Y[k] = dense(times[k])
+                k += 1
+            if step.status == "finished":
+                break
     except _OverBudget as stop:
         if stop.projected is not None:
             raise InputError(
                 f"{name}: at the pace of its first {stop.count} evaluations (to t = {stop.t:.6g}) the run to "
-                f"{te[-1]:.6g} needs about {min(stop.projected, 1e300):.3g} evaluations of the equations, above "
+                f"{times[-1]:.6g} needs about {min(stop.projected, 1e300):.3g} evaluations of the equations, above "
                 f"`max_evaluations` = {int(max_evaluations)}; shorten t_final or raise `max_evaluations`."
             ) from None
-        raise NumericalError(
-            f"{name}: stopped after {stop.count} evaluations of the equations at t = {stop.t:.6g} of "
-            f"{te[-1]:.6g} (`max_evaluations`): the motion is faster, or the time span longer, than the budget "
-            "allows; shorten t_final or raise `max_evaluations`."
-        ) from None
-    if sol.status < 0:
-        raise NumericalError(f"{name}: the integrator failed at t = {sol.t[-1]:.6g}: {sol.message}")
-    return sol
+        detail = (
+            f"stopped after {stop.count} evaluations, of {times[-1]:.6g}: the motion is faster, or the span longer, "
+            "than the budget allows; shorten t_final or raise `max_evaluations`"
+        )
+        failure = (Status.BUDGET_EXHAUSTED, k, float(step.t), detail, float("nan"))
+    except NumericalError as exc:
+        failure = (Status.SINGULAR_CONSTRAINTS, k, float(step.t), str(exc), float("nan"))
+    return Y, failure, int(step.nfev), n_steps
 
 
-def simulate_full(
-    system: NonholonomicSystem,
-    t_final: float | None = None,
-    *,
-    shapes: Any = None,
-    tau: Any = None,
-    q0: Any = None,
-    qd0: Any = None,
-    rdot0: Any = None,
-    p0: Any = None,
-    t0: float = 0.0,
-    t_eval: Any = None,
-    samples: int = 201,
-    parameters: Mapping[str, float] | None = None,
-    method: str = "DOP853",
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    baumgarte: float = 0.0,
-    max_evaluations: int = MAX_EVALUATIONS,
-) -> NonholonomicTrajectory:
-    """Integrate the Lagrange-d'Alembert equations with multipliers (the index-reduced DAE), method (a).
+def _rows(
+    setup: _Setup, times: np.ndarray, Y: np.ndarray, evaluate: Callable
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, qd, tau) at each saved state that was reached; NaN rows after a failure."""
+    ok = np.all(np.isfinite(Y), axis=1)
+    n, sigma = setup.system.n, setup.system.sigma
+    out = [np.full((len(times), d), np.nan) for d in (n, n, sigma)]
+    for i in np.flatnonzero(ok):
+        for arr, x in zip(out, evaluate(times[i], Y[i])):
+            arr[i] = x
+    return out[0], out[1], out[2]
 
-    Parameters
-    ----------
-    system : NonholonomicSystem
-    t_final : float
-        Final time (or give ``t_eval``).
-    shapes : mapping or Gait, optional
-        Prescribed shapes, ``{"psi": "sin(2*pi*t)"}``; the others are free.
-    tau : mapping, optional
-        Torques on free shapes, formulas in ``t``, coordinates and velocities, or callables ``f(t, q, qd)``.
-    q0, qd0, rdot0, p0 :
-        Initial state, see :func:`initial_state`.
-    parameters : mapping, optional
-        Parameter values not stored in the system.
-    method, rtol, atol :
-        Passed to :func:`scipy.integrate.solve_ivp`.
-    baumgarte : float
-        :math:`\\alpha \\ge 0` of the stabilised constraint :math:`A\\ddot q + \\dot A\\dot q + 2\\alpha A\\dot q = 0`.
-    max_evaluations : int
-        Ceiling on evaluations of the equations (default 200,000, tens of seconds): past it the integration
-        stops with a :class:`~geomech.errors.NumericalError` saying at which time.
 
-    Returns
-    -------
-    NonholonomicTrajectory
-    """
-    setup = _setup(system, shapes, tau)
-    q_init, qd_init = initial_state(
-        system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0, parameters=parameters
-    )
-    te = _time_grid(t_final, t_eval, samples, t0)
+def run_full(
+    setup: _Setup,
+    q_init: np.ndarray,
+    qd_init: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    method: Any,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+    parameters: Mapping[str, float] | None,
+) -> _Raw:
+    """The Lagrange-d'Alembert equations with multipliers (the index-reduced DAE), by ``method.solver``."""
+    system = setup.system
     funcs = lagrange_dalembert(system).numeric(parameters).funcs
     fr, pr = setup.free_coordinates(), setup.prescribed_coordinates()
     nf = len(fr)
+    baumgarte = float(method.baumgarte)
 
     def full_state(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         q, qd = np.empty(system.n), np.empty(system.n)
@@ -140,61 +158,32 @@ def simulate_full(
         a, _, tau_v = _accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)
         return np.r_[qd[fr], a, tau_v @ qd[system.k :]]
 
-    y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
-    sol = _integrate("simulate_full", rhs, te, y0, max_evaluations, method=method, rtol=rtol, atol=atol)
-    Q, QD, TAU = [], [], []
-    for t, y in zip(sol.t, sol.y.T):
+    def evaluate(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         q, qd, rdd_p = full_state(t, y)
-        TAU.append(_accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)[2])
-        Q.append(q)
-        QD.append(qd)
-    return _finish(
-        setup,
-        f"full ({method})",
-        sol.t,
-        np.array(Q),
-        np.array(QD),
-        np.array(TAU).reshape(len(sol.t), -1),
-        sol.y[-1],
-        parameters,
-        sol.status,
-        sol.message,
-        sol.nfev,
+        return q, qd, _accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)[2]
+
+    y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
+    Y, failure, nfev, n_steps = _adaptive(
+        "LagrangeDAlembert", rhs, y0, t0, times, method.solver, tolerances, max_evaluations
     )
+    Q, QD, TAU = _rows(setup, times, Y, evaluate)
+    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
 
 
-# --------------------------------------------------------------------------------------------------
-# (b) reduced equations
-# --------------------------------------------------------------------------------------------------
-def simulate_reduced(
-    system: NonholonomicSystem,
-    t_final: float | None = None,
-    *,
-    shapes: Any = None,
-    tau: Any = None,
-    q0: Any = None,
-    qd0: Any = None,
-    rdot0: Any = None,
-    p0: Any = None,
-    t0: float = 0.0,
-    t_eval: Any = None,
-    samples: int = 201,
-    parameters: Mapping[str, float] | None = None,
-    method: str = "DOP853",
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    max_evaluations: int = MAX_EVALUATIONS,
-) -> NonholonomicTrajectory:
-    """Integrate the BKMM equations (1.1)-(1.3): momentum, shape and reconstruction, method (b).
-
-    Same arguments as :func:`simulate_full`. The state is ``(g, r_free, rdot_free, p, W)``; the group
-    coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi(r, \\dot r, p)`.
-    """
-    setup = _setup(system, shapes, tau)
-    q_init, qd_init = initial_state(
-        system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0, parameters=parameters
-    )
-    te = _time_grid(t_final, t_eval, samples, t0)
+def run_reduced(
+    setup: _Setup,
+    q_init: np.ndarray,
+    qd_init: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    method: Any,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+    parameters: Mapping[str, float] | None,
+) -> _Raw:
+    """The BKMM equations (1.1)-(1.3): momentum, shape and reconstruction; the state is
+    ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`."""
+    system = setup.system
     red = bkmm_reduction(system)
     rn = red.numeric(parameters)
     rates = _group_rates(system)
@@ -211,7 +200,7 @@ def simulate_reduced(
         p = y[k + 2 * nF : k + 2 * nF + m]
         return g, r, rd, rdd_p, p
 
-    def evaluate(t: float, y: np.ndarray):
+    def evaluate_all(t: float, y: np.ndarray):
         g, r, rd, rdd_p, p = unpack(t, y)
         xi = rn.xi(r, rd, p)
         q, qd = np.r_[g, r], np.r_[rates(g) @ xi, rd]
@@ -225,34 +214,24 @@ def simulate_reduced(
         b = delta.copy()
         b[F] += tau_f
         b -= M[:, P] @ rdd_p
-        z = np.linalg.solve(K, b) if sigma else np.zeros(0)
+        try:
+            z = np.linalg.solve(K, b) if sigma else np.zeros(0)
+        except np.linalg.LinAlgError as exc:
+            raise NumericalError(f"The shape equations are singular at t = {t:.6g}, q = {q}.") from exc
         tau_v = np.zeros(sigma)
         tau_v[F], tau_v[P] = tau_f, z[nF:]
         return q, qd, xi, z[:nF], tau_v, rn.pdot(r, rd, p)
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
-        q, qd, _, rdd_f, tau_v, pdot = evaluate(t, y)
+        q, qd, _, rdd_f, tau_v, pdot = evaluate_all(t, y)
         return np.r_[qd[:k], qd[k:][F], rdd_f, pdot, tau_v @ qd[k:]]
+
+    def evaluate(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q, qd, _, _, tau_v, _ = evaluate_all(t, y)
+        return q, qd, tau_v
 
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
-    sol = _integrate("simulate_reduced", rhs, te, y0, max_evaluations, method=method, rtol=rtol, atol=atol)
-    Q, QD, TAU = [], [], []
-    for t, y in zip(sol.t, sol.y.T):
-        q, qd, _, _, tau_v, _ = evaluate(t, y)
-        Q.append(q)
-        QD.append(qd)
-        TAU.append(tau_v)
-    return _finish(
-        setup,
-        f"reduced ({method})",
-        sol.t,
-        np.array(Q),
-        np.array(QD),
-        np.array(TAU).reshape(len(sol.t), -1),
-        sol.y[-1],
-        parameters,
-        sol.status,
-        sol.message,
-        sol.nfev,
-    )
+    Y, failure, nfev, n_steps = _adaptive("BKMM", rhs, y0, t0, times, method.solver, tolerances, max_evaluations)
+    Q, QD, TAU = _rows(setup, times, Y, evaluate)
+    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)

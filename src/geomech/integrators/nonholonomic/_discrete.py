@@ -1,20 +1,20 @@
-"""The discrete Lagrange-d'Alembert integrator, :func:`simulate_discrete` (midpoint discrete Lagrangian)."""
+"""The discrete Lagrange-d'Alembert integrator (:class:`~geomech.integrators.DiscreteLagrangeDAlembert`, the
+midpoint discrete Lagrangian), the engine of :func:`~geomech.solve` for it."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 import sympy as sp
 
-from ... import _validate as V
-from ...errors import ConvergenceError, InputError, NumericalError
 from ...reduction import lagrange_dalembert
 from ...symbolic.compile import compile_vector
 from ...systems.nonholonomic import NonholonomicSystem
-from ._inputs import _setup, initial_state
-from ._trajectory import NonholonomicTrajectory, _accelerations, _finish
+from .._k_common import newton_done
+from ..solution import Status
+from ._inputs import _Setup
+from ._trajectory import _accelerations, _Raw
 
 
 # --------------------------------------------------------------------------------------------------
@@ -42,50 +42,26 @@ class _DiscreteKernels:
         self.dA = compile_vector(dA, q) if s.c else None
 
 
-def simulate_discrete(
-    system: NonholonomicSystem,
-    t_final: float,
+def run_discrete(
+    setup: _Setup,
+    q_init: np.ndarray,
+    qd_init: np.ndarray,
+    t0: float,
     h: float,
-    *,
-    shapes: Any = None,
-    tau: Any = None,
-    q0: Any = None,
-    qd0: Any = None,
-    rdot0: Any = None,
-    p0: Any = None,
-    t0: float = 0.0,
-    parameters: Mapping[str, float] | None = None,
-    tol: float = 1e-12,
-    max_iter: int = 30,
-    max_steps: int = 1_000_000,
-) -> NonholonomicTrajectory:
-    r"""The discrete Lagrange-d'Alembert integrator with the midpoint rule, method (c); second order.
+    nsteps: int,
+    newton_tol: float,
+    max_newton: int,
+    parameters: Mapping[str, float] | None,
+) -> _Raw:
+    r"""The discrete Lagrange-d'Alembert integrator with the midpoint rule on the grid ``t0 + k h``, k = 0..nsteps.
 
-    Fixed step ``h`` (``t_final - t0`` is rounded to a whole number of steps). The velocity reported at a node
-    is the discrete Legendre transform :math:`D_2L_d + \tfrac h2\bar F`, projected on :math:`\mathcal D` with
-    the kinetic metric; the work is :math:`\sum_k h\,\tau_{k+1/2}\cdot(r_{k+1} - r_k)/h`.
+    The velocity reported at a node is the discrete Legendre transform :math:`D_2L_d + \tfrac h2\bar F`,
+    projected on :math:`\mathcal D` with the kinetic metric; the work is
+    :math:`\sum_k h\,\tau_{k+1/2}\cdot(r_{k+1} - r_k)/h`. A Newton failure ends the run: the later nodes are
+    NaN and the failure is returned as data.
     """
-    setup = _setup(system, shapes, tau)
-    s = system
-    h = float(h)
-    if not np.isfinite(h) or h <= 0:
-        raise InputError(f"Expected the step `h` to be positive, got {h!r}.")
-    span = (float(V.finite(t_final, "t_final")) - float(V.finite(t0, "t0"))) / h
-    V.work_budget(
-        span,
-        float(max_steps),
-        f"The number of steps (t_final - t0 = {span * h:.3g} over h = {h:.3g})",
-        "max_steps",
-        "take a larger h or a shorter span",
-        seconds_each=2e-4,
-    )
-    nsteps = int(round(span))
-    if nsteps < 1:
-        raise InputError(f"Expected t_final - t0 >= h, got t_final = {t_final}, t0 = {t0}, h = {h}.")
-    h = (float(t_final) - t0) / nsteps
-    q_init, qd_init = initial_state(
-        system, setup.gait, t0=t0, q0=q0, qd0=qd0, rdot0=rdot0, p0=p0, parameters=parameters
-    )
+    system = s = setup.system
+    tol, max_iter = newton_tol, max_newton
     ker = _DiscreteKernels(system, parameters)
     fr, pr = setup.free_coordinates(), setup.prescribed_coordinates()
     shape_free = [s.k + i for i in setup.free_shapes]
@@ -121,6 +97,7 @@ def simulate_discrete(
         q1 = guess.copy()
         q1[pr] = prescribed_at(t_next)
         lam = np.zeros(c)
+        dprev = 0.0
         A0 = ker.A(q0_).reshape(c, n)
         for it in range(max_iter):
             tm = t_next - h / 2
@@ -140,41 +117,58 @@ def simulate_discrete(
                 J[nf:, :nf] = (Am + 0.5 * np.einsum("aij,i->aj", dA, q1 - q0_))[:, fr]
             try:
                 dz = np.linalg.solve(J, -R)
-            except np.linalg.LinAlgError as exc:
-                raise NumericalError(f"simulate_discrete: singular Newton matrix at t = {t_next:.6g}.") from exc
+            except np.linalg.LinAlgError:
+                raise _StepFailed(Status.SINGULAR_JACOBIAN, float(np.abs(R).max()), "") from None
             q1 = q1.copy()
             q1[fr] += dz[:nf]
             lam = lam + dz[nf:]
-        raise ConvergenceError(
-            f"simulate_discrete: Newton did not converge in {max_iter} iterations at "
-            f"t = {t_next:.6g} (step {h:.3g}, residual {np.abs(R).max():.3g}); reduce h."
+            dnorm = float(np.abs(dz).max(initial=0.0))
+            if newton_done(dnorm, dprev, it, max(1.0, float(np.abs(q1).max())), tol):
+                return q1, lam
+            dprev = dnorm
+        raise _StepFailed(
+            Status.NEWTON_FAILED,
+            float(np.abs(R).max()),
+            f"no convergence in {max_iter} iterations (step {h:.3g}); reduce h or raise max_newton",
         )
 
     lda = lagrange_dalembert(system).numeric(parameters)
     times = t0 + h * np.arange(nsteps + 1)
-    Q = np.empty((nsteps + 1, n))
+    Q = np.full((nsteps + 1, n), np.nan)
     Q[0] = q_init
     p_plus = ker.Lv(np.r_[q_init, qd_init])
-    tau_mid = np.zeros((nsteps, s.sigma))
-    work = np.zeros(nsteps + 1)
+    tau_mid = np.full((nsteps, s.sigma), np.nan)
+    work = np.full(nsteps + 1, np.nan)
+    work[0] = 0.0
+    failure = None
+    reached = nsteps
     for k in range(nsteps):
         # First step: the continuous momentum p0 stands for D2 L_d of a previous step; half the impulse.
-        if k == 0:
-            q1, _ = newton(Q[0], Q[0] + h * qd_init, p_plus, times[1], h / 2)
-        else:
-            base = D2(Q[k - 1], Q[k]) + h / 2 * forcing(times[k] - h / 2, Q[k - 1], Q[k])
-            q1, _ = newton(Q[k], 2 * Q[k] - Q[k - 1], base, times[k + 1], h)
+        try:
+            if k == 0:
+                q1, _ = newton(Q[0], Q[0] + h * qd_init, p_plus, times[1], h / 2)
+            else:
+                base = D2(Q[k - 1], Q[k]) + h / 2 * forcing(times[k] - h / 2, Q[k - 1], Q[k])
+                q1, _ = newton(Q[k], 2 * Q[k] - Q[k - 1], base, times[k + 1], h)
+        except _StepFailed as why:
+            failure = (why.status, k + 1, float(times[k]), why.detail, why.residual)
+            reached = k
+            break
+        if not np.all(np.isfinite(q1)):
+            failure = (Status.NONFINITE, k + 1, float(times[k]), "", float("nan"))
+            reached = k
+            break
         Q[k + 1] = q1
     # Node velocities from the discrete Legendre transform, projected on D; shape forces at midpoints.
-    QD = np.empty_like(Q)
+    QD = np.full_like(Q, np.nan)
     QD[0] = qd_init
-    for k in range(1, nsteps + 1):
+    for k in range(1, reached + 1):
         pk = D2(Q[k - 1], Q[k]) + h / 2 * forcing(times[k] - h / 2, Q[k - 1], Q[k])
         M = lda.mass_matrix(Q[k])
         A = lda.constraint_matrix(Q[k]).reshape(c, n)
         Kmat = np.block([[M, -A.T], [A, np.zeros((c, c))]])
         QD[k] = np.linalg.solve(Kmat, np.r_[pk, np.zeros(c)])[:n]
-    for k in range(nsteps):
+    for k in range(reached):
         x = mid(Q[k], Q[k + 1])
         tm = times[k] + h / 2
         tau_v = np.zeros(s.sigma)
@@ -187,35 +181,17 @@ def simulate_discrete(
         tau_mid[k] = tau_v
         work[k + 1] = work[k] + tau_v @ (Q[k + 1, s.k :] - Q[k, s.k :])
     TAU = np.vstack([tau_mid, tau_mid[-1:]]) if nsteps else np.zeros((1, s.sigma))
-    out = _finish(
-        setup,
-        f"discrete Lagrange-d'Alembert (midpoint, h = {h:.3g})",
-        times,
-        Q,
-        QD,
-        TAU,
-        work,
-        parameters,
-        0,
-        "",
-        nsteps,
-    )
     # The projected node velocities satisfy the constraints exactly; the honest residual of the scheme is that of
     # the centred difference quotient, A(q_k)(q_{k+1} - q_{k-1}) / 2h = O(h^2) (one-sided at the ends).
-    V_fd = np.gradient(Q, times, axis=0, edge_order=2) if nsteps >= 2 else QD
-    residual = lda.constraint_residual(Q, V_fd).reshape(nsteps + 1, c)
-    return NonholonomicTrajectory(
-        out.system,
-        out.t,
-        out.q,
-        out.qd,
-        out.p,
-        out.tau,
-        out.energy,
-        residual,
-        out.work,
-        out.method,
-        out.status,
-        out.message,
-        out.nfev,
-    )
+    residual = np.full((nsteps + 1, c), np.nan)
+    if reached >= 2:
+        V_fd = np.gradient(Q[: reached + 1], times[: reached + 1], axis=0, edge_order=2)
+        residual[: reached + 1] = lda.constraint_residual(Q[: reached + 1], V_fd).reshape(reached + 1, c)
+    elif reached >= 0:
+        residual[: reached + 1] = lda.constraint_residual(Q[: reached + 1], QD[: reached + 1]).reshape(-1, c)
+    return _Raw(Q, QD, TAU, work, failure, reached, residual)
+
+
+class _StepFailed(Exception):
+    def __init__(self, status: Status, residual: float, detail: str):
+        self.status, self.residual, self.detail = status, residual, detail

@@ -162,17 +162,17 @@ def initial_state(
     q0: Any = None,
     rdot0: Any = None,
     p0: Any = None,
-    qd0: Any = None,
+    qdot0: Any = None,
     parameters: Mapping[str, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    r"""A consistent initial state ``(q0, qd0)``.
+    r"""A consistent initial state ``(q0, qdot0)``.
 
     Group coordinates from ``q0`` (default: the identity), shapes from the gait at ``t0``, else ``q0``, else 0;
     shape velocities from the gait, else ``rdot0``, else 0; the group velocity from the reconstruction
     equation (1.1) with nonholonomic momentum ``p0`` (default 0), so that the constraints hold. For the
-    snakeboard starting at :math:`\phi = 0` this is :math:`\dot x = \dot y = \dot\theta = 0`. An explicit ``qd0``
-    is used as given after checking the constraints; ``qd0="rest"`` is the group at rest (:math:`\dot g = 0`)
-    with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
+    snakeboard starting at :math:`\phi = 0` this is :math:`\dot x = \dot y = \dot\theta = 0`. An explicit
+    ``qdot0`` is used as given after checking the constraints; ``qdot0="rest"`` is the group at rest
+    (:math:`\dot g = 0`) with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
     constraints (when they involve the shape velocities).
     """
     setup = _setup(system, shapes, None)
@@ -184,33 +184,33 @@ def initial_state(
         q[system.k + i] = r_p[j]
     lda = lagrange_dalembert(system).numeric(parameters)
     _require_positive_kinetic_energy(system, lda, q, parameters)
-    if isinstance(qd0, str):
-        if qd0 != "rest":
-            raise InputError(f"Expected `qd0` to be velocities or 'rest', got {qd0!r}.")
+    if isinstance(qdot0, str):
+        if qdot0 != "rest":
+            raise InputError(f"Expected `qdot0` to be velocities or 'rest', got {qdot0!r}.")
         if p0 is not None:
             raise InputError(
-                "Give `p0` or qd0='rest', not both: at rest the momentum follows from the shape velocities."
+                "Give `p0` or qdot0='rest', not both: at rest the momentum follows from the shape velocities."
             )
         qd = np.r_[np.zeros(system.k), _shape_rates(system, setup, rdot0, rd_p)]
         res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
             raise InputError(
-                f"{system.name} cannot start at rest with these shape velocities: |A(q0) qd0| = {res:.3g} "
+                f"{system.name} cannot start at rest with these shape velocities: |A(q0) qdot0| = {res:.3g} "
                 "(its constraints involve the shape velocities); give `p0` instead."
             )
         return q, qd
-    if qd0 is not None:
+    if qdot0 is not None:
         qd = (
-            np.array([_by_name(qd0, [s.name for s in system.qdot], "qd0").get(s.name, 0.0) for s in system.qdot])
-            if isinstance(qd0, Mapping)
-            else V.finite(qd0, "qd0").ravel()
+            np.array([_by_name(qdot0, [s.name for s in system.qdot], "qdot0").get(s.name, 0.0) for s in system.qdot])
+            if isinstance(qdot0, Mapping)
+            else V.finite(qdot0, "qdot0").ravel()
         )
         if qd.size != system.n:
-            raise InputError(f"Expected `qd0` to have {system.n} entries, got {qd.size}.")
+            raise InputError(f"Expected `qdot0` to have {system.n} entries, got {qd.size}.")
         res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
             raise InputError(
-                f"`qd0` violates the constraints: |A(q0) qd0| = {res:.3g}; give a velocity in D, or "
+                f"`qdot0` violates the constraints: |A(q0) qdot0| = {res:.3g}; give a velocity in D, or "
                 "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1)."
             )
         return q, qd

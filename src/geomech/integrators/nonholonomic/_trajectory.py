@@ -1,191 +1,62 @@
-"""The result of a nonholonomic simulation, :class:`NonholonomicTrajectory`, and how the simulators fill it
-(times, accelerations and multipliers, constraint forces, energy and work)."""
+"""What the engines of a Lagrangian run share: their raw result, the quantities the Solution carries
+(energy, nonholonomic momentum, shape forces, work, constraint residual), and the accelerations, multipliers
+and constraint forces at one state."""
 
 from __future__ import annotations
 
-import csv
-import json
 from collections.abc import Mapping
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ... import _validate as V
-from ...errors import InputError, NumericalError
+from ...errors import NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
-from ...systems.nonholonomic import NonholonomicSystem
 from ._inputs import _Setup
 
 
-# --------------------------------------------------------------------------------------------------
-# Result
-# --------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class NonholonomicTrajectory:
-    """A simulated motion.
+@dataclass
+class _Raw:
+    """What an engine returns: the saved coordinates, velocities and shape forces (NaN rows past a failure),
+    the work done, the failure ``(status, step or index of the first time not reached, time, detail,
+    residual)`` or None,
+    the number of evaluations, and, where the scheme defines its own, the constraint residual."""
 
-    Attributes
-    ----------
-    t : (N,) times; q, qd : (N, n) coordinates and velocities; p : (N, m) nonholonomic momentum;
-    tau : (N, sigma) shape forces (given, or required by the gait); energy : (N,);
-    residual : (N, c) constraint residual :math:`A(q)\\dot q`; work : (N,) work done by the shape forces;
-    method, status (0 = success), message, nfev.
-    """
-
-    system: NonholonomicSystem = field(repr=False)
-    t: np.ndarray
     q: np.ndarray
     qd: np.ndarray
-    p: np.ndarray
     tau: np.ndarray
-    energy: np.ndarray
-    residual: np.ndarray
     work: np.ndarray
-    method: str
-    status: int = 0
-    message: str = ""
-    nfev: int = 0
-
-    @property
-    def max_residual(self) -> float:
-        return float(np.abs(self.residual).max(initial=0.0))
-
-    def final(self) -> dict[str, float]:
-        """Final coordinates by name."""
-        return {s.name: float(v) for s, v in zip(self.system.q, self.q[-1])}
-
-    def summary(self) -> dict[str, Any]:
-        s = self.system
-        return {
-            "system": s.name,
-            "method": self.method,
-            "t_final": float(self.t[-1]),
-            "initial_velocity": {v.name: float(x) for v, x in zip(s.qdot, self.qd[0])},
-            "initial_momentum": [float(x) for x in self.p[0]],
-            "final_configuration": self.final(),
-            "final_velocity": {v.name: float(x) for v, x in zip(s.qdot, self.qd[-1])},
-            "nonholonomic_momentum": [float(x) for x in self.p[-1]],
-            "constraint_residual_max": self.max_residual,
-            "constraint_residual_final": float(np.abs(self.residual[-1]).max(initial=0.0)),
-            "work_by_shape_inputs": float(self.work[-1]),
-            "energy_initial": float(self.energy[0]),
-            "energy_final": float(self.energy[-1]),
-            "energy_change_minus_work": float(self.energy[-1] - self.energy[0] - self.work[-1]),
-            "status": self.status,
-            "message": self.message,
-        }
-
-    def to_dataset(self) -> Any:
-        """The trajectory as a self-describing :class:`xarray.Dataset` (write it with ``.to_netcdf``)."""
-        import xarray as xr
-
-        from ..._version import __version__
-
-        s = self.system
-        return xr.Dataset(
-            {
-                "q": (("t", "coordinate"), self.q, {"long_name": "generalized coordinates (group, then shape)"}),
-                "qdot": (("t", "coordinate"), self.qd, {"long_name": "generalized velocities"}),
-                "p": (("t", "momentum_index"), self.p, {"long_name": "nonholonomic momentum (BKMM basis)"}),
-                "tau": (("t", "shape"), self.tau, {"long_name": "generalized force on each shape variable"}),
-                "energy": ("t", self.energy, {"long_name": "energy (kinetic plus potential)"}),
-                "work": ("t", self.work, {"long_name": "work done by the shape inputs since the start"}),
-                "constraint_residual": (("t", "constraint"), self.residual, {"long_name": "A(q) qdot"}),
-            },
-            coords={
-                "t": ("t", self.t, {"long_name": "time"}),
-                "coordinate": [x.name for x in s.q],
-                "shape": [r.name for r in s.shape],
-                "momentum_index": np.arange(self.p.shape[1]) + 1,
-                "constraint": np.arange(s.c) + 1,
-            },
-            attrs={
-                "system": s.name,
-                "group": s.group.name,
-                "method": self.method,
-                "status": self.status,
-                "message": self.message,
-                "geomech_version": __version__,
-                "parameters": json.dumps({str(k): float(v) for k, v in s.parameters.items()}),
-            },
-        )
-
-    def to_csv(self, path: str | Path) -> Path:
-        """Write the trajectory (one row per time) to ``path``."""
-        s = self.system
-        cols = (
-            ["t"]
-            + [x.name for x in s.q]
-            + [v.name for v in s.qdot]
-            + [f"p{i + 1}" for i in range(self.p.shape[1])]
-            + [f"tau_{r.name}" for r in s.shape]
-            + ["energy", "work"]
-            + [f"residual{a + 1}" for a in range(s.c)]
-        )
-        data = np.column_stack([self.t, self.q, self.qd, self.p, self.tau, self.energy, self.work, self.residual])
-        path = Path(path)
-        with path.open("w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(cols)
-            w.writerows(data.tolist())
-        return path
+    failure: Any
+    nfev: int
+    residual: np.ndarray | None = None
+    steps: int = 0
 
 
-def _finish(
-    setup: _Setup,
-    method: str,
-    t: np.ndarray,
-    q: np.ndarray,
-    qd: np.ndarray,
-    tau: np.ndarray,
-    work: np.ndarray,
-    parameters: Mapping | None,
-    status: int = 0,
-    message: str = "",
-    nfev: int = 0,
-) -> NonholonomicTrajectory:
+def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:
+    """The Solution's quantities of a Lagrangian run: energy, nonholonomic momentum, shape forces, work and
+    constraint residual, NaN where the run did not reach."""
     s = setup.system
     lda = lagrange_dalembert(s).numeric(parameters)
     rn = bkmm_reduction(s).numeric(parameters)
-    return NonholonomicTrajectory(
-        s,
-        t,
-        q,
-        qd,
-        rn.momentum(q, qd).reshape(len(t), -1),
-        tau,
-        lda.energy(q, qd),
-        lda.constraint_residual(q, qd).reshape(len(t), s.c),
-        work,
-        method,
-        status,
-        message,
-        nfev,
-    )
-
-
-def _time_grid(t_final: float | None, t_eval: Any, samples: int, t0: float) -> np.ndarray:
-    if t_eval is not None:
-        te = V.finite(t_eval, "t_eval").ravel()
-        if te.size < 2 or np.any(np.diff(te) <= 0):
-            raise InputError("Expected `t_eval` to be increasing with at least two times.")
-        return te
-    if t_final is None:
-        raise InputError("Expected `t_final` or `t_eval`: give the end time of the simulation or its output times.")
-    tf = float(t_final)
-    if not np.isfinite(tf) or tf <= t0:
-        raise InputError(f"Expected `t_final` > t0 = {t0}, got {t_final!r}.")
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 2 <= samples <= 10**7:
-        raise InputError(f"Expected `samples` to be an integer from 2 to 1e7, got {samples!r}.")
-    te = np.linspace(t0, tf, int(samples))
-    if np.any(np.diff(te) <= 0):
-        raise InputError(
-            f"Expected `t_final` - t0 = {tf - t0:.3g} to be resolvable into {samples} distinct times "
-            "in double precision; take a longer span or fewer samples."
-        )
-    return te
+    N = len(raw.q)
+    ok = np.all(np.isfinite(raw.q), axis=1) & np.all(np.isfinite(raw.qd), axis=1)
+    momentum = np.full((N, bkmm_reduction(s).m), np.nan)
+    energy = np.full(N, np.nan)
+    residual = np.full((N, s.c), np.nan)
+    if ok.any():
+        q, qd = raw.q[ok], raw.qd[ok]
+        momentum[ok] = rn.momentum(q, qd).reshape(len(q), -1)
+        energy[ok] = lda.energy(q, qd)
+        residual[ok] = lda.constraint_residual(q, qd).reshape(len(q), s.c)
+    if raw.residual is not None:
+        residual = raw.residual
+    return {
+        "energy": energy,
+        "momentum": momentum,
+        "tau": raw.tau,
+        "work": raw.work,
+        "constraint_residual": residual,
+    }
 
 
 # --------------------------------------------------------------------------------------------------
