@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import geomech as gm
-from geomech.analysis import ShapeLoop
+from geomech.analysis import Gait
 from geomech.errors import GeomechError
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, snakeboard
 
@@ -91,8 +91,8 @@ RUNS = {
         lambda m, r: snakeboard(m=m, r=r, J=0.18, J0=0.05, J1=0.01).parameter_values(),
         st.tuples(anything, anything),
     ),
-    "ShapeLoop.from_expressions": (
-        lambda e, T: ShapeLoop.from_expressions([e, "sin(2*pi*t)"], T).r(0.25),
+    "Gait.from_expressions": (
+        lambda e, T: Gait.from_expressions([e, "sin(2*pi*t)"], T).r(0.25),
         st.tuples(words, floats),
     ),
     "solve": (

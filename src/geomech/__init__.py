@@ -12,7 +12,9 @@ from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
 from .symbolic.compile import M_SYMBOLS
 from .systems import (
     CanonicalSystem,
+    Gait,
     LeftInvariantSystem,
+    NonholonomicSystem,
     RigidBody,
     RotorBody,
     StructurePreservingControl,
@@ -21,6 +23,8 @@ from .systems import (
 
 __all__ = [
     "CanonicalSystem",
+    "Gait",
+    "NonholonomicSystem",
     "GeneralizedSerretAndoyer",
     "GeomechError",
     "LeftInvariantSystem",

@@ -7,8 +7,8 @@ from scipy.integrate import quad
 from scipy.special import jv
 
 from geomech.analysis import (
+    Gait,
     GaitModel,
-    ShapeLoop,
     analyse_gait,
     connection_line_integral,
     gait_curvature_integral,
@@ -201,7 +201,7 @@ def test_parts_do_not_compose_but_their_rotations_add(board):
 def test_stokes_for_small_loops(board):
     errs, eps_list = [], [0.16, 0.08, 0.04]
     for eps in eps_list:
-        loop = ShapeLoop.ellipse([0.3, 0.5], [eps, 0.7 * eps], 1.0, tilt=0.4)
+        loop = Gait.ellipse([0.3, 0.5], [eps, 0.7 * eps], 1.0, tilt=0.4)
         a = analyse_gait(board, loop)
         B = gait_curvature_integral(board, loop)
         line = connection_line_integral(board, loop)
@@ -216,7 +216,7 @@ def test_stokes_for_small_loops(board):
 
 def test_curvature_integral_against_grid_quadrature(board):
     # the snakeboard's theta-row is A = (J0 sin^2(phi)/(m r^2), 0): B_theta = -2 J0 sin(phi) cos(phi)/(m r^2)
-    loop = ShapeLoop.ellipse([0.1, 0.3], [0.5, 0.4], 2.0)
+    loop = Gait.ellipse([0.1, 0.3], [0.5, 0.4], 2.0)
     val = gait_curvature_integral(board, loop)
     f = lambda rho, ang: (-J0 * np.sin(2 * (0.3 + 0.4 * rho * np.sin(ang))) / (M * R**2)) * rho * 0.5 * 0.4
     from scipy.integrate import dblquad
@@ -244,7 +244,7 @@ def test_bad_gaits_are_refused(board):
     with pytest.raises(InputError, match="not shape variables"):
         analyse_gait(board, {"psi": "sin(2*pi*t)", "beta": "0.2*sin(2*pi*t)"}, period=1.0)
     with pytest.raises(ShapeError, match="2-D shape space"):
-        analyse_gait(board, ShapeLoop.from_expressions(["sin(2*pi*t)"], 1.0), period=1.0)
+        analyse_gait(board, Gait.from_expressions(["sin(2*pi*t)"], 1.0), period=1.0)
     with pytest.raises(ShapeError, match="missing"):
         gait_loop(board.system, {"psi": "sin(2*pi*t)"}, 1.0)
     # phi reaches pi/2 exactly once per half period: I = 4 m r^2 cos^2(phi) touches 0 between samples

@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 from geomech import RigidBody  # noqa: E402
 from geomech.analysis import (  # noqa: E402
-    ShapeLoop,
+    Gait,
     curvature_integral,
     decompose_displacement,
     geometric_phase,
@@ -51,7 +51,7 @@ def random_loop(rng, center, scale, period, harmonics=3, winding=None):
     k = np.arange(1, harmonics + 1)[:, None]
     a = rng.normal(size=(harmonics, n)) * scale / k**2
     b = rng.normal(size=(harmonics, n)) * scale / k**2
-    return ShapeLoop.from_fourier(center, a, b, period, winding=winding)
+    return Gait.from_fourier(center, a, b, period, winding=winding)
 
 
 def full_initial_state(system, loop, mu, g0):
@@ -64,7 +64,7 @@ def full_initial_state(system, loop, mu, g0):
 @pytest.mark.parametrize("mu, turns", [(0.0, 1), (0.0, -2), (-2.5, -1), (1.7, 1)])
 def test_pinned_bodies_closed_form(pinned, mu, turns):
     I1, I2, T = 1.0, 3.0, 5.5
-    loop = ShapeLoop.from_expressions([f"2*pi*{turns}*t/5.5 + 0.4*sin(2*pi*t/5.5)**2"], T)
+    loop = Gait.from_expressions([f"2*pi*{turns}*t/5.5 + 0.4*sin(2*pi*t/5.5)**2"], T)
     ph = phases(pinned, loop, mu)
     # from the conservation law (I1 + I2) theta' + I2 psi' = mu (not the seed's printed closed form)
     want = -2 * np.pi * turns * I2 / (I1 + I2) + mu * T / (I1 + I2)
@@ -79,7 +79,7 @@ def test_pinned_bodies_closed_form(pinned, mu, turns):
 
 
 def test_pinned_bodies_direct_simulation(pinned):
-    loop = ShapeLoop.from_expressions(["2*pi*t/3 + 0.3*sin(4*pi*t/3)"], 3.0)
+    loop = Gait.from_expressions(["2*pi*t/3 + 0.3*sin(4*pi*t/3)"], 3.0)
     q0, qd0 = full_initial_state(pinned, loop, np.array([0.8]), np.zeros(1))
     sol = pinned.simulate(q0, qd0, np.linspace(0, 3, 5), shape=loop)
     assert abs(sol.q[-1, 0] - phases(pinned, loop, 0.8).total) < 1e-9
@@ -137,9 +137,7 @@ def test_rigid_body_without_a_period_is_refused():
 
 # -- the planar N-body ----------------------------------------------------------------------------
 def test_planar_bodies_rotation_formula_vs_full_simulation(bodies):
-    loop = ShapeLoop.from_fourier(
-        [1.2, 0.3, 0.9], [[0.2, 0.1, 0.0], [0.05, 0, 0.1]], [[0.0, 0.3, 0.2], [0, 0.05, 0]], 3.0
-    )
+    loop = Gait.from_fourier([1.2, 0.3, 0.9], [[0.2, 0.1, 0.0], [0.05, 0, 0.1]], [[0.0, 0.3, 0.2], [0, 0.05, 0]], 3.0)
     mu, g0 = np.array([0.4, -0.2, 0.8]), np.array([0.5, -1.0, 0.3])
     ph = phases(bodies, loop, mu, g0=g0)
     q0, qd0 = full_initial_state(bodies, loop, mu, g0)
@@ -170,7 +168,7 @@ def test_two_body_kepler_dynamic_phase_is_a_full_turn():
         E = ecc_anomaly(t)
         return np.array([a * e * np.sin(E) * n / (1 - e * np.cos(E))])
 
-    loop = ShapeLoop.from_callable(rho, rhodot, T)
+    loop = Gait.from_callable(rho, rhodot, T)
     m_red = 3.0 / 4.0
     L = m_red * np.sqrt(M * a * (1 - e**2))  # angular momentum of the relative orbit
     ph = phases(system, loop, [0.0, 0.0, L])
@@ -246,7 +244,7 @@ def test_reconstruction_vs_newtonian_three_body(bodies):
 @pytest.mark.parametrize("L", [0.0, 0.7])
 def test_three_link_reorientation_vs_simulation(chain, L):
     # Middle-link frame: with zero linear momentum the rotation obeys (2.3) in any body frame.
-    loop = ShapeLoop.ellipse([0.4, -0.2], [0.9, 0.6], 2.0, tilt=0.3)
+    loop = Gait.ellipse([0.4, -0.2], [0.9, 0.6], 2.0, tilt=0.3)
     mu = np.array([0.0, 0.0, L])
     ph = phases(chain, loop, mu)
     assert abs(ph.geometric) > 1e-3 and (ph.dynamic == 0) == (L == 0)
@@ -264,9 +262,9 @@ def test_stokes_equals_line_integral_on_random_loops(chain, rng):
 
 
 def test_stokes_counts_winding_number(chain):
-    once = ShapeLoop.ellipse([0.2, 0.1], [0.5, 0.4], 1.0)
-    twice = ShapeLoop.from_expressions(["0.2 + 0.5*cos(4*pi*t)", "0.1 + 0.4*sin(4*pi*t)"], 1.0)
-    backwards = ShapeLoop.ellipse([0.2, 0.1], [0.5, 0.4], 1.0, clockwise=True)
+    once = Gait.ellipse([0.2, 0.1], [0.5, 0.4], 1.0)
+    twice = Gait.from_expressions(["0.2 + 0.5*cos(4*pi*t)", "0.1 + 0.4*sin(4*pi*t)"], 1.0)
+    backwards = Gait.ellipse([0.2, 0.1], [0.5, 0.4], 1.0, clockwise=True)
     b1, b2, bb = (curvature_integral(chain, lp)[2] for lp in (once, twice, backwards))
     assert abs(b2 - 2 * b1) < 1e-11 and abs(bb + b1) < 1e-11 and abs(b1) > 1e-3
 
@@ -313,7 +311,7 @@ def test_so3_reconstruction_with_momentum_against_the_full_simulation(rng):
 
 
 def test_rkmk4_is_fourth_order(chain):
-    loop = ShapeLoop.ellipse([0.4, -0.2], [0.9, 0.6], 2.0)
+    loop = Gait.ellipse([0.4, -0.2], [0.9, 0.6], 2.0)
     mu = np.array([0.2, -0.3, 0.5])
     ref = reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0])).path.g[-1]
     hs = np.array([0.2, 0.1, 0.05])
@@ -338,7 +336,7 @@ def test_integrate_on_group_exact_for_constant_velocity(rng):
 
 
 def test_decomposition_adds_up_only_when_abelian(pinned, chain):
-    loop1 = ShapeLoop.from_expressions(["2*pi*t + 0.3*sin(2*pi*t)"], 1.0)
+    loop1 = Gait.from_expressions(["2*pi*t + 0.3*sin(2*pi*t)"], 1.0)
     rec = reconstruct(pinned, loop1, 0.9, decompose=True, t_eval=np.array([0.0, 1.0]))
     parts = rec.alone["connection"].angle[-1] + rec.alone["momentum"].angle[-1]
     assert abs(parts - rec.path.angle[-1]) < 1e-12
@@ -354,25 +352,25 @@ def test_decomposition_adds_up_only_when_abelian(pinned, chain):
 # -- bad input -------------------------------------------------------------------------------------
 def test_bad_loops_and_groups(chain, bodies, pinned):
     with pytest.raises(InputError, match="closed"):
-        phases(chain, ShapeLoop.from_expressions(["t", "sin(2*pi*t)"], 1.0))
+        phases(chain, Gait.from_expressions(["t", "sin(2*pi*t)"], 1.0))
     with pytest.raises(ShapeError, match="2-D shape space"):
-        phases(chain, ShapeLoop.from_expressions(["sin(t)"], 2 * np.pi))
+        phases(chain, Gait.from_expressions(["sin(t)"], 2 * np.pi))
     with pytest.raises(ShapeError, match="3 component"):
-        phases(chain, ShapeLoop.ellipse([0, 0], [1, 1], 1.0), [1.0, 2.0])
+        phases(chain, Gait.ellipse([0, 0], [1, 1], 1.0), [1.0, 2.0])
     with pytest.raises(InputError, match="centre-of-mass"):
-        phases(chain, ShapeLoop.ellipse([0, 0], [0.5, 0.5], 1.0), [1.0, 0.0, 0.0])
+        phases(chain, Gait.ellipse([0, 0], [0.5, 0.5], 1.0), [1.0, 0.0, 0.0])
     with pytest.raises(InputError, match="Theorem 2.2"):
-        phases(spacecraft_with_rotors(), ShapeLoop.ellipse([0, 0], [0.5, 0.5], 1.0))
+        phases(spacecraft_with_rotors(), Gait.ellipse([0, 0], [0.5, 0.5], 1.0))
     with pytest.raises(InputError, match="bounds no"):
-        curvature_integral(chain, ShapeLoop.from_expressions(["2*pi*t", "0.3*sin(2*pi*t)"], 1.0))
+        curvature_integral(chain, Gait.from_expressions(["2*pi*t", "0.3*sin(2*pi*t)"], 1.0))
     with pytest.raises(SingularityError, match="singular"):
-        phases(bodies, ShapeLoop.from_expressions(["0.3*sin(2*pi*t)", "0.3*sin(2*pi*t)", "0.3*sin(2*pi*t)"], 1.0))
+        phases(bodies, Gait.from_expressions(["0.3*sin(2*pi*t)", "0.3*sin(2*pi*t)", "0.3*sin(2*pi*t)"], 1.0))
     # the pinned bodies' hinge angle is an angle: whole turns are closed, half turns are not
     with pytest.raises(InputError, match="closed"):
-        phases(pinned, ShapeLoop.from_expressions(["pi*t"], 1.0))
+        phases(pinned, Gait.from_expressions(["pi*t"], 1.0))
     # a pole passes a closure test that is scaled by the loop's size: refused by where it is
     with pytest.raises(InputError, match="non-finite one at t = 0.5"):
-        phases(pinned, ShapeLoop.from_expressions(["1/(t - 1/2) - 1/(t + 1/2) + 1/(t - 3/2)"], 1.0))
+        phases(pinned, Gait.from_expressions(["1/(t - 1/2) - 1/(t + 1/2) + 1/(t - 3/2)"], 1.0))
 
 
 # -- pictures -------------------------------------------------------------------------------------
@@ -381,7 +379,7 @@ def test_plots_draw_and_shade(chain, tmp_path):
 
     from geomech.plot.phases import connection_field, curvature_map, group_path, momentum_solid_angle
 
-    loop = ShapeLoop.ellipse([0.4, -0.2], [0.9, 0.6], 2.0)
+    loop = Gait.ellipse([0.4, -0.2], [0.9, 0.6], 2.0)
     ax = curvature_map(chain, loop=loop, n=161)
     label = [t.get_text() for t in ax.texts if "iint" in t.get_text()][0]
     # the shaded grid estimate of -iint B agrees with the exact geometric phase to the grid's accuracy
@@ -391,7 +389,7 @@ def test_plots_draw_and_shade(chain, tmp_path):
     assert legend == ["enclosed counterclockwise (winding +1)"]
     assert connection_field(chain, loop=loop, component="theta") is not None
     # a loop run backwards is clockwise; on SO(3) the default is the component that does not vanish
-    ax = curvature_map(chain, loop=ShapeLoop.ellipse([0.4, -0.2], [0.9, -0.6], 2.0), n=81)
+    ax = curvature_map(chain, loop=Gait.ellipse([0.4, -0.2], [0.9, -0.6], 2.0), n=81)
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["enclosed clockwise (winding -1)"]
     craft = spacecraft_with_rotors()
     ax = curvature_map(craft, loop=loop, n=41)

@@ -4,9 +4,9 @@ Lagrange-d'Alembert. Checked against each other, exact solutions, energy and the
 import numpy as np
 import pytest
 
-from geomech import solve
+from geomech import Gait, solve
 from geomech.errors import InputError, NumericalError
-from geomech.integrators import BKMM, DiscreteLagrangeDAlembert, Gait, LagrangeDAlembert, Status
+from geomech.integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Status
 from geomech.systems.nonholonomic_examples import (
     chaplygin_sleigh,
     roller_racer,

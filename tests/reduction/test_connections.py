@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from geomech.analysis import ShapeLoop, reconstruct
+from geomech.analysis import Gait, reconstruct
 from geomech.errors import InputError, SingularityError
 from geomech.lie import SO3
 from geomech.reduction.connections import MechanicalConnection
@@ -130,7 +130,7 @@ def test_curvature_symbolic_matches_numeric_and_bracket_term(systems, rng):
 def _holonomy_about(system, r0, eps):
     """Holonomy of a circle of radius eps about r0, moved back to r0 along the radius (gauge covariant)."""
     G = system.group.numeric
-    loop = ShapeLoop.ellipse(r0, [eps, eps], 1.0)
+    loop = Gait.ellipse(r0, [eps, eps], 1.0)
 
     class Segment:
         def r(self, t):

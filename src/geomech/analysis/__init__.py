@@ -1,6 +1,7 @@
 """Analysis of mechanical systems: relative equilibria and their stability (Lagrange-Dirichlet,
 energy-Casimir, linearisation), stability boundaries and maps; geometric and dynamic phases; nonholonomic gaits."""
 
+from ..systems.gait import Gait
 from .equilibria import (
     Equilibrium,
     EquilibriumSet,
@@ -21,7 +22,7 @@ from .phases import (
     reconstruct,
 )
 from .rigid_body_phase import RigidBodyPhase, rigid_body_phase, spherical_polygon_area
-from .shape_loops import ShapeLoop, bind_loop
+from .shape_loops import bind_loop
 from .stability import (
     VERDICT_CODES,
     PerturbationGrowth,
@@ -50,7 +51,7 @@ __all__ = [
     "PhaseSplit",
     "Reconstruction",
     "RigidBodyPhase",
-    "ShapeLoop",
+    "Gait",
     "bind_loop",
     "curvature_integral",
     "decompose_displacement",

@@ -15,7 +15,7 @@ from scipy.optimize import minimize_scalar
 from .. import _validate as V
 from ..errors import InputError, ShapeError, SingularityError
 from ..symbolic.compile import compile_vector, stack_last
-from .shape_loops import ShapeLoop
+from ..systems.gait import Gait
 
 __all__ = ["GaitModel", "gait_loop", "check_regular"]
 
@@ -153,15 +153,16 @@ class GaitModel:
 # ---------------------------------------------------------------------------------------------------
 def gait_loop(
     system: Any, shapes: Any, period: float | None = None, *, parameters: Mapping[str, float] | None = None
-) -> ShapeLoop:
-    """A :class:`~geomech.analysis.shape_loops.ShapeLoop` in the shape space of ``system``.
+) -> Gait:
+    """A :class:`~geomech.systems.Gait` in the shape space of ``system``.
 
     ``shapes`` maps every shape variable to a formula in ``t`` (and ``T``, the period), e.g.
-    ``{"psi": "sin(2*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}``; a ShapeLoop is returned as it is (with its
+    ``{"psi": "sin(2*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}``; a Gait is returned as it is (with its
     coordinate names checked when it has them). Unknown or missing shape variables raise :class:`InputError`.
     """
     names = [s.name for s in system.shape]
-    if isinstance(shapes, ShapeLoop):
+    if isinstance(shapes, Gait):
+        _ = shapes.T  # refuses a gait without a period
         if shapes.names is not None and list(shapes.names) != names:
             raise ShapeError(
                 f"Expected the shape loop's coordinates to be ({', '.join(names)}) for {system.name}, "
@@ -170,8 +171,7 @@ def gait_loop(
         return shapes
     if not isinstance(shapes, Mapping):
         raise InputError(
-            f"Expected `shapes` to be a mapping shape variable -> formula in t, or a ShapeLoop, got "
-            f"{type(shapes).__name__}."
+            f"Expected `shapes` to be a mapping shape variable -> formula in t, or a Gait, got {type(shapes).__name__}."
         )
     unknown = [str(n) for n in shapes if str(n) not in names]
     if unknown:
@@ -188,10 +188,10 @@ def gait_loop(
     T = V.positive_scalar(period, "period")
     values = {"T": T, **dict(parameters or {})}
     by_name = {str(k): v for k, v in shapes.items()}
-    return ShapeLoop.from_expressions({n: by_name[n] for n in names}, T, parameters=values)
+    return Gait.from_expressions({n: by_name[n] for n in names}, T, parameters=values)
 
 
-def check_regular(model: GaitModel, loop: ShapeLoop, n: int = 1024) -> None:
+def check_regular(model: GaitModel, loop: Gait, n: int = 1024) -> None:
     """Refuse a loop that passes through (or between samples touches) a singular locked inertia.
 
     The smallest eigenvalue is sampled densely and each local minimum refined by Brent's method: a loop
@@ -200,7 +200,7 @@ def check_regular(model: GaitModel, loop: ShapeLoop, n: int = 1024) -> None:
     """
     if model.m == 0:
         return
-    T = loop.period
+    T = loop.T
 
     def lam(t: Any) -> np.ndarray:
         I = model.locked_inertia(loop.r(np.atleast_1d(t)))

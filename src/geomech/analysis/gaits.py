@@ -40,10 +40,11 @@ from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError, ShapeError
+from ..systems.gait import Gait
 from .gait_model import GaitModel, check_regular, gait_loop
 from .group_paths import GroupPath, decompose_displacement
 from .phases import stokes_integral
-from .shape_loops import ShapeLoop, bind_loop, periodic_integral
+from .shape_loops import bind_loop, periodic_integral
 
 __all__ = [
     "GaitAnalysis",
@@ -69,7 +70,7 @@ class GaitAnalysis:
     Attributes
     ----------
     model : GaitModel
-    loop : ShapeLoop
+    loop : Gait
     periods : int
     t : (n,) times, ``samples_per_period`` per period, the period boundaries among them.
     r, rdot : (n, sigma) shapes and shape velocities.
@@ -81,7 +82,7 @@ class GaitAnalysis:
     """
 
     model: GaitModel = field(repr=False)
-    loop: ShapeLoop = field(repr=False)
+    loop: Gait = field(repr=False)
     periods: int
     t: np.ndarray = field(repr=False)
     r: np.ndarray = field(repr=False)
@@ -100,7 +101,7 @@ class GaitAnalysis:
 
     @property
     def period(self) -> float:
-        return self.loop.period
+        return self.loop.T
 
     @property
     def xi(self) -> np.ndarray:
@@ -304,7 +305,7 @@ def analyse_gait(
     ----------
     system : NonholonomicSystem
         Its group must be SE(2), SO(3) or S^1.
-    loop : ShapeLoop or mapping
+    loop : Gait or mapping
         The gait: a closed loop in shape space (angle coordinates may wind by whole turns), or formulas in
         ``t`` (and ``T``) for every shape variable, with ``period``.
     periods : int
@@ -338,7 +339,7 @@ def analyse_gait(
     samples = int(samples_per_period)
     if samples < 3:
         raise InputError(f"Expected `samples_per_period` >= 3, got {samples}.")
-    T = loop.period
+    T = loop.T
     t_eval = np.linspace(0.0, periods * T, periods * (samples - 1) + 1)
     m = model.m
     if p0 is None:
@@ -429,7 +430,7 @@ def connection_line_integral(
     def integrand(t: np.ndarray) -> np.ndarray:
         return model.xi_connection(loop.r(t), loop.rdot(t))
 
-    return periodic_integral(integrand, loop.period, rtol=rtol, what="connection")
+    return periodic_integral(integrand, loop.T, rtol=rtol, what="connection")
 
 
 def gait_curvature_integral(

@@ -38,8 +38,9 @@ import numpy as np
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, ShapeError
 from ..lie._common import wrap_angle
+from ..systems.gait import Gait
 from .group_paths import GroupPath, decompose_displacement, integrate_on_group
-from .shape_loops import ShapeLoop, bind_loop, periodic_integral
+from .shape_loops import bind_loop, periodic_integral
 
 __all__ = [
     "PhaseSplit",
@@ -110,7 +111,7 @@ def _connection(system: Any):
     return MechanicalConnection(system)
 
 
-def geometric_phase(system: Any, loop: ShapeLoop, *, rtol: float = 1e-13) -> np.ndarray:
+def geometric_phase(system: Any, loop: Gait, *, rtol: float = 1e-13) -> np.ndarray:
     """:math:`-\\oint A_{loc}(r)\\,dr` over the loop, shape ``(k,)`` (every algebra component).
 
     Only the abelian components are a holonomy (a phase): all of them for S^1, the rotation for SE(2).
@@ -121,16 +122,16 @@ def geometric_phase(system: Any, loop: ShapeLoop, *, rtol: float = 1e-13) -> np.
     def integrand(t: np.ndarray) -> np.ndarray:
         return -np.einsum("...aj,...j->...a", conn.connection(loop.r(t)), loop.rdot(t))
 
-    return periodic_integral(integrand, loop.period, rtol=rtol, what="connection")
+    return periodic_integral(integrand, loop.T, rtol=rtol, what="connection")
 
 
-def phases(system: Any, loop: ShapeLoop, mu: Any = 0.0, *, g0: Any = None, rtol: float = 1e-13) -> PhaseSplit:
+def phases(system: Any, loop: Gait, mu: Any = 0.0, *, g0: Any = None, rtol: float = 1e-13) -> PhaseSplit:
     """Theorem 2.2 (eq. 2.3): the total phase over a closed shape loop as geometric + dynamic.
 
     Parameters
     ----------
     system : HolonomicSystem with G = S^1, or G = SE(2) (the rotation angle).
-    loop : a closed :class:`ShapeLoop` of period T.
+    loop : a closed :class:`Gait` of period T.
     mu : the conserved spatial momentum (a scalar for S^1, ``(p_x, p_y, L)`` for SE(2)).
     g0 : group coordinates at t = 0 (SE(2) with nonzero linear momentum only; default the identity).
 
@@ -147,7 +148,7 @@ def phases(system: Any, loop: ShapeLoop, mu: Any = 0.0, *, g0: Any = None, rtol:
     G = system.group
     turns = bind_loop(system, loop)
     conn = _connection(system)
-    T = loop.period
+    T = loop.T
     mu = _momentum(mu, G)
     if len(G.angle_components) != 1:
         raise InputError(
@@ -180,10 +181,10 @@ def phases(system: Any, loop: ShapeLoop, mu: Any = 0.0, *, g0: Any = None, rtol:
     )
 
 
-def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, c: int, tol: float = 1e-10) -> None:
+def _require_centre_of_mass_frame(system: Any, conn: Any, loop: Gait, c: int, tol: float = 1e-10) -> None:
     """The body frame is a centre-of-mass frame: no connection in the components other than the angle ``c``,
     and a locked inertia ``M Id`` in them with no coupling to ``c``."""
-    r = loop.r(np.linspace(0.0, loop.period, 33))
+    r = loop.r(np.linspace(0.0, loop.T, 33))
     I = conn.locked_inertia(r)
     A = conn.connection(r)
     o = [a for a in range(I.shape[-1]) if a != c]
@@ -205,7 +206,7 @@ def _require_centre_of_mass_frame(system: Any, conn: Any, loop: ShapeLoop, c: in
 
 
 def curvature_integral(
-    system: Any, loop: ShapeLoop, *, base_point: Any = None, rtol: float = 1e-12, n_radial: int = 24
+    system: Any, loop: Gait, *, base_point: Any = None, rtol: float = 1e-12, n_radial: int = 24
 ) -> np.ndarray:
     """:math:`\\iint_D B_{12}\\, dr_1 dr_2` over the region the loop encloses, weighted by its winding
     number (Stokes: equals :math:`\\oint A\\,dr` for the abelian components), shape ``(k,)``.
@@ -228,7 +229,7 @@ def curvature_integral(
 
 def stokes_integral(
     curvature_2d: Callable[[np.ndarray], np.ndarray],
-    loop: ShapeLoop,
+    loop: Gait,
     turns: np.ndarray,
     *,
     base_point: Any = None,
@@ -248,7 +249,7 @@ def stokes_integral(
             f"The loop winds {np.asarray(turns).tolist()} times around the angle coordinates: it "
             "bounds no region of shape space, so Stokes' theorem does not apply."
         )
-    T = loop.period
+    T = loop.T
     c = (
         loop.r(np.linspace(0, T, 257)[:-1]).mean(0)
         if base_point is None
@@ -315,7 +316,7 @@ def reconstruct(
     Parameters
     ----------
     system : HolonomicSystem.
-    shape : a :class:`ShapeLoop` (checked to be closed), or any object with ``r(t)`` and ``rdot(t)``
+    shape : a :class:`Gait` (checked to be closed), or any object with ``r(t)`` and ``rdot(t)``
         (e.g. a shape trajectory from a simulation; then give ``t_eval``).
     mu : conserved spatial momentum, ``(k,)`` (a scalar for S^1).
     g0 : group coordinates at the first time (default the identity).
@@ -324,12 +325,12 @@ def reconstruct(
     """
     G = system.group
     conn = _connection(system)
-    if isinstance(shape, ShapeLoop):
+    if isinstance(shape, Gait):
         bind_loop(system, shape)
         if t_eval is None:
-            t_eval = np.linspace(0.0, shape.period, 201)
+            t_eval = np.linspace(0.0, shape.T, 201)
     elif t_eval is None:
-        raise InputError("Give `t_eval` when `shape` is not a ShapeLoop.")
+        raise InputError("Give `t_eval` when `shape` is not a Gait.")
     mu = _momentum(mu, G)
     alpha0 = np.zeros(G.dim) if g0 is None else V.exact_shape(np.atleast_1d(g0), "g0", (G.dim,))
     g_init = G.from_coordinates(alpha0)
@@ -350,7 +351,7 @@ def reconstruct(
     else:
         path = integrate_on_group(G, lambda t, g: xi_conn(t, g) + xi_mom(t, g), g_init, t_eval, **opts)
         alone = None
-    if isinstance(shape, ShapeLoop):
+    if isinstance(shape, Gait):
         r, rd = shape.r(t_eval), shape.rdot(t_eval)
     else:
         r = np.stack([np.asarray(shape.r(t), dtype=float) for t in t_eval])

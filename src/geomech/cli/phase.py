@@ -66,7 +66,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
     -2 pi turns I2/(I1 + I2) + mu T/(I1 + I2) (from the conservation law
     (I1 + I2) theta' + I2 psi' = mu), and theta(T) - theta(0) reconstructed on the group.
     """
-    from ..analysis import ShapeLoop, phases, reconstruct
+    from ..analysis import Gait, phases, reconstruct
     from ..systems.holonomic_examples import two_pinned_bodies
 
     if not (math.isfinite(period) and period > 0):
@@ -74,7 +74,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
     if not math.isfinite(mu):
         raise InputError(f"Expected `--mu` to be finite, got {mu}.")
     system = two_pinned_bodies(I1, I2)
-    loop = ShapeLoop.from_expressions([f"2*pi*({turns})*t/T"], period, parameters={"T": period})
+    loop = Gait.from_expressions([f"2*pi*({turns})*t/T"], period)
     split = phases(system, loop, mu)
     rec = reconstruct(system, loop, mu, t_eval=np.linspace(0.0, period, 201))
     closed = -2 * math.pi * turns * I2 / (I1 + I2) + mu * period / (I1 + I2)
@@ -281,14 +281,14 @@ def loop_cmd(
     the curvature integral over the enclosed area (Stokes) on a 2-D shape space, and the net motion
     g(0)^-1 g(T) reconstructed on the group (eq. 2.2).
     """
-    from ..analysis import ShapeLoop, curvature_integral, phases, reconstruct
+    from ..analysis import Gait, curvature_integral, phases, reconstruct
 
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
     system = _holonomic_system(model, parse_params(params))
     names = [str(s) for s in system.shape_coordinates]
     given = parse_shape_loop(shapes, names, "--shape", model)
-    loop = ShapeLoop.from_expressions({n: given[n] for n in names}, period, parameters={"T": period})
+    loop = Gait.from_expressions({n: given[n] for n in names}, period)
     mu_arr = np.zeros(1 if system.group.dim == 1 else system.group.dim) if mu is None else np.asarray(mu, float)
     if mu_arr.size != (1 if system.group.dim == 1 else system.group.dim):
         raise InputError(

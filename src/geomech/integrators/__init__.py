@@ -27,7 +27,7 @@ from .methods import (
     get_method,
     methods_table,
 )
-from .nonholonomic import Gait, initial_state
+from .nonholonomic import initial_state
 from .periodic import PeriodicOrbitPropagator
 from .quadrature import QuadraturePropagator
 from .serret_andoyer_propagator import SerretAndoyerPropagator
@@ -48,7 +48,6 @@ __all__ = [
     "AdaptiveAdams",
     "CriticalPoint",
     "Failure",
-    "Gait",
     "GaussLegendre",
     "GeneratingFunction",
     "ImplicitMidpoint",

@@ -419,7 +419,7 @@ def solve(
         :func:`~geomech.integrators.initial_state`.
     shapes, tau : mapping, optional
         A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a
-        :class:`~geomech.integrators.Gait`) and the torques on its free shapes.
+        :class:`~geomech.Gait`) and the torques on its free shapes.
     parameters : mapping, optional
         Values of a Lagrangian system's parameters not stored in it.
     max_steps : int

@@ -58,7 +58,7 @@ def _grid(system: Any, bounds: Any, loop: Any, n: int) -> tuple[np.ndarray, np.n
         raise ShapeError(f"Expected a 2-D shape space to draw, {system.name} has {system.shape_dim} coordinates.")
     if bounds is None:
         if loop is not None:
-            pts = loop.r(np.linspace(0.0, loop.period, 200))
+            pts = loop.r(np.linspace(0.0, loop.T, 200))
             lo, hi = pts.min(0), pts.max(0)
             pad = 0.35 * np.maximum(hi - lo, 1e-3)
             bounds = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
@@ -84,7 +84,7 @@ def _tex(sym: Any) -> str:
 
 
 def _draw_loop(ax: Any, loop: Any, color: str = "k") -> np.ndarray:
-    t = np.linspace(0.0, loop.period, 400)
+    t = np.linspace(0.0, loop.T, 400)
     pts = loop.r(t)
     ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.6)
     for frac in (0.0, 0.25, 0.5, 0.75):
@@ -163,7 +163,7 @@ def connection_field(
     Following the convention of gait design, the arrows are the body velocity (in that component) a
     unit shape velocity along each axis would produce, so a loop that runs along the arrows gains
     :math:`-\\oint A` in it. ``component`` is an index or a name (``"theta"``, ``"x"``, ``"omega"``...);
-    default the rotation. ``loop`` (a :class:`~geomech.analysis.shape_loops.ShapeLoop`) is drawn on top.
+    default the rotation. ``loop`` (a :class:`~geomech.systems.Gait`) is drawn on top.
     """
     import matplotlib.pyplot as plt
 

@@ -4,6 +4,7 @@ from . import nonholonomic_examples
 from ._euler_top import EulerTopSolution
 from .canonical import CanonicalSystem
 from .control import ClosedLoopFamily, HyperregularityReport, StructurePreservingControl
+from .gait import Gait
 from .holonomic import HolonomicSystem
 from .holonomic_examples import (
     planar_point_masses,
@@ -18,6 +19,7 @@ from .rigid_body import RigidBody
 from .rotors import RotorBody, RotorTrajectory
 
 __all__ = [
+    "Gait",
     "InvarianceReport",
     "NonholonomicSystem",
     "nonholonomic_examples",

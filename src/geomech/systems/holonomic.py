@@ -363,7 +363,7 @@ class HolonomicSystem:
         """Integrate the Euler-Lagrange equations of :math:`L` in the coordinates :math:`(\\alpha, r)`.
 
         With ``shape=None`` the whole system moves freely; with a shape path (an object with ``r(t)``,
-        ``rdot(t)``, ``rddot(t)``, e.g. a :class:`~geomech.analysis.shape_loops.ShapeLoop`) the shape is
+        ``rdot(t)``, ``rddot(t)``, e.g. a :class:`~geomech.systems.Gait`) the shape is
         prescribed (driven by shape forces only) and the group coordinates obey
         :math:`M_{\\alpha\\alpha}\\ddot\\alpha = f_\\alpha - M_{\\alpha r}\\ddot r`. This is the direct
         route, independent of the connection; in Euler-angle coordinates it fails near gimbal lock.

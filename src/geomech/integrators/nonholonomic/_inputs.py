@@ -1,10 +1,11 @@
-"""Inputs of the nonholonomic simulators: gaits (shapes prescribed as formulas in t), torques on the free
-shapes, and the initial state consistent with the constraints."""
+"""Inputs of a Lagrangian run: the gait (a :class:`~geomech.systems.Gait` of prescribed shapes), torques on the
+free shapes, and the initial state consistent with the constraints."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -13,54 +14,15 @@ import sympy as sp
 from ... import _validate as V
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
-from ...symbolic.compile import compile_matrix, compile_scalar, compile_vector
+from ...symbolic.compile import compile_scalar, compile_vector
 from ...symbolic.formula import to_expression
+from ...systems.gait import T_SYMBOL, Gait
 from ...systems.nonholonomic import NonholonomicSystem
-
-T_SYMBOL = sp.Symbol("t", real=True)
 
 
 # --------------------------------------------------------------------------------------------------
 # Inputs: gaits and torques
 # --------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Gait:
-    """Prescribed shape motions :math:`r_P(t)` with their first and second derivatives (exact).
-
-    Build with :meth:`from_expressions` (``{"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}``).
-    """
-
-    names: tuple[str, ...]
-    expressions: tuple[sp.Expr, ...]
-    _fn: Callable = field(repr=False, compare=False)
-
-    @classmethod
-    def from_expressions(cls, shapes: Mapping[str, Any] | None) -> Gait:
-        shapes = dict(shapes or {})
-        names, exprs = [], []
-        for name, e in shapes.items():
-            e = to_expression(e, f"shapes[{name!r}]", {"t": T_SYMBOL})
-            extra = sorted(s.name for s in e.free_symbols - {T_SYMBOL})
-            if extra:
-                raise InputError(
-                    f"Expected the gait of `{name}` to be a formula in t only, got symbols {extra} in {e}."
-                )
-            names.append(str(name))
-            exprs.append(e)
-        rows = [[e, sp.diff(e, T_SYMBOL), sp.diff(e, T_SYMBOL, 2)] for e in exprs]
-        f = compile_matrix(sp.Matrix(len(rows), 3, sum(rows, [])), [T_SYMBOL])
-
-        def fn(t: float) -> np.ndarray:
-            return f(np.array([float(t)]))
-
-        return cls(tuple(names), tuple(exprs), fn)
-
-    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(r, rdot, rddot)`` of the prescribed shapes at time ``t``."""
-        v = self._fn(t)
-        return v[:, 0], v[:, 1], v[:, 2]
-
-
 class _Torques:
     """Torques on the free shapes: formulas in ``t``, the coordinates and the velocities (by name), or callables
     ``f(t, q, qd)``."""
@@ -132,6 +94,14 @@ def _setup(system: NonholonomicSystem, shapes: Any, tau: Any) -> _Setup:
         raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
     gait = shapes if isinstance(shapes, Gait) else Gait.from_expressions(shapes)
     names = [r.name for r in system.shape]
+    if gait.names is None:
+        if gait.dim != len(names):
+            raise InputError(
+                f"The gait prescribes {gait.dim} shape(s) without names; {system.name} has {len(names)} "
+                f"({names}): name them (a mapping, or `names=`)."
+            )
+        gait = dataclasses.replace(gait, names=tuple(names))
+    assert gait.names is not None
     unknown = [n for n in gait.names if n not in names]
     if unknown:
         raise InputError(f"The gait names {unknown}, which are not shape variables of {system.name} ({names}).")
