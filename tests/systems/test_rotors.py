@@ -7,7 +7,9 @@ import pytest
 import sympy as sp
 from scipy.integrate import trapezoid
 
+import geomech as gm
 from geomech.errors import InputError, NumericalError
+from geomech.integrators import IncompatibleMethodError
 from geomech.lie import so3
 from geomech.systems.rotors import ISOTROPIC_PYRAMID_ELEVATION, RotorBody
 
@@ -103,13 +105,19 @@ def test_isotropic_pyramid():
         assert np.linalg.matrix_rank(np.delete(body.A, drop, axis=1)) == 3
 
 
+def simulate(body, t, **kw):
+    """The open-loop equations by DOP853 at the tolerances of a reference solution."""
+    t = np.asarray(t, dtype=float)
+    return gm.solve(body, "solve_ivp", t_final=t[-1], saveat=t, rtol=1e-12, atol=1e-12, **kw)
+
+
 def test_free_simulation_conserves_energy_momentum_and_rotor_momenta():
     body = RotorBody.three_rotors([3.0, 2.0, 1.2], [0.1, 0.2, 0.3])
     t = np.linspace(0.0, 40.0, 401)
     R0 = so3.exp([0.2, -0.4, 1.0])
-    traj = body.simulate(t, m0=[0.4, 1.0, -0.3], Gamma0=[0.05, -0.1, 0.2], R0=R0)
-    E = traj.energy()
-    pi = traj.spatial_momentum()
+    traj = simulate(body, t, m0=[0.4, 1.0, -0.3], Gamma0=[0.05, -0.1, 0.2], R0=R0)
+    E = traj.energy
+    pi = traj.spatial_momentum
     assert np.abs(E - E[0]).max() < 1e-11 * abs(E[0])
     assert np.abs(pi - pi[0]).max() < 1e-10
     np.testing.assert_allclose(traj.Gamma, np.broadcast_to(traj.Gamma[0], traj.Gamma.shape), atol=1e-14)
@@ -127,14 +135,15 @@ def test_pyramid_with_torques_momentum_bookkeeping():
     def torque(t, R, m, gamma, Gamma):
         return 0.05 * np.array([np.sin(t), np.cos(0.7 * t), -0.5, np.sin(2 * t) * m[0]])
 
-    traj = body.simulate(t, m0=[0.3, 0.8, -0.2], Gamma0=np.zeros(4), torque=torque)
-    pi = traj.spatial_momentum()
+    traj = simulate(body, t, m0=[0.3, 0.8, -0.2], Gamma0=np.zeros(4), tau=torque)
+    pi = traj.spatial_momentum
     assert np.abs(pi - pi[0]).max() < 1e-10
-    E = traj.energy()
-    work = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (traj.motor_power()[1:] + traj.motor_power()[:-1]))])
+    E = traj.energy
+    power = np.sum(traj.tau * body.rotor_rates(traj.m, traj.Gamma), axis=-1)  # u . gamma_dot
+    work = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (power[1:] + power[:-1]))])
     assert abs(E[-1] - E[0]) > 1e-2  # the motors do work
     np.testing.assert_allclose(E - E[0], work, atol=5e-6)
-    np.testing.assert_allclose(trapezoid(traj.u[:, 2], t), -0.5 * 0.05 * 20.0, rtol=1e-12)
+    np.testing.assert_allclose(trapezoid(traj.tau[:, 2], t), -0.5 * 0.05 * 20.0, rtol=1e-12)
     # the wheels' share of the body momentum is A Gamma
     np.testing.assert_allclose(body.wheel_momentum(traj.Gamma), traj.Gamma @ body.axes)
 
@@ -161,16 +170,35 @@ def test_what_needs_the_rotor_inertia_says_so():
     with pytest.raises(InputError, match="J3"):
         body.hamiltonian([1.0, 0.0, 0.0], [0.0])
     with pytest.raises(InputError, match="axial moments"):
-        body.simulate([0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0])
+        simulate(body, [0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0])
 
 
 def test_bad_simulation_input():
     body = RotorBody.one_rotor(3.0, 2.0, 1.0, 0.5)
     with pytest.raises(InputError, match="increasing"):
-        body.simulate([1.0, 0.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0])
+        gm.solve(body, "solve_ivp", t_final=1.0, saveat=[1.0, 0.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0])
     with pytest.raises(InputError, match="one per rotor"):
-        body.simulate([0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0], torque=lambda *a: [1.0, 2.0])
-    with pytest.raises(InputError, match="torque"):
-        body.simulate([0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0], torque="lots")
-    with pytest.raises(NumericalError, match="not finite at t"):
-        body.simulate([0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0], torque=lambda *a: [np.nan])
+        simulate(body, [0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0], tau=lambda *a: [1.0, 2.0])
+    with pytest.raises(InputError, match="`tau`, the rotor torques"):
+        simulate(body, [0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0], tau="lots")
+    with pytest.raises(NumericalError, match="not finite .* is the torque defined"):
+        simulate(body, [0.0, 1.0], m0=[1.0, 0.0, 0.0], Gamma0=[0.0], tau=lambda *a: [np.nan])
+    with pytest.raises(InputError, match="`Gamma0`"):
+        gm.solve(body, "solve_ivp", t_final=1.0, m0=[1.0, 0.0, 0.0])
+    with pytest.raises(IncompatibleMethodError, match="solve_ivp"):
+        gm.solve(body, "rk4", t_final=1.0, h=0.1, m0=[1.0, 0.0, 0.0], Gamma0=[0.0])
+
+
+def test_a_failure_is_data_with_the_states_reached():
+    body = RotorBody.one_rotor(3.0, 2.0, 1.0, 0.5)
+
+    def torque(t, R, m, gamma, Gamma):
+        return [np.nan if t > 0.5 else 0.1]
+
+    sol = simulate(
+        body, np.linspace(0.0, 1.0, 11), m0=[1.0, 0.2, 0.0], Gamma0=[0.0], tau=torque, raise_on_failure=False
+    )
+    when = sol.failures[0].time  # the last time the solver reached: its next step met the NaN torque
+    assert sol.status == "nonfinite" and 0.0 < when <= 0.5 and "torque" in sol.message
+    assert np.all(np.isfinite(sol.m[sol.t <= when])) and np.all(np.isnan(sol.m[sol.t > when]))
+    assert np.isnan(sol.m[-1]).all() and np.isfinite(sol.m[0]).all()

@@ -23,6 +23,7 @@ from ..symbolic.simplify import vanishes
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 from ..systems.nonholonomic import NonholonomicSystem
+from ..systems.rotors import RotorBody
 from . import _codegen
 from .methods import Structure
 
@@ -35,8 +36,8 @@ _R_SYMBOLS = sp.symbols("r0:9", real=True)
 class Problem:
     """A system as the solver sees it (internal)."""
 
-    kind: str  # "canonical" | "lie_poisson" | "lagrangian"
-    layout: str  # "qp" | "m" | "mR" | "qv"
+    kind: str  # "canonical" | "lie_poisson" | "lagrangian" | "rotor"
+    layout: str  # "qp" | "m" | "mR" | "qv" | "rotor"
     dim: int
     system: Any  # the object the user passed
     core: Any  # CanonicalSystem or LeftInvariantSystem
@@ -53,6 +54,10 @@ class Problem:
             return tuple(str(v) for v in self.variables)
         if self.kind == "lagrangian":
             return tuple(s.name for s in self.core.q) + tuple(s.name for s in self.core.qdot)
+        if self.kind == "rotor":
+            from ._rotor import rotor_labels
+
+            return rotor_labels(self.core.n_rotors)
         names: tuple[str, ...] = ("m1", "m2", "m3")
         if self.layout == "mR":
             names += tuple(f"R{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
@@ -118,6 +123,21 @@ _ANALYSIS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def make_problem(system: Any, *, attitude: bool) -> Problem:
     """Classify ``system``; raises :class:`InputError` for something that is not a system."""
     core: CanonicalSystem | LeftInvariantSystem
+    if isinstance(system, RotorBody):
+        why = (
+            f"{system.name} is a body with rotors whose equations are evaluated in Python with the torque law, "
+            "integrated by an adaptive solver (solve_ivp)"
+        )
+        return Problem(
+            kind="rotor",
+            layout="rotor",
+            dim=12 + 2 * system.n_rotors,
+            system=system,
+            core=system,
+            expression=None,
+            variables=(),
+            missing={s: why for s in Structure if s is not Structure.ODE},
+        )
     if isinstance(system, NonholonomicSystem):
         if attitude:
             raise InputError(f"`R0` applies to left-invariant systems on T*SO(3); {system.name} is Lagrangian.")
@@ -149,7 +169,7 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
     except InputError:
         raise InputError(
             "Expected `system` to be a CanonicalSystem, a left-invariant system (LeftInvariantSystem, "
-            f"RigidBody, ...) or a NonholonomicSystem, got {type(system).__name__}."
+            f"RigidBody, ...), a RotorBody or a NonholonomicSystem, got {type(system).__name__}."
         ) from None
     analysis = _ANALYSIS.get(core)
     if analysis is None:

@@ -104,6 +104,7 @@ _LAYOUT_VIEWS = {
     "m": ("m",),
     "mR": ("m", "R"),
     "qv": ("q", "qdot"),
+    "rotor": ("m", "R", "Gamma", "gamma"),
 }
 
 
@@ -118,7 +119,8 @@ class Solution:
     states : ndarray, shape (*batch, n_save, d)
         The saved states in the system's layout (``layout``): ``"qp"``, canonical ``(q, p)``; ``"m"`` or
         ``"mR"``, body momentum and attitude (R row-major) of a left-invariant system; ``"qv"``,
-        coordinates and velocities ``(q, qdot)`` of a Lagrangian system. After a failure, a trajectory's
+        coordinates and velocities ``(q, qdot)`` of a Lagrangian system; ``"rotor"``, ``(m, R, Gamma,
+        gamma)`` of a body with rotors. After a failure, a trajectory's
         later states are NaN (see ``failures``).
     system, method
         What was integrated and how.
@@ -231,14 +233,28 @@ class Solution:
     @property
     def m(self) -> np.ndarray:
         """Body angular momentum, shape ``(*batch, n_save, 3)``."""
-        self._need(("m", "mR"), "m")
+        self._need(("m", "mR", "rotor"), "m")
         return self.states[..., :3]
 
     @property
     def R(self) -> np.ndarray:
         """Attitude (body to space), shape ``(*batch, n_save, 3, 3)``; only when it was integrated."""
-        self._need(("mR",), "R")
-        return self.states[..., 3:].reshape(self.states.shape[:-1] + (3, 3))
+        self._need(("mR", "rotor"), "R")
+        return self.states[..., 3:12].reshape(self.states.shape[:-1] + (3, 3))
+
+    @property
+    def Gamma(self) -> np.ndarray:
+        """The rotors' axial momenta of a body with rotors, shape ``(*batch, n_save, N)``."""
+        self._need(("rotor",), "Gamma")
+        n = (self.states.shape[-1] - 12) // 2
+        return self.states[..., 12 : 12 + n]
+
+    @property
+    def gamma(self) -> np.ndarray:
+        """The rotor angles of a body with rotors, shape ``(*batch, n_save, N)``."""
+        self._need(("rotor",), "gamma")
+        n = (self.states.shape[-1] - 12) // 2
+        return self.states[..., 12 + n :]
 
     def _quantity(self, name: str) -> np.ndarray:
         try:
@@ -319,6 +335,9 @@ class Solution:
                 what = "attitude, body to space"
             elif view == "m":
                 dims, what = ("axis",), "body angular momentum"
+            elif view in ("Gamma", "gamma"):
+                dims = ("rotor",)
+                what = "rotor axial momenta" if view == "Gamma" else "rotor angles"
             else:
                 dims = ("coordinate",)
                 what = {"q": "coordinates", "p": "canonical momenta", "qdot": "velocities"}[view]
@@ -326,6 +345,8 @@ class Solution:
         for name, arr in self.quantities.items():
             what, dim = QUANTITIES[name]
             extra = arr.ndim - n_b - 1
+            if name == "tau" and self.layout == "rotor":
+                dim = "rotor"
             comp = (dim,) if extra == 1 and dim else tuple(f"{name}_{i}" for i in range(extra))
             out.append((name, arr, comp, what))
         return out
@@ -354,7 +375,7 @@ class Solution:
         coords: dict[str, Any] = {"t": ("t", np.asarray(self.t), {"long_name": "time", **_unit(units, "t")})}
         if self.layout in ("qp", "qv") and self.labels:
             coords["coordinate"] = list(self.labels[: len(self.labels) // 2])
-        if self.layout in ("m", "mR"):
+        if self.layout in ("m", "mR", "rotor"):
             coords["axis"] = [1, 2, 3]
         if self.layout == "qv" and self.group_dim is not None and "tau" in self.quantities:
             coords["shape"] = list(self.labels[self.group_dim : len(self.labels) // 2])

@@ -13,7 +13,7 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
-from ._adaptive import run_adaptive
+from ._adaptive import MAX_EVALUATIONS, integrate_ivp, run_adaptive
 from ._problem import Problem, make_problem
 from .methods import (
     REGISTRY,
@@ -23,9 +23,9 @@ from .methods import (
     Method,
     PeriodicOrbit,
     Quadrature,
+    SolveIVP,
     get_method,
 )
-from .nonholonomic._continuous import MAX_EVALUATIONS
 from .solution import STATUS, Failure, Solution, Status
 
 __all__ = ["solve", "compatible_methods", "DEFAULT_SAVEAT"]
@@ -40,6 +40,11 @@ def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
 def _why_not(problem: Problem, method: Method) -> str | None:
     if not problem.has(method.structure):
         return problem.missing[method.structure]
+    if problem.kind == "rotor" and not isinstance(method, SolveIVP):
+        return (
+            f"{problem.name}'s equations are evaluated in Python with its torque law, which {type(method).__name__} "
+            "cannot compile"
+        )
     if method.needs_expression and problem.expression is None:
         return f"{type(method).__name__} differentiates H symbolically, and {problem.name} has no formula"
     return None
@@ -312,6 +317,46 @@ def _run_compiled(
             fut.result()
 
 
+_CODES = {status: code for code, status in STATUS.items()}
+
+
+def _run_ivp(
+    module: Any,
+    method: SolveIVP,
+    Y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+    reached: dict[int, float],
+) -> int:
+    """Each row of ``Y0`` by a scipy solver on the compiled right-hand side; fills ``OUT`` and ``INFO`` as the
+    loops do, ``reasons`` and ``reached`` (the last time reached) for a failed row; returns the steps taken."""
+    d = Y0.shape[1]
+    steps = 0
+    for b in range(Y0.shape[0]):
+        buf = np.empty(d)
+
+        def f(_t: float, y: np.ndarray, buf: np.ndarray = buf) -> np.ndarray:
+            module.rhs(np.ascontiguousarray(y, dtype=float), buf)
+            return buf.copy()
+
+        Y, failure, nfev, n = integrate_ivp(
+            type(method).__name__, f, Y0[b], t0, times, method.solver, tolerances, max_evaluations
+        )
+        OUT[b] = Y
+        INFO[b, 4] = nfev
+        steps += n
+        if failure is not None:
+            kind, k, when, detail, _ = failure
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[kind], k, np.nan
+            reasons[b], reached[b] = detail, when
+    return steps
+
+
 def _run_periodic(
     core: Any,
     method: PeriodicOrbit | Quadrature,
@@ -369,6 +414,8 @@ def solve(
     qdot0: Any = None,
     rdot0: Any = None,
     p0: Any = None,
+    Gamma0: Any = None,
+    gamma0: Any = None,
     shapes: Any = None,
     tau: Any = None,
     parameters: Any = None,
@@ -389,10 +436,11 @@ def solve(
 
     Parameters
     ----------
-    system : CanonicalSystem, LeftInvariantSystem, RigidBody, NonholonomicSystem, ...
+    system : CanonicalSystem, LeftInvariantSystem, RigidBody, RotorBody, NonholonomicSystem, ...
         A canonical system takes its initial state as ``y0 = (q, p)``; a left-invariant system as ``m0``
-        and, to integrate the attitude as well (and get the spatial momentum ``p = R m``), ``R0``; a
-        Lagrangian system on G x S (with constraints or none) as ``q0`` with ``qdot0``, ``rdot0`` or ``p0``.
+        and, to integrate the attitude as well (and get the spatial momentum ``p = R m``), ``R0``; a body
+        with rotors as ``m0`` and ``Gamma0`` (with ``R0`` and ``gamma0`` optional); a Lagrangian system on
+        G x S (with constraints or none) as ``q0`` with ``qdot0``, ``rdot0`` or ``p0``.
     method : Method or str
         A method value (``GaussLegendre(3)``, ``LiePoissonSplitting(order=4)``, ``BKMM()``, ...) or a
         registry key (``"implicit_midpoint"``, see :data:`~geomech.integrators.REGISTRY`). An incompatible
@@ -417,9 +465,13 @@ def solve(
         The initial state of a Lagrangian system: coordinates, and velocities given as all of them
         (``qdot0``), or as the shape rates with the nonholonomic momentum (``rdot0``, ``p0``); see
         :func:`~geomech.integrators.initial_state`.
-    shapes, tau : mapping, optional
-        A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a
-        :class:`~geomech.Gait`) and the torques on its free shapes.
+    Gamma0, gamma0 : array_like, shape (N,)
+        A body with rotors: the rotors' axial momenta and angles (default 0).
+    shapes, tau : optional
+        A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a :class:`~geomech.Gait`)
+        and the torques on its free shapes (a mapping of formulas or callables); the rotor torques of a body
+        with rotors (a callable ``u(t, R, m, gamma, Gamma)`` or a feedback law such as a
+        :class:`~geomech.StructurePreservingControl`).
     parameters : mapping, optional
         Values of a Lagrangian system's parameters not stored in it.
     max_steps : int
@@ -462,6 +514,37 @@ def solve(
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise InputError(f"Expected `threads` to be a positive integer or None, got {threads!r}.")
     tolerances = _tolerances(method, rtol, atol) if method.kind is Kind.ADAPTIVE else None
+    if problem.kind != "rotor":
+        for name, value in (("Gamma0", Gamma0), ("gamma0", gamma0)):
+            if value is not None:
+                raise InputError(f"`{name}` applies to bodies with rotors; {problem.name} is not one.")
+    if problem.kind == "rotor":
+        for name, value in (("y0", y0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
+            if value is not None:
+                raise InputError(
+                    f"{problem.name} is a body with rotors: give its initial state as `m0` and `Gamma0` (with `R0` "
+                    f"and `gamma0`), not `{name}`."
+                )
+        if parameters is not None:
+            raise InputError(f"`parameters` applies to Lagrangian systems; {problem.name} holds its values.")
+        from ._rotor import solve_rotor
+
+        assert tolerances is not None
+        solution = solve_rotor(
+            system,
+            method,
+            times,
+            t0=t0,
+            m0=m0,
+            R0=R0,
+            Gamma0=Gamma0,
+            gamma0=gamma0,
+            tau=tau,
+            tolerances=tolerances,
+            max_evaluations=max_evaluations,
+            memory_limit=memory_limit,
+        )
+        return _finish(solution, raise_on_failure)
     if problem.kind == "lagrangian":
         for name, value in (("y0", y0), ("m0", m0)):
             if value is not None:
@@ -526,7 +609,11 @@ def solve(
     compile_time = 0.0
     t_start = time.perf_counter()
     reasons: dict[int, str] = {}
-    if isinstance(method, AdaptiveAdams):
+    reached: dict[int, float] = {}
+    if isinstance(method, SolveIVP):
+        assert tolerances is not None
+        internal = _run_ivp(module, method, Y0, t0, saved_t, tolerances, max_evaluations, OUT, INFO, reasons, reached)
+    elif isinstance(method, AdaptiveAdams):
         assert tolerances is not None
         with np.errstate(all="ignore"):
             internal = run_adaptive(module, method, Y0, t0, saved_t, tolerances, OUT, INFO)
@@ -564,6 +651,8 @@ def solve(
         step = int(INFO[b, 1])
         if method.kind is Kind.FIXED_STEP:
             when = t0 + (step - 1) * float(times.h)  # type: ignore[arg-type]
+        elif int(b) in reached:
+            when = reached[int(b)]
         else:
             when = float(saved_t[max(step - 1, 0)])
         failures.append(

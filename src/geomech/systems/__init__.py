@@ -16,7 +16,7 @@ from .holonomic_examples import (
 from .left_invariant import LeftInvariantSystem, as_left_invariant
 from .nonholonomic import InvarianceReport, NonholonomicSystem
 from .rigid_body import RigidBody
-from .rotors import RotorBody, RotorTrajectory
+from .rotors import RotorBody
 
 __all__ = [
     "Gait",
@@ -31,7 +31,6 @@ __all__ = [
     "LeftInvariantSystem",
     "RigidBody",
     "RotorBody",
-    "RotorTrajectory",
     "StructurePreservingControl",
     "as_left_invariant",
     "planar_point_masses",

@@ -47,14 +47,13 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .. import _validate as V
-from ..errors import InputError, NumericalError
+from ..errors import InputError
 from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS
 
-__all__ = ["RotorBody", "RotorTrajectory"]
+__all__ = ["RotorBody", "torque_function"]
 
 #: Elevation of the wheel axes above the base plane that makes the four-wheel pyramid isotropic,
 #: A A^T = (4/3) I: 2 cos^2(beta) = 4 sin^2(beta), i.e. tan(beta) = 1/sqrt(2) (35.26 degrees).
@@ -300,88 +299,6 @@ class RotorBody:
         w = self.angular_velocity(m, Gamma)
         return R @ hat(w, check=False), np.cross(m, w), self.rotor_rates(m, Gamma), np.asarray(u, dtype=float)
 
-    def simulate(
-        self,
-        t_eval: Any,
-        *,
-        m0: Any,
-        Gamma0: Any,
-        R0: Any | None = None,
-        gamma0: Any | None = None,
-        torque: Any = None,
-        rtol: float = 1e-12,
-        atol: float = 1e-12,
-        raise_on_failure: bool = True,
-    ) -> RotorTrajectory:
-        """Integrate the open-loop equations (26) / (38) directly in :math:`(R, m, \\gamma, \\Gamma)`.
-
-        Parameters
-        ----------
-        t_eval : (n,) increasing output times, starting at the initial time.
-        m0 : (3,) total body angular momentum; Gamma0 : (N,) rotor axial momenta (use :meth:`legendre`
-            to start from :math:`\\omega, \\dot\\gamma`).
-        R0 : (3, 3) initial attitude (default identity); gamma0 : (N,) rotor angles (default 0).
-        torque : None (free system), a callable ``u(t, R, m, gamma, Gamma) -> (N,)``, or a feedback law
-            with a method ``feedback(m, Gamma) -> (N,)`` such as a
-            :class:`~geomech.systems.control.StructurePreservingControl`.
-        rtol, atol : tolerances of scipy's DOP853 (8th order).
-
-        Returns
-        -------
-        RotorTrajectory
-            ``status`` 0 on success; on failure a :class:`~geomech.errors.NumericalError` says when and why
-            (or, with ``raise_on_failure=False``, ``status`` is -1 and ``message`` says it).
-        """
-        self.require_rotor_inertia("Open-loop simulation")
-        n = self.n_rotors
-        t_eval = V.finite(t_eval, "t_eval")
-        if t_eval.ndim != 1 or t_eval.size == 0 or np.any(np.diff(t_eval) < 0):
-            raise InputError("Expected `t_eval` to be a non-empty increasing 1-D array of times.")
-        m0 = V.exact_shape(m0, "m0", (3,))
-        Gamma0 = V.exact_shape(np.atleast_1d(np.asarray(Gamma0, dtype=float)), "Gamma0", (n,))
-        R0 = np.eye(3) if R0 is None else V.rotation_matrix(R0, "R0")
-        gamma0 = np.zeros(n) if gamma0 is None else V.exact_shape(np.atleast_1d(gamma0), "gamma0", (n,))
-        u_fn = _torque_function(torque, n)
-
-        def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            R, m, gam, Gam = y[:9].reshape(3, 3), y[9:12], y[12 : 12 + n], y[12 + n :]
-            with np.errstate(all="ignore"):
-                u = u_fn(t, R, m, gam, Gam)
-                dR, dm, dgam, dGam = self.vector_field(R, m, Gam, u)
-                out = np.concatenate([dR.ravel(), dm, dgam, dGam])
-            if not np.all(np.isfinite(out)):
-                raise NumericalError(
-                    f"Open-loop simulation of {self.name}: the right-hand side is not finite at t = {t:.6g} "
-                    f"(m = {m.tolist()}, Gamma = {Gam.tolist()}, torque = {np.asarray(u).tolist()}); is the torque "
-                    "defined along the trajectory?"
-                )
-            return out
-
-        y0 = np.concatenate([R0.ravel(), m0, gamma0, Gamma0])
-        scale = max(1.0, float(np.abs(y0).max()))
-        status, message = 0, "success"
-        if t_eval[-1] > t_eval[0]:
-            sol = solve_ivp(
-                rhs, (t_eval[0], t_eval[-1]), y0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol * scale
-            )
-            Y, nfev = sol.y.T, sol.nfev
-            if sol.status < 0 or Y.shape[0] != t_eval.size:
-                status, message = -1, f"integration failed at t = {sol.t[-1]:.6g}: {sol.message}"
-                if raise_on_failure:
-                    raise NumericalError(f"Open-loop simulation of {self.name}: {message}")
-                pad = np.full((t_eval.size - Y.shape[0], Y.shape[1]), np.nan)
-                Y = np.concatenate([Y, pad])
-        else:
-            Y, nfev = np.broadcast_to(y0, (t_eval.size, y0.size)).copy(), 0
-        R, m, gam, Gam = Y[:, :9].reshape(-1, 3, 3), Y[:, 9:12], Y[:, 12 : 12 + n], Y[:, 12 + n :]
-        u = np.array(
-            [
-                u_fn(t, R[i], m[i], gam[i], Gam[i]) if np.all(np.isfinite(Y[i])) else np.full(n, np.nan)
-                for i, t in enumerate(t_eval)
-            ]
-        ).reshape(-1, n)
-        return RotorTrajectory(t_eval, R, m, gam, Gam, u, self, status, message, nfev)
-
     def to_json(self) -> dict[str, Any]:
         return {
             "kind": "RotorBody",
@@ -396,7 +313,9 @@ class RotorBody:
         return f"RotorBody(inertia={self.inertia.tolist()}, axes={self.axes.tolist()}, rotor_inertia={J})"
 
 
-def _torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
+def torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
+    """The rotor torques ``u(t, R, m, gamma, Gamma)`` from ``tau``: None (a free body), a callable of those
+    arguments, or a feedback law with ``feedback(m, Gamma)`` (a :class:`StructurePreservingControl`)."""
     if torque is None:
         zero = np.zeros(n)
         return lambda t, R, m, gam, Gam: zero
@@ -407,52 +326,11 @@ def _torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
         def u(t, R, m, gam, Gam):
             val = np.asarray(torque(t, R, m, gam, Gam), dtype=float)
             if val.size != n:
-                raise InputError(f"Expected `torque` to return {n} torque(s), one per rotor, got shape {val.shape}.")
+                raise InputError(f"Expected `tau` to return {n} torque(s), one per rotor, got shape {val.shape}.")
             return val.reshape(n)
 
         return u
     raise InputError(
-        f"Expected `torque` to be None, a callable u(t, R, m, gamma, Gamma) or a feedback law "
+        f"Expected `tau`, the rotor torques, to be None, a callable u(t, R, m, gamma, Gamma) or a feedback law "
         f"with .feedback(m, Gamma), got {type(torque).__name__}."
     )
-
-
-@dataclass(frozen=True, eq=False)
-class RotorTrajectory:
-    """A solution of the open-loop equations (26) / (38).
-
-    Attributes
-    ----------
-    t : (n,); R : (n, 3, 3) attitude (body to space); m : (n, 3) total body angular momentum;
-    gamma, Gamma : (n, N) rotor angles and axial momenta; u : (n, N) the torques applied;
-    body : the :class:`RotorBody`; status, message, nfev : as for scipy's ``solve_ivp``.
-    """
-
-    t: np.ndarray
-    R: np.ndarray
-    m: np.ndarray
-    gamma: np.ndarray
-    Gamma: np.ndarray
-    u: np.ndarray
-    body: RotorBody
-    status: int
-    message: str
-    nfev: int
-
-    def spatial_momentum(self) -> np.ndarray:
-        """:math:`\\pi = R m`, the total angular momentum in space (constant: internal torques only)."""
-        return np.einsum("nij,nj->ni", self.R, self.m)
-
-    def energy(self) -> np.ndarray:
-        """:math:`H_f(m, \\Gamma)`; constant when no torque acts."""
-        return self.body.hamiltonian(self.m, self.Gamma)
-
-    def angular_velocity(self) -> np.ndarray:
-        return self.body.angular_velocity(self.m, self.Gamma)
-
-    def rotor_rates(self) -> np.ndarray:
-        return self.body.rotor_rates(self.m, self.Gamma)
-
-    def motor_power(self) -> np.ndarray:
-        """:math:`u\\cdot\\dot\\gamma = \\dot H_f`, the power the motors put in."""
-        return np.sum(self.u * self.rotor_rates(), -1)

@@ -27,7 +27,7 @@ from typing import Any
 from ...errors import InputError
 from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
-from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams
+from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
 from ._lie_poisson import LieGroupVariational, LiePoissonSplitting, MoserVeselov, PeriodicOrbit, Quadrature
 
@@ -39,6 +39,7 @@ __all__ = [
     "RK4",
     "AdamsBashforthMoulton4",
     "AdaptiveAdams",
+    "SolveIVP",
     "SymplecticEuler",
     "StormerVerlet",
     "ImplicitMidpoint",
@@ -64,6 +65,7 @@ REGISTRY: dict[str, Method] = {
         RK4(),
         AdamsBashforthMoulton4(),
         AdaptiveAdams(),
+        SolveIVP(),
         SymplecticEuler("A"),
         SymplecticEuler("B"),
         StormerVerlet(),

@@ -91,3 +91,55 @@ class AdaptiveAdams(Method):
     @property
     def key(self) -> str:
         return "adams"
+
+
+#: scipy.integrate.solve_ivp's explicit and implicit solvers, with their orders (largest for variable order).
+SCIPY_SOLVERS = {"DOP853": 8, "RK45": 5, "RK23": 3, "Radau": 5, "BDF": 5, "LSODA": 12}
+
+
+def check_solver(solver: str) -> None:
+    if solver not in SCIPY_SOLVERS:
+        raise InputError(f"Expected `solver` to be one of {sorted(SCIPY_SOLVERS)} (scipy's solve_ivp), got {solver!r}.")
+
+
+@dataclass(frozen=True)
+class SolveIVP(Method):
+    """An adaptive solver of scipy's ``solve_ivp`` family on the system's equations, with error control.
+
+    ``solver="DOP853"`` (Dormand-Prince 8(5,3), the default), ``"RK45"``, ``"RK23"`` (explicit Runge-Kutta
+    pairs), ``"Radau"``, ``"BDF"`` (implicit, for stiff problems) or ``"LSODA"`` (Adams/BDF switching), stepped
+    one step at a time with dense output at ``saveat``; the number of evaluations is bounded by
+    ``max_evaluations``, and a failure is data with the states reached. Kind: adaptive (``rtol``, ``atol``;
+    default 1e-10, 1e-12). Order: that of the solver. Not structure-preserving. Structure: any ODE,
+    including those evaluated in Python with time-dependent inputs (a body with rotors and a torque law).
+    Cost: as many evaluations as the tolerances require; runs through Python (not compiled).
+    Reference: [HNW] II.4-II.5 (DOP853); Hairer & Wanner, Solving ODEs II, IV.8 (Radau).
+
+    Parameters
+    ----------
+    solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
+    """
+
+    solver: str = "DOP853"
+    structure: ClassVar[Structure] = Structure.ODE
+    kind: ClassVar[Kind] = Kind.ADAPTIVE
+    default_tolerances: ClassVar[tuple[float, float]] = (1e-10, 1e-12)
+
+    def __post_init__(self) -> None:
+        check_solver(self.solver)
+
+    @property
+    def explicit(self) -> bool:  # type: ignore[override]
+        return self.solver in ("DOP853", "RK45", "RK23")
+
+    @property
+    def order(self) -> int:
+        return SCIPY_SOLVERS[self.solver]
+
+    @property
+    def variable_order(self) -> bool:  # type: ignore[override]
+        return self.solver in ("BDF", "LSODA")
+
+    @property
+    def key(self) -> str:
+        return "solve_ivp"

@@ -14,14 +14,8 @@ from typing import ClassVar
 
 from ...errors import InputError
 from ._base import Kind, Method, Structure
-
-#: scipy.integrate.solve_ivp's explicit and implicit solvers, with their orders (largest for variable order).
-SCIPY_SOLVERS = {"DOP853": 8, "RK45": 5, "RK23": 3, "Radau": 5, "BDF": 5, "LSODA": 12}
-
-
-def _check_solver(solver: str) -> None:
-    if solver not in SCIPY_SOLVERS:
-        raise InputError(f"Expected `solver` to be one of {sorted(SCIPY_SOLVERS)} (scipy's solve_ivp), got {solver!r}.")
+from ._general import SCIPY_SOLVERS
+from ._general import check_solver as _check_solver
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ prescribed shapes the torques that realise the gait are computed, and the work t
 
 from __future__ import annotations
 
-from ._continuous import MAX_EVALUATIONS
+from .._adaptive import MAX_EVALUATIONS
 from ._inputs import initial_state
 
 __all__ = ["initial_state", "MAX_EVALUATIONS"]

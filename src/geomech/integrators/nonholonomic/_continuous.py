@@ -9,110 +9,16 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-from scipy import integrate as _scipy_integrate
 
-from ... import _validate as V
-from ...errors import InputError, NumericalError
+from ...errors import NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
+from .._adaptive import integrate_ivp
 from ..solution import Status
 from ._inputs import _group_rates, _Setup
 from ._trajectory import _accelerations, _Raw
 
-#: Default ceiling on right-hand-side evaluations of the adaptive simulators (tens of seconds of work).
-MAX_EVALUATIONS = 200_000
-
-#: Evaluations after which the pace of the integration is measured and the whole run's cost projected.
-_PILOT = 2_000
-
-
-class _OverBudget(Exception):
-    def __init__(self, t: float, count: int, projected: float | None = None):
-        self.t, self.count, self.projected = t, count, projected
-
-
-def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) -> Callable:
-    """``rhs`` that stops the integration (raising :class:`_OverBudget`) past ``max_evaluations`` calls, or
-    early, after a pilot of :data:`_PILOT` calls, when the pace so far projects a total far above it."""
-    limit = int(V.positive_scalar(max_evaluations, "max_evaluations"))
-    t_start, t_end = t_span
-    count = 0
-    t_far = t_start
-
-    def counted(t: float, y: np.ndarray) -> np.ndarray:
-        nonlocal count, t_far
-        count += 1
-        if abs(t - t_start) > abs(t_far - t_start):
-            t_far = t
-        if count == _PILOT and limit > _PILOT and t_far != t_start:
-            projected = count * (t_end - t_start) / (t_far - t_start)
-            if projected > 2.0 * limit:
-                raise _OverBudget(t, count, projected)
-        if count > limit:
-            raise _OverBudget(t, count - 1)
-        return rhs(t, y)
-
-    return counted
-
-
-def _adaptive(
-    name: str,
-    rhs: Callable,
-    y0: np.ndarray,
-    t0: float,
-    times: np.ndarray,
-    solver: str,
-    tolerances: tuple[float, float],
-    max_evaluations: Any,
-) -> tuple[np.ndarray, Any, int, int]:
-    """Integrate from ``t0``, saving at ``times`` by the solver's dense output (as solve_ivp does).
-
-    Returns the saved states (NaN past a failure), the failure as ``(status, index of the first time not
-    reached, last time reached, detail, residual)`` or None, the number of evaluations and of steps.
-    """
-    rtol, atol = tolerances
-    Y = np.full((len(times), y0.size), np.nan)
-    k = 0
-    while k < len(times) and times[k] == t0:
-        Y[k] = y0
-        k += 1
-    if k == len(times):
-        return Y, None, 0, 0
-    counted = _budgeted(rhs, max_evaluations, (t0, float(times[-1])))
-    step = getattr(_scipy_integrate, solver)(counted, t0, y0, float(times[-1]), rtol=rtol, atol=atol)
-    sign = 1.0 if times[-1] > t0 else -1.0
-    failure = None
-    n_steps = 0
-    try:
-        while k < len(times):
-            message = step.step()
-            n_steps += 1
-            if step.status == "failed":
-                failure = (Status.ADAPTIVE_FAILED, k, float(step.t), str(message), float("nan"))
-                break
-            if not np.all(np.isfinite(step.y)):
-                failure = (Status.NONFINITE, k, float(step.t_old), "", float("nan"))
-                break
-            dense = step.dense_output()
-            while k < len(times) and sign * (times[k] - step.t) <= 0:
-                Y[k] = dense(times[k])
-                k += 1
-            if step.status == "finished":
-                break
-    except _OverBudget as stop:
-        if stop.projected is not None:
-            raise InputError(
-                f"{name}: at the pace of its first {stop.count} evaluations (to t = {stop.t:.6g}) the run to "
-                f"{times[-1]:.6g} needs about {min(stop.projected, 1e300):.3g} evaluations of the equations, above "
-                f"`max_evaluations` = {int(max_evaluations)}; shorten t_final or raise `max_evaluations`."
-            ) from None
-        detail = (
-            f"stopped after {stop.count} evaluations, of {times[-1]:.6g}: the motion is faster, or the span longer, "
-            "than the budget allows; shorten t_final or raise `max_evaluations`"
-        )
-        failure = (Status.BUDGET_EXHAUSTED, k, float(step.t), detail, float("nan"))
-    except NumericalError as exc:
-        failure = (Status.SINGULAR_CONSTRAINTS, k, float(step.t), str(exc), float("nan"))
-    return Y, failure, int(step.nfev), n_steps
+#: A NumericalError raised by the equations of a Lagrangian run: they became singular.
+SINGULAR = Status.SINGULAR_CONSTRAINTS
 
 
 def _rows(
@@ -163,8 +69,8 @@ def run_full(
         return q, qd, _accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)[2]
 
     y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
-    Y, failure, nfev, n_steps = _adaptive(
-        "LagrangeDAlembert", rhs, y0, t0, times, method.solver, tolerances, max_evaluations
+    Y, failure, nfev, n_steps = integrate_ivp(
+        "LagrangeDAlembert", rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR
     )
     Q, QD, TAU = _rows(setup, times, Y, evaluate)
     return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
@@ -232,6 +138,8 @@ def run_reduced(
 
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
-    Y, failure, nfev, n_steps = _adaptive("BKMM", rhs, y0, t0, times, method.solver, tolerances, max_evaluations)
+    Y, failure, nfev, n_steps = integrate_ivp(
+        "BKMM", rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR
+    )
     Q, QD, TAU = _rows(setup, times, Y, evaluate)
     return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
