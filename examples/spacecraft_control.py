@@ -21,7 +21,6 @@ import numpy as np
 
 import geomech as gm
 from geomech.analysis import analyse_stability, perturbation_growth, stability_boundary
-from geomech.reduction import GeneralizedSerretAndoyer
 from geomech.reduction.rotor_closed_forms import locked_rotor_control, theorem5_boundary
 from geomech.systems.control import StructurePreservingControl
 from geomech.systems.rotors import RotorBody
@@ -111,7 +110,7 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
 
     # A larger perturbation for the picture: 25 degrees off the spin axis, still inside the stable island.
     big = G * np.array([np.sin(np.radians(25.0)), np.cos(np.radians(25.0)), 0.0])
-    reduced = GeneralizedSerretAndoyer(system).simulate(big, np.linspace(0.0, 600.0, 2001))
+    reduced = gm.solve(system, "serret_andoyer_atlas", t_final=600.0, saveat=2001, m0=big)
     fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
     equilibria_phase_portrait(system, G, analysis, ax=axes[0], trajectory=reduced)
     axes[0].set_title(f"closed loop: h_p level sets, k = {k:.3g}")

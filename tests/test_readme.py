@@ -19,7 +19,7 @@ def test_readme_tour_runs():
     exec(compile(code, "README.md", "exec"), namespace)
     exact = namespace["exact"]
     assert exact.family == "major" and abs(exact.period - 19.135304560260906) < 1e-9
-    assert len(namespace["traj"].switches) > 0
+    assert namespace["traj"].stats["chart_switches"] > 0
 
 
 def test_readme_nonholonomic_block_runs():

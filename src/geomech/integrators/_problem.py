@@ -198,7 +198,7 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
                     break
             if Structure.SEPARABLE_CANONICAL in missing:
                 break
-    for s in (Structure.LIE_POISSON_SPLIT, Structure.LIE_POISSON_QUADRATIC, Structure.LIE_GROUP):
+    for s in (Structure.LIE_POISSON, Structure.LIE_POISSON_SPLIT, Structure.LIE_POISSON_QUADRATIC, Structure.LIE_GROUP):
         missing[s] = f"{core.name} is a canonical system in (q, p), not a left-invariant system on T*SO(3)"
     missing[Structure.LAGRANGIAN] = (
         f"{core.name} is a canonical system in (q, p), not a Lagrangian system on G x S "

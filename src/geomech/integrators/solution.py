@@ -71,6 +71,8 @@ QUANTITIES: dict[str, tuple[str, str | None]] = {
     "tau": ("generalized force on each shape variable (given, or required by the prescribed shapes)", "shape"),
     "work": ("work done by the shape forces since the start", None),
     "constraint_residual": ("constraint residual A(q) qdot", "constraint"),
+    "serret_andoyer": ("Serret-Andoyer (l, L) and reconstruction angle phi in the chart in use", "lLphi"),
+    "chart_axis": ("body axis (1 to 3) of the Serret-Andoyer chart in use", None),
 }
 
 
@@ -294,6 +296,17 @@ class Solution:
     def work(self) -> np.ndarray:
         """The work done by the shape forces since the start."""
         return self._quantity("work")
+
+    @property
+    def serret_andoyer(self) -> np.ndarray:
+        """:math:`(l, L, \\varphi)` in the Serret-Andoyer chart in use, shape ``(*batch, n_save, 3)``
+        (:class:`~geomech.integrators.SerretAndoyerAtlas`)."""
+        return self._quantity("serret_andoyer")
+
+    @property
+    def chart_axis(self) -> np.ndarray:
+        """The body axis (1 to 3) of the Serret-Andoyer chart in use, NaN where not reached."""
+        return self._quantity("chart_axis")
 
     @property
     def constraint_residual(self) -> np.ndarray:

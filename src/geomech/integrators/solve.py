@@ -23,6 +23,7 @@ from .methods import (
     Method,
     PeriodicOrbit,
     Quadrature,
+    SerretAndoyerAtlas,
     SolveIVP,
     get_method,
 )
@@ -357,6 +358,47 @@ def _run_ivp(
     return steps
 
 
+def _run_atlas(
+    problem: Problem,
+    method: SerretAndoyerAtlas,
+    Y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+    reached: dict[int, float],
+) -> tuple[int, dict[str, np.ndarray]]:
+    """Each row of ``Y0`` on the Serret-Andoyer atlas; fills ``OUT`` and ``INFO`` as the loops do and returns
+    the chart switches and the (l, L, phi) and chart axis along each run."""
+    from ..reduction.serret_andoyer import GeneralizedSerretAndoyer
+    from ._atlas import run_atlas
+
+    sa = GeneralizedSerretAndoyer(problem.core, switch_at=method.switch_at)
+    B, n = Y0.shape[0], len(times)
+    lLphi, axis = np.full((B, n, 3), np.nan), np.full((B, n), np.nan)
+    switches = 0
+    for b in range(B):
+        m0 = Y0[b, :3]
+        if not np.linalg.norm(m0) > 0:
+            raise InputError("Expected `m0` to be nonzero: the Serret-Andoyer atlas charts the sphere |m| = G > 0.")
+        R0 = Y0[b, 3:].reshape(3, 3) if problem.layout == "mR" else np.eye(3)
+        first = None if method.axis is None else method.axis - 1
+        run = run_atlas(sa, m0, R0, t0, times, tolerances, first)
+        OUT[b, :, :3] = run.m
+        if problem.layout == "mR":
+            OUT[b, :, 3:] = run.R.reshape(n, 9)
+        lLphi[b], axis[b] = run.lLphi, run.axis
+        INFO[b, 4] = run.nfev
+        switches += len(run.switches)
+        if run.failure is not None:
+            kind, k, when, detail = run.failure
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[kind], k, np.nan
+            reasons[b], reached[b] = detail, when
+    return switches, {"serret_andoyer": lLphi, "chart_axis": axis}
+
+
 def _run_periodic(
     core: Any,
     method: PeriodicOrbit | Quadrature,
@@ -610,7 +652,13 @@ def solve(
     t_start = time.perf_counter()
     reasons: dict[int, str] = {}
     reached: dict[int, float] = {}
-    if isinstance(method, SolveIVP):
+    along: dict[str, np.ndarray] = {}
+    switches = 0
+    if isinstance(method, SerretAndoyerAtlas):
+        assert tolerances is not None
+        switches, along = _run_atlas(problem, method, Y0, t0, saved_t, tolerances, OUT, INFO, reasons, reached)
+        internal = 0
+    elif isinstance(method, SolveIVP):
         assert tolerances is not None
         internal = _run_ivp(module, method, Y0, t0, saved_t, tolerances, max_evaluations, OUT, INFO, reasons, reached)
     elif isinstance(method, AdaptiveAdams):
@@ -671,6 +719,7 @@ def solve(
         OUT = OUT[:, pick]
     states = OUT.reshape(batch_shape + OUT.shape[1:])
     inv = problem.invariants(states)
+    inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
     status = failures[0].kind if failures else Status.SUCCESS
     name = type(method).__name__
     if failures:
@@ -693,6 +742,8 @@ def solve(
             f"PeriodicOrbit: {len(saved_t)} outputs from t = {t0:g}, each from one stored period ({internal} mesh "
             "steps in all)."
         )
+    elif isinstance(method, SerretAndoyerAtlas):
+        message = f"{name}: {len(saved_t)} outputs from t = {t0:g} to {float(t_final):g}, {switches} chart switches."
     else:
         message = f"{name}: {len(saved_t)} outputs from t = {t0:g} to {float(t_final):g}, {internal} internal steps."
     solution = Solution(
@@ -714,6 +765,7 @@ def solve(
             "backend": used,
             "compile_time": compile_time,
             "run_time": run_time,
+            **({"chart_switches": switches} if isinstance(method, SerretAndoyerAtlas) else {}),
         },
         parameters=dict(getattr(problem.core, "parameters", {}) or {}),
     )

@@ -96,7 +96,8 @@ def reduced_phase_portrait(
     sa : a :class:`~geomech.reduction.GeneralizedSerretAndoyer`.
     G : the momentum magnitude.
     axis : the chart's body axis (0-based).
-    trajectory : optional ``ReducedTrajectory``; its points in this chart are overlaid.
+    trajectory : optional :class:`~geomech.Solution` of the Serret-Andoyer atlas; its points in this chart are
+        overlaid.
     """
     import matplotlib.pyplot as plt
 
@@ -109,9 +110,10 @@ def reduced_phase_portrait(
     cs = ax.contour(ll, LL, h, levels=levels, cmap="viridis", linewidths=0.8)
     ax.figure.colorbar(cs, ax=ax, label="$h_p(l, L)$")
     if trajectory is not None:
-        sel = trajectory.axis == axis
-        lw = np.angle(np.exp(1j * trajectory.l[sel]))
-        ax.plot(lw, trajectory.L[sel], ".", color="C3", markersize=2, label="trajectory (this chart)")
+        sel = np.asarray(trajectory.chart_axis) == axis + 1
+        lL = np.asarray(trajectory.serret_andoyer)[sel]
+        lw = np.angle(np.exp(1j * lL[:, 0]))
+        ax.plot(lw, lL[:, 1], ".", color="C3", markersize=2, label="trajectory (this chart)")
         ax.legend(loc="upper right")
     ax.axhline(G, color="0.3", linestyle=":")
     ax.axhline(-G, color="0.3", linestyle=":")

@@ -94,7 +94,7 @@ def equilibria_phase_portrait(
     analysis : a :class:`~geomech.analysis.StabilityAnalysis` for ``system`` and ``G`` (computed if None).
     axis : the chart's body axis, 0-based (2 is the seed's); equilibria at its poles are drawn on the lines
         :math:`L = \\pm G`.
-    trajectory : an optional ``ReducedTrajectory`` overlaid.
+    trajectory : an optional :class:`~geomech.Solution` of the Serret-Andoyer atlas (one trajectory), overlaid.
     """
     from ..analysis import analyse_stability
     from ..reduction import GeneralizedSerretAndoyer
@@ -104,9 +104,10 @@ def equilibria_phase_portrait(
         analysis = analyse_stability(system, G)
     ax = reduced_phase_portrait(GeneralizedSerretAndoyer(system), G, axis=axis, ax=ax, levels=levels)
     if trajectory is not None:
-        sel = np.asarray(trajectory.axis) == axis
-        l = np.where(sel, np.angle(np.exp(1j * np.asarray(trajectory.l))), np.nan)
-        L = np.where(sel, np.asarray(trajectory.L), np.nan)
+        sel = np.asarray(trajectory.chart_axis) == axis + 1
+        lL = np.asarray(trajectory.serret_andoyer)
+        l = np.where(sel, np.angle(np.exp(1j * lL[:, 0])), np.nan)
+        L = np.where(sel, lL[:, 1], np.nan)
         # Break the line where l wraps around, so that no segment crosses the plane.
         l[1:][np.abs(np.diff(l)) > np.pi] = np.nan
         ax.plot(l, L, "-", color="C3", linewidth=1.4, label="trajectory (this chart)")

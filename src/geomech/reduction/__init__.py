@@ -16,7 +16,7 @@ from .connections import MechanicalConnection
 from .euler_coordinates import EulerCoordinates, body_angular_velocity
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction
-from .serret_andoyer import GeneralizedSerretAndoyer, ReducedTrajectory, SerretAndoyerChart, spatial_frame
+from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
 
 __all__ = [
     "rotor_closed_forms",
@@ -33,7 +33,6 @@ __all__ = [
     "GeneralizedSerretAndoyer",
     "LPeriod",
     "MechanicalConnection",
-    "ReducedTrajectory",
     "SerretAndoyerChart",
     "body_angular_velocity",
     "momentum_l",

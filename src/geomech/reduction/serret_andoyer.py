@@ -12,7 +12,8 @@ with the reduced Hamiltonian :math:`h_p = H \\circ U_p` (Theorem 3, eq. 21) and 
 :math:`\\dot l = \\partial h_p/\\partial L`, :math:`\\dot L = -\\partial h_p/\\partial l`.
 The chart is singular at :math:`L = \\pm G` (body axis 3 along :math:`p`), and trajectories do cross it,
 so geomech keeps an atlas of three such charts, one about each body axis (the body axes permuted
-cyclically, which is a rotation and keeps the chart canonical), and switches automatically.
+cyclically, which is a rotation and keeps the chart canonical), and
+``geomech.solve(system, SerretAndoyerAtlas(), m0=..., R0=...)`` switches between them as it integrates.
 
 Reconstruction (Theorem 3): relative to a spatial frame :math:`S` whose third axis is along :math:`p`,
 
@@ -31,21 +32,20 @@ The formula for :math:`\\dot\\varphi` is the first two components of the body an
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .. import _validate as V
-from ..errors import InputError, NumericalError, SingularityError
+from ..errors import InputError, SingularityError
 from ..lie import euler as _euler
 from ..lie import so3 as _so3
 from ..symbolic.compile import M_SYMBOLS
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 
-__all__ = ["SerretAndoyerChart", "GeneralizedSerretAndoyer", "ReducedTrajectory", "spatial_frame"]
+__all__ = ["SerretAndoyerChart", "GeneralizedSerretAndoyer", "spatial_frame"]
 
 #: The chart about body axis k uses m' = C_k^T m with C_k e3 = e_k; C_k permutes the axes cyclically
 #: (a rotation), so the Lie-Poisson structure, hence canonicity of (l, L), is unchanged.
@@ -150,37 +150,6 @@ def spatial_frame(p: Any) -> np.ndarray:
         return np.eye(3) if u[2] > 0 else _so3.exp(np.array([np.pi, 0.0, 0.0]))
     angle = np.arctan2(sin_a, u[2])
     return _so3.exp(axis / sin_a * angle)
-
-
-@dataclass(frozen=True)
-class ReducedTrajectory:
-    """A trajectory of the reduced Serret-Andoyer system with its reconstruction.
-
-    Attributes
-    ----------
-    t : (n,) times.
-    l, L, phi : (n,) the Serret-Andoyer variables and the reconstruction angle in the chart in use.
-    axis : (n,) int, the body axis (0-based) of the chart in use at each time.
-    m : (n, 3) body momentum; R : (n, 3, 3) attitude (body to space).
-    G : momentum magnitude; p : (3,) spatial momentum; S : (3, 3) the spatial frame with S e3 = p/G.
-    switches : list of (time, from_axis, to_axis) chart switches.
-    status : 0 on success; message : what happened; nfev : right-hand-side evaluations.
-    """
-
-    t: np.ndarray
-    l: np.ndarray
-    L: np.ndarray
-    phi: np.ndarray
-    axis: np.ndarray
-    m: np.ndarray
-    R: np.ndarray
-    G: float
-    p: np.ndarray
-    S: np.ndarray
-    switches: tuple[tuple[float, int, int], ...]
-    status: int
-    message: str
-    nfev: int
 
 
 class GeneralizedSerretAndoyer:
@@ -331,7 +300,7 @@ class GeneralizedSerretAndoyer:
         if R0 is not None:
             R0 = V.rotation_matrix(R0, "R0")
             S = spatial_frame(R0 @ m0)
-            phi0 = self._start(S, R0, m0, G, axis)[2]
+            phi0 = self.chart_coordinates(S, R0, m0, G, axis)[2]
         else:
             S = spatial_frame(np.array([0.0, 0.0, G]) if p is None else V.exact_shape(p, "p", (3,)))
             phi0 = 0.0
@@ -339,124 +308,21 @@ class GeneralizedSerretAndoyer:
         phi = phi0 + CubicSpline(t, rate).antiderivative()(t)
         return self.attitude(S, phi, lL[:, 1], lL[:, 0], G, axis)
 
-    def _start(self, S: np.ndarray, R: np.ndarray, m: np.ndarray, G: float, axis: int) -> np.ndarray:
+    def chart_coordinates(self, S: np.ndarray, R: np.ndarray, m: np.ndarray, G: float, axis: int) -> np.ndarray:
+        """:math:`(l, L, \\varphi)` of the state :math:`(m, R)` in the chart about ``axis``, with the spatial frame
+        ``S`` of its momentum (:func:`spatial_frame`): the inverse of :meth:`attitude` and the chart's inverse."""
         lL = self.charts[axis].forward(m)
         E = S.T @ R @ self.charts[axis].permutation
         angles = _euler.from_matrix(E, seq="ZXZ")
         return np.array([lL[0], lL[1], angles[0]])
 
-    def simulate(
-        self,
-        m0: Any,
-        t_eval: Any,
-        *,
-        R0: Any | None = None,
-        axis: int | None = None,
-        rtol: float = 1e-12,
-        atol: float = 1e-12,
-        raise_on_failure: bool = True,
-    ) -> ReducedTrajectory:
-        """Integrate the reduced system (l, L) with the reconstruction angle phi, switching charts.
-
-        Parameters
-        ----------
-        m0 : (3,) initial body momentum (nonzero).
-        t_eval : (n,) increasing times, starting at the initial time.
-        R0 : (3, 3) initial attitude, default the identity.
-        axis : the first chart's body axis; default: axis 3 (the paper's) unless |m3| is near G, else the
-            axis with the smallest |m_k|.
-        rtol, atol : tolerances of the adaptive 8th-order Dormand-Prince integration (scipy's DOP853).
-
-        Returns
-        -------
-        ReducedTrajectory
-            With ``status`` 0 on success; on failure ``status`` is -1 and the message says when and why,
-            and a :class:`~geomech.errors.NumericalError` is raised unless ``raise_on_failure=False``.
-        """
-        m0 = V.exact_shape(m0, "m0", (3,))
+    def first_chart(self, m0: np.ndarray, axis: int | None = None) -> int:
+        """The chart to start in: ``axis`` if given and regular at ``m0``, else axis 3 (the seed's) unless
+        :math:`|m_3|` is near G, else the axis with the smallest :math:`|m_k|`."""
         G = float(np.linalg.norm(m0))
-        if G == 0:
-            raise InputError("Expected `m0` to be nonzero: the momentum sphere |m| = G needs G > 0.")
-        R0 = np.eye(3) if R0 is None else V.rotation_matrix(R0, "R0")
-        t_eval = V.finite(t_eval, "t_eval")
-        if t_eval.ndim != 1 or t_eval.size == 0 or np.any(np.diff(t_eval) < 0):
-            raise InputError("Expected `t_eval` to be a non-empty increasing 1-D array of times.")
-        p = R0 @ m0
-        S = spatial_frame(p)
         if axis is None:
             axis = 2 if abs(m0[2]) < self.switch_at * G else int(np.argmin(np.abs(m0)))
         axis = _axis(axis)
         if abs((m0 @ self.charts[axis].permutation)[2]) >= self.switch_at * G:
             axis = int(np.argmin(np.abs(m0)))
-        y = self._start(S, R0, m0, G, axis)
-        t0, t_end = float(t_eval[0]), float(t_eval[-1])
-        segments: list[tuple[float, float, int, Any]] = []
-        switches: list[tuple[float, int, int]] = []
-        nfev, status, message = 0, 0, "success"
-        while True:
-            # the cast only works around mypy#13087 (narrowing is not applied to a default value)
-            def rhs(_t: float, z: np.ndarray, axis: int = cast(int, axis)) -> np.ndarray:
-                f = self.reduced_vector_field(z[:2], G, axis)
-                return np.array([f[0], f[1], self.phi_rate(z[:2], G, axis)])
-
-            def leave(_t: float, z: np.ndarray) -> float:
-                return abs(z[1]) - self.switch_at * G
-
-            cast(Any, leave).terminal = True  # event attributes read by solve_ivp
-            cast(Any, leave).direction = 1
-            if t_end > t0:
-                sol = solve_ivp(
-                    rhs, (t0, t_end), y, method="DOP853", rtol=rtol, atol=atol * G, dense_output=True, events=leave
-                )
-                nfev += sol.nfev
-                if sol.status < 0:
-                    status, message = (
-                        -1,
-                        f"integration failed at t = {sol.t[-1]:.6g} in the chart about axis {axis + 1}: {sol.message}",
-                    )
-                    segments.append((t0, float(sol.t[-1]), axis, sol.sol))
-                    break
-                t1 = float(sol.t[-1])
-                segments.append((t0, t1, axis, sol.sol))
-            else:
-                sol, t1 = None, t0
-                segments.append((t0, t0, axis, lambda t, y=y: np.asarray(y)[:, None] * np.ones_like(np.atleast_1d(t))))
-            if sol is None or sol.status == 0:
-                break
-            z = sol.y[:, -1]
-            m1 = self.charts[axis].inverse(z[:2], G)
-            R1 = self.attitude(S, z[2], z[1], z[0], G, axis)
-            new = int(np.argmin(np.abs(m1)))
-            switches.append((t1, axis, new))
-            y = self._start(S, R1, m1, G, new)
-            axis, t0 = new, t1
-        return self._assemble(t_eval, segments, tuple(switches), G, p, S, status, message, nfev, raise_on_failure)
-
-    def _assemble(self, t_eval, segments, switches, G, p, S, status, message, nfev, raise_on_failure):
-        n = t_eval.size
-        l, L, phi = np.empty(n), np.empty(n), np.empty(n)
-        axis = np.empty(n, dtype=int)
-        done = np.zeros(n, dtype=bool)
-        for k, (a, b, ax, dense) in enumerate(segments):
-            last = k == len(segments) - 1
-            sel = (~done) & (t_eval >= a) & ((t_eval <= b) if last else (t_eval < b))
-            if np.any(sel):
-                z = np.asarray(dense(t_eval[sel]))
-                l[sel], L[sel], phi[sel], axis[sel] = z[0], z[1], z[2], ax
-                done |= sel
-        if not np.all(done):
-            if status == 0:
-                status, message = -1, "internal error: times not covered by the integration"
-            l[~done] = L[~done] = phi[~done] = np.nan
-            axis[~done] = -1
-        if status != 0 and raise_on_failure:
-            raise NumericalError(f"Serret-Andoyer reduced integration: {message}")
-        ok = done
-        m = np.full((n, 3), np.nan)
-        R = np.full((n, 3, 3), np.nan)
-        for ax in range(3):
-            sel = ok & (axis == ax)
-            if np.any(sel):
-                m[sel] = self.charts[ax].inverse(np.stack([l[sel], L[sel]], -1), G)
-                R[sel] = self.attitude(S, phi[sel], L[sel], l[sel], G, ax)
-        return ReducedTrajectory(t_eval, l, L, phi, axis, m, R, G, p, S, switches, status, message, nfev)
+        return axis

@@ -29,7 +29,14 @@ from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
-from ._lie_poisson import LieGroupVariational, LiePoissonSplitting, MoserVeselov, PeriodicOrbit, Quadrature
+from ._lie_poisson import (
+    LieGroupVariational,
+    LiePoissonSplitting,
+    MoserVeselov,
+    PeriodicOrbit,
+    Quadrature,
+    SerretAndoyerAtlas,
+)
 
 __all__ = [
     "Structure",
@@ -50,6 +57,7 @@ __all__ = [
     "LieGroupVariational",
     "PeriodicOrbit",
     "Quadrature",
+    "SerretAndoyerAtlas",
     "LagrangeDAlembert",
     "BKMM",
     "DiscreteLagrangeDAlembert",
@@ -80,6 +88,7 @@ REGISTRY: dict[str, Method] = {
         MoserVeselov(),
         LieGroupVariational("cayley"),
         LieGroupVariational("exp"),
+        SerretAndoyerAtlas(),
         PeriodicOrbit(),
         Quadrature(),
         LagrangeDAlembert(),

@@ -18,6 +18,7 @@ class Structure(str, enum.Enum):
     ODE = "any ODE"
     CANONICAL = "canonical"
     SEPARABLE_CANONICAL = "separable canonical"
+    LIE_POISSON = "Lie-Poisson so(3)* (any left-invariant Hamiltonian)"
     LIE_POISSON_SPLIT = "Lie-Poisson so(3)* with split Hamiltonian"
     LIE_POISSON_QUADRATIC = "Lie-Poisson so(3)* with quadratic Hamiltonian (free rigid body)"
     LIE_GROUP = "Lie group SO(3) hyperregular Lagrangian"

@@ -169,7 +169,53 @@ class LieGroupVariational(Method):
         return np.array([0.0 if self.parametrization == "cayley" else 1.0])
 
 
-#: One instance of every method, by key.
+@dataclass(frozen=True)
+class SerretAndoyerAtlas(Method):
+    """The reduced Serret-Andoyer flow on an atlas of three charts, with the reconstruction of the attitude.
+
+    In the chart about a body axis the state is the canonical pair :math:`(l, L)` of eq. (20) with the
+    reconstruction angle :math:`\varphi` of Theorem 3, integrated by Dormand-Prince 8(5,3) with error
+    control; where :math:`|L|/G` reaches ``switch_at`` (the chart's pole is :math:`|L| = G`) the run
+    switches, at the event, to the chart about the body axis with the smallest :math:`|m_k|`. The momentum
+    stays on its sphere :math:`|m| = G` exactly (the Casimir is kept to round-off) and :math:`p = R m` to
+    the tolerance. Kind: adaptive (``rtol``, ``atol``; default 1e-12, 1e-12, ``atol`` relative to G).
+    Order 8. Structure: Lie-Poisson on so(3)* with any left-invariant Hamiltonian (given by a formula or a
+    callable: only its gradient is used). Cost: as many evaluations as the tolerances require, each one
+    gradient of H (Python, not compiled). Reference: [SA] sections 5 and 8 (eqs. 20, 21, Theorem 3).
+
+    Parameters
+    ----------
+    switch_at : float
+        The value of :math:`|L|/G` in (0.6, 1) where a chart is left (default 0.9).
+    axis : {1, 2, 3} or None
+        The first chart's body axis (1-based); default axis 3 (the seed's) unless :math:`|m_3|` is near G.
+    """
+
+    switch_at: float = 0.9
+    axis: int | None = None
+    structure: ClassVar[Structure] = Structure.LIE_POISSON
+    kind: ClassVar[Kind] = Kind.ADAPTIVE
+    default_tolerances: ClassVar[tuple[float, float]] = (1e-12, 1e-12)
+    explicit: ClassVar[bool] = True
+    preserves_casimirs: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if isinstance(self.switch_at, bool) or not isinstance(self.switch_at, (int, float)):
+            raise InputError(f"Expected `switch_at` to be a number in (0.6, 1), got {self.switch_at!r}.")
+        if not 0.6 < self.switch_at < 1.0:
+            raise InputError(f"Expected `switch_at` in (0.6, 1), got {self.switch_at}; 0.9 is a good value.")
+        if self.axis is not None and self.axis not in (1, 2, 3):
+            raise InputError(f"Expected `axis` to be 1, 2 or 3 (a body axis) or None, got {self.axis!r}.")
+
+    @property
+    def order(self) -> int:
+        return 8
+
+    @property
+    def key(self) -> str:
+        return "serret_andoyer_atlas"
+
+
 @dataclass(frozen=True)
 class PeriodicOrbit(Method):
     """Exact propagation of a one-degree-of-freedom orbit by its period: the state at any time from one period.
