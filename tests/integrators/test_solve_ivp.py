@@ -40,3 +40,14 @@ def test_a_canonical_system_saved_at_any_times_and_a_blow_up_is_data():
     early = out.t < 0.9
     np.testing.assert_allclose(out.q[early, 0], 1.0 / (1.0 - out.t[early]), rtol=1e-7)
     assert np.all(np.isnan(out.q[out.t > when]))
+
+
+def test_the_traits_of_a_scipy_stepped_method_follow_its_solver():
+    from geomech.integrators import BKMM, LagrangeDAlembert
+
+    for cls in (SolveIVP, LagrangeDAlembert, BKMM):
+        assert cls().explicit and cls().order == 8 and not cls().variable_order
+        assert not cls("Radau").explicit and cls("Radau").order == 5
+        assert cls("LSODA").variable_order and not cls("BDF").explicit
+        with pytest.raises(gm.errors.InputError, match="`solver`"):
+            cls("euler")

@@ -14,7 +14,7 @@ from scipy.integrate import ode
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError
-from .solution import Status
+from .solution import Failure, Status
 
 __all__ = ["run_adaptive", "integrate_ivp", "MAX_EVALUATIONS"]
 
@@ -55,6 +55,10 @@ def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) 
     return counted
 
 
+def _failure(kind: Status, k: int, when: Any, detail: str = "") -> Failure:
+    return Failure(kind=kind, batch_index=(), step=int(k), time=float(when), residual=float("nan"), detail=detail)
+
+
 def integrate_ivp(
     name: str,
     rhs: Callable,
@@ -65,11 +69,11 @@ def integrate_ivp(
     tolerances: tuple[float, float],
     max_evaluations: Any,
     error_status: Status = Status.NONFINITE,
-) -> tuple[np.ndarray, Any, int, int]:
+) -> tuple[np.ndarray, Failure | None, int, int]:
     """Integrate from ``t0``, saving at ``times`` by the solver's dense output (as solve_ivp does).
 
-    Returns the saved states (NaN past a failure), the failure as ``(status, index of the first time not
-    reached, last time reached, detail, residual)`` or None, the number of evaluations and of steps. A
+    Returns the saved states (NaN past a failure), the :class:`Failure` (``step`` the index of the first
+    time not reached, ``time`` the last time reached) or None, the number of evaluations and of steps. A
     :class:`~geomech.errors.NumericalError` raised by ``rhs`` ends the run as the failure ``error_status``.
     """
     rtol, atol = tolerances
@@ -83,17 +87,17 @@ def integrate_ivp(
     counted = _budgeted(rhs, max_evaluations, (t0, float(times[-1])))
     step = getattr(_scipy_integrate, solver)(counted, t0, y0, float(times[-1]), rtol=rtol, atol=atol)
     sign = 1.0 if times[-1] > t0 else -1.0
-    failure = None
+    failure: Failure | None = None
     n_steps = 0
     try:
         while k < len(times):
             message = step.step()
             n_steps += 1
             if step.status == "failed":
-                failure = (Status.ADAPTIVE_FAILED, k, float(step.t), str(message), float("nan"))
+                failure = _failure(Status.ADAPTIVE_FAILED, k, step.t, str(message))
                 break
             if not np.all(np.isfinite(step.y)):
-                failure = (Status.NONFINITE, k, float(step.t_old), "", float("nan"))
+                failure = _failure(Status.NONFINITE, k, step.t_old)
                 break
             dense = step.dense_output()
             while k < len(times) and sign * (times[k] - step.t) <= 0:
@@ -112,9 +116,9 @@ def integrate_ivp(
             f"stopped after {stop.count} evaluations, of {times[-1]:.6g}: the motion is faster, or the span longer, "
             "than the budget allows; shorten t_final or raise `max_evaluations`"
         )
-        failure = (Status.BUDGET_EXHAUSTED, k, float(step.t), detail, float("nan"))
+        failure = _failure(Status.BUDGET_EXHAUSTED, k, step.t, detail)
     except NumericalError as exc:
-        failure = (error_status, k, float(step.t), str(exc), float("nan"))
+        failure = _failure(error_status, k, step.t, str(exc))
     return Y, failure, int(step.nfev), n_steps
 
 

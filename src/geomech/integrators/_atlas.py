@@ -11,21 +11,22 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..reduction.serret_andoyer import GeneralizedSerretAndoyer, spatial_frame
-from .solution import Status
+from .solution import Failure, Status
 
 
 @dataclass
 class AtlasRun:
     """One trajectory: ``m`` (n, 3), ``R`` (n, 3, 3), ``lLphi`` (n, 3) in the chart in use, ``axis`` (n,)
     1-based (NaN where not reached), the chart ``switches`` (time, from axis, to axis; 1-based), the failure
-    ``(status, index of the first time not reached, last time reached, detail)`` or None, and evaluations."""
+    :class:`Failure` (``step`` the index of the first time not reached, ``time`` the last time reached) or
+    None, and the evaluations."""
 
     m: np.ndarray
     R: np.ndarray
     lLphi: np.ndarray
     axis: np.ndarray
     switches: list[tuple[float, int, int]]
-    failure: Any
+    failure: Failure | None
     nfev: int
 
 
@@ -52,7 +53,7 @@ def run_atlas(
     segments: list[tuple[float, float, int, Any]] = []
     switches: list[tuple[float, int, int]] = []
     nfev = 0
-    failure: Any = None
+    stop: tuple[float, str] | None = None
     while True:
 
         def rhs(_t: float, z: np.ndarray, axis: int = axis) -> np.ndarray:
@@ -76,7 +77,7 @@ def run_atlas(
         t1 = float(sol.t[-1])
         segments.append((start, t1, axis, sol.sol))
         if sol.status < 0:
-            failure = (Status.ADAPTIVE_FAILED, t1, f"in the chart about axis {axis + 1}: {sol.message}")
+            stop = (t1, f"in the chart about axis {axis + 1}: {sol.message}")
             break
         if sol.status == 0:
             break
@@ -107,7 +108,8 @@ def run_atlas(
             l, L, phi = lLphi[sel, 0], lLphi[sel, 1], lLphi[sel, 2]
             m[sel] = sa.charts[ax].inverse(np.stack([l, L], -1), G)
             R[sel] = sa.attitude(S, phi, L, l, G, ax)
-    if failure is not None:
-        kind, when, detail = failure
-        failure = (kind, int(np.argmin(done)) if not done.all() else n, when, detail)
+    failure = None
+    if stop is not None:
+        k = int(np.argmin(done)) if not done.all() else n
+        failure = Failure(Status.ADAPTIVE_FAILED, (), k, stop[0], float("nan"), stop[1])
     return AtlasRun(m, R, lLphi, np.where(done, axes + 1.0, np.nan), switches, failure, nfev)

@@ -96,11 +96,9 @@ def solve_rotor(
         torque[i] = u_fn(times.t[i], R[i], m[i], Y[i, 12 + n :], Gam[i])
     if ok.any():
         energy[ok] = body.hamiltonian(m[ok], Gam[ok])
-    failures: tuple[Failure, ...] = ()
+    failures: tuple[Failure, ...] = () if failure is None else (failure,)
     name = type(method).__name__
-    if failure is not None:
-        kind, step, when, detail, residual = failure
-        failures = (Failure(kind=kind, batch_index=(), step=int(step), time=when, residual=residual, detail=detail),)
+    if failures:
         message = f"{name} on {body.name}: {failures[0].describe()}."
     else:
         message = f"{name} ({method.solver}): {times.n_saved} outputs from t = {t0:g} to {times.t[-1]:g}."

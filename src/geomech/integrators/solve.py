@@ -352,9 +352,8 @@ def _run_ivp(
         INFO[b, 4] = nfev
         steps += n
         if failure is not None:
-            kind, k, when, detail, _ = failure
-            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[kind], k, np.nan
-            reasons[b], reached[b] = detail, when
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[failure.kind], failure.step, np.nan
+            reasons[b], reached[b] = failure.detail, failure.time
     return steps
 
 
@@ -393,9 +392,8 @@ def _run_atlas(
         INFO[b, 4] = run.nfev
         switches += len(run.switches)
         if run.failure is not None:
-            kind, k, when, detail = run.failure
-            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[kind], k, np.nan
-            reasons[b], reached[b] = detail, when
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[run.failure.kind], run.failure.step, np.nan
+            reasons[b], reached[b] = run.failure.detail, run.failure.time
     return switches, {"serret_andoyer": lLphi, "chart_axis": axis}
 
 

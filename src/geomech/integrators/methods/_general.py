@@ -103,25 +103,11 @@ def check_solver(solver: str) -> None:
 
 
 @dataclass(frozen=True)
-class SolveIVP(Method):
-    """An adaptive solver of scipy's ``solve_ivp`` family on the system's equations, with error control.
-
-    ``solver="DOP853"`` (Dormand-Prince 8(5,3), the default), ``"RK45"``, ``"RK23"`` (explicit Runge-Kutta
-    pairs), ``"Radau"``, ``"BDF"`` (implicit, for stiff problems) or ``"LSODA"`` (Adams/BDF switching), stepped
-    one step at a time with dense output at ``saveat``; the number of evaluations is bounded by
-    ``max_evaluations``, and a failure is data with the states reached. Kind: adaptive (``rtol``, ``atol``;
-    default 1e-10, 1e-12). Order: that of the solver. Not structure-preserving. Structure: any ODE,
-    including those evaluated in Python with time-dependent inputs (a body with rotors and a torque law).
-    Cost: as many evaluations as the tolerances require; runs through Python (not compiled).
-    Reference: [HNW] II.4-II.5 (DOP853); Hairer & Wanner, Solving ODEs II, IV.8 (Radau).
-
-    Parameters
-    ----------
-    solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
-    """
+class ScipyStepped(Method):
+    """Base of the methods stepped by a solver of scipy's ``solve_ivp`` family (abstract): the ``solver``
+    field, the adaptive kind and tolerances, and the traits (order, explicitness) that follow from the solver."""
 
     solver: str = "DOP853"
-    structure: ClassVar[Structure] = Structure.ODE
     kind: ClassVar[Kind] = Kind.ADAPTIVE
     default_tolerances: ClassVar[tuple[float, float]] = (1e-10, 1e-12)
 
@@ -139,6 +125,27 @@ class SolveIVP(Method):
     @property
     def variable_order(self) -> bool:  # type: ignore[override]
         return self.solver in ("BDF", "LSODA")
+
+
+@dataclass(frozen=True)
+class SolveIVP(ScipyStepped):
+    """An adaptive solver of scipy's ``solve_ivp`` family on the system's equations, with error control.
+
+    ``solver="DOP853"`` (Dormand-Prince 8(5,3), the default), ``"RK45"``, ``"RK23"`` (explicit Runge-Kutta
+    pairs), ``"Radau"``, ``"BDF"`` (implicit, for stiff problems) or ``"LSODA"`` (Adams/BDF switching), stepped
+    one step at a time with dense output at ``saveat``; the number of evaluations is bounded by
+    ``max_evaluations``, and a failure is data with the states reached. Kind: adaptive (``rtol``, ``atol``;
+    default 1e-10, 1e-12). Order: that of the solver. Not structure-preserving. Structure: any ODE,
+    including those evaluated in Python with time-dependent inputs (a body with rotors and a torque law).
+    Cost: as many evaluations as the tolerances require; runs through Python (not compiled).
+    Reference: [HNW] II.4-II.5 (DOP853); Hairer & Wanner, Solving ODEs II, IV.8 (Radau).
+
+    Parameters
+    ----------
+    solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
+    """
+
+    structure: ClassVar[Structure] = Structure.ODE
 
     @property
     def key(self) -> str:

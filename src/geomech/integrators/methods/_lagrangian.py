@@ -13,13 +13,12 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from ...errors import InputError
-from ._base import Kind, Method, Structure
-from ._general import SCIPY_SOLVERS
-from ._general import check_solver as _check_solver
+from ._base import Method, Structure
+from ._general import ScipyStepped
 
 
 @dataclass(frozen=True)
-class LagrangeDAlembert(Method):
+class LagrangeDAlembert(ScipyStepped):
     """The Lagrange-d'Alembert equations with multipliers in coordinates, solved by an adaptive scipy solver.
 
     The index-reduced DAE :math:`M\\ddot q - A^T\\lambda = f`, :math:`A\\ddot q + \\dot A\\dot q = 0`, solved
@@ -39,26 +38,14 @@ class LagrangeDAlembert(Method):
         :math:`\\alpha \\ge 0` of the stabilised constraint.
     """
 
-    solver: str = "DOP853"
     baumgarte: float = 0.0
     structure: ClassVar[Structure] = Structure.LAGRANGIAN
-    kind: ClassVar[Kind] = Kind.ADAPTIVE
-    default_tolerances: ClassVar[tuple[float, float]] = (1e-10, 1e-12)
-    explicit: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        _check_solver(self.solver)
+        super().__post_init__()
         b = self.baumgarte
         if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0 <= b < float("inf"):
             raise InputError(f"Expected `baumgarte` to be a finite number >= 0, got {b!r}.")
-
-    @property
-    def order(self) -> int:
-        return SCIPY_SOLVERS[self.solver]
-
-    @property
-    def variable_order(self) -> bool:  # type: ignore[override]
-        return self.solver in ("BDF", "LSODA")
 
     @property
     def key(self) -> str:
@@ -66,7 +53,7 @@ class LagrangeDAlembert(Method):
 
 
 @dataclass(frozen=True)
-class BKMM(Method):
+class BKMM(ScipyStepped):
     """The reduced equations of Bloch, Krishnaprasad, Marsden and Murray, solved by an adaptive scipy solver.
 
     The momentum equation (1.2) for the nonholonomic momentum p, the shape equations (1.3) and the
@@ -83,22 +70,7 @@ class BKMM(Method):
     solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
     """
 
-    solver: str = "DOP853"
     structure: ClassVar[Structure] = Structure.LAGRANGIAN
-    kind: ClassVar[Kind] = Kind.ADAPTIVE
-    default_tolerances: ClassVar[tuple[float, float]] = (1e-10, 1e-12)
-    explicit: ClassVar[bool] = True
-
-    def __post_init__(self) -> None:
-        _check_solver(self.solver)
-
-    @property
-    def order(self) -> int:
-        return SCIPY_SOLVERS[self.solver]
-
-    @property
-    def variable_order(self) -> bool:  # type: ignore[override]
-        return self.solver in ("BDF", "LSODA")
 
     @property
     def key(self) -> str:

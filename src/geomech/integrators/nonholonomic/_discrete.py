@@ -12,7 +12,7 @@ from ...reduction import lagrange_dalembert
 from ...symbolic.compile import compile_vector
 from ...systems.nonholonomic import NonholonomicSystem
 from .._k_common import newton_done
-from ..solution import Status
+from ..solution import Failure, Status
 from ._inputs import _Setup
 from ._trajectory import _accelerations, _Raw
 
@@ -140,7 +140,7 @@ def run_discrete(
     tau_mid = np.full((nsteps, s.sigma), np.nan)
     work = np.full(nsteps + 1, np.nan)
     work[0] = 0.0
-    failure = None
+    failure: Failure | None = None
     reached = nsteps
     for k in range(nsteps):
         # First step: the continuous momentum p0 stands for D2 L_d of a previous step; half the impulse.
@@ -151,11 +151,11 @@ def run_discrete(
                 base = D2(Q[k - 1], Q[k]) + h / 2 * forcing(times[k] - h / 2, Q[k - 1], Q[k])
                 q1, _ = newton(Q[k], 2 * Q[k] - Q[k - 1], base, times[k + 1], h)
         except _StepFailed as why:
-            failure = (why.status, k + 1, float(times[k]), why.detail, why.residual)
+            failure = Failure(why.status, (), k + 1, float(times[k]), why.residual, why.detail)
             reached = k
             break
         if not np.all(np.isfinite(q1)):
-            failure = (Status.NONFINITE, k + 1, float(times[k]), "", float("nan"))
+            failure = Failure(Status.NONFINITE, (), k + 1, float(times[k]), float("nan"))
             reached = k
             break
         Q[k + 1] = q1

@@ -81,11 +81,9 @@ def solve_lagrangian(
         raw = engine(setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters)
         n_rhs, internal = raw.nfev, raw.steps
     run_time = time.perf_counter() - start
-    failures: tuple[Failure, ...] = ()
+    failures: tuple[Failure, ...] = () if raw.failure is None else (raw.failure,)
     name = type(method).__name__
-    if raw.failure is not None:
-        kind, step, when, detail, residual = raw.failure
-        failures = (Failure(kind=kind, batch_index=(), step=int(step), time=when, residual=residual, detail=detail),)
+    if failures:
         message = f"{name} on {system.name}: {failures[0].describe()}."
     elif times.h is not None:
         message = f"{name}: {times.n_steps} steps of h = {abs(times.h):g} from t = {t0:g}."

@@ -6,27 +6,26 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from ...errors import NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
+from ..solution import Failure
 from ._inputs import _Setup
 
 
 @dataclass
 class _Raw:
     """What an engine returns: the saved coordinates, velocities and shape forces (NaN rows past a failure),
-    the work done, the failure ``(status, step or index of the first time not reached, time, detail,
-    residual)`` or None,
+    the work done, the :class:`~geomech.integrators.Failure` or None,
     the number of evaluations, and, where the scheme defines its own, the constraint residual."""
 
     q: np.ndarray
     qd: np.ndarray
     tau: np.ndarray
     work: np.ndarray
-    failure: Any
+    failure: Failure | None
     nfev: int
     residual: np.ndarray | None = None
     steps: int = 0
