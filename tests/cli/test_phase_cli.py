@@ -156,7 +156,7 @@ from geomech.systems import HolonomicSystem
 
 def build(I1=1.0, I2=3.0):
     return HolonomicSystem.from_lagrangian("I1*theta_dot**2/2 + I2*(theta_dot + psi_dot)**2/2", "S1", ["psi"],
-                                           parameters={"I1": I1, "I2": I2}, angle_shapes=[0], name="my bodies")
+                                           parameters={"I1": I1, "I2": I2}, shape_angles=[0], name="my bodies")
 """
 
 

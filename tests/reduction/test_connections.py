@@ -44,9 +44,9 @@ def test_momentum_map_at_random_group_elements_is_carried_by_the_local_forms(sys
     s = systems[name]
     c = MechanicalConnection(s)
     G = s.group
-    J = sp.lambdify(s.coordinates + s.velocities, c.momentum_map_expression().subs(s._substitutions))
+    J = sp.lambdify(s.q + s.qdot, c.momentum_map_expression().subs(s.parameter_values()))
     Ad_of = lambda *alpha: G.numeric.Ad(G.from_coordinates(alpha))  # noqa: E731  the numeric group, not the chart
-    B = s.body_velocity_matrix_function()
+    B = s.body_velocity_matrix_function
     for _ in range(4):
         alpha = rng.uniform(-1.2, 1.2, G.dim) + (np.array([0.0, 0.7, 0.0]) if isinstance(G.numeric, SO3) else 0.0)
         r = rng.uniform(-0.6, 0.6, c.n) + (0.8 if name == "bodies" else 0.0)
@@ -63,17 +63,17 @@ def test_momentum_map_at_random_group_elements_is_carried_by_the_local_forms(sys
 def test_murray_splitting_equals_reduced_lagrangian_symbolically(systems, name):
     s = systems[name]
     c = MechanicalConnection(s)
-    assert sp.simplify(c.murray_lagrangian() - s.reduced_lagrangian()) == 0
+    assert sp.simplify(c.murray_lagrangian() - s.body_lagrangian) == 0
 
 
 def test_murray_splitting_equals_full_lagrangian_numerically(systems, rng):
     # Murray's form in xi = B(alpha) alpha_dot must equal L(q, qdot) itself at random states.
     s = systems["chain"]
     c = MechanicalConnection(s)
-    syms = s.body_velocity_symbols + s.shape_coordinates + s.shape_velocities
-    murray = sp.lambdify(syms, c.murray_lagrangian().subs(s._substitutions))
-    full = sp.lambdify(s.coordinates + s.velocities, s.lagrangian.subs(s._substitutions))
-    B = s.body_velocity_matrix_function()
+    syms = s.xi + s.shape + s.shape_dot
+    murray = sp.lambdify(syms, c.murray_lagrangian().subs(s.parameter_values()))
+    full = sp.lambdify(s.q + s.qdot, s.lagrangian.subs(s.parameter_values()))
+    B = s.body_velocity_matrix_function
     for _ in range(5):
         q, qd = rng.uniform(-1, 1, 5), rng.normal(size=5)
         xi = B(q[:3]) @ qd[:3]
@@ -93,14 +93,14 @@ def test_horizontal_space_is_metric_orthogonal_to_the_orbits(systems, rng):
     for name in ("chain", "bodies", "spacecraft"):
         s = systems[name]
         c = MechanicalConnection(s)
-        Xi = s.compile(c.generators_expression, s.coordinates)
-        Mq = s.compile(s.mass_matrix, s.coordinates)
-        B = s.body_velocity_matrix_function()
+        Xi = s.compile(c.generators_expression, s.q)
+        Mq = s.compile(s.mass_matrix, s.q)
+        B = s.body_velocity_matrix_function
         for _ in range(3):
             alpha = rng.uniform(-1, 1, 3)
             alpha[1] = abs(alpha[1]) + 0.3 if isinstance(s.group.numeric, SO3) else alpha[1]
-            r = rng.uniform(0.5, 1.2, s.shape_dim)
-            rd = rng.normal(size=s.shape_dim)
+            r = rng.uniform(0.5, 1.2, s.sigma)
+            rd = rng.normal(size=s.sigma)
             ad = np.linalg.solve(B(alpha), -c.connection(r) @ rd)
             q = np.concatenate([alpha, r])
             v = np.concatenate([ad, rd])
@@ -111,7 +111,7 @@ def test_horizontal_space_is_metric_orthogonal_to_the_orbits(systems, rng):
 def test_connection_symbolic_matches_numeric(systems, rng):
     s = systems["chain"]
     c = MechanicalConnection(s)
-    f = sp.lambdify(s.shape_coordinates, c.connection_expression().subs(s._substitutions))
+    f = sp.lambdify(s.shape, c.connection_expression().subs(s.parameter_values()))
     for r in rng.uniform(-1.5, 1.5, (4, 2)):
         np.testing.assert_allclose(np.asarray(f(*r), float), c.connection(r), atol=1e-12)
 

@@ -66,15 +66,11 @@ class GaitModel:
         return self.system.name
 
     @property
-    def shape_coordinates(self) -> tuple:
+    def shape(self) -> tuple:
         return self.system.shape
 
     @property
-    def shape_dim(self) -> int:
-        return self.sigma
-
-    @property
-    def angle_shapes(self) -> tuple[int, ...]:
+    def shape_angles(self) -> tuple[int, ...]:
         return self.system.shape_angles
 
     def check_locked_inertia(self, r: Any) -> np.ndarray:

@@ -217,10 +217,10 @@ def curvature_integral(
     (``base_point`` ``c``, default the loop's mean); the loop must not wind around an angle coordinate.
     """
     conn = _connection(system)
-    if system.shape_dim != 2:
+    if system.sigma != 2:
         raise ShapeError(
             f"Expected a 2-D shape space for the curvature integral, {system.name} has "
-            f"{system.shape_dim} shape coordinates."
+            f"{system.sigma} shape coordinates."
         )
     return stokes_integral(
         conn.curvature_2d, loop, bind_loop(system, loop), base_point=base_point, rtol=rtol, n_radial=n_radial

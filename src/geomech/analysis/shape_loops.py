@@ -29,10 +29,10 @@ def bind_loop(system: Any, loop: Any, *, atol: float = 1e-9) -> np.ndarray:
         raise InputError(f"Expected `loop` to be a Gait, got {type(loop).__name__}.")
     if loop.T is None:
         raise InputError(f"Expected a closed loop: {loop!r} has no period; build it with `period=`.")
-    names = [str(s) for s in system.shape_coordinates]
-    if loop.dim != system.shape_dim:
+    names = [str(s) for s in system.shape]
+    if loop.dim != system.sigma:
         raise ShapeError(
-            f"Expected a shape loop in the {system.shape_dim}-D shape space ({', '.join(names)}) of "
+            f"Expected a shape loop in the {system.sigma}-D shape space ({', '.join(names)}) of "
             f"{system.name}, got one with {loop.dim} coordinate(s)."
         )
     if loop.names is not None and list(loop.names) != names:
@@ -57,14 +57,14 @@ def bind_loop(system: Any, loop: Any, *, atol: float = 1e-9) -> np.ndarray:
     scale = max(1.0, float(np.abs(samples).max()))
     turns = np.zeros(loop.dim)
     for i in range(loop.dim):
-        if i in system.angle_shapes:
+        if i in system.shape_angles:
             turns[i] = np.round(d[i] / (2 * np.pi))
     gap = d - 2 * np.pi * turns
     if np.any(np.abs(gap) > atol * scale):
         raise InputError(
             f"Expected a closed shape loop: r(T) - r(0) = {np.round(d, 9).tolist()} for ({', '.join(names)}) "
             f"with T = {loop.T:g}; make the loop return to its start"
-            + (" (angle coordinates may wind by whole turns)." if system.angle_shapes else ".")
+            + (" (angle coordinates may wind by whole turns)." if system.shape_angles else ".")
         )
     system.check_locked_inertia(loop.r(np.linspace(0.0, loop.T, 65)))
     return turns.astype(int)

@@ -286,7 +286,7 @@ def loop_cmd(
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
     system = _holonomic_system(model, parse_params(params))
-    names = [str(s) for s in system.shape_coordinates]
+    names = [str(s) for s in system.shape]
     given = parse_shape_loop(shapes, names, "--shape", model)
     loop = Gait.from_expressions({n: given[n] for n in names}, period)
     mu_arr = np.zeros(1 if system.group.dim == 1 else system.group.dim) if mu is None else np.asarray(mu, float)
@@ -311,7 +311,7 @@ def loop_cmd(
         if "Theorem 2.2" not in str(exc) and "rotational phase formula" not in str(exc):
             raise
         summary["phase"] = {"available": False, "reason": str(exc)}
-    if system.shape_dim == 2:
+    if system.sigma == 2:
         B = curvature_integral(system, loop) if not np.any(_winding(system, loop)) else None
         summary["curvature_integral"] = None if B is None else B.tolist()
     with activity("reconstruction on the group"):
@@ -323,7 +323,7 @@ def loop_cmd(
         from ..plot.phases import connection_field, curvature_map, group_path
 
         outputs = Outputs(out)
-        if system.shape_dim == 2:
+        if system.sigma == 2:
             _save(outputs, connection_field(system, loop=loop), "connection.png")
             _save(outputs, curvature_map(system, loop=loop), "curvature.png")
         _save(outputs, group_path(rec), "path.png")

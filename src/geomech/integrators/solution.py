@@ -66,8 +66,11 @@ _WHAT = {
 QUANTITIES: dict[str, tuple[str, str | None]] = {
     "energy": ("energy (the Hamiltonian, or kinetic plus potential energy)", None),
     "casimir": ("Casimir |m| of so(3)*", None),
-    "spatial_momentum": ("spatial angular momentum p = R m", "axis"),
-    "momentum": ("nonholonomic momentum (components in the reduction's basis)", "momentum_index"),
+    "spatial_momentum": ("spatial momentum: the momentum map J = Ad*_{g^-1} p, R m for a body on SO(3)", "axis"),
+    "momentum": (
+        "nonholonomic momentum (components in the reduction's basis; the body momentum without constraints)",
+        "momentum_index",
+    ),
     "tau": ("generalized force on each shape variable (given, or required by the prescribed shapes)", "shape"),
     "work": ("work done by the shape forces since the start", None),
     "constraint_residual": ("constraint residual A(q) qdot", "constraint"),

@@ -54,8 +54,8 @@ def _component(system: Any, component: Any, field: Any = None) -> int:
 
 
 def _grid(system: Any, bounds: Any, loop: Any, n: int) -> tuple[np.ndarray, np.ndarray, tuple]:
-    if system.shape_dim != 2:
-        raise ShapeError(f"Expected a 2-D shape space to draw, {system.name} has {system.shape_dim} coordinates.")
+    if system.sigma != 2:
+        raise ShapeError(f"Expected a 2-D shape space to draw, {system.name} has {system.sigma} coordinates.")
     if bounds is None:
         if loop is not None:
             pts = loop.r(np.linspace(0.0, loop.T, 200))
@@ -63,7 +63,7 @@ def _grid(system: Any, bounds: Any, loop: Any, n: int) -> tuple[np.ndarray, np.n
             pad = 0.35 * np.maximum(hi - lo, 1e-3)
             bounds = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
         else:
-            bounds = (-np.pi, np.pi, -np.pi, np.pi) if system.angle_shapes else (-1.0, 1.0, -1.0, 1.0)
+            bounds = (-np.pi, np.pi, -np.pi, np.pi) if system.shape_angles else (-1.0, 1.0, -1.0, 1.0)
     b = V.exact_shape(bounds, "bounds", (4,))
     x, y = np.linspace(b[0], b[1], n), np.linspace(b[2], b[3], n)
     X, Y = np.meshgrid(x, y)
@@ -71,7 +71,7 @@ def _grid(system: Any, bounds: Any, loop: Any, n: int) -> tuple[np.ndarray, np.n
 
 
 def _labels(ax: Any, system: Any) -> None:
-    s = system.shape_coordinates
+    s = system.shape
     ax.set_xlabel(f"${_tex(s[0])}$")
     ax.set_ylabel(f"${_tex(s[1])}$")
     ax.set_aspect("equal", adjustable="box")

@@ -77,7 +77,7 @@ class MechanicalConnection:
         self.system = system
         self.group = system.group
         self.k = system.group.dim
-        self.n = system.shape_dim
+        self.n = system.sigma
 
     # -- Theorem 2.1: read off the reduced mass matrix ---------------------------------------------
     @property
@@ -104,7 +104,7 @@ class MechanicalConnection:
         """
         I, C = self.locked_inertia_expression, self.momentum_coupling_expression
         if numeric:
-            sub = self.system._substitutions
+            sub = self.system.parameter_values()
             A = I.subs(sub).LUsolve(C.subs(sub))
             return A.applyfunc(lambda e: sp.trigsimp(sp.cancel(e)) if e.has(sp.sin, sp.cos) else sp.cancel(e))
         return I.LUsolve(C).applyfunc(lambda e: sp.factor_terms(sp.together(e)))
@@ -116,10 +116,10 @@ class MechanicalConnection:
 
     def murray_lagrangian(self) -> sp.Expr:
         """:math:`\\tfrac12(\\xi + A\\dot r)^T\\mathbb I(\\xi + A\\dot r) + \\tfrac12\\dot r^T(m - A^T\\mathbb IA)
-        \\dot r - V(r)`, in :attr:`HolonomicSystem.body_velocity_symbols` and the shape velocities."""
+        \\dot r - V(r)`, in :attr:`HolonomicSystem.xi` and the shape velocities."""
         s = self.system
-        xi = sp.Matrix(s.body_velocity_symbols)
-        rd = sp.Matrix(s.shape_velocities)
+        xi = sp.Matrix(s.xi)
+        rd = sp.Matrix(s.shape_dot)
         A = self.connection_expression()
         u = xi + A * rd
         return (
@@ -152,7 +152,7 @@ class MechanicalConnection:
     def momentum_map_expression(self) -> sp.Matrix:
         """:math:`J(q, \\dot q) = \\zeta_Q^T M(q)\\dot q`, the spatial momentum, shape ``(k, 1)``."""
         Xi, _, M = self._direct_blocks
-        return Xi.T * M * sp.Matrix(self.system.velocities)
+        return Xi.T * M * sp.Matrix(self.system.qdot)
 
     def local_forms_direct(self) -> tuple[sp.Matrix, sp.Matrix]:
         """:math:`(\\mathbb I_{loc}, \\mathbb I_{loc}A_{loc})` by the direct route, at the group's reference
@@ -161,18 +161,18 @@ class MechanicalConnection:
         (from :math:`J(g, r; \\dot g, \\dot r) = \\mathrm{Ad}_{g^{-1}}^T\\mathbb I_{loc}(g^{-1}\\dot g +
         A_{loc}\\dot r)`)."""
         s, G = self.system, self.group
-        sub = dict(zip(s.group_coordinates, G.reference))
+        sub = dict(zip(s.group.coordinates, G.reference))
         Ad0 = G.Ad_matrix(G.matrix.subs(sub))
         I_sp = self.locked_inertia_spatial_expression().subs(sub)
-        J = self.momentum_map_expression().subs(sub).subs({v: 0 for v in s.group_velocities})
-        IA = sp.Matrix(self.k, self.n, lambda a, j: sp.diff(J[a], s.shape_velocities[j]))
+        J = self.momentum_map_expression().subs(sub).subs({v: 0 for v in s.qdot[: s.k]})
+        IA = sp.Matrix(self.k, self.n, lambda a, j: sp.diff(J[a], s.shape_dot[j]))
         return (Ad0.T * I_sp * Ad0).applyfunc(tidy_trig), (Ad0.T * IA).applyfunc(tidy_trig)
 
     # -- numeric ---------------------------------------------------------------------------------
     @cached_property
     def _kernels(self):
         s = self.system
-        r = s.shape_coordinates
+        r = s.shape
         Mred = s.reduced_mass_matrix
         dM = [Mred.diff(ri) for ri in r]
         return s.reduced_mass_function, s.compile(sp.Matrix.vstack(*dM), r)
@@ -247,7 +247,7 @@ class MechanicalConnection:
     def curvature_expression(self, *, numeric: bool = False) -> sp.Matrix:
         """:math:`B_{12}` symbolically on a 2-D shape space (``(k, 1)``), or all :math:`B_{ij}` as a
         ``(k, n*n)`` matrix (``[a, i*n + j]``) otherwise; ``numeric`` as in :meth:`connection_expression`."""
-        A, r = self.connection_expression(numeric=numeric), self.system.shape_coordinates
+        A, r = self.connection_expression(numeric=numeric), self.system.shape
         n = self.n
         # trigsimp of derivatives of A is slow for chains of bodies: bring over a common denominator only.
         tidy = sp.cancel if numeric else (lambda e: sp.factor_terms(sp.together(e)))
@@ -277,7 +277,7 @@ class MechanicalConnection:
         alpha_dot = V.trailing_shape(alpha_dot, "alpha_dot", (self.k,))
         r, I, C, _, _ = self._blocks(r)
         rdot = V.trailing_shape(rdot, "rdot", (self.n,))
-        B = np.asarray(self.system.body_velocity_matrix_function()(alpha))
+        B = np.asarray(self.system.body_velocity_matrix_function(alpha))
         xi = np.einsum("...ij,...j->...i", B, alpha_dot)
         p = np.einsum("...ij,...j->...i", I, xi) + np.einsum("...ij,...j->...i", C, rdot)
         Ad_inv = G.numeric.Ad(G.numeric.inverse(G.from_coordinates(alpha)))

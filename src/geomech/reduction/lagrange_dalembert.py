@@ -405,10 +405,20 @@ def _lda_fields(system: NonholonomicSystem) -> tuple:
         lam,
         tau,
         sp.ImmutableMatrix(M),
-        sp.ImmutableMatrix(f.applyfunc(sp.expand)),
+        sp.ImmutableMatrix(f.applyfunc(_expand_small)),
         sp.ImmutableMatrix(A),
-        sp.ImmutableMatrix(Adq.applyfunc(sp.expand)),
+        sp.ImmutableMatrix(Adq.applyfunc(_expand_small)),
     )
+
+
+#: Entries with more operations than this are kept as derived: expanding a force of a system with a
+#: long potential (the planar N-body's 1/d of Jacobi coordinates) multiplies its size by a thousand.
+_EXPAND_LIMIT = 400
+
+
+def _expand_small(e: sp.Expr) -> sp.Expr:
+    """``e`` expanded (a sum of terms, as printed in the equations) where it is small, else as it is."""
+    return sp.expand(e) if sp.count_ops(e) <= _EXPAND_LIMIT else e
 
 
 # --------------------------------------------------------------------------------------------------

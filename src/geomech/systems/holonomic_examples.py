@@ -53,7 +53,7 @@ def two_pinned_bodies(I1: float = 1.0, I2: float = 3.0) -> HolonomicSystem:
         )
     L = "I1*theta_dot**2/2 + I2*(theta_dot + psi_dot)**2/2"
     return HolonomicSystem.from_lagrangian(
-        L, "S1", ["psi"], parameters={"I1": I1v, "I2": I2v}, angle_shapes=(0,), name="two pinned bodies"
+        L, "S1", ["psi"], parameters={"I1": I1v, "I2": I2v}, shape_angles=(0,), name="two pinned bodies"
     )
 
 
@@ -135,14 +135,15 @@ def planar_point_positions(system: HolonomicSystem, q: Any) -> np.ndarray:
     key = "_positions_kernel"
     f = system.__dict__.get(key)
     if f is None:
-        N = 1 + (system.shape_dim + 1) // 2
-        m = sp.symbols(f"m1:{N + 1}", real=True)  # the parameters' symbols are real (bind_expression)
+        N = 1 + (system.sigma + 1) // 2
+        by_name = {p.name: p for p in system.parameter_symbols}
+        m = [by_name[f"m{i + 1}"] for i in range(N)]  # the system's own parameter symbols
         Mj = [sum(m[:j]) for j in range(1, N + 1)]
-        sh = system.shape_coordinates
+        sh = system.shape
         s = [sp.Matrix([sh[0], 0])] + [sp.Matrix([sh[1 + 2 * i], sh[2 + 2 * i]]) for i in range(N - 2)]
-        x, y, th = system.group_coordinates
+        x, y, th = system.group.coordinates
         pos = [sp.Matrix([x, y]) + _rot2(th) * p for p in _jacobi_positions(s, m, Mj)]
-        f = system.compile(sp.Matrix.hstack(*pos).T, system.coordinates)
+        f = system.compile(sp.Matrix.hstack(*pos).T, system.q)
         object.__setattr__(system, key, f)  # cache on the frozen instance
     return f(q)
 
@@ -209,7 +210,7 @@ def three_link_chain(
         | {f"J{i + 1}": float(Js[i]) for i in range(3)}
     )
     return HolonomicSystem.from_lagrangian(
-        sp.expand(T), "SE2", [a1, a2], parameters=values, angle_shapes=(0, 1), name=f"three-link chain ({origin} frame)"
+        sp.expand(T), "SE2", [a1, a2], parameters=values, shape_angles=(0, 1), name=f"three-link chain ({origin} frame)"
     )
 
 
@@ -251,5 +252,5 @@ def spacecraft_with_rotors(
         l += Jsym[k] * sum(ai * wi for ai, wi in zip(a, w)) * pd + Jsym[k] * pd**2 / 2
     values = {f"I{i + 1}": float(I[i]) for i in range(3)} | {f"Jr{k + 1}": float(Jr[k]) for k in range(n)}
     return HolonomicSystem.from_reduced(
-        l, "SO3", w, phis, parameters=values, angle_shapes=tuple(range(n)), name=f"spacecraft with {n} rotors"
+        l, "SO3", w, phis, parameters=values, shape_angles=tuple(range(n)), name=f"spacecraft with {n} rotors"
     )

@@ -23,6 +23,7 @@ Groups: any group of :mod:`geomech.lie` with its coordinate names, e.g. ``SE2("x
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -158,7 +159,7 @@ class NonholonomicSystem:
         constraints: Sequence[Any] = (),
         *,
         parameters: Mapping[str, float] | None = None,
-        velocities: Sequence[Any] | None = None,
+        velocities: Sequence[Any] | Mapping[Any, Any] | None = None,
         shape_angles: Sequence[int] | None = None,
         name: str = "system",
         description: str = "",
@@ -184,8 +185,9 @@ class NonholonomicSystem:
             ``q = (group coordinates, shape)``.
         parameters : mapping, optional
             Numeric values of (some of) the parameters.
-        velocities : sequence, optional
-            Names of the velocity symbols, in the order of ``q``.
+        velocities : sequence or mapping, optional
+            Names of the velocity symbols, in the order of ``q``, or a mapping coordinate -> velocity name for
+            those that do not follow the default ``<name>_dot``.
         shape_angles : sequence of int, optional
             Indices (in ``shape``) of the shape variables that are angles; default: those whose name is a
             Greek letter.
@@ -216,7 +218,14 @@ class NonholonomicSystem:
                 f"Expected distinct coordinate names, got {dup} both as group and as shape variables "
                 f"(group {group.name} uses {[s.name for s in group.coordinates]})."
             )
-        vnames = list(velocities) if velocities is not None else [f"{n}_dot" for n in qnames]
+        if isinstance(velocities, Mapping):
+            given = {str(k): str(v) for k, v in velocities.items()}
+            unknown = sorted(set(given) - set(qnames))
+            if unknown:
+                raise InputError(f"`velocities` names {unknown}, which are not coordinates ({qnames}).")
+            vnames = [given.get(n, f"{n}_dot") for n in qnames]
+        else:
+            vnames = list(velocities) if velocities is not None else [f"{n}_dot" for n in qnames]
         if len(vnames) != len(q):
             raise InputError(f"Expected {len(q)} velocity names (one per coordinate {qnames}), got {len(vnames)}.")
         qd = _symbols(vnames, "velocities")
@@ -319,20 +328,7 @@ class NonholonomicSystem:
             raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {sorted(names)}.")
         merged = dict(self.parameters)
         merged.update(_checked_values({s.name: s for s in self.parameter_symbols}, values, self.name))
-        return NonholonomicSystem(
-            self.name,
-            self.group,
-            self.shape,
-            self.qdot,
-            self.lagrangian,
-            self.constraint_matrix,
-            self.parameter_symbols,
-            merged,
-            self.shape_angles,
-            self.description,
-            self.body_basis,
-            self.basis_note,
-        )
+        return dataclasses.replace(self, parameters=merged)
 
     # ---------------- identity for caches ----------------
     @cached_property

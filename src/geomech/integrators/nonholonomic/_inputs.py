@@ -184,8 +184,21 @@ def initial_state(
                 "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1)."
             )
         return q, qd
-    red = bkmm_reduction(system)
     rd = _shape_rates(system, setup, rdot0, rd_p)
+    lam_inv = _group_rates(system)
+    if system.c == 0:
+        # no constraints: p is the body momentum dl/dxi, and M_gg qdot_g + M_gr rdot = B^T p (B = Lambda^{-1})
+        k = system.k
+        p = np.zeros(k) if p0 is None else V.finite(p0, "p0").ravel()
+        if p.size != k:
+            raise InputError(
+                f"Expected `p0` to have {k} entries (the body momentum of {system.name} in the basis of "
+                f"{system.group.name}'s algebra), got {p.size}."
+            )
+        M = lda.mass_matrix(q)
+        B = np.linalg.inv(lam_inv(q[:k]))
+        return q, np.r_[np.linalg.solve(M[:k, :k], B.T @ p - M[:k, k:] @ rd), rd]
+    red = bkmm_reduction(system)
     p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
     if p.size != red.m:
         raise InputError(
@@ -194,7 +207,6 @@ def initial_state(
         )
     rn = red.numeric(parameters)
     xi = rn.xi(q[system.k :], rd, p)
-    lam_inv = _group_rates(system)
     qd = np.r_[lam_inv(q[: system.k]) @ xi, rd]
     return q, qd
 
@@ -248,3 +260,13 @@ def _group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarra
         return Li
 
     return rates
+
+
+def body_momentum(system: NonholonomicSystem, lda: Any, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """The body momentum :math:`\\partial l/\\partial\\xi = \\Lambda^{-T}\\partial L/\\partial\\dot q_G` at the
+    states ``(N, n)``, shape ``(N, k)``: the momentum of a system without constraints (BKMM's with the
+    algebra's basis)."""
+    k = system.k
+    P = np.einsum("...ij,...j->...i", lda.mass_matrix(q), qd)[..., :k]
+    rates = _group_rates(system)
+    return np.stack([rates(g).T @ Pi for g, Pi in zip(q[:, :k], P)]) if len(q) else np.zeros((0, k))

@@ -12,7 +12,7 @@ import numpy as np
 from ...errors import NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
 from ..solution import Failure
-from ._inputs import _Setup
+from ._inputs import _Setup, body_momentum
 
 
 @dataclass
@@ -33,18 +33,28 @@ class _Raw:
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:
     """The Solution's quantities of a Lagrangian run: energy, nonholonomic momentum, shape forces, work and
-    constraint residual, NaN where the run did not reach."""
+    constraint residual, and without constraints the spatial momentum (the momentum map
+    :math:`J = \\mathrm{Ad}^*_{g^{-1}}p`, conserved), NaN where the run did not reach."""
     s = setup.system
     lda = lagrange_dalembert(s).numeric(parameters)
-    rn = bkmm_reduction(s).numeric(parameters)
+    # without constraints the momentum is the body momentum, computed without deriving the reduction
+    m = s.k if s.c == 0 else bkmm_reduction(s).m
     N = len(raw.q)
     ok = np.all(np.isfinite(raw.q), axis=1) & np.all(np.isfinite(raw.qd), axis=1)
-    momentum = np.full((N, bkmm_reduction(s).m), np.nan)
+    momentum = np.full((N, m), np.nan)
     energy = np.full(N, np.nan)
     residual = np.full((N, s.c), np.nan)
+    spatial = np.full((N, s.k), np.nan)
     if ok.any():
         q, qd = raw.q[ok], raw.qd[ok]
-        momentum[ok] = rn.momentum(q, qd).reshape(len(q), -1)
+        if s.c == 0:
+            momentum[ok] = body_momentum(s, lda, q, qd)
+            G = s.group
+            spatial[ok] = [
+                G.numeric.Ad(G.numeric.inverse(G.from_coordinates(a))).T @ p for a, p in zip(q[:, : s.k], momentum[ok])
+            ]
+        else:
+            momentum[ok] = bkmm_reduction(s).numeric(parameters).momentum(q, qd).reshape(len(q), -1)
         energy[ok] = lda.energy(q, qd)
         residual[ok] = lda.constraint_residual(q, qd).reshape(len(q), s.c)
     if raw.residual is not None:
@@ -55,6 +65,7 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
         "tau": raw.tau,
         "work": raw.work,
         "constraint_residual": residual,
+        **({"spatial_momentum": spatial} if s.c == 0 else {}),
     }
 
 
