@@ -13,6 +13,8 @@ from .symbolic.compile import M_SYMBOLS
 from .systems import (
     CanonicalSystem,
     Gait,
+    GroupFlow,
+    HolonomicSystem,
     LeftInvariantSystem,
     NonholonomicSystem,
     RigidBody,
@@ -24,6 +26,8 @@ from .systems import (
 __all__ = [
     "CanonicalSystem",
     "Gait",
+    "GroupFlow",
+    "HolonomicSystem",
     "NonholonomicSystem",
     "GeneralizedSerretAndoyer",
     "GeomechError",

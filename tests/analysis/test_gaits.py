@@ -76,7 +76,7 @@ def test_reconstruction_agrees_with_full_simulation(board):
         rtol=1e-12,
         atol=1e-13,
     )
-    assert np.abs(tr.q[:, :3] - a.path.coordinates).max() < 1e-8  # theta unwrapped in both
+    assert np.abs(tr.q[:, :3] - a.path.g).max() < 1e-8  # theta unwrapped in both
     assert np.abs(tr.p - a.p).max() < 1e-8
     assert np.abs(tr.q[:, 3:] - a.r).max() < 1e-12
 
@@ -96,7 +96,7 @@ def test_reconstruction_agrees_with_reduced_simulation(board):
         rtol=1e-12,
         atol=1e-13,
     )
-    assert np.abs(tr.q[:, :3] - a.path.coordinates).max() < 1e-8
+    assert np.abs(tr.q[:, :3] - a.path.g).max() < 1e-8
     assert np.abs(tr.p - a.p).max() < 1e-8
 
 
@@ -147,8 +147,8 @@ def test_principally_kinematic_connection_is_the_whole_motion(car):
     loop = {"psi": "2*sin(2*pi*t)", "phi": "0.3*cos(2*pi*t)"}
     a = analyse_gait(car, loop, period=1.0, periods=2)
     assert a.model.m == 0 and a.p.shape == (a.t.size, 0)
-    assert np.abs(a.path.g - a.alone["connection"].g).max() < 1e-12
-    assert np.abs(a.alone["momentum"].g - np.eye(3)).max() == 0.0
+    assert np.abs(a.path.element - a.alone["connection"].element).max() < 1e-12
+    assert np.abs(a.alone["momentum"].element - np.eye(3)).max() == 0.0
     # theta' = (R/ell) tan(phi) psi', integrated by quadrature
     dth = quad(
         lambda t: 0.3 * np.tan(0.3 * np.cos(2 * np.pi * t)) * 4 * np.pi * np.cos(2 * np.pi * t),

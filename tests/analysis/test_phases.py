@@ -14,7 +14,7 @@ from geomech.analysis import (  # noqa: E402
     curvature_integral,
     decompose_displacement,
     geometric_phase,
-    integrate_on_group,
+    integrate_path,
     phases,
     reconstruct,
     rigid_body_phase,
@@ -90,7 +90,7 @@ def test_pinned_bodies_closed_form(pinned, mu, turns):
     assert abs(ph.geometric - (-2 * np.pi * turns * I2 / (I1 + I2))) < 1e-12
     assert abs(ph.total - want) < 1e-10
     rec = reconstruct(pinned, loop, mu)
-    assert abs(rec.path.coordinates[-1, 0] - want) < 1e-9
+    assert abs(rec.path.g[-1, 0] - want) < 1e-9
     if mu != 0:
         printed = I2 / (I1 + I2) * (-2 * np.pi * turns + mu * T)  # the misprinted form differs
         assert abs(printed - want) > 0.1
@@ -109,7 +109,7 @@ def test_phase_formula_equals_reconstruction_random_loops_pinned(pinned, rng):
         mu = rng.normal()
         ph = phases(pinned, loop, mu)
         rec = reconstruct(pinned, loop, mu, t_eval=np.array([0.0, loop.period]))
-        assert abs(rec.path.coordinates[-1, 0] - ph.total) < 1e-9
+        assert abs(rec.path.g[-1, 0] - ph.total) < 1e-9
 
 
 # -- the free rigid body (Montgomery) -------------------------------------------------------------
@@ -162,7 +162,7 @@ def test_planar_bodies_rotation_formula_vs_full_simulation(bodies):
     sol = simulate(bodies, q0, qd0, np.linspace(0, 3.0, 4), loop)
     assert abs(sol.q[-1, 2] - g0[2] - ph.total) < 1e-8
     rec = reconstruct(bodies, loop, mu, g0=g0, t_eval=np.linspace(0, 3.0, 4))
-    np.testing.assert_allclose(rec.path.coordinates, sol.q[:, :3], atol=1e-9)
+    np.testing.assert_allclose(rec.path.g, sol.q[:, :3], atol=1e-9)
 
 
 def test_two_body_kepler_dynamic_phase_is_a_full_turn():
@@ -246,7 +246,7 @@ def test_reconstruction_vs_newtonian_three_body(bodies):
     te = np.linspace(0.1, 1.9, 10)
     rec = reconstruct(bodies, Path(), [P[0], P[1], L], g0=state(0.1)[0], t_eval=te)
     direct = np.array([state(t)[0] for t in te])
-    d = rec.path.coordinates - direct
+    d = rec.path.g - direct
     d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
     assert np.abs(d).max() < 1e-9
     # and the Euler-Lagrange equations of the full Lagrangian in (x, y, theta, rho, a, b) agree with Newton
@@ -294,7 +294,7 @@ def test_phase_formula_vs_reconstruction_random_loops_and_momenta_se2(bodies, rn
         mu, g0 = rng.normal(size=3), rng.normal(size=3)
         ph = phases(bodies, loop, mu, g0=g0)
         rec = reconstruct(bodies, loop, mu, g0=g0, t_eval=np.array([0.0, loop.period]))
-        assert abs(rec.path.angle[-1] - g0[2] - ph.total) < 1e-9
+        assert abs(rec.path.g[-1, 2] - g0[2] - ph.total) < 1e-9
 
 
 @pytest.mark.slow
@@ -305,7 +305,7 @@ def test_phase_formula_vs_reconstruction_random_loops_and_momenta_chain_com_fram
         mu, g0 = rng.normal(size=3), rng.normal(size=3)
         ph = phases(system, loop, mu, g0=g0)
         rec = reconstruct(system, loop, mu, g0=g0, t_eval=np.array([0.0, loop.period]))
-        assert abs(rec.path.angle[-1] - g0[2] - ph.total) < 1e-9
+        assert abs(rec.path.g[-1, 2] - g0[2] - ph.total) < 1e-9
         q0, qd0 = full_initial_state(system, loop, mu, g0)
         sol = simulate(system, q0, qd0, np.array([0.0, loop.period]), loop)
         assert abs(sol.q[-1, 2] - g0[2] - ph.total) < 1e-8
@@ -324,47 +324,49 @@ def test_so3_reconstruction_with_momentum_against_the_full_simulation(rng):
     q0, qd0 = full_initial_state(s, loop, mu, g0)
     sol = simulate(s, q0, qd0, t, loop)
     R_sim = s.group.from_coordinates(sol.q[:, :3])
-    np.testing.assert_allclose(rec.path.g, R_sim, atol=1e-9)
-    assert np.abs(rec.path.g[-1] - R_sim[0]).max() > 0.1  # the attitude did move
+    np.testing.assert_allclose(rec.path.element, R_sim, atol=1e-9)
+    assert np.abs(rec.path.element[-1] - R_sim[0]).max() > 0.1  # the attitude did move
 
 
 def test_rkmk4_is_fourth_order(chain):
     loop = Gait.ellipse([0.4, -0.2], [0.9, 0.6], 2.0)
     mu = np.array([0.2, -0.3, 0.5])
-    ref = reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0])).path.g[-1]
+    ref = reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0])).path.element[-1]
     hs = np.array([0.2, 0.1, 0.05])
     errs = [
-        np.abs(reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0]), method="rkmk4", step=h).path.g[-1] - ref).max()
+        np.abs(
+            reconstruct(chain, loop, mu, t_eval=np.array([0.0, 2.0]), method="rkmk4", h=h).path.element[-1] - ref
+        ).max()
         for h in hs
     ]
     order = np.polyfit(np.log(hs), np.log(errs), 1)[0]
     assert 3.7 < order < 4.4
 
 
-def test_integrate_on_group_exact_for_constant_velocity(rng):
+def test_integrate_path_exact_for_constant_velocity(rng):
     for name, xi in (("SE2", np.array([0.3, -1.2, 2.5])), ("SO3", np.array([1.0, -2.0, 0.5]))):
         G = named_group(name)
         g0 = G.from_coordinates(np.array([0.2, 0.9, -0.4]))
         t = np.linspace(0.0, 3.0, 7)
-        path = integrate_on_group(G, lambda _t, _g, xi=xi: xi, g0, t)
+        path = integrate_path(G, lambda _t, _g, xi=xi: xi, g0, t)
         exact = g0 @ (se2 if name == "SE2" else so3).exp(t[:, None] * xi)
-        np.testing.assert_allclose(path.g, exact, atol=1e-10)
+        np.testing.assert_allclose(path.element, exact, atol=1e-10)
         if name == "SE2":
-            np.testing.assert_allclose(path.angle - path.angle[0], t * xi[2], atol=1e-10)  # unwrapped
+            np.testing.assert_allclose(path.g[:, 2] - path.g[0, 2], t * xi[2], atol=1e-10)  # unwrapped
 
 
 def test_decomposition_adds_up_only_when_abelian(pinned, chain):
     loop1 = Gait.from_expressions(["2*pi*t + 0.3*sin(2*pi*t)"], 1.0)
     rec = reconstruct(pinned, loop1, 0.9, decompose=True, t_eval=np.array([0.0, 1.0]))
-    parts = rec.alone["connection"].angle[-1] + rec.alone["momentum"].angle[-1]
-    assert abs(parts - rec.path.angle[-1]) < 1e-12
+    parts = rec.alone["connection"].g[-1, 0] + rec.alone["momentum"].g[-1, 0]
+    assert abs(parts - rec.path.g[-1, 0]) < 1e-12
     out = decompose_displacement(
         chain.group,
         {"a": lambda t, g: np.array([1.0, 0.0, 0.0]), "b": lambda t, g: np.array([0.0, 0.0, 1.0])},
         np.eye(3),
         [0.0, 1.0],
     )
-    assert np.abs(out["total"].g[-1] - out["a"].g[-1] @ out["b"].g[-1]).max() > 1e-3
+    assert np.abs(out["total"].element[-1] - out["a"].element[-1] @ out["b"].element[-1]).max() > 1e-3
 
 
 # -- bad input -------------------------------------------------------------------------------------

@@ -24,11 +24,11 @@ def test_paths_full_and_parts(analysis):
     ax = gait_paths(analysis)
     lines = {ln.get_label(): ln for ln in ax.get_lines()}
     full = ax.get_lines()[0]
-    assert np.allclose(full.get_xydata(), analysis.path.coordinates[:, :2])
+    assert np.allclose(full.get_xydata(), analysis.path.g[:, :2])
     conn = [ln for k, ln in lines.items() if k.startswith("connection")][0]
     mom = [ln for k, ln in lines.items() if k.startswith("momentum")][0]
-    assert np.allclose(conn.get_xydata(), analysis.alone["connection"].coordinates[:, :2])
-    assert np.allclose(mom.get_xydata(), analysis.alone["momentum"].coordinates[:, :2])
+    assert np.allclose(conn.get_xydata(), analysis.alone["connection"].g[:, :2])
+    assert np.allclose(mom.get_xydata(), analysis.alone["momentum"].g[:, :2])
     plt.close(ax.figure)
 
 

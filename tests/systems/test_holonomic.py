@@ -150,6 +150,9 @@ def test_free_simulation_conserves_energy_and_momentum():
     assert np.abs(J - J[0]).max() < 1e-10
     np.testing.assert_allclose(sol.spatial_momentum, J, atol=1e-12 * np.abs(J).max())
     assert np.ptp(sol.momentum[:, 2]) > 1e-2  # the body momentum is not conserved on SE(2), its image J is
+    # the group part as elements of SE(2): the translation column is (x, y)
+    np.testing.assert_allclose(sol.element[:, :2, 2], sol.g[:, :2], atol=1e-15)
+    assert sol.net_motion()["theta"] == pytest.approx(sol.g[-1, 2] - sol.g[0, 2])
     # the same state from the shape rates and the body momentum (rdot0, p0) instead of every velocity
     again = solve(
         s,

@@ -12,7 +12,7 @@ from .equilibria import (
 )
 from .gait_model import GaitModel, gait_loop
 from .gaits import GaitAnalysis, analyse_gait, connection_line_integral, gait_curvature_integral
-from .group_paths import GroupPath, decompose_displacement, integrate_on_group
+from .group_paths import decompose_displacement, integrate_path
 from .phases import (
     PhaseSplit,
     Reconstruction,
@@ -47,7 +47,6 @@ __all__ = [
     "connection_line_integral",
     "gait_curvature_integral",
     "gait_loop",
-    "GroupPath",
     "PhaseSplit",
     "Reconstruction",
     "RigidBodyPhase",
@@ -56,7 +55,7 @@ __all__ = [
     "curvature_integral",
     "decompose_displacement",
     "geometric_phase",
-    "integrate_on_group",
+    "integrate_path",
     "phases",
     "reconstruct",
     "rigid_body_phase",

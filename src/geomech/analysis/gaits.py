@@ -13,7 +13,7 @@ the nonholonomic seed; Bloch, Krishnaprasad, Marsden and Murray 1996) gives
 with :math:`e(r)` the body-fixed basis of :math:`S_q = \mathcal D_q\cap T_q\mathrm{Orb}`. Along a prescribed
 gait the momentum equation is an ODE for :math:`p` alone, driven by :math:`(r, \dot r)`; :func:`analyse_gait`
 integrates it, then reconstructs :math:`g(t)` on the group with a Lie-group method
-(:func:`~geomech.analysis.group_paths.integrate_on_group`), and gives the net displacement
+(:func:`~geomech.solve` on a :class:`~geomech.systems.GroupFlow`), and gives the net displacement
 :math:`g(0)^{-1}g(T)` per period and over several periods, the change of :math:`p` over each period, and the
 displacement that the connection term and the momentum term would each produce alone
 (:func:`~geomech.analysis.group_paths.decompose_displacement`).
@@ -40,9 +40,10 @@ from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError, ShapeError
+from ..integrators import Solution
 from ..systems.gait import Gait
 from .gait_model import GaitModel, check_regular, gait_loop
-from .group_paths import GroupPath, decompose_displacement
+from .group_paths import decompose_displacement
 from .phases import stokes_integral
 from .shape_loops import bind_loop, periodic_integral
 
@@ -76,8 +77,8 @@ class GaitAnalysis:
     r, rdot : (n, sigma) shapes and shape velocities.
     p : (n, m) nonholonomic momentum (eq. 1.2 integrated along the gait).
     xi_connection, xi_momentum : (n, k) the two terms of the body velocity (eq. 1.1); ``xi`` their sum.
-    path : GroupPath of :math:`g(t)` (eq. 1.1 integrated on the group).
-    alone : ``{"connection": GroupPath, "momentum": GroupPath}``, each term integrated by itself from ``g0``.
+    path : Solution of :math:`g(t)` (eq. 1.1 integrated on the group).
+    alone : ``{"connection": Solution, "momentum": Solution}``, each term integrated by itself from ``g0``.
     winding : whole turns of the loop in its angle coordinates.
     """
 
@@ -90,8 +91,8 @@ class GaitAnalysis:
     p: np.ndarray = field(repr=False)
     xi_connection: np.ndarray = field(repr=False)
     xi_momentum: np.ndarray = field(repr=False)
-    path: GroupPath = field(repr=False)
-    alone: dict[str, GroupPath] = field(repr=False)
+    path: Solution = field(repr=False)
+    alone: dict[str, Solution] = field(repr=False)
     winding: tuple[int, ...] = ()
     momentum_nfev: int = 0
 
@@ -113,7 +114,7 @@ class GaitAnalysis:
         step = (self.t.size - 1) // self.periods
         return np.arange(self.periods + 1) * step
 
-    def _path(self, part: str) -> GroupPath:
+    def _path(self, part: str) -> Solution:
         if part == "total":
             return self.path
         if part not in self.alone:
@@ -131,7 +132,7 @@ class GaitAnalysis:
                 f"Expected 0 <= start and start + periods <= {self.periods}, got start = {start}, periods = {n}."
             )
         G = self.model.group.numeric
-        return G.compose(G.inverse(path.g[idx[start]]), path.g[idx[start + n]])
+        return G.compose(G.inverse(path.element[idx[start]]), path.element[idx[start + n]])
 
     def displacement_coordinates(
         self, periods: int | None = None, *, part: str = "total", start: int = 0
@@ -148,8 +149,9 @@ class GaitAnalysis:
         if self.model.exponential_coordinates:
             return chart.numeric.log(d)
         q = np.array(chart.to_coordinates(d), dtype=float)
-        if path.angles is not None:
-            q[list(chart.angle_components)] = path.angles[idx[start + n]] - path.angles[idx[start]]
+        ac = list(chart.angle_components)
+        if ac:
+            q[ac] = path.g[idx[start + n], ac] - path.g[idx[start], ac]
         return q
 
     @property
@@ -206,9 +208,9 @@ class GaitAnalysis:
             "angles_unwrapped": bool(self.model.group.angle_components),
             "note": _NOTE,
             "integrator": {
-                "group": self.path.method,
-                "steps": int(self.path.steps),
-                "nfev": int(self.path.nfev),
+                "group": self.path.method.key,
+                "steps": int(self.path.stats["n_internal_steps"]),
+                "nfev": int(self.path.stats["n_rhs"]),
                 "momentum_nfev": int(self.momentum_nfev),
             },
         }
@@ -227,11 +229,11 @@ class GaitAnalysis:
             "coordinate": list(self.coordinate_names),
         }
 
-        def gcoords(path: GroupPath) -> np.ndarray:
+        def gcoords(path: Solution) -> np.ndarray:
             G = self.model.group.numeric
             if self.model.exponential_coordinates:
-                return G.log(G.compose(G.inverse(path.g[0])[None], path.g))
-            return path.coordinates
+                return G.log(G.compose(G.inverse(path.element[0])[None], path.element))
+            return path.g
 
         data = {
             "r": (("t", "shape"), self.r),
@@ -296,7 +298,7 @@ def analyse_gait(
 
     Steps: (1) the momentum equation (1.2) along :math:`r(t)` from :math:`p(0) = p_0` (scipy's DOP853,
     dense output); (2) :math:`g^{-1}\dot g = -\mathcal A^{nh}(r)\dot r + e(r)\mathbb I^{-1}(r)p` (eq. 1.1) on
-    the group by Runge-Kutta-Munthe-Kaas (:func:`~geomech.analysis.group_paths.integrate_on_group`), together
+    the group by Runge-Kutta-Munthe-Kaas (:func:`~geomech.solve` on a :class:`~geomech.systems.GroupFlow`), together
     with each term alone (:func:`~geomech.analysis.group_paths.decompose_displacement`). The alone-displacements
     do not add (nor compose) to the net one on a non-abelian group, and are not a geometric/dynamic phase
     split: see the module docstring.

@@ -8,7 +8,7 @@ variable obeys the reconstruction equation (eq. 2.2)
     g^{-1}\dot g = -A_{loc}(r)\dot r + \mathbb I_{loc}^{-1}(r)\,p, \qquad p = \mathrm{Ad}_g^*\mu,
 
 with :math:`\mu` the conserved spatial momentum. :func:`reconstruct` integrates it on the group with a
-Lie-group method (:func:`~geomech.analysis.group_paths.integrate_on_group`: Runge-Kutta-Munthe-Kaas, in
+Lie-group method (:func:`~geomech.solve` on a :class:`~geomech.systems.GroupFlow`: Runge-Kutta-Munthe-Kaas, in
 exponential coordinates about a moving centre), for any of the groups. Where the group is abelian (or the
 rotation of SE(2) when it decouples, and the free rigid body, :math:`G_\mu = S^1`) the change of the group
 variable over a closed shape loop of period :math:`T` splits as in Theorem 2.2 (eq. 2.3):
@@ -37,9 +37,10 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, ShapeError
+from ..integrators import Solution
 from ..lie._common import wrap_angle
 from ..systems.gait import Gait
-from .group_paths import GroupPath, decompose_displacement, integrate_on_group
+from .group_paths import decompose_displacement, integrate_path
 from .shape_loops import bind_loop, periodic_integral
 
 __all__ = [
@@ -281,21 +282,22 @@ def stokes_integral(
 class Reconstruction:
     """The group path of a holonomic system along a shape path, with the parts of its body velocity.
 
-    ``path`` is the :class:`GroupPath`; ``r`` the shapes; ``p`` the body momenta
-    :math:`\\mathrm{Ad}_g^T\\mu`; ``xi_connection`` :math:`= -A_{loc}\\dot r`, ``xi_momentum``
+    ``path`` is the path on the group, a :class:`~geomech.Solution` of layout ``"group"`` (``g`` its coordinates,
+    angles unwrapped, ``element`` the matrices, ``displacement()``, ``net_motion()``); ``r`` the shapes; ``p``
+    the body momenta :math:`\\mathrm{Ad}_g^T\\mu`; ``xi_connection`` :math:`= -A_{loc}\\dot r`, ``xi_momentum``
     :math:`= \\mathbb I^{-1}p` and ``xi`` their sum, all at the output times; ``alone`` maps ``"connection"``
     and ``"momentum"`` to the path each term would give by itself (when asked for).
     """
 
     t: np.ndarray
-    path: GroupPath
+    path: Solution
     r: np.ndarray
     p: np.ndarray
     xi: np.ndarray
     xi_connection: np.ndarray
     xi_momentum: np.ndarray
     mu: np.ndarray
-    alone: dict[str, GroupPath] | None = None
+    alone: dict[str, Solution] | None = None
 
 
 def reconstruct(
@@ -305,10 +307,10 @@ def reconstruct(
     *,
     g0: Any = None,
     t_eval: Any = None,
-    method: str = "rkmk-dop853",
+    method: Any = "rkmk",
     rtol: float = 1e-12,
     atol: float = 1e-12,
-    step: float | None = None,
+    h: float | None = None,
     decompose: bool = False,
 ) -> Reconstruction:
     """Reconstruct :math:`g(t)` along a shape path by eq. (2.2), for any of the groups.
@@ -321,6 +323,8 @@ def reconstruct(
     mu : conserved spatial momentum, ``(k,)`` (a scalar for S^1).
     g0 : group coordinates at the first time (default the identity).
     t_eval : output times (default 201 times over one period of the loop).
+    method : ``"rkmk"`` (adaptive, ``rtol``/``atol``) or ``"rkmk4"`` (fixed step ``h``, ``t_eval`` on its grid), or
+        a method value: a method of :func:`~geomech.solve` for a :class:`~geomech.systems.GroupFlow`.
     decompose : also integrate the connection term and the momentum term alone.
     """
     G = system.group
@@ -333,7 +337,6 @@ def reconstruct(
         raise InputError("Give `t_eval` when `shape` is not a Gait.")
     mu = _momentum(mu, G)
     alpha0 = np.zeros(G.dim) if g0 is None else V.exact_shape(np.atleast_1d(g0), "g0", (G.dim,))
-    g_init = G.from_coordinates(alpha0)
 
     def xi_conn(t: float, g: np.ndarray) -> np.ndarray:
         r = shape.r(t)
@@ -343,20 +346,20 @@ def reconstruct(
         I = conn.locked_inertia(shape.r(t))
         return np.linalg.solve(I, G.numeric.Ad(g).T @ mu)
 
-    opts: dict[str, Any] = dict(method=method, rtol=rtol, atol=atol, step=step)
+    opts: dict[str, Any] = dict(method=method, rtol=rtol, atol=atol, h=h)
     t_eval = V.finite(t_eval, "t_eval")
     if decompose:
-        parts = decompose_displacement(G, {"connection": xi_conn, "momentum": xi_mom}, g_init, t_eval, **opts)
+        parts = decompose_displacement(G, {"connection": xi_conn, "momentum": xi_mom}, alpha0, t_eval, **opts)
         path, alone = parts.pop("total"), parts
     else:
-        path = integrate_on_group(G, lambda t, g: xi_conn(t, g) + xi_mom(t, g), g_init, t_eval, **opts)
+        path = integrate_path(G, lambda t, g: xi_conn(t, g) + xi_mom(t, g), alpha0, t_eval, **opts)
         alone = None
     if isinstance(shape, Gait):
         r, rd = shape.r(t_eval), shape.rdot(t_eval)
     else:
         r = np.stack([np.asarray(shape.r(t), dtype=float) for t in t_eval])
         rd = np.stack([np.asarray(shape.rdot(t), dtype=float) for t in t_eval])
-    Ad = G.numeric.Ad(path.g)
+    Ad = G.numeric.Ad(path.element)
     p = np.einsum("nji,j->ni", Ad, mu)
     xc = -np.einsum("naj,nj->na", conn.connection(r), rd)
     xm = np.linalg.solve(conn.locked_inertia(r), p[..., None])[..., 0]

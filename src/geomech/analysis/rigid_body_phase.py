@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from .. import _validate as V
 from ..errors import InputError, NumericalError
 from ..lie._common import wrap_angle
-from .group_paths import integrate_on_group
+from .group_paths import integrate_path
 from .shape_loops import periodic_integral
 
 __all__ = ["RigidBodyPhase", "rigid_body_phase", "spherical_polygon_area"]
@@ -139,7 +139,8 @@ def rigid_body_phase(
     m0 : initial body momentum, on a periodic orbit (not a steady spin or a separatrix).
     R0 : initial attitude (default identity); it fixes the spatial momentum :math:`\\mu = R_0 m_0`.
     direct : also integrate :math:`R' = R\\hat\\omega`, :math:`m' = m\\times\\omega` (DOP853, ``rtol``).
-    reconstructed : also reconstruct :math:`R` on SO(3) by :func:`integrate_on_group`.
+    reconstructed : also reconstruct :math:`R` on SO(3) by Runge-Kutta-Munthe-Kaas (:func:`~geomech.solve` on a
+        :class:`~geomech.systems.GroupFlow`).
     """
     from ..reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
     from ..systems import RigidBody
@@ -196,10 +197,10 @@ def rigid_body_phase(
             raise NumericalError(f"Direct attitude integration failed at t = {sol.t[-1]:.6g}: {sol.message}")
         direct_angle, residual = _rotation_about(sol.y[:9, -1].reshape(3, 3) @ R0.T, n)
     if reconstructed:
-        path = integrate_on_group(
+        path = integrate_path(
             "SO3", lambda t, R: np.linalg.solve(body.tensor, R.T @ mu), R0, np.array([0.0, T]), rtol=rtol, atol=rtol
         )
-        rec_angle = _rotation_about(path.g[-1] @ R0.T, n)[0]
+        rec_angle = _rotation_about(path.element[-1] @ R0.T, n)[0]
     tw = float(wrap_angle(np.asarray(total)))
     diff = None if direct_angle is None else float(wrap_angle(np.asarray(tw - direct_angle)))
     return RigidBodyPhase(

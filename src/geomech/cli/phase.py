@@ -89,7 +89,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
         "total_phase": split.total,
         "total_phase_wrapped": split.total_wrapped,
         "closed_form": closed,
-        "reconstructed": float(rec.path.coordinates[-1, 0] - rec.path.coordinates[0, 0]),
+        "reconstructed": float(rec.path.g[-1, 0] - rec.path.g[0, 0]),
         "angles_wrapped": False,
         "note": _WRAP_NOTE,
     }

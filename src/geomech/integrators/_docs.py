@@ -13,15 +13,18 @@ with a method; a method is a small immutable value with its kind, order and trai
 needs. Times are given one way: the end `t_final`, the output times `saveat` (a number of equally spaced
 times or the times themselves), and the step `h` of a fixed-step method or the tolerances `rtol`/`atol` of
 an adaptive one; an exact propagator takes neither. The initial state is `y0 = (q, p)` for a canonical
-system, `m0` (and `R0` for the attitude) for a left-invariant one, `q0` with `qdot0` (or `rdot0` and `p0`)
-for a Lagrangian system on G x S with constraints. An incompatible pair fails before any work
+system, `m0` (and `R0` for the attitude) for a left-invariant one, `m0` and `Gamma0` for a body with rotors,
+`q0` with `qdot0` (or `rdot0` and `p0`) for a Lagrangian system on G x S (with constraints or none), `g0` (an
+element or its coordinates) for a body velocity on a group (`GroupFlow`, the reconstruction equation
+`g^-1 g' = xi(t, g)`). An incompatible pair fails before any work
 (`IncompatibleMethodError`, which names the methods that would apply). Numerical failure (a Newton iteration
 that does not converge, a non-finite state, an adaptive solver that gives up, an exhausted budget) is status
 data in the `Solution`, raised by default with the step, the time and the residual, the partial solution
 attached.
 
 Fixed-step methods on Hamiltonian systems run in loops compiled with numba from the symbolic model (cached
-on disk); adaptive Adams wraps scipy's VODE/LSODA, the Lagrangian methods scipy's solve_ivp solvers. The
+on disk); adaptive Adams wraps scipy's VODE/LSODA, the Lagrangian methods scipy's solve_ivp solvers; the
+Runge-Kutta-Munthe-Kaas methods step on the group in exponential coordinates about a moving centre. The
 exact propagators give the state of a one-degree-of-freedom system at any time from one period, at a cost
 that does not grow with t. Speed and accuracy beside scipy and heyoka: `benchmarks/README.md`.
 

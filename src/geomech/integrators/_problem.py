@@ -21,6 +21,7 @@ from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
 from ..symbolic.simplify import vanishes
 from ..systems.canonical import CanonicalSystem
+from ..systems.group_flow import GroupFlow
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 from ..systems.nonholonomic import NonholonomicSystem
 from ..systems.rotors import RotorBody
@@ -36,8 +37,8 @@ _R_SYMBOLS = sp.symbols("r0:9", real=True)
 class Problem:
     """A system as the solver sees it (internal)."""
 
-    kind: str  # "canonical" | "lie_poisson" | "lagrangian" | "rotor"
-    layout: str  # "qp" | "m" | "mR" | "qv" | "rotor"
+    kind: str  # "canonical" | "lie_poisson" | "lagrangian" | "rotor" | "group"
+    layout: str  # "qp" | "m" | "mR" | "qv" | "rotor" | "group"
     dim: int
     system: Any  # the object the user passed
     core: Any  # CanonicalSystem or LeftInvariantSystem
@@ -58,6 +59,10 @@ class Problem:
             from ._rotor import rotor_labels
 
             return rotor_labels(self.core.n_rotors)
+        if self.kind == "group":
+            from ._group_flow import group_labels
+
+            return group_labels(self.core)
         names: tuple[str, ...] = ("m1", "m2", "m3")
         if self.layout == "mR":
             names += tuple(f"R{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
@@ -138,6 +143,24 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
             variables=(),
             missing={s: why for s in Structure if s is not Structure.ODE},
         )
+    if isinstance(system, GroupFlow):
+        if attitude:
+            raise InputError(f"`R0` applies to left-invariant systems on T*SO(3); give {system.name}'s start as `g0`.")
+        why = (
+            f"{system.name} is a body velocity on {system.group.name}, integrated on the group by the methods of "
+            "Structure.GROUP_FLOW (rkmk, rkmk4)"
+        )
+        n = system.group.numeric.matrix_size
+        return Problem(
+            kind="group",
+            layout="group",
+            dim=system.k + n * n,
+            system=system,
+            core=system,
+            expression=None,
+            variables=(),
+            missing={s: why for s in Structure if s is not Structure.GROUP_FLOW},
+        )
     if isinstance(system, NonholonomicSystem):
         if attitude:
             raise InputError(f"`R0` applies to left-invariant systems on T*SO(3); {system.name} is Lagrangian.")
@@ -169,7 +192,7 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
     except InputError:
         raise InputError(
             "Expected `system` to be a CanonicalSystem, a left-invariant system (LeftInvariantSystem, "
-            f"RigidBody, ...), a RotorBody or a NonholonomicSystem, got {type(system).__name__}."
+            f"RigidBody, ...), a RotorBody, a NonholonomicSystem or a GroupFlow, got {type(system).__name__}."
         ) from None
     analysis = _ANALYSIS.get(core)
     if analysis is None:
@@ -204,6 +227,7 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
         f"{core.name} is a canonical system in (q, p), not a Lagrangian system on G x S "
         "(build one with NonholonomicSystem.from_lagrangian)"
     )
+    missing[Structure.GROUP_FLOW] = f"{core.name} is a canonical system in (q, p), not a body velocity on a group"
     if core.n != 1:
         missing[Structure.ONE_DOF] = (
             f"{core.name} has {core.n} degrees of freedom; propagation by the period "
@@ -224,6 +248,9 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
     missing[Structure.LAGRANGIAN] = (
         f"{core.name} is a Hamiltonian on so(3)*, not a Lagrangian system on G x S "
         "(build one with NonholonomicSystem.from_lagrangian)"
+    )
+    missing[Structure.GROUP_FLOW] = (
+        f"{core.name} is a Hamiltonian on so(3)*; its attitude is integrated with the momentum (give `R0`)"
     )
     result: dict[str, Any] = {"expression": None, "variables": tuple(M_SYMBOLS), "missing": missing}
     if core.expression is None:

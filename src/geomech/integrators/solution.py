@@ -110,6 +110,7 @@ _LAYOUT_VIEWS = {
     "mR": ("m", "R"),
     "qv": ("q", "qdot"),
     "rotor": ("m", "R", "Gamma", "gamma"),
+    "group": ("g", "element"),
 }
 
 
@@ -125,7 +126,8 @@ class Solution:
         The saved states in the system's layout (``layout``): ``"qp"``, canonical ``(q, p)``; ``"m"`` or
         ``"mR"``, body momentum and attitude (R row-major) of a left-invariant system; ``"qv"``,
         coordinates and velocities ``(q, qdot)`` of a Lagrangian system; ``"rotor"``, ``(m, R, Gamma,
-        gamma)`` of a body with rotors. After a failure, a trajectory's
+        gamma)`` of a body with rotors; ``"group"``, the chart coordinates (angles unwrapped) and the element
+        (row-major) of a path on a group. After a failure, a trajectory's
         later states are NaN (see ``failures``).
     system, method
         What was integrated and how.
@@ -150,7 +152,8 @@ class Solution:
     parameters : mapping
         The parameter values the system was evaluated with.
     group_dim : int or None
-        For the ``"qv"`` layout: how many of the coordinates are the group's (the rest are shapes).
+        For the ``"qv"`` and ``"group"`` layouts: how many of the coordinates are the group's (the rest are
+        shapes, or the element).
     """
 
     t: np.ndarray
@@ -225,9 +228,43 @@ class Solution:
 
     @property
     def g(self) -> np.ndarray:
-        """Group coordinates of a Lagrangian system on G x S, shape ``(*batch, n_save, dim G)``."""
-        self._need(("qv",), "g")
-        return self.q[..., : self.group_dim]
+        """Group coordinates of a Lagrangian system on G x S or of a path on a group, shape
+        ``(*batch, n_save, dim G)`` (on a path, the angles of the group's angle components unwrapped)."""
+        self._need(("qv", "group"), "g")
+        return self.states[..., : self.group_dim]
+
+    @property
+    def element(self) -> np.ndarray:
+        """Group elements (matrices) of a path on a group or of a Lagrangian system on G x S, shape
+        ``(*batch, n_save, N, N)``."""
+        self._need(("qv", "group"), "element")
+        if self.layout == "group":
+            n = int(round(np.sqrt(self.states.shape[-1] - int(self.group_dim or 0))))
+            return self.states[..., self.group_dim :].reshape(self.states.shape[:-1] + (n, n))
+        return np.asarray(self.system.group.from_coordinates(self.g), dtype=float)
+
+    def displacement(self) -> np.ndarray:
+        """:math:`g(t_0)^{-1}g(t_{end})`, the net motion in the body frame at the start, as a group element
+        (layouts ``"group"`` and ``"qv"``), shape ``(*batch, N, N)``."""
+        e = self.element
+        G = self.system.group.numeric
+        return np.asarray(G.compose(G.inverse(e[..., 0, :, :]), e[..., -1, :, :]), dtype=float)
+
+    def net_motion(self) -> dict[str, float]:
+        """The net motion of one trajectory by name: the change of each group coordinate (angles unwrapped), or
+        where the chart is singular at the identity (SO(3) in 3-1-3 Euler angles, whose differences are no
+        motion) the exponential coordinates of :meth:`displacement` (``log_<algebra name>``: the rotation
+        vector)."""
+        if self.batch_shape:
+            raise ValueError(f"net_motion() reads one trajectory; this solution has batch shape {self.batch_shape}.")
+        chart = self.system.group
+        if chart.regular_at_identity:
+            names = [c.name for c in chart.coordinates]
+            values = self.g[-1] - self.g[0]
+        else:
+            names = [f"log_{n}" for n in chart.algebra_names]
+            values = chart.numeric.log(self.displacement())
+        return {n: float(v) for n, v in zip(names, values)}
 
     @property
     def r(self) -> np.ndarray:
@@ -349,6 +386,10 @@ class Solution:
             if view == "R":
                 dims: tuple[str, ...] = ("row", "column")
                 what = "attitude, body to space"
+            elif view == "element":
+                dims, what = ("row", "column"), "group element"
+            elif view == "g":
+                dims, what = ("coordinate",), "group coordinates (angles unwrapped)"
             elif view == "m":
                 dims, what = ("axis",), "body angular momentum"
             elif view in ("Gamma", "gamma"):
@@ -391,6 +432,8 @@ class Solution:
         coords: dict[str, Any] = {"t": ("t", np.asarray(self.t), {"long_name": "time", **_unit(units, "t")})}
         if self.layout in ("qp", "qv") and self.labels:
             coords["coordinate"] = list(self.labels[: len(self.labels) // 2])
+        if self.layout == "group" and self.labels:
+            coords["coordinate"] = list(self.labels[: self.group_dim])
         if self.layout in ("m", "mR", "rotor"):
             coords["axis"] = [1, 2, 3]
         if self.layout == "qv" and self.group_dim is not None and "tau" in self.quantities:
@@ -429,6 +472,9 @@ class Solution:
             n = len(self.labels) // 2
             if name in ("q", "p", "qdot") and self.labels:
                 head = list(self.labels[:n] if name == "q" else self.labels[n:])
+            elif self.layout == "group" and self.labels:
+                k = int(self.group_dim or 0)
+                head = list(self.labels[:k] if name == "g" else self.labels[k:])
             elif flat.shape[1] == 1:
                 head = [name]
             else:

@@ -456,6 +456,7 @@ def solve(
     p0: Any = None,
     Gamma0: Any = None,
     gamma0: Any = None,
+    g0: Any = None,
     shapes: Any = None,
     tau: Any = None,
     parameters: Any = None,
@@ -480,7 +481,8 @@ def solve(
         A canonical system takes its initial state as ``y0 = (q, p)``; a left-invariant system as ``m0``
         and, to integrate the attitude as well (and get the spatial momentum ``p = R m``), ``R0``; a body
         with rotors as ``m0`` and ``Gamma0`` (with ``R0`` and ``gamma0`` optional); a Lagrangian system on
-        G x S (with constraints or none) as ``q0`` with ``qdot0``, ``rdot0`` or ``p0``.
+        G x S (with constraints or none) as ``q0`` with ``qdot0``, ``rdot0`` or ``p0``; a body velocity on a
+        group (:class:`~geomech.systems.GroupFlow`, the reconstruction equation) as ``g0``.
     method : Method or str
         A method value (``GaussLegendre(3)``, ``LiePoissonSplitting(order=4)``, ``BKMM()``, ...) or a
         registry key (``"implicit_midpoint"``, see :data:`~geomech.integrators.REGISTRY`). An incompatible
@@ -507,6 +509,9 @@ def solve(
         :func:`~geomech.integrators.initial_state`.
     Gamma0, gamma0 : array_like, shape (N,)
         A body with rotors: the rotors' axial momenta and angles (default 0).
+    g0 : array_like
+        A body velocity on a group (:class:`~geomech.systems.GroupFlow`): the initial element, an ``(N, N)``
+        matrix, or its chart coordinates ``(k,)`` (angles then unwrapped from their given values).
     shapes, tau : optional
         A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a :class:`~geomech.Gait`)
         and the torques on its free shapes (a mapping of formulas or callables); the rotor torques of a body
@@ -558,6 +563,32 @@ def solve(
         for name, value in (("Gamma0", Gamma0), ("gamma0", gamma0)):
             if value is not None:
                 raise InputError(f"`{name}` applies to bodies with rotors; {problem.name} is not one.")
+    if problem.kind != "group" and g0 is not None:
+        raise InputError(
+            f"`g0` is the start of a body velocity on a group (a GroupFlow); {problem.name} is not one"
+            + (" (its group coordinates are part of `q0`)." if problem.kind == "lagrangian" else ".")
+        )
+    if problem.kind == "group":
+        given = (("y0", y0), ("m0", m0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0))
+        for name, value in given + (("shapes", shapes), ("tau", tau), ("parameters", parameters)):
+            if value is not None:
+                raise InputError(
+                    f"{problem.name} is a body velocity on {system.group.name}: give its start as `g0` (an element or "
+                    f"its coordinates), not `{name}`."
+                )
+        from ._group_flow import solve_group_flow
+
+        solution = solve_group_flow(
+            system,
+            method,
+            times,
+            t0=t0,
+            g0=g0,
+            tolerances=tolerances,
+            max_evaluations=max_evaluations,
+            memory_limit=memory_limit,
+        )
+        return _finish(solution, raise_on_failure)
     if problem.kind == "rotor":
         for name, value in (("y0", y0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
             if value is not None:

@@ -44,9 +44,9 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
     if not isinstance(analysis.model.group.numeric, SE2):  # the planar picture with headings
         return ax
     if parts:
-        span = float(np.ptp(analysis.path.coordinates[:, :2], axis=0).max()) or 1.0
+        span = float(np.ptp(analysis.path.g[:, :2], axis=0).max()) or 1.0
         for name, path in analysis.alone.items():
-            xy, th = path.coordinates[:, :2], path.coordinates[:, 2]
+            xy, th = path.g[:, :2], path.g[:, 2]
             st = _STYLE[name]
             ax.plot(xy[:, 0], xy[:, 1], color=st["color"], ls=st["ls"], lw=1.4, label=st["label"])
             idx = np.linspace(0, len(th) - 1, max(arrows // 2, 2)).astype(int)
@@ -63,7 +63,7 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
                 alpha=0.7,
             )
     idx = analysis.boundary_indices
-    xy = analysis.path.coordinates[idx, :2]
+    xy = analysis.path.g[idx, :2]
     ax.plot(xy[:, 0], xy[:, 1], "s", color="C0", ms=4, label="full motion (period ends)")
     ax.plot([], [], color="C3", marker=r"$\rightarrow$", ls="none", ms=10, label="heading (full motion)")
     ax.margins(0.12)  # the heading arrows stick out of the path's bounding box

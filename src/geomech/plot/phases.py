@@ -221,22 +221,22 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
     import matplotlib.pyplot as plt
 
     path = getattr(reconstruction, "path", reconstruction)
-    G = path.group
+    G = path.system.group
     planar = isinstance(G.numeric, SE2)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.4))
-    xy = path.coordinates[:, :2]
+    xy = path.g[:, :2]
     if planar and float(np.ptp(xy, axis=0).max()) <= 1e-9 * max(1.0, float(np.abs(xy).max())):
         # the position does not move (centre-of-mass frame, zero linear momentum): show the rotation
-        ax.plot(path.t, path.coordinates[:, 2], color="C0")
+        ax.plot(path.t, path.g[:, 2], color="C0")
         ax.set_xlabel("$t$")
         ax.set_ylabel(r"$\theta$ (unwrapped)")
         ax.set_title(
             f"SE(2), position fixed at ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}): net rotation "
-            f"{path.coordinates[-1, 2] - path.coordinates[0, 2]:.4g} rad"
+            f"{path.g[-1, 2] - path.g[0, 2]:.4g} rad"
         )
     elif planar:
-        th = path.coordinates[:, 2]
+        th = path.g[:, 2]
         ax.plot(xy[:, 0], xy[:, 1], color="C0", linewidth=1.6)
         idx = np.linspace(0, len(th) - 1, max(arrows, 2)).astype(int)
         span = float(np.ptp(xy, axis=0).max()) or 1.0
@@ -257,7 +257,7 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(f"path in SE(2): net rotation {th[-1] - th[0]:.4g} rad (unwrapped)")
     else:  # any other group: its chart coordinates against time
-        q = path.coordinates
+        q = path.g
         for i, c in enumerate(G.coordinates):
             ax.plot(path.t, q[:, i], label=f"${sp.latex(c)}$")
         ax.legend(loc="best", fontsize=8)

@@ -5,6 +5,7 @@ from ._euler_top import EulerTopSolution
 from .canonical import CanonicalSystem
 from .control import ClosedLoopFamily, HyperregularityReport, StructurePreservingControl
 from .gait import Gait
+from .group_flow import GroupFlow
 from .holonomic import HolonomicSystem
 from .holonomic_examples import (
     planar_point_masses,
@@ -20,6 +21,7 @@ from .rotors import RotorBody
 
 __all__ = [
     "Gait",
+    "GroupFlow",
     "InvarianceReport",
     "NonholonomicSystem",
     "nonholonomic_examples",

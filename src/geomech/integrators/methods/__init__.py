@@ -18,6 +18,7 @@ References (short keys as in the docstrings):
 - [SA] the Serret-Andoyer paper (seeds/000), section 8.
 - [KM] Koon & Marsden, The geometric structure of nonholonomic mechanics (seeds/004).
 - [CM] Cortes & Martinez, Non-holonomic integrators, Nonlinearity 14 (2001).
+- [MK] Munthe-Kaas, High order Runge-Kutta methods on manifolds, Appl. Numer. Math. 29 (1999).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from ...errors import InputError
 from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
+from ._group import RKMK, RKMK4
 from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
 from ._lie_poisson import (
     LieGroupVariational,
@@ -61,6 +63,8 @@ __all__ = [
     "LagrangeDAlembert",
     "BKMM",
     "DiscreteLagrangeDAlembert",
+    "RKMK",
+    "RKMK4",
     "REGISTRY",
     "get_method",
     "methods_table",
@@ -94,6 +98,8 @@ REGISTRY: dict[str, Method] = {
         LagrangeDAlembert(),
         BKMM(),
         DiscreteLagrangeDAlembert(),
+        RKMK(),
+        RKMK4(),
     )
 }
 

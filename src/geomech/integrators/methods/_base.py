@@ -24,6 +24,7 @@ class Structure(str, enum.Enum):
     LIE_GROUP = "Lie group SO(3) hyperregular Lagrangian"
     ONE_DOF = "canonical with one degree of freedom"
     LAGRANGIAN = "Lagrangian on G x S with velocity constraints (none: holonomic)"
+    GROUP_FLOW = "a body velocity on a Lie group (the reconstruction equation g^-1 g' = xi(t, g))"
 
 
 class Kind(str, enum.Enum):
