@@ -163,7 +163,7 @@ def test_bad_command_lines(capsys):
     code, _, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS[:10], "--shape", "rho=t")
     assert code == 2 and "not shape variables" in err and len(err.strip().splitlines()) == 1
     code, _, err = _run(capsys, "derive")
-    assert code == 2 and "example name" in err
+    assert code == 2 and "built-in name" in err
 
 
 def test_simulate_with_initial_momentum(capsys):

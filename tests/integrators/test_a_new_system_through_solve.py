@@ -103,3 +103,85 @@ def test_the_solution_is_a_dataset_with_the_systems_names():
     assert list(ds["shape"].values) == ["s"]
     assert ds.attrs["status"] == "success" and '"m2": 0.5' in ds.attrs["parameters"]
     assert sol.g.shape == (3, 3) and sol.r.shape == (3, 1)
+
+
+# -- the same system as a user's model file, through the gait analysis and the command line ----------------
+MODEL = """
+from geomech.lie import SE2
+from geomech.systems import NonholonomicSystem
+
+
+def build(beta=0.3, m=2.0, m2=0.5, J=0.3, a=0.4):
+    L = (
+        "m/2*((x_dot - a*sin(theta)*theta_dot)**2 + (y_dot + a*cos(theta)*theta_dot)**2) + J/2*theta_dot**2"
+        " + m2/2*((x_dot + s_dot*cos(theta) - s*sin(theta)*theta_dot)**2"
+        " + (y_dot + s_dot*sin(theta) + s*cos(theta)*theta_dot)**2)"
+    )
+    blade = "-sin(theta + beta)*x_dot + cos(theta + beta)*y_dot"
+    return NonholonomicSystem.from_lagrangian(
+        L, SE2("x", "y", "theta"), ["s"], [blade], parameters=dict(beta=beta, m=m, m2=m2, J=J, a=a),
+        shape_angles=(), name="tilted sleigh",
+    )
+"""
+
+
+@pytest.mark.parametrize("beta", [0.0, 0.3])
+def test_a_gait_of_the_model_file_from_the_command_line(beta, tmp_path, capsys):
+    # The model file writes the sleigh as text (parsed by the whitelist), the test above with sympy: the two
+    # descriptions, the gait analysis (momentum equation along the gait, reconstruction on the group) and the
+    # full constrained simulation with the shape prescribed must all tell the same motion.
+    import json
+
+    from geomech.analysis import analyse_gait
+    from geomech.cli.main import main
+    from geomech.integrators import initial_state
+    from geomech.systems.models import load_model
+
+    path = tmp_path / "sleigh.py"
+    path.write_text(MODEL)
+    loop, T, p0 = "s=0.3*sin(2*pi*t/T)", 2.0, [0.4, 0.2]
+    code = main(
+        [
+            "gait",
+            "--model",
+            str(path),
+            "--shape-loop",
+            loop,
+            "--period",
+            "2",
+            "--p0",
+            "0.4,0.2",
+            "--param",
+            f"beta={beta}",
+            "--json",
+        ]
+    )
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    cli = json.loads(out.out)["net_displacement"]
+    # the file's system in-process: the same analysis; p0 is in its reduction's basis, which scales with how beta
+    # is given (a symbol there, a number here), so the other description starts from the velocity p0 means
+    mine = load_model(str(path), {"beta": beta})
+    api = analyse_gait(mine, {"s": "0.3*sin(2*pi*t/T)"}, period=T, p0=p0)
+    assert cli == pytest.approx(dict(zip(["x", "y", "theta"], api.net_displacement)), abs=1e-10)
+    gait = {"s": "0.3*sin(pi*t)"}
+    _, qd0 = initial_state(mine, gait, p0=p0)
+    full = gm.solve(
+        tilted_sleigh(beta), LagrangeDAlembert(), t_final=T, saveat=2, shapes=gait, qdot0=qd0, rtol=1e-12, atol=1e-12
+    )
+    np.testing.assert_allclose(full.g[-1], [cli["x"], cli["y"], cli["theta"]], atol=1e-8)
+    assert abs(cli["theta"]) > 0.05  # it moved
+    # the same file as MODEL, simulated: the shape free, from rest in s
+    code = main(["simulate", str(path), "--p0", "0.4,0.2", "--t-final", "1", "--param", f"beta={beta}", "--json"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    final = json.loads(out.out)["final_configuration"]
+    _, qd0 = initial_state(mine, p0=p0)
+    free = gm.solve(tilted_sleigh(beta), LagrangeDAlembert(), t_final=1.0, saveat=2, qdot0=qd0, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose([final[k] for k in ("x", "y", "theta", "s")], free.q[-1], atol=1e-8)
+    code = main(["derive", "--model", str(path), "--section", "bkmm", "--json"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert any("momentum" in key for key in json.loads(out.out)["bkmm"]["text"])
+    assert main(["gait", str(path), "--model", str(path), "--shape-loop", loop, "--period", "2"]) == 2
+    assert "not both" in capsys.readouterr().err

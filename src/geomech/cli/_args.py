@@ -180,3 +180,36 @@ def emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name:
         outputs.json(f"{name}.json", summary)
         outputs.commit()
     click.echo(body)
+
+
+def model_argument(what: str) -> Any:
+    """The one way a command takes its system: ``MODEL`` (a built-in name, or a model file ``.py``) or
+    ``--model FILE.py`` (the same file); the command receives ``model`` and ``model_file``, which
+    :func:`one_model` turns into one."""
+
+    def decorate(f: Any) -> Any:
+        f = click.option(
+            "--model",
+            "model_file",
+            type=click.Path(dir_okay=False),
+            default=None,
+            help=f"A Python model file defining `system` or `build(**params)` returning {what} (the same as "
+            "giving FILE.py as MODEL).",
+        )(f)
+        return click.argument("model", required=False)(f)
+
+    return decorate
+
+
+def one_model(model: str | None, model_file: str | None) -> str:
+    """The model a command was given, as a name or a file path: exactly one of ``MODEL`` and ``--model``."""
+    if model is not None and model_file is not None:
+        raise click.UsageError("give MODEL or --model FILE.py, not both")
+    if model is None and model_file is None:
+        raise click.UsageError("give a MODEL: a built-in name, or a model file (MODEL.py or --model MODEL.py)")
+    return str(model_file if model_file is not None else model)
+
+
+def is_model_file(model: str) -> bool:
+    """Whether ``model`` names a model file rather than a built-in model."""
+    return model.endswith(".py") or Path(model).is_file()

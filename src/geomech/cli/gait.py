@@ -19,26 +19,18 @@ import click
 
 from .._storage import dumps_json
 from ..errors import InputError
-from ._args import FloatVector, OutDir, Outputs, parse_params, parse_shape_loop
+from ._args import FloatVector, OutDir, Outputs, model_argument, one_model, parse_params, parse_shape_loop
 from ._progress import activity
 
 __all__ = ["gait_cmd"]
 
 
 def _system(model: str, params: dict[str, float]) -> Any:
-    from ..systems.models import example_system, load_model
-    from ..systems.nonholonomic_examples import EXAMPLES
-    from .nonholonomic import require_values
+    from .nonholonomic import nonholonomic_system, require_values
 
-    if model in EXAMPLES:
-        system = example_system(model, params)
-        require_values(system)
-        return system
-    if model.endswith(".py") or Path(model).is_file():
-        system = load_model(model, params)
-        require_values(system)
-        return system
-    raise InputError(f"Unknown MODEL {model!r}: give one of {', '.join(EXAMPLES)} or a model file (.py).")
+    system = nonholonomic_system(model, params)
+    require_values(system)
+    return system
 
 
 def _shape_loop(system: Any, items: tuple[str, ...]) -> dict[str, str]:
@@ -112,7 +104,7 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
 
 
 @click.command("gait")
-@click.argument("model")
+@model_argument("a NonholonomicSystem (docs/nonholonomic.md)")
 @click.option(
     "--shape-loop",
     "shape_loop",
@@ -144,7 +136,8 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
     help="Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).",
 )
 def gait_cmd(
-    model: str,
+    model: str | None,
+    model_file: str | None,
     shape_loop: tuple,
     period: float,
     periods: int,
@@ -167,7 +160,7 @@ def gait_cmd(
 
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
-    system = _system(model, parse_params(params))
+    system = _system(one_model(model, model_file), parse_params(params))
     loop = _shape_loop(system, shape_loop)
     with activity(f"gait of {system.name}: deriving and integrating"):
         analysis = analyse_gait(

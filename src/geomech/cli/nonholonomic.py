@@ -18,7 +18,7 @@ from ..errors import InputError, NumericalError
 from ..lie.groups import SE2
 from ..symbolic.formula import parse_formula
 from ..systems.models import example_system, load_model
-from ._args import FloatVector, OutDir, Outputs
+from ._args import FloatVector, OutDir, Outputs, is_model_file, model_argument, one_model
 from ._progress import activity
 
 __all__ = ["derive_cmd", "simulate_cmd"]
@@ -44,16 +44,18 @@ def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]
     return out
 
 
-def _system(name: str | None, model: str | None, params: dict[str, float]):
+def nonholonomic_system(model: str, params: dict[str, float]):
+    """A built-in example by name, or the system a model file defines (``system``, or ``build(**params)``)."""
     from ..systems.nonholonomic_examples import EXAMPLES
 
-    if (name is None) == (model is None):
-        raise click.UsageError("give an example name (one of " + ", ".join(EXAMPLES) + ") or --model FILE.py, not both")
-    if model is not None:
+    if is_model_file(model):
         return load_model(model, params)
-    if name not in EXAMPLES:
-        raise click.BadParameter(f"unknown example {name!r}; choose one of {', '.join(EXAMPLES)}", param_hint="'NAME'")
-    return example_system(name, params)
+    if model not in EXAMPLES:
+        raise click.BadParameter(
+            f"unknown example {model!r}; choose one of {', '.join(EXAMPLES)}, or give a model file (.py)",
+            param_hint="'MODEL'",
+        )
+    return example_system(model, params)
 
 
 def require_values(system) -> None:
@@ -111,13 +113,7 @@ _SECTIONS = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_
 
 
 @click.command("derive")
-@click.argument("name", required=False)
-@click.option(
-    "--model",
-    type=click.Path(dir_okay=False),
-    default=None,
-    help="A Python model file defining `system` or `build(**params)` (docs/nonholonomic.md).",
-)
+@model_argument("a NonholonomicSystem (docs/nonholonomic.md)")
 @click.option(
     "--param",
     "params",
@@ -134,7 +130,7 @@ _SECTIONS = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (text and LaTeX of every object).")
 @click.option("--latex", "as_latex", is_flag=True, help="Print LaTeX.")
-def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
+def derive_cmd(model, model_file, params, sections, as_json, as_latex) -> None:
     """Derive the nonholonomic structure of an example (snakeboard, roller_racer, ...) or of --model FILE.py.
 
     The Lagrange-d'Alembert equations, their projection on D (no multipliers) and the multipliers along D, in
@@ -145,14 +141,15 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     are cached on disk ($GEOMECH_CACHE_DIR, default ~/.cache/geomech; "off" disables it).
     """
     values = _pairs(params, "--param", True)
-    if values and model is None:
+    spec = one_model(model, model_file)
+    if values and not is_model_file(spec):
         raise click.BadParameter(
             "the derivation is symbolic in every parameter of a built-in example, so values "
             "would not change it; drop --param (it applies to simulate and gait, and to a "
             "--model file's build(**params))",
             param_hint="'--param'",
         )
-    system = _system(name, model, values)
+    system = nonholonomic_system(spec, values)
     with activity(f"deriving {system.name}"):
         data = derivation(system, tuple(sections) or _SECTIONS)
     if as_json:
@@ -178,8 +175,7 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
 
 
 @click.command("simulate")
-@click.argument("name", required=False)
-@click.option("--model", type=click.Path(dir_okay=False), default=None, help="A Python model file instead of NAME.")
+@model_argument("a NonholonomicSystem (docs/nonholonomic.md)")
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value (repeatable).")
 @click.option(
     "--shape",
@@ -241,8 +237,8 @@ def derive_cmd(name, model, params, sections, as_json, as_latex) -> None:
     help="Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.",
 )
 def simulate_cmd(
-    name,
     model,
+    model_file,
     params,
     shapes,
     taus,
@@ -268,7 +264,7 @@ def simulate_cmd(
     """
     from ..integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, solve
 
-    system = _system(name, model, _pairs(params, "--param", True))
+    system = nonholonomic_system(one_model(model, model_file), _pairs(params, "--param", True))
     kw: dict[str, Any] = dict(
         shapes=_pairs(shapes, "--shape", False),
         tau=_pairs(taus, "--tau", False),

@@ -18,7 +18,17 @@ import click
 import numpy as np
 
 from ..errors import InputError
-from ._args import FloatVector, OutDir, Outputs, emit, parse_params, parse_shape_loop
+from ._args import (
+    FloatVector,
+    OutDir,
+    Outputs,
+    emit,
+    is_model_file,
+    model_argument,
+    one_model,
+    parse_params,
+    parse_shape_loop,
+)
 from ._progress import activity
 
 __all__ = ["phase", "HOLONOMIC_MODELS"]
@@ -235,7 +245,7 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
         if params:
             raise InputError(f"--param applies to model files; the built-in {model!r} has fixed parameters.")
         return HOLONOMIC_MODELS[model][0]()
-    if model.endswith(".py") or Path(model).is_file():
+    if is_model_file(model):
         return load_model(model, params, kind=HolonomicSystem)
     raise InputError(
         f"Unknown MODEL {model!r}: give one of {', '.join(sorted(HOLONOMIC_MODELS))} or a model file "
@@ -244,7 +254,7 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
 
 
 @phase.command("loop")
-@click.argument("model")
+@model_argument("a HolonomicSystem (docs/phases.md)")
 @click.option(
     "--shape",
     "shapes",
@@ -271,7 +281,14 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
     help="Directory for loop.json and figures (connection, curvature with the loop, path).",
 )
 def loop_cmd(
-    model: str, shapes: tuple, period: float, mu: tuple | None, params: tuple, as_json: bool, out: Path | None
+    model: str | None,
+    model_file: str | None,
+    shapes: tuple,
+    period: float,
+    mu: tuple | None,
+    params: tuple,
+    as_json: bool,
+    out: Path | None,
 ) -> None:
     """Phases and reconstruction for a closed shape loop of a holonomic MODEL: a built-in one (two-bodies,
     three-link, three-link-middle, planar-3-body, spacecraft) or a model file (.py) that defines ``system``
@@ -285,6 +302,7 @@ def loop_cmd(
 
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
+    model = one_model(model, model_file)
     system = _holonomic_system(model, parse_params(params))
     names = [str(s) for s in system.shape]
     given = parse_shape_loop(shapes, names, "--shape", model)
