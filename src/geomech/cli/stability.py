@@ -6,6 +6,7 @@ paper). The lead registers them with ``cli.add_command(stability_cmd)`` and
 
 from __future__ import annotations
 
+import inspect
 import sys
 from typing import Any
 
@@ -77,6 +78,60 @@ def _control(
     return StructurePreservingControl.diagonal(body, list(phi_exprs), p=pv, parameters=params, probe_radius=G)
 
 
+_MODEL_KINDS = "a StructurePreservingControl or a left-invariant system (LeftInvariantSystem, RigidBody)"
+
+
+def _model_kinds() -> tuple[type, ...]:
+    from ..systems.control import StructurePreservingControl
+    from ..systems.left_invariant import LeftInvariantSystem
+    from ..systems.rigid_body import RigidBody
+
+    return (StructurePreservingControl, LeftInvariantSystem, RigidBody)
+
+
+def _no_rotor_options(lambdas: Any, I3: Any, phis: tuple, p: Any) -> None:
+    given = [n for n, v in (("--lambda", lambdas), ("--I3", I3), ("--phi", phis or None), ("--p", p)) if v is not None]
+    if given:
+        raise click.UsageError(f"give the model as --model FILE.py or as --lambda and --phi, not both ({given[0]})")
+
+
+def _subject(
+    model_file: str | None,
+    lambdas: Any,
+    I3: Any,
+    phis: tuple,
+    params: dict[str, float],
+    p: Any,
+    G: float,
+) -> tuple[Any, Any, dict[str, Any]]:
+    """(the control or None, the left-invariant system whose equilibria are assessed, the model's JSON)."""
+    from ..systems.control import StructurePreservingControl
+    from ..systems.left_invariant import as_left_invariant
+    from ..systems.models import load_model
+
+    if model_file is None:
+        if lambdas is None or not phis:
+            raise click.UsageError("give the model: --lambda and --phi (a rotor control), or --model FILE.py")
+        control = _control(lambdas, I3, phis, params, p, G)
+        return control, control.closed_loop(), _model_json(control, G)
+    _no_rotor_options(lambdas, I3, phis, p)
+    if not np.isfinite(G) or G <= 0:
+        raise click.BadParameter(f"expected a positive momentum magnitude, got {G}", param_hint="'--G'")
+    obj = load_model(model_file, params, kind=_model_kinds())
+    if isinstance(obj, StructurePreservingControl):
+        return obj, obj.closed_loop(), _model_json(obj, G)
+    system = as_left_invariant(obj)
+    expr = system.expression
+    return (
+        None,
+        system,
+        {
+            "model": {"file": str(model_file), "G": G, "parameters": dict(system.parameters)},
+            "hamiltonian": "a Python callable" if expr is None else str(expr),
+        },
+    )
+
+
 def _model_json(control: Any, G: float) -> dict[str, Any]:
     hyp = control.hyperregularity()
     lemma = control.lemma4_check()
@@ -111,7 +166,7 @@ def _model_options(f):
             "--lambda",
             "lambdas",
             type=FloatVector(2, 3),
-            required=True,
+            default=None,
             help="lambda1 lambda2 (one rotor on axis 3: the locked inertias about axes 1, 2) or lambda1 "
             "lambda2 lambda3 (three rotors: Lambda without the rotors' axial moments).",
         ),
@@ -126,11 +181,24 @@ def _model_options(f):
             "--phi",
             "phis",
             multiple=True,
-            required=True,
             help="phi(v) for one rotor (v = m3); three times for three rotors: each phi_i(v) "
             "(Corollary 2) or each a function of m1, m2, m3 (Proposition 5).",
         ),
-        click.option("--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter of phi (repeatable)."),
+        click.option(
+            "--model",
+            "model_file",
+            type=click.Path(dir_okay=False),
+            default=None,
+            help="Instead of --lambda and --phi: a Python model file defining `system` or `build(**params)` "
+            "returning a StructurePreservingControl or a left-invariant system (LeftInvariantSystem, RigidBody).",
+        ),
+        click.option(
+            "--param",
+            "params",
+            multiple=True,
+            metavar="NAME=VALUE",
+            help="A parameter of phi, or of a --model file's build(**params) (repeatable).",
+        ),
         click.option(
             "--p", "p", type=FloatVector(1, 3), default=None, help="The conserved p = Gamma - phi(m) (default 0)."
         ),
@@ -152,7 +220,7 @@ def _model_options(f):
     default=None,
     help="Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.",
 )
-def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
+def stability_cmd(lambdas, I3, phis, model_file, params, p, G, as_json, out) -> None:
     """Relative equilibria of a rotor control's closed loop and three stability verdicts on each.
 
     Builds the structure-preserving control (eq. 29a; Proposition 5 / Corollary 2), its closed-loop
@@ -162,10 +230,9 @@ def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
     """
     from ..analysis import analyse_stability
 
-    control = _control(lambdas, I3, phis, parse_params(params), p, G)
-    system = control.closed_loop()
+    control, system, model = _subject(model_file, lambdas, I3, phis, parse_params(params), p, G)
     analysis = analyse_stability(system, G)
-    summary = {**_model_json(control, G), **analysis.to_json()}
+    summary = {**model, **analysis.to_json()}
     if out is not None:
         import matplotlib
 
@@ -182,11 +249,14 @@ def stability_cmd(lambdas, I3, phis, params, p, G, as_json, out) -> None:
     if as_json:
         click.echo(dumps_json(summary))
         return
-    lines = [
-        f"closed loop H_c(m) = {summary['closed_loop_hamiltonian']}",
-        f"hyperregular: {summary['hyperregularity']['status']} ({summary['hyperregularity']['where'] or 'ok'})",
-        f"equilibria on |m| = {G:g}: {analysis.equilibria.message}",
-    ]
+    if control is not None:
+        lines = [
+            f"closed loop H_c(m) = {summary['closed_loop_hamiltonian']}",
+            f"hyperregular: {summary['hyperregularity']['status']} ({summary['hyperregularity']['where'] or 'ok'})",
+        ]
+    else:
+        lines = [f"H(m) = {summary['hamiltonian']}"]
+    lines.append(f"equilibria on |m| = {G:g}: {analysis.equilibria.message}")
     for r in analysis:
         e = r.equilibrium
         ev = r.linearisation.eigenvalues
@@ -276,7 +346,9 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
     help="Refuse larger grids (10-15 ms a point).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
-def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, max_points, as_json) -> None:
+def stability_map_cmd(
+    lambdas, I3, phis, model_file, params, p, G, xspec, yspec, near, out, max_points, as_json
+) -> None:
     """Stability verdicts over a grid of two parameters, on the relative equilibrium nearest to --near.
 
     At each grid point all relative equilibria are found (continued from the neighbouring point, searched
@@ -288,14 +360,22 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    from ..analysis import stability_map, theorem5_margin
-    from ..plot.stability import stability_map_plot
+    from ..analysis import theorem5_margin
 
     xname, xs = _range(xspec, "'--x'")
     yname, ys = _range(yspec, "'--y'")
     given = parse_params(params)
+    if model_file is not None:
+        _no_rotor_options(lambdas, I3, phis, p)
+        family, model = _file_family(model_file, given, G, (xname, "'--x'"), (yname, "'--y'"))
+        if xname == yname:
+            raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
+        ds = _run_map(family, (xname, xs), (yname, ys), G, near, None, f"model file {model_file}", max_points)
+        _write_map(ds, model, xname, xs, yname, ys, out, as_json)
+        return
+    if lambdas is None or not phis:
+        raise click.UsageError("give the model: --lambda and --phi (a rotor control), or --model FILE.py")
     # a swept parameter of phi needs no --param: its first grid value stands in while the model is built
     body_names = {"lambda1", "lambda2", "lambda3", "I3", "p"}
     for name, values in ((xname, xs), (yname, ys)):
@@ -317,16 +397,52 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
     _check_swept_body(control, lambdas, (xname, xs, "'--x'"), (yname, ys, "'--y'"))
     closed = theorem5_margin(control) if control.kind == "one-rotor" else None
     desc = f"phi = {', '.join(str(e) for e in control.phi_expression)}" if control.phi_expression is not None else ""
+    ds = _run_map(control.family(), (xname, xs), (yname, ys), G, near, closed, desc, max_points)
+    _write_map(ds, _model_json(control, G), xname, xs, yname, ys, out, as_json)
+
+
+def _file_family(model_file: str, given: dict[str, float], G: float, *swept: tuple[str, str]) -> tuple[Any, dict]:
+    """``family(**values)`` from a model file's ``build(**params)`` (the swept names must be its keywords), and
+    the model's JSON."""
+    from ..systems.control import StructurePreservingControl
+    from ..systems.left_invariant import as_left_invariant
+    from ..systems.models import model_builder
+
+    if not np.isfinite(G) or G <= 0:
+        raise click.BadParameter(f"expected a positive momentum magnitude, got {G}", param_hint="'--G'")
+    build = model_builder(model_file, kind=_model_kinds())
+    sig = inspect.signature(build)
+    takes_any = any(q.kind is inspect.Parameter.VAR_KEYWORD for q in sig.parameters.values())
+    known = [n for n, q in sig.parameters.items() if q.kind is not inspect.Parameter.VAR_KEYWORD]
+    for name, hint in swept:
+        if not takes_any and name not in known:
+            raise click.BadParameter(
+                f"{name!r} is not a parameter of the model file's build(**params); choose one of {known or 'none'} "
+                "(a file that defines `system` takes none: define build(**params))",
+                param_hint=hint,
+            )
+
+    def family(**values: float) -> Any:
+        obj = build(**{**given, **values})
+        return obj.closed_loop() if isinstance(obj, StructurePreservingControl) else as_left_invariant(obj)
+
+    return family, {"model": {"file": str(model_file), "G": G, "parameters": dict(given)}}
+
+
+def _run_map(family: Any, x: tuple, y: tuple, G: float, near: Any, closed: Any, desc: str, max_points: int) -> Any:
+    from ..analysis import stability_map
+
+    n = x[1].size * y[1].size
     if sys.stderr.isatty():  # a progress bar for a person at a terminal, nothing in scripts and logs
-        with click.progressbar(length=xs.size * ys.size, label="grid points", file=sys.stderr) as bar:
+        with click.progressbar(length=n, label="grid points", file=sys.stderr) as bar:
 
             def advance(done: int) -> None:
                 bar.update(done - bar.pos)
 
-            ds = stability_map(
-                control.family(),
-                (xname, xs),
-                (yname, ys),
+            return stability_map(
+                family,
+                x,
+                y,
                 G=G,
                 near=near,
                 closed_form=closed,
@@ -334,17 +450,14 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
                 progress=advance,
                 max_points=max_points,
             )
-    else:
-        ds = stability_map(
-            control.family(),
-            (xname, xs),
-            (yname, ys),
-            G=G,
-            near=near,
-            closed_form=closed,
-            description=desc,
-            max_points=max_points,
-        )
+    return stability_map(family, x, y, G=G, near=near, closed_form=closed, description=desc, max_points=max_points)
+
+
+def _write_map(ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, out: Any, as_json: bool) -> None:
+    import matplotlib.pyplot as plt
+
+    from ..plot.stability import stability_map_plot
+
     outputs = Outputs(out)
     outputs.dataset("stability_map.nc", ds)
     outputs.figure("stability_map.png", stability_map_plot(ds), dpi=120)
@@ -354,7 +467,7 @@ def stability_map_cmd(lambdas, I3, phis, params, p, G, xspec, yspec, near, out, 
         for k, v in (("stable", 1), ("inconclusive", 0), ("unstable", -1), ("none", -9))
     }
     summary = {
-        **_model_json(control, G),
+        **model,
         "x": {"name": xname, "values": xs.tolist()},
         "y": {"name": yname, "values": ys.tolist()},
         "counts": counts,

@@ -10,22 +10,29 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
+import inspect
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from ..errors import GeomechError, InputError
 
-__all__ = ["load_model", "example_system"]
+__all__ = ["load_model", "model_builder", "example_system"]
 
 
-def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind: Any = None):
-    """Load a model file: it defines ``system`` or ``build(**params)`` returning one, a NonholonomicSystem
-    (or, with ``kind=HolonomicSystem``, a holonomic system with symmetry)."""
+def _kinds(kind: Any) -> tuple[tuple[type, ...], str]:
     from ..systems.nonholonomic import NonholonomicSystem
 
-    kind = NonholonomicSystem if kind is None else kind
-    how = f"{kind.__name__}.from_lagrangian(...)"
+    kinds = (NonholonomicSystem,) if kind is None else (kind if isinstance(kind, tuple) else (kind,))
+    return kinds, " or ".join(k.__name__ for k in kinds)
+
+
+def model_builder(path: str | Path, *, kind: Any = None) -> Callable[..., Any]:
+    """Run a model file once and return ``build(**params)``: its own ``build``, or, for a file that defines
+    ``system``, the system with the values given (through its ``with_parameters``). Every system it returns
+    is checked to be a ``kind`` (a class or a tuple of classes; default NonholonomicSystem)."""
+    kinds, names = _kinds(kind)
     path = Path(path)
     if path.suffix != ".py":
         raise InputError(f"Expected a model file to be Python source ending in .py, got {str(path)!r}.")
@@ -45,33 +52,56 @@ def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind
             raise InputError(
                 f"Could not run model file {str(path)!r}: {_describe(exc)} (--debug shows where)."
             ) from exc
-        params = dict(params or {})
-        if hasattr(module, "build") and callable(module.build):
-            try:
-                system = module.build(**params)
-            except GeomechError:
-                raise
-            except TypeError as exc:
-                raise InputError(
-                    f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}"
-                ) from exc
-            except (Exception, SystemExit) as exc:
-                raise InputError(
-                    f"{path.name}: build(**params) failed: {_describe(exc)} (--debug shows where)."
-                ) from exc
-            params = {}
-        elif hasattr(module, "system"):
-            system = module.system
-        else:
-            raise InputError(
-                f"Model file {str(path)!r} defines neither `system` (a {kind.__name__}) nor a "
-                "function `build(**params)` returning one; see docs/nonholonomic.md and docs/phases.md."
-            )
-    if not isinstance(system, kind):
+
+    def checked(system: Any) -> Any:
+        if not isinstance(system, kinds):
+            raise InputError(f"{path.name}: expected `system` to be a {names}, got {type(system).__name__}.")
+        return system
+
+    if hasattr(module, "build") and callable(module.build):
+
+        def build(**params: float) -> Any:
+            with contextlib.redirect_stdout(sys.stderr):
+                try:
+                    system = module.build(**params)
+                except GeomechError:
+                    raise
+                except TypeError as exc:
+                    raise InputError(
+                        f"{path.name}: build(**params) rejected the parameters {sorted(params)}: {exc}"
+                    ) from exc
+                except (Exception, SystemExit) as exc:
+                    raise InputError(
+                        f"{path.name}: build(**params) failed: {_describe(exc)} (--debug shows where)."
+                    ) from exc
+            return checked(system)
+
+        build.__signature__ = inspect.signature(module.build)  # type: ignore[attr-defined]
+        return build
+    if not hasattr(module, "system"):
         raise InputError(
-            f"{path.name}: expected `system` to be a {kind.__name__} ({how}), got {type(system).__name__}."
+            f"Model file {str(path)!r} defines neither `system` (a {names}) nor a function `build(**params)` "
+            "returning one; see docs/nonholonomic.md and docs/phases.md."
         )
-    return system.with_parameters(**params) if params else system
+    system = checked(module.system)
+
+    def with_values(**params: float) -> Any:
+        if not params:
+            return system
+        if not hasattr(system, "with_parameters"):
+            raise InputError(
+                f"{path.name}: its `system` ({type(system).__name__}) takes no parameter values; define "
+                f"`build(**params)` returning one to pass {sorted(params)}."
+            )
+        return system.with_parameters(**params)
+
+    return with_values
+
+
+def load_model(path: str | Path, params: dict[str, float] | None = None, *, kind: Any = None):
+    """Load a model file: it defines ``system`` or ``build(**params)`` returning one, a NonholonomicSystem
+    (or a ``kind``: a class, or a tuple of classes)."""
+    return model_builder(path, kind=kind)(**dict(params or {}))
 
 
 def _describe(exc: BaseException) -> str:
