@@ -514,9 +514,10 @@ def solve(
         matrix, or its chart coordinates ``(k,)`` (angles then unwrapped from their given values).
     shapes, tau : optional
         A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a :class:`~geomech.Gait`)
-        and the torques on its free shapes (a mapping of formulas or callables); the rotor torques of a body
-        with rotors (a callable ``u(t, R, m, gamma, Gamma)`` or a feedback law such as a
-        :class:`~geomech.StructurePreservingControl`).
+        and the torques on its free shapes (a mapping of formulas in ``t``, the coordinates and velocities, or
+        of callables; or open-loop torques in time as a :class:`~geomech.Gait`, the same type as the shapes);
+        the rotor torques of a body with rotors (a :class:`~geomech.Gait` in time, a callable
+        ``u(t, R, m, gamma, Gamma)`` or a feedback law such as a :class:`~geomech.StructurePreservingControl`).
     parameters : mapping, optional
         Values of a Lagrangian system's parameters not stored in it.
     max_steps : int

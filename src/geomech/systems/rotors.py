@@ -314,11 +314,20 @@ class RotorBody:
 
 
 def torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
-    """The rotor torques ``u(t, R, m, gamma, Gamma)`` from ``tau``: None (a free body), a callable of those
-    arguments, or a feedback law with ``feedback(m, Gamma)`` (a :class:`StructurePreservingControl`)."""
+    """The rotor torques ``u(t, R, m, gamma, Gamma)`` from ``tau``: None (a free body), open-loop torques in time
+    (a :class:`~geomech.systems.Gait` with one component per rotor: its values are the torques), a callable of
+    those arguments, or a feedback law with ``feedback(m, Gamma)`` (a :class:`StructurePreservingControl`)."""
+    from .gait import Gait
+
     if torque is None:
         zero = np.zeros(n)
         return lambda t, R, m, gam, Gam: zero
+    if isinstance(torque, Gait):
+        if torque.dim != n:
+            raise InputError(
+                f"Expected the torque gait `tau` to have {n} component(s), one per rotor, got {torque.dim}."
+            )
+        return lambda t, R, m, gam, Gam: np.asarray(torque.r(t), dtype=float).reshape(n)
     if hasattr(torque, "feedback"):
         return lambda t, R, m, gam, Gam: np.asarray(torque.feedback(m, Gam), dtype=float).reshape(n)
     if callable(torque):
@@ -331,6 +340,6 @@ def torque_function(torque: Any, n: int) -> Callable[..., np.ndarray]:
 
         return u
     raise InputError(
-        f"Expected `tau`, the rotor torques, to be None, a callable u(t, R, m, gamma, Gamma) or a feedback law "
-        f"with .feedback(m, Gamma), got {type(torque).__name__}."
+        "Expected `tau`, the rotor torques, to be None, a Gait in t, a callable u(t, R, m, gamma, Gamma) or a "
+        f"feedback law with .feedback(m, Gamma), got {type(torque).__name__}."
     )

@@ -24,12 +24,20 @@ from ...systems.nonholonomic import NonholonomicSystem
 # Inputs: gaits and torques
 # --------------------------------------------------------------------------------------------------
 class _Torques:
-    """Torques on the free shapes: formulas in ``t``, the coordinates and the velocities (by name), or callables
-    ``f(t, q, qd)``."""
+    """Torques on the free shapes: formulas in ``t``, the coordinates and the velocities (by name), callables
+    ``f(t, q, qd)``, or open-loop torques in time given as a :class:`~geomech.systems.Gait` (its values, by the
+    names of the shapes they act on)."""
 
-    def __init__(self, system: NonholonomicSystem, free: Sequence[int], tau: Mapping[str, Any] | None):
+    def __init__(self, system: NonholonomicSystem, free: Sequence[int], tau: Any):
         shape_names = [r.name for r in system.shape]
         self.free = list(free)
+        if isinstance(tau, Gait):
+            tau = _gait_torques(tau, [shape_names[i] for i in self.free], system.name)
+        elif tau is not None and not isinstance(tau, Mapping):
+            raise InputError(
+                f"Expected `tau` to be a mapping shape name -> torque (a formula in t, q, qdot, or a callable "
+                f"f(t, q, qd)) or a Gait of torques in t, got {type(tau).__name__}."
+            )
         tau = dict(tau or {})
         local = {s.name: s for s in system.q + system.qdot}
         local["t"] = T_SYMBOL
@@ -67,6 +75,21 @@ class _Torques:
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         return np.array([0.0 if f is None else float(f(t, q, qd)) for f in self.fns])
+
+
+def _gait_torques(gait: Gait, free_names: list[str], owner: str) -> dict[str, Callable]:
+    """A Gait of torques as one callable per named shape (all the free shapes, in order, when it has no names)."""
+    names = list(gait.names) if gait.names is not None else list(free_names)
+    if len(names) != gait.dim:
+        raise InputError(
+            f"The torque gait has {gait.dim} component(s) without names; {owner} has {len(free_names)} free shape(s) "
+            f"({free_names}): name them (a mapping, or `names=`)."
+        )
+
+    def component(i: int) -> Callable:
+        return lambda t, q, qd: float(np.asarray(gait.r(t), dtype=float).reshape(-1)[i])
+
+    return {name: component(i) for i, name in enumerate(names)}
 
 
 @dataclass
