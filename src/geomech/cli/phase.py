@@ -18,6 +18,7 @@ import click
 import numpy as np
 
 from ..errors import InputError
+from ..systems.holonomic_examples import EXAMPLES
 from ._args import (
     FloatVector,
     OutDir,
@@ -31,7 +32,7 @@ from ._args import (
 )
 from ._progress import activity
 
-__all__ = ["phase", "HOLONOMIC_MODELS"]
+__all__ = ["phase"]
 
 _WRAP_NOTE = (
     "geometric, dynamic and total are unwrapped real numbers; '*_wrapped' values are reduced to "
@@ -196,59 +197,19 @@ def rigid_body_cmd(
     emit(summary, as_json, text, outputs, "rigid_body_phase")
 
 
-def _three_link(origin: str):
-    def make():
-        from ..systems.holonomic_examples import three_link_chain
-
-        return three_link_chain(origin=origin)
-
-    return make
-
-
-def _planar_three_body():
-    from ..systems.holonomic_examples import planar_point_masses
-
-    return planar_point_masses([1.0, 1.0, 1.0])
-
-
-def _spacecraft():
-    from ..systems.holonomic_examples import spacecraft_with_rotors
-
-    return spacecraft_with_rotors()
-
-
-def _two_bodies():
-    from ..systems.holonomic_examples import two_pinned_bodies
-
-    return two_pinned_bodies(1.0, 3.0)
-
-
-#: Built-in holonomic models of ``geomech phase loop``: name -> (factory, description).
-HOLONOMIC_MODELS: dict[str, tuple[Any, str]] = {
-    "two-bodies": (_two_bodies, "two pinned bodies I1 = 1, I2 = 3; shape psi (an angle); G = S^1"),
-    "three-link": (_three_link("com"), "unit three-link chain, centre-of-mass frame; shape alpha1, alpha2; SE(2)"),
-    "three-link-middle": (_three_link("middle"), "unit three-link chain, middle-link frame; SE(2)"),
-    "planar-3-body": (_planar_three_body, "three unit point masses with gravity; shape rho, a2, b2; SE(2)"),
-    "spacecraft": (
-        _spacecraft,
-        "rigid body (3, 2, 1) with rotors (J = 0.2) on body axes 1 and 2; shape the rotor angles; SO(3)",
-    ),
-}
-
-
 def _holonomic_system(model: str, params: dict[str, float]) -> Any:
     """A built-in model of ``phase loop`` or a model file defining a HolonomicSystem."""
     from ..systems.holonomic import HolonomicSystem
     from ..systems.models import load_model
 
-    if model in HOLONOMIC_MODELS:
+    if model in EXAMPLES:
         if params:
             raise InputError(f"--param applies to model files; the built-in {model!r} has fixed parameters.")
-        return HOLONOMIC_MODELS[model][0]()
+        return EXAMPLES[model]()
     if is_model_file(model):
         return load_model(model, params, kind=HolonomicSystem)
     raise InputError(
-        f"Unknown MODEL {model!r}: give one of {', '.join(sorted(HOLONOMIC_MODELS))} or a model file "
+        f"Unknown MODEL {model!r}: give one of {', '.join(sorted(EXAMPLES))} or a model file "
         "(.py) that defines a HolonomicSystem (docs/phases.md)."
     )
 

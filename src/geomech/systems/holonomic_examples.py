@@ -3,7 +3,7 @@ the same public constructor a user has, :meth:`HolonomicSystem.from_lagrangian`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -21,6 +21,7 @@ def _rot2(a: sp.Expr) -> sp.Matrix:
 
 
 __all__ = [
+    "EXAMPLES",
     "two_pinned_bodies",
     "planar_point_masses",
     "planar_point_positions",
@@ -254,3 +255,18 @@ def spacecraft_with_rotors(
     return HolonomicSystem.from_reduced(
         l, "SO3", w, phis, parameters=values, shape_angles=tuple(range(n)), name=f"spacecraft with {n} rotors"
     )
+
+
+#: The built-in holonomic examples by name (``geomech phase loop MODEL``): each a function of no arguments.
+EXAMPLES: dict[str, Callable[[], HolonomicSystem]] = {
+    # two pinned bodies, I1 = 1, I2 = 3; shape psi (an angle); G = S^1
+    "two-bodies": lambda: two_pinned_bodies(1.0, 3.0),
+    # the unit three-link chain in its centre-of-mass frame; shape alpha1, alpha2; SE(2)
+    "three-link": lambda: three_link_chain(origin="com"),
+    # the unit three-link chain in the middle link's frame; SE(2)
+    "three-link-middle": lambda: three_link_chain(origin="middle"),
+    # three unit point masses with gravity; shape rho, a2, b2; SE(2)
+    "planar-3-body": lambda: planar_point_masses([1.0, 1.0, 1.0]),
+    # a rigid body (3, 2, 1) with rotors (J = 0.2) on body axes 1 and 2; shape the rotor angles; SO(3)
+    "spacecraft": lambda: spacecraft_with_rotors(),
+}
