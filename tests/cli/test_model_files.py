@@ -111,3 +111,14 @@ def test_mixed_or_unknown_is_one_line_and_status_2(capsys, tmp_path, args, words
     argv = [a.format(file=f, dir=tmp_path / "out") for a in args]
     code, out, err = run(capsys, *argv)
     assert code == 2 and words in err and err.count("\n") == 1, err
+
+
+def test_a_file_defining_system_takes_param_values(capsys, tmp_path):
+    # I = (1.5, 2, 1): axis 1 is now the intermediate axis, so the spin about it is the unstable one
+    f = tmp_path / "body.py"
+    f.write_text(FREE_BODY)
+    code, out, err = run(capsys, "stability", "--model", str(f), "--param", "I1=1.5", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert nearest(s, [1.0, 0.0, 0.0])["verdicts"]["linearisation"] == "unstable"
+    assert nearest(s, [0.0, 1.0, 0.0])["verdicts"]["energy_casimir"] == "stable"

@@ -109,3 +109,21 @@ def test_string_formula_and_json():
     assert sys.to_json()["parameters"] == {"I3": 1.5}
     assert "I_{3}" in sys.latex()
     np.testing.assert_allclose(sys.hamiltonian([1.0, 2.0, 3.0]), 0.5 + 1.0 + 3.0)
+
+
+def test_with_parameters_is_the_system_built_with_those_values(rng):
+    H = "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3) + c*m1*m2*m3"
+    base = LeftInvariantSystem.from_expression(H, {"I1": 3.0, "I2": 2.0, "I3": 1.0, "c": 0.1}, name="top")
+    other = base.with_parameters(I2=5.0, c=-0.3)
+    direct = LeftInvariantSystem.from_expression(H, {"I1": 3.0, "I2": 5.0, "I3": 1.0, "c": -0.3})
+    m = rng.normal(size=(4, 3))
+    np.testing.assert_allclose(other.hamiltonian(m), direct.hamiltonian(m), rtol=1e-14)
+    np.testing.assert_allclose(other.hessian(m), direct.hessian(m), rtol=1e-14)
+    assert other.name == "top" and base.parameters["I2"] == 2.0  # the original is unchanged
+    with pytest.raises(InputError, match=r"Unknown parameter\(s\) \['J'\]"):
+        base.with_parameters(J=1.0)
+    with pytest.raises(InputError, match="finite|number"):
+        base.with_parameters(I1=float("nan"))
+    callable_system = LeftInvariantSystem.from_callable(lambda m: (m**2).sum(-1) / 2, lambda m: m)
+    with pytest.raises(InputError, match="from_expression"):
+        callable_system.with_parameters(I1=1.0)

@@ -133,6 +133,21 @@ class LeftInvariantSystem:
             hessian_is_exact=hessian is not None,
         )
 
+    def with_parameters(self, **values: float) -> LeftInvariantSystem:
+        """The same Hamiltonian with other values of its parameters (as
+        :meth:`NonholonomicSystem.with_parameters <geomech.systems.NonholonomicSystem.with_parameters>`)."""
+        if self.expression is None:
+            raise InputError(
+                f"{self.name} was built from Python callables and has no named parameters; build it with "
+                "LeftInvariantSystem.from_expression to set parameter values."
+            )
+        unknown = sorted(set(values) - set(self.parameters))
+        if unknown:
+            known = sorted(self.parameters) or "none"
+            raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {known}.")
+        merged = {**self.parameters, **{k: float(v) for k, v in values.items()}}
+        return LeftInvariantSystem.from_expression(self.expression, merged, name=self.name)
+
     # -- the Hamiltonian and its derivatives ----------------------------------------------------
     def hamiltonian(self, m: Any) -> np.ndarray:
         """:math:`H(m)`, shape ``(...)``."""
