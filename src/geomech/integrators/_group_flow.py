@@ -16,8 +16,9 @@ from .. import _validate as V
 from ..errors import InputError, NumericalError
 from ..systems.group_flow import GroupFlow
 from ._adaptive import _OverBudget
+from ._times import Times
 from .methods import RKMK, RKMK4, Method
-from .solution import Failure, Solution, Status
+from .solution import Failure, Solution, Status, run_stats
 
 
 def group_labels(system: GroupFlow) -> tuple[str, ...]:
@@ -52,7 +53,7 @@ def _start(system: GroupFlow, g0: Any) -> tuple[np.ndarray, np.ndarray]:
 def solve_group_flow(
     system: GroupFlow,
     method: Method,
-    times: Any,
+    times: Times,
     *,
     t0: float,
     g0: Any,
@@ -95,6 +96,7 @@ def solve_group_flow(
     gc, angle, tc = g_init.copy(), angle0.copy(), float(t0)
     try:
         if isinstance(method, RKMK4):
+            assert times.h is not None  # a fixed-step method: solve() has set the step
             h = float(times.h)
             keep = times.kernel_steps() if times.k is None else times.k
             want = {int(s): j for j, s in enumerate(keep)}
@@ -190,14 +192,6 @@ def solve_group_flow(
         status=failures[0].kind if failures else Status.SUCCESS,
         message=message,
         failures=failures,
-        stats={
-            "n_steps": times.n_steps,
-            "n_internal_steps": steps,
-            "n_rhs": nfev,
-            "n_newton": 0,
-            "backend": "python",
-            "compile_time": 0.0,
-            "run_time": run_time,
-        },
+        stats=run_stats(times.n_steps, steps, nfev, run_time),
         group_dim=k,
     )

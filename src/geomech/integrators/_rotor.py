@@ -13,7 +13,8 @@ from .. import _validate as V
 from ..errors import InputError, NumericalError
 from ..systems.rotors import RotorBody, torque_function
 from ._adaptive import integrate_ivp
-from .solution import Failure, Solution, Status
+from ._times import Times
+from .solution import Failure, Solution, Status, run_stats
 
 
 def rotor_labels(n: int) -> tuple[str, ...]:
@@ -28,7 +29,7 @@ def rotor_labels(n: int) -> tuple[str, ...]:
 def solve_rotor(
     body: RotorBody,
     method: Any,
-    times: Any,
+    times: Times,
     *,
     t0: float,
     m0: Any,
@@ -113,14 +114,6 @@ def solve_rotor(
         status=failures[0].kind if failures else Status.SUCCESS,
         message=message,
         failures=failures,
-        stats={
-            "n_steps": times.n_steps,
-            "n_internal_steps": n_steps,
-            "n_rhs": nfev,
-            "n_newton": 0,
-            "backend": "python",
-            "compile_time": 0.0,
-            "run_time": run_time,
-        },
+        stats=run_stats(times.n_steps, n_steps, nfev, run_time),
         parameters=body.parameter_values() if hasattr(body, "parameter_values") else {},
     )

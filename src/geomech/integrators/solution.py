@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Failure", "Solution", "STATUS", "Status", "QUANTITIES"]
+__all__ = ["Failure", "Solution", "STATUS", "Status", "QUANTITIES", "run_stats"]
 
 
 class Status(str, enum.Enum):
@@ -77,6 +77,30 @@ QUANTITIES: dict[str, tuple[str, str | None]] = {
     "serret_andoyer": ("Serret-Andoyer (l, L) and reconstruction angle phi in the chart in use", "lLphi"),
     "chart_axis": ("body axis (1 to 3) of the Serret-Andoyer chart in use", None),
 }
+
+
+def run_stats(
+    n_steps: int,
+    n_internal_steps: int,
+    n_rhs: int,
+    run_time: float,
+    *,
+    n_newton: int = 0,
+    backend: str = "python",
+    compile_time: float = 0.0,
+    **extra: Any,
+) -> dict[str, Any]:
+    """The counters of :attr:`Solution.stats`, the same for every engine (``extra`` adds method-specific ones)."""
+    return {
+        "n_steps": int(n_steps),
+        "n_internal_steps": int(n_internal_steps),
+        "n_rhs": int(n_rhs),
+        "n_newton": int(n_newton),
+        "backend": backend,
+        "compile_time": float(compile_time),
+        "run_time": float(run_time),
+        **extra,
+    }
 
 
 @dataclass(frozen=True)

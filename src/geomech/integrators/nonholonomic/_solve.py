@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
+from .._times import Times
 from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method
-from ..solution import Failure, Solution, Status
+from ..solution import Failure, Solution, Status, run_stats
 from ._continuous import run_full, run_reduced
 from ._discrete import run_discrete
 from ._inputs import _setup, initial_state
@@ -25,7 +26,7 @@ MAX_DISCRETE_STEPS = 1_000_000
 def solve_lagrangian(
     system: Any,
     method: Method,
-    times: Any,
+    times: Times,
     *,
     t0: float,
     q0: Any,
@@ -48,12 +49,14 @@ def solve_lagrangian(
     q_init, qd_init = initial_state(
         system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
     )
+    h = times.h
     if isinstance(method, DiscreteLagrangeDAlembert):
+        assert h is not None  # a fixed-step method: solve() has set the step
         limit = MAX_DISCRETE_STEPS if max_steps == V.MAX_STEPS else max_steps
         V.work_budget(
             float(times.n_steps),
             float(limit),
-            f"The number of steps ({times.n_steps:.3g} of h = {abs(times.h):.3g})",
+            f"The number of steps ({times.n_steps:.3g} of h = {abs(h):.3g})",
             "max_steps",
             "take a larger h or a shorter span",
             seconds_each=2e-4,
@@ -68,7 +71,8 @@ def solve_lagrangian(
     )
     start = time.perf_counter()
     if isinstance(method, DiscreteLagrangeDAlembert):
-        raw = run_discrete(setup, q_init, qd_init, t0, times.h, times.n_steps, newton_tol, max_newton, parameters)
+        assert h is not None
+        raw = run_discrete(setup, q_init, qd_init, t0, h, times.n_steps, newton_tol, max_newton, parameters)
         keep = times.kernel_steps() if times.k is None else times.k
         steps_done = raw.nfev
         raw.q, raw.qd, raw.tau, raw.work = raw.q[keep], raw.qd[keep], raw.tau[keep], raw.work[keep]
@@ -103,15 +107,7 @@ def solve_lagrangian(
         status=failures[0].kind if failures else Status.SUCCESS,
         message=message,
         failures=failures,
-        stats={
-            "n_steps": times.n_steps,
-            "n_internal_steps": internal,
-            "n_rhs": n_rhs,
-            "n_newton": 0,
-            "backend": "python",
-            "compile_time": 0.0,
-            "run_time": run_time,
-        },
+        stats=run_stats(times.n_steps, internal, n_rhs, run_time),
         parameters={k.name: float(v) for k, v in system.parameter_values(parameters).items()},
         group_dim=system.k,
     )
