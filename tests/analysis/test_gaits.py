@@ -8,7 +8,6 @@ from scipy.special import jv
 
 from geomech.analysis import (
     Gait,
-    GaitModel,
     analyse_gait,
     connection_line_integral,
     gait_curvature_integral,
@@ -16,6 +15,7 @@ from geomech.analysis import (
 )
 from geomech.errors import InputError, ShapeError, SingularityError
 from geomech.lie import se2
+from geomech.reduction import bkmm_reduction
 from geomech.systems.nonholonomic_examples import kinematic_car, snakeboard_bkmm
 
 M, R, J0, J1 = 1.0, 1.0, 0.3, 0.1
@@ -27,7 +27,7 @@ PARKING = {"psi": f"{A_PSI}*sin(6*pi*t/T)", "phi": f"{B_PHI}*sin(4*pi*t/T)"}  # 
 
 @pytest.fixture(scope="module")
 def board():
-    return GaitModel(snakeboard_bkmm(m=M, r=R, J0=J0, J1=J1))
+    return bkmm_reduction(snakeboard_bkmm(m=M, r=R, J0=J0, J1=J1)).numeric()
 
 
 @pytest.fixture(scope="module")

@@ -7,14 +7,15 @@ matplotlib = pytest.importorskip("matplotlib")
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from geomech.analysis import GaitModel, analyse_gait  # noqa: E402
+from geomech.analysis import analyse_gait  # noqa: E402
 from geomech.plot.gaits import gait_connection_field, gait_curvature_map, gait_momentum, gait_paths  # noqa: E402
+from geomech.reduction import bkmm_reduction  # noqa: E402
 from geomech.systems.nonholonomic_examples import snakeboard_bkmm  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def analysis():
-    model = GaitModel(snakeboard_bkmm(m=1.0, r=1.0, J0=0.3, J1=0.1))
+    model = bkmm_reduction(snakeboard_bkmm(m=1.0, r=1.0, J0=0.3, J1=0.1)).numeric()
     return analyse_gait(
         model, {"psi": "sin(2*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}, period=1.0, periods=2, samples_per_period=41
     )

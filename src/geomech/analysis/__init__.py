@@ -10,7 +10,7 @@ from .equilibria import (
     find_equilibria,
     refine_equilibrium,
 )
-from .gait_model import GaitModel, gait_loop
+from .gait_model import gait_loop
 from .gaits import GaitAnalysis, analyse_gait, connection_line_integral, gait_curvature_integral
 from .group_paths import decompose_displacement, integrate_path
 from .phases import (
@@ -42,7 +42,6 @@ from .stability_map import stability_map, theorem5_margin
 
 __all__ = [
     "GaitAnalysis",
-    "GaitModel",
     "analyse_gait",
     "connection_line_integral",
     "gait_curvature_integral",

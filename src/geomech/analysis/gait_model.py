@@ -1,147 +1,22 @@
-r"""A nonholonomic system's BKMM objects as numeric functions of the shape (:class:`GaitModel`), and gaits as
-closed shape loops checked against them (:func:`gait_loop`; a locked inertia singular on the loop, even where
-it only grazes the singular set, is refused before any integration).
+r"""Gaits as closed shape loops of a system (:func:`gait_loop`), checked against its reduction's numeric twin
+(:class:`~geomech.reduction.ReducedNumeric`, :func:`check_regular`: a locked inertia singular on the loop, even
+where it only grazes the singular set, is refused before any integration).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-import sympy as sp
 from scipy.optimize import minimize_scalar
 
 from .. import _validate as V
 from ..errors import InputError, ShapeError, SingularityError
-from ..symbolic.compile import compile_vector, stack_last
+from ..reduction.reduced_numeric import ReducedNumeric
 from ..systems.gait import Gait
 
-__all__ = ["GaitModel", "gait_loop", "check_regular"]
-
-
-class GaitModel:
-    """The BKMM objects of a nonholonomic system as numeric functions of the shape.
-
-    It also answers the questions :func:`~geomech.analysis.shape_loops.bind_loop` asks of a system (shape
-    coordinates, which are angles, where the locked inertia is singular), so loops are checked the same
-    way for holonomic and nonholonomic systems.
-
-    Parameters
-    ----------
-    system : NonholonomicSystem
-    parameters : mapping, optional
-        Parameter values not stored in the system.
-    basis : k x m matrix, optional
-        The body-fixed basis of :math:`S_q` (default: the model's, else the null space); the scale of
-        :math:`p` depends on it.
-    """
-
-    def __init__(self, system: Any, parameters: Mapping[str, float] | None = None, basis: Any = None):
-        from ..reduction.nonholonomic import bkmm_reduction
-        from ..systems.nonholonomic import NonholonomicSystem
-
-        if not isinstance(system, NonholonomicSystem):
-            raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
-        self.system = system
-        self.parameters = dict(parameters or {})
-        self.reduction = red = bkmm_reduction(system, basis)
-        self.k, self.sigma, self.m = system.k, system.sigma, red.m
-        pv = system.parameter_values(self.parameters)
-        # Only eqs. (1.1)-(1.2) are needed along a prescribed gait: compiling them alone skips the derivation
-        # of the shape equations (1.3), the costliest part of the reduction.
-        r = list(system.shape)
-        self._A = compile_vector(sp.Matrix(red.connection).subs(pv).tolist(), r)
-        if self.m:
-            self._E = compile_vector(sp.Matrix(red.basis).subs(pv).tolist(), r)
-            self._I = compile_vector(sp.Matrix(red.locked_inertia).subs(pv).tolist(), r)
-            self._pdot = compile_vector(list(sp.Matrix(red.momentum_rhs).subs(pv)), r + list(red.rdot) + list(red.p))
-        # the group's twin: its chart, and (``.numeric``) the group with its closed forms where it has them
-        self.group = system.group
-        self._curvature: Callable[[np.ndarray], np.ndarray] | None = None
-
-    # -- what bind_loop asks ------------------------------------------------------------------------
-    @property
-    def name(self) -> str:
-        return self.system.name
-
-    @property
-    def shape(self) -> tuple:
-        return self.system.shape
-
-    @property
-    def shape_angles(self) -> tuple[int, ...]:
-        return self.system.shape_angles
-
-    def check_locked_inertia(self, r: Any) -> np.ndarray:
-        """The locked inertia :math:`\\mathbb I(r)` at the points ``r`` ``(n, sigma)``, or
-        :class:`SingularityError` where it is singular (the reconstruction needs :math:`\\mathbb I^{-1}`)."""
-        I = self.locked_inertia(np.atleast_2d(r))
-        if self.m == 0:
-            return I
-        V.positive_definite_along(
-            I,
-            r,
-            f"locked inertia of {self.name}",
-            "I^-1 p in the reconstruction g^-1 g' = -A r' + I^-1 p is undefined there; keep the gait away from it",
-            rtol=1e-10,
-            global_scale=True,
-        )
-        return I
-
-    # -- numeric objects ---------------------------------------------------------------------------
-    def connection(self, r: Any) -> np.ndarray:
-        """:math:`\\mathcal A^{nh}(r)`, shape ``(..., k, sigma)``."""
-        r = np.asarray(r, dtype=float)
-        if self.sigma == 0:
-            return np.zeros(r.shape[:-1] + (self.k, 0))
-        return self._A(r)
-
-    def basis(self, r: Any) -> np.ndarray:
-        """:math:`e(r)`, shape ``(..., k, m)``."""
-        r = np.asarray(r, dtype=float)
-        return self._E(r) if self.m else np.zeros(r.shape[:-1] + (self.k, 0))
-
-    def locked_inertia(self, r: Any) -> np.ndarray:
-        """:math:`\\mathbb I(r)`, shape ``(..., m, m)``."""
-        r = np.asarray(r, dtype=float)
-        return self._I(r) if self.m else np.zeros(r.shape[:-1] + (0, 0))
-
-    def curvature(self, r: Any) -> np.ndarray:
-        """:math:`B^a_{\\alpha\\beta}(r)` (BKMM), shape ``(..., k, sigma, sigma)``."""
-        if self._curvature is None:
-            pv = self.system.parameter_values(self.parameters)
-            B = [sp.Matrix(Ba).subs(pv).tolist() for Ba in self.reduction.curvature]
-            self._curvature = compile_vector(B, list(self.system.shape))
-        return self._curvature(np.asarray(r, dtype=float))
-
-    def xi_connection(self, r: Any, rdot: Any) -> np.ndarray:
-        """:math:`-\\mathcal A^{nh}(r)\\dot r`, shape ``(..., k)``."""
-        return -np.einsum("...aj,...j->...a", self.connection(r), np.asarray(rdot, dtype=float))
-
-    def xi_momentum(self, r: Any, p: Any) -> np.ndarray:
-        """:math:`e(r)\\,\\mathbb I^{-1}(r)\\,p`, shape ``(..., k)``."""
-        r = np.asarray(r, dtype=float)
-        if self.m == 0:
-            return np.zeros(r.shape[:-1] + (self.k,))
-        Om = np.linalg.solve(self.locked_inertia(r), np.asarray(p, dtype=float)[..., None])[..., 0]
-        return np.einsum("...ai,...i->...a", self.basis(r), Om)
-
-    def pdot(self, r: Any, rdot: Any, p: Any) -> np.ndarray:
-        """Right-hand side of the momentum equation (1.2)."""
-        if not self.m:
-            return np.zeros(np.shape(r)[:-1] + (0,))
-        return self._pdot(stack_last(r, rdot, p))
-
-    def element(self, coordinates: Any) -> np.ndarray:
-        """The group element (a matrix) at the system's group coordinates ``(..., k)``."""
-        return self.group.from_coordinates(np.asarray(coordinates, dtype=float))
-
-    @property
-    def exponential_coordinates(self) -> bool:
-        """Whether displacements are given in exponential coordinates (the log) rather than in the chart: when
-        the chart is singular at the identity (3-1-3 Euler angles of SO(3)), where displacements start."""
-        return not self.group.regular_at_identity
+__all__ = ["gait_loop", "check_regular"]
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -187,7 +62,7 @@ def gait_loop(
     return Gait.from_expressions({n: by_name[n] for n in names}, T, parameters=values)
 
 
-def check_regular(model: GaitModel, loop: Gait, n: int = 1024) -> None:
+def check_regular(model: ReducedNumeric, loop: Gait, n: int = 1024) -> None:
     """Refuse a loop that passes through (or between samples touches) a singular locked inertia.
 
     The smallest eigenvalue is sampled densely and each local minimum refined by Brent's method: a loop

@@ -41,8 +41,10 @@ from scipy.integrate import solve_ivp
 from .. import _validate as V
 from ..errors import InputError, NumericalError, ShapeError
 from ..integrators import Solution
+from ..reduction.nonholonomic import bkmm_reduction
+from ..reduction.reduced_numeric import ReducedNumeric
 from ..systems.gait import Gait
-from .gait_model import GaitModel, check_regular, gait_loop
+from .gait_model import check_regular, gait_loop
 from .group_paths import decompose_displacement
 from .phases import stokes_integral
 from .shape_loops import bind_loop, periodic_integral
@@ -70,7 +72,7 @@ class GaitAnalysis:
 
     Attributes
     ----------
-    model : GaitModel
+    model : ReducedNumeric
     loop : Gait
     periods : int
     t : (n,) times, ``samples_per_period`` per period, the period boundaries among them.
@@ -82,7 +84,7 @@ class GaitAnalysis:
     winding : whole turns of the loop in its angle coordinates.
     """
 
-    model: GaitModel = field(repr=False)
+    model: ReducedNumeric = field(repr=False)
     loop: Gait = field(repr=False)
     periods: int
     t: np.ndarray = field(repr=False)
@@ -262,7 +264,7 @@ class GaitAnalysis:
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def _element0(model: GaitModel, g0: Any) -> np.ndarray:
+def _element0(model: ReducedNumeric, g0: Any) -> np.ndarray:
     names = [c.name for c in model.system.group.coordinates]
     if g0 is None:
         vals = np.array([float(v) for v in model.system.group.identity])
@@ -330,7 +332,7 @@ def analyse_gait(
     SingularityError
         The locked inertia is singular (or the connection infinite) somewhere on the loop.
     """
-    model = system if isinstance(system, GaitModel) else GaitModel(system, parameters, basis)
+    model = _model(system, parameters, basis)
     s = model.system
     loop = gait_loop(s, loop, period, parameters=parameters)
     winding = bind_loop(model, loop)
@@ -407,8 +409,11 @@ def analyse_gait(
 # ---------------------------------------------------------------------------------------------------
 # Geometric integrals of the connection
 # ---------------------------------------------------------------------------------------------------
-def _model(system: Any, parameters: Mapping[str, float] | None) -> GaitModel:
-    return system if isinstance(system, GaitModel) else GaitModel(system, parameters)
+def _model(system: Any, parameters: Mapping[str, float] | None, basis: Any = None) -> ReducedNumeric:
+    """The numeric twin of ``system``'s reduction (``system`` itself when it is one)."""
+    if isinstance(system, ReducedNumeric):
+        return system
+    return bkmm_reduction(system, basis).numeric(parameters)
 
 
 def connection_line_integral(

@@ -107,9 +107,9 @@ def _momentum(mu: Any, G: Any) -> np.ndarray:
 
 
 def _connection(system: Any):
-    from ..reduction.connections import MechanicalConnection
+    from ..reduction.nonholonomic import bkmm_reduction
 
-    return MechanicalConnection(system)
+    return bkmm_reduction(system).numeric()
 
 
 def geometric_phase(system: Any, loop: Gait, *, rtol: float = 1e-13) -> np.ndarray:

@@ -23,13 +23,13 @@ _STYLE = {
 
 
 def _model(system: Any) -> Any:
-    from ..analysis.gait_model import GaitModel
+    from ..reduction import ReducedNumeric, bkmm_reduction
 
-    if isinstance(system, GaitModel):
+    if isinstance(system, ReducedNumeric):
         return system
     if hasattr(system, "model"):
         return system.model
-    return GaitModel(system)
+    return bkmm_reduction(system).numeric()
 
 
 def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool = True) -> Any:
@@ -110,7 +110,7 @@ def gait_connection_field(
 ) -> Any:
     """A row of :math:`-\\mathcal A^{nh}(r)` as a vector field on a 2-D shape space, the gait ``loop`` on top.
 
-    ``system``: a NonholonomicSystem, a :class:`~geomech.analysis.gait_model.GaitModel` or a GaitAnalysis (its loop
+    ``system``: a NonholonomicSystem, a :class:`~geomech.reduction.ReducedNumeric` or a GaitAnalysis (its loop
     is drawn unless another is given). As for holonomic systems (:func:`~geomech.plot.phases.connection_field`)
     the arrows are the body velocity a unit shape velocity along each axis produces, so a loop that runs with
     the arrows gains in that component through the connection term. ``component``: an index or a name

@@ -167,10 +167,10 @@ def connection_field(
     """
     import matplotlib.pyplot as plt
 
-    from ..reduction.connections import MechanicalConnection
+    from ..reduction import bkmm_reduction
 
     X, Y, _ = _grid(system, bounds, loop, n)
-    A_all = MechanicalConnection(system).connection(np.stack([X, Y], -1))
+    A_all = bkmm_reduction(system).numeric().connection(np.stack([X, Y], -1))
     c = _component(system, component, np.moveaxis(A_all, -2, -1))
     A = A_all[..., c, :]
     if ax is None:
@@ -202,10 +202,10 @@ def curvature_map(
     component (S^1, SE(2)), else the component of largest curvature."""
     import matplotlib.pyplot as plt
 
-    from ..reduction.connections import MechanicalConnection
+    from ..reduction import bkmm_reduction
 
     X, Y, b = _grid(system, bounds, loop, n)
-    B_all = MechanicalConnection(system).curvature_2d(np.stack([X, Y], -1))
+    B_all = bkmm_reduction(system).numeric().curvature_2d(np.stack([X, Y], -1))
     c = _component(system, component, B_all)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.8))

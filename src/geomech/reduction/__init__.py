@@ -12,10 +12,10 @@ from .classical import (
     reduced_hamiltonian_expression,
     reduced_vector_field,
 )
-from .connections import MechanicalConnection
 from .euler_coordinates import EulerCoordinates, body_angular_velocity
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction
+from .reduced_numeric import ReducedNumeric
 from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "LagrangeDAlembert",
     "NonholonomicReduction",
     "PoissonReduction",
+    "ReducedNumeric",
     "almost_poisson",
     "bkmm_reduction",
     "lagrange_dalembert",
@@ -32,7 +33,6 @@ __all__ = [
     "EulerCoordinates",
     "GeneralizedSerretAndoyer",
     "LPeriod",
-    "MechanicalConnection",
     "SerretAndoyerChart",
     "body_angular_velocity",
     "momentum_l",

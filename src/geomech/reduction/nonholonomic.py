@@ -62,13 +62,13 @@ from ..symbolic import (
     shared_property,
     simplify_expr,
     simplify_matrix,
-    stack_last,
     suffixed_symbols,
     time_derivative,
     to_expression,
 )
 from ..systems.nonholonomic import NonholonomicSystem
 from ._derived import Derived
+from .reduced_numeric import ReducedNumeric
 
 __all__ = [
     "NonholonomicReduction",
@@ -194,6 +194,49 @@ class NonholonomicReduction(Derived, _NumericMixin):
         r""":math:`\mu = \partial l/\partial\xi` (the body momentum, k components) in terms of ``(r, rdot, p)``."""
         mu_r, mu_p, _ = self._mu_parts
         return sp.Matrix(mu_r) * column(self.rdot) + sp.Matrix(mu_p) * column(self.p)
+
+    # ---------------- the momentum map on TQ (section 2.1) ----------------
+    @shared_property
+    def generators(self) -> sp.ImmutableMatrix:
+        r"""The infinitesimal generators :math:`\zeta_Q` of the algebra's basis as the columns of an ``(n, k)``
+        matrix in the coordinates :math:`(\alpha, r)`: :math:`\dot g = \hat\zeta g`, i.e.
+        :math:`\dot\alpha = \Lambda(\alpha)^{-1}\mathrm{Ad}_{g^{-1}}\zeta`, :math:`\dot r = 0`."""
+        G, s = self.system.group, self.system
+        top = G.body_velocity_inverse * G.Ad_matrix(inverse=True)
+        return sp.ImmutableMatrix(sp.Matrix.vstack(top.applyfunc(simplify_expr), sp.zeros(s.sigma, s.k)))
+
+    @shared_property
+    def spatial_locked_inertia(self) -> sp.ImmutableMatrix:
+        r""":math:`\mathbb I(q)` with :math:`\langle\mathbb I\zeta, \eta\rangle = \langle\!\langle\zeta_Q,
+        \eta_Q\rangle\!\rangle` (the kinetic metric on the orbit; :math:`\mathrm{Ad}`-conjugate to
+        :attr:`locked_inertia_full`), ``(k, k)`` in the coordinates :math:`q`."""
+        X = sp.Matrix(self.generators)
+        return sp.ImmutableMatrix(X.T * sp.Matrix(self.system.mass_matrix) * X)
+
+    @shared_property
+    def momentum_map(self) -> sp.ImmutableMatrix:
+        r"""The spatial momentum map :math:`\langle J(q, \dot q), \zeta\rangle = \langle\!\langle\dot q,
+        \zeta_Q(q)\rangle\!\rangle`, ``(k, 1)`` in :math:`(q, \dot q)`; conserved without constraints."""
+        X = sp.Matrix(self.generators)
+        return sp.ImmutableMatrix(X.T * sp.Matrix(self.system.mass_matrix) * column(self.system.qdot))
+
+    def murray_lagrangian(self) -> sp.Expr:
+        r"""Murray's splitting (Theorem 2.1 of the seed) of a system without constraints:
+        :math:`l = \tfrac12(\xi + \mathcal A\dot r)^T\mathbb I(\xi + \mathcal A\dot r) + \tfrac12\dot r^T
+        M(r)\dot r - V(r)`, in the body velocities :attr:`NonholonomicSystem.xi` and the shape velocities."""
+        s = self.system
+        if s.c:
+            raise InputError(
+                f"Murray's splitting holds for the mechanical connection of a system without constraints; "
+                f"{s.name} has {s.c}: its reduced Lagrangian keeps the cross term through the constraints."
+            )
+        u = column(s.xi) + sp.Matrix(self.connection) * column(self.rdot)
+        rd = column(self.rdot)
+        return (
+            (u.T * sp.Matrix(self.locked_inertia_full) * u)[0, 0] / 2
+            + (rd.T * sp.Matrix(self.shape_mass) * rd)[0, 0] / 2
+            - self.potential
+        )
 
     @property
     def omega(self) -> sp.Matrix:
@@ -425,22 +468,11 @@ class NonholonomicReduction(Derived, _NumericMixin):
         )
 
     def numeric(self, parameters: Mapping[str, float] | None = None) -> ReducedNumeric:
-        """Compiled reduced equations; variables ``x = (r, rdot, p)`` of shape ``(..., 2 sigma + m)``."""
+        """The compiled twin: connection, curvature, locked inertia and eqs. (1.1)-(1.3) as numeric functions of
+        the shape (:class:`~geomech.reduction.reduced_numeric.ReducedNumeric`), from the system's data alone: no
+        symbolic attribute above is derived for it."""
         self._check_basis_at(parameters)
-        x = list(self.r) + list(self.rdot) + list(self.p)
-        exprs = {
-            "pdot": self.momentum_rhs,
-            "M": self.shape_mass,
-            "delta": self.shape_forces,
-            "xi": self.reconstruction,
-            "A": self.connection,
-            "E": self.basis,
-            "I": self.locked_inertia,
-        }
-        funcs = self._compile(parameters, exprs, x)
-        s = self.system
-        mom = self._compile(parameters, {"p": self.momentum}, list(s.q) + list(s.qdot))["p"]
-        return ReducedNumeric(self, funcs, mom)
+        return ReducedNumeric(self, parameters)
 
 
 def _numeric_rank(M: sp.MatrixBase) -> int | None:
@@ -451,51 +483,6 @@ def _numeric_rank(M: sp.MatrixBase) -> int | None:
     if not np.all(np.isfinite(arr)):
         return None
     return int(np.linalg.matrix_rank(arr, tol=1e-9 * max(1.0, float(np.abs(arr).max(initial=0.0)))))
-
-
-@dataclass(frozen=True)
-class ReducedNumeric:
-    """Numeric reduced equations of :class:`NonholonomicReduction`; ``x = (r, rdot, p)``."""
-
-    reduction: NonholonomicReduction
-    funcs: dict = field(repr=False)
-    momentum_fn: Any = field(repr=False)
-
-    def _x(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        return stack_last(r, rd, p)
-
-    @staticmethod
-    def _column(out: np.ndarray, x: np.ndarray, n: int) -> np.ndarray:
-        # a column of n entries per state; n = 0 (no momentum: a principally kinematic system) included
-        return np.asarray(out).reshape(np.shape(x)[:-1] + (n,))
-
-    def pdot(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        x = self._x(r, rd, p)
-        return self._column(self.funcs["pdot"](x), x, self.reduction.m)
-
-    def shape_mass(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        return self.funcs["M"](self._x(r, rd, p))
-
-    def delta(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        x = self._x(r, rd, p)
-        return self._column(self.funcs["delta"](x), x, self.reduction.system.sigma)
-
-    def xi(self, r: Any, rd: Any, p: Any) -> np.ndarray:
-        r"""Body velocity :math:`g^{-1}\\dot g` from the reconstruction equation (1.1)."""
-        x = self._x(r, rd, p)
-        return self._column(self.funcs["xi"](x), x, self.reduction.system.k)
-
-    def rddot(self, r: Any, rd: Any, p: Any, tau: Any = None) -> np.ndarray:
-        M = self.shape_mass(r, rd, p)
-        rhs = self.delta(r, rd, p)
-        if tau is not None:
-            rhs = rhs + np.asarray(tau, dtype=float)
-        return np.linalg.solve(M, rhs[..., None])[..., 0]
-
-    def momentum(self, q: Any, qd: Any) -> np.ndarray:
-        r""":math:`p(q, \\dot q)` from the full state."""
-        x = stack_last(q, qd)
-        return self._column(self.momentum_fn(x), x, self.reduction.m)
 
 
 def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, str]:

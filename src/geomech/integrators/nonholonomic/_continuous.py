@@ -111,7 +111,7 @@ def run_reduced(
         xi = rn.xi(r, rd, p)
         q, qd = np.r_[g, r], np.r_[rates(g) @ xi, rd]
         tau_f = setup.torques(t, q, qd)
-        M, delta = rn.shape_mass(r, rd, p), rn.delta(r, rd, p)
+        M, delta = rn.shape_mass(r), rn.delta(r, rd, p)
         # Unknowns: free shape accelerations and the forces that realise the gait.
         K = np.zeros((sigma, sigma))
         K[:, :nF] = M[:, F]
