@@ -9,9 +9,9 @@ from scipy.special import jv
 from geomech.analysis import (
     Gait,
     analyse_gait,
-    connection_line_integral,
-    gait_curvature_integral,
+    curvature_integral,
     gait_loop,
+    geometric_phase,
 )
 from geomech.errors import InputError, ShapeError, SingularityError
 from geomech.lie import se2
@@ -203,8 +203,8 @@ def test_stokes_for_small_loops(board):
     for eps in eps_list:
         loop = Gait.ellipse([0.3, 0.5], [eps, 0.7 * eps], 1.0, tilt=0.4)
         a = analyse_gait(board, loop)
-        B = gait_curvature_integral(board, loop)
-        line = connection_line_integral(board, loop)
+        B = curvature_integral(board, loop)
+        line = geometric_phase(board, loop)
         u = se2.log(a.displacement(part="connection"))
         # rotation: exact (Stokes), the bracket of se(2) has no rotation part
         assert abs(u[2] + B[2]) < 1e-11 and abs(line[2] + B[2]) < 1e-11
@@ -217,7 +217,7 @@ def test_stokes_for_small_loops(board):
 def test_curvature_integral_against_grid_quadrature(board):
     # the snakeboard's theta-row is A = (J0 sin^2(phi)/(m r^2), 0): B_theta = -2 J0 sin(phi) cos(phi)/(m r^2)
     loop = Gait.ellipse([0.1, 0.3], [0.5, 0.4], 2.0)
-    val = gait_curvature_integral(board, loop)
+    val = curvature_integral(board, loop)
     f = lambda rho, ang: (-J0 * np.sin(2 * (0.3 + 0.4 * rho * np.sin(ang))) / (M * R**2)) * rho * 0.5 * 0.4
     from scipy.integrate import dblquad
 

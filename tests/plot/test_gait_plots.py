@@ -8,7 +8,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from geomech.analysis import analyse_gait  # noqa: E402
-from geomech.plot.gaits import gait_connection_field, gait_curvature_map, gait_momentum, gait_paths  # noqa: E402
+from geomech.plot.gaits import gait_momentum, gait_paths  # noqa: E402
+from geomech.plot.phases import connection_field, curvature_map  # noqa: E402
 from geomech.reduction import bkmm_reduction  # noqa: E402
 from geomech.systems.nonholonomic_examples import snakeboard_bkmm  # noqa: E402
 
@@ -41,7 +42,7 @@ def test_momentum_plot(analysis):
 
 def test_connection_field_and_curvature(analysis):
     _, ax = plt.subplots()
-    assert gait_connection_field(analysis, component="omega", n=7, ax=ax) is ax
+    assert connection_field(analysis, component="omega", n=7, ax=ax) is ax
     q = [c for c in ax.collections if hasattr(c, "U")][0]
     X = np.asarray(q.X).reshape(7, 7)
     Y = np.asarray(q.Y).reshape(7, 7)
@@ -50,7 +51,7 @@ def test_connection_field_and_curvature(analysis):
         np.asarray(q.V).reshape(7, 7), -A[..., 1]
     )
     plt.close(ax.figure)
-    ax = gait_curvature_map(analysis, n=31, bounds=(-1.0, 1.0, -0.6, 0.6))
+    ax = curvature_map(analysis, n=31, bounds=(-1.0, 1.0, -0.6, 0.6))
     B = np.asarray(ax.collections[0].get_array()).reshape(31, 31)
     X, Y = np.meshgrid(np.linspace(-1.0, 1.0, 31), np.linspace(-0.6, 0.6, 31))
     assert np.allclose(B, analysis.model.curvature(np.stack([X, Y], -1))[..., 2, 0, 1], rtol=1e-12, atol=0)
@@ -58,7 +59,7 @@ def test_connection_field_and_curvature(analysis):
 
 
 def test_zero_component_is_said_not_drawn(analysis):
-    ax = gait_connection_field(analysis, component="v_y", n=5)
+    ax = connection_field(analysis, component="v_y", n=5)
     assert not [c for c in ax.collections if hasattr(c, "U")]
     assert "vanishes" in ax.texts[0].get_text()
     plt.close(ax.figure)

@@ -11,7 +11,7 @@ from .equilibria import (
     refine_equilibrium,
 )
 from .gait_model import gait_loop
-from .gaits import GaitAnalysis, analyse_gait, connection_line_integral, gait_curvature_integral
+from .gaits import GaitAnalysis, analyse_gait
 from .group_paths import decompose_displacement, integrate_path
 from .phases import (
     PhaseSplit,
@@ -43,8 +43,6 @@ from .stability_map import stability_map, theorem5_margin
 __all__ = [
     "GaitAnalysis",
     "analyse_gait",
-    "connection_line_integral",
-    "gait_curvature_integral",
     "gait_loop",
     "PhaseSplit",
     "Reconstruction",

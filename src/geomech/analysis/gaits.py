@@ -26,7 +26,8 @@ phase of Theorem 2.2 (eq. 2.3); for nonholonomic systems the seed (section 2) le
 net motion into a geometric and a dynamic phase open, and this split is not offered as one. Only the
 connection-alone displacement is geometric (it depends on the loop's image and orientation, not on its
 timing), and the rotation it produces is exactly :math:`-\oint\mathcal A^{nh}_\theta\,dr
-= -\iint B_\theta` (:func:`connection_line_integral`, :func:`gait_curvature_integral`).
+= -\iint B_\theta` (:func:`~geomech.analysis.phases.geometric_phase`,
+:func:`~geomech.analysis.phases.curvature_integral`).
 """
 
 from __future__ import annotations
@@ -41,19 +42,16 @@ from scipy.integrate import solve_ivp
 from .. import _validate as V
 from ..errors import InputError, NumericalError, ShapeError
 from ..integrators import Solution
-from ..reduction.nonholonomic import bkmm_reduction
+from ..reduction.nonholonomic import reduced_numeric
 from ..reduction.reduced_numeric import ReducedNumeric
 from ..systems.gait import Gait
 from .gait_model import check_regular, gait_loop
 from .group_paths import decompose_displacement
-from .phases import stokes_integral
-from .shape_loops import bind_loop, periodic_integral
+from .shape_loops import bind_loop
 
 __all__ = [
     "GaitAnalysis",
     "analyse_gait",
-    "connection_line_integral",
-    "gait_curvature_integral",
 ]
 
 _NOTE = (
@@ -332,7 +330,7 @@ def analyse_gait(
     SingularityError
         The locked inertia is singular (or the connection infinite) somewhere on the loop.
     """
-    model = _model(system, parameters, basis)
+    model = reduced_numeric(system, parameters, basis)
     s = model.system
     loop = gait_loop(s, loop, period, parameters=parameters)
     winding = bind_loop(model, loop)
@@ -404,73 +402,3 @@ def analyse_gait(
         nfev,
     )
     return out
-
-
-# ---------------------------------------------------------------------------------------------------
-# Geometric integrals of the connection
-# ---------------------------------------------------------------------------------------------------
-def _model(system: Any, parameters: Mapping[str, float] | None, basis: Any = None) -> ReducedNumeric:
-    """The numeric twin of ``system``'s reduction (``system`` itself when it is one)."""
-    if isinstance(system, ReducedNumeric):
-        return system
-    return bkmm_reduction(system, basis).numeric(parameters)
-
-
-def connection_line_integral(
-    system: Any,
-    loop: Any,
-    *,
-    period: float | None = None,
-    parameters: Mapping[str, float] | None = None,
-    rtol: float = 1e-13,
-) -> np.ndarray:
-    r""":math:`-\oint\mathcal A^{nh}(r)\,dr`, shape ``(k,)``.
-
-    Its abelian components are displacements: for SE(2) the rotation (index 2), equal to the turn of the
-    connection-alone path whatever the loop's timing; the translational components are not (the
-    connection-alone path must be integrated on the group, :func:`analyse_gait`).
-    """
-    model = _model(system, parameters)
-    loop = gait_loop(model.system, loop, period, parameters=parameters)
-    bind_loop(model, loop)
-
-    def integrand(t: np.ndarray) -> np.ndarray:
-        return model.xi_connection(loop.r(t), loop.rdot(t))
-
-    return periodic_integral(integrand, loop.T, rtol=rtol, what="connection")
-
-
-def gait_curvature_integral(
-    system: Any,
-    loop: Any,
-    *,
-    period: float | None = None,
-    parameters: Mapping[str, float] | None = None,
-    base_point: Any = None,
-    n_radial: int = 24,
-    rtol: float = 1e-12,
-) -> np.ndarray:
-    r""":math:`\iint_D B_{12}\,dr_1\,dr_2` of the nonholonomic connection's curvature (BKMM,
-    :math:`B = d\mathcal A - [\mathcal A, \mathcal A]`) over the region a loop in a 2-D shape space encloses,
-    weighted by its winding number; shape ``(k,)``.
-
-    Its rotation component (SE(2)) is exactly :math:`\oint\mathcal A_\theta\,dr` (Stokes, the bracket has no
-    rotation part), so minus it is the connection-alone turn; for a small loop around :math:`r_0` the
-    whole connection-alone displacement is :math:`\exp(-\iint B) + O(\varepsilon^3)`. Computed as in
-    :func:`~geomech.analysis.phases.curvature_integral`: the pull-back of :math:`B` by the cone
-    :math:`(s, t)\mapsto c + s(r(t) - c)`, Gauss-Legendre in ``s``, trapezoidal in ``t``.
-    """
-    model = _model(system, parameters)
-    if model.sigma != 2:
-        raise ShapeError(
-            f"Expected a 2-D shape space for the curvature integral, {model.name} has {model.sigma} shape variables."
-        )
-    loop = gait_loop(model.system, loop, period, parameters=parameters)
-    return stokes_integral(
-        lambda pts: model.curvature(pts)[..., 0, 1],
-        loop,
-        bind_loop(model, loop),
-        base_point=base_point,
-        rtol=rtol,
-        n_radial=n_radial,
-    )

@@ -29,7 +29,7 @@ to :math:`(-\pi, \pi]`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,7 +39,9 @@ from .. import _validate as V
 from ..errors import ConvergenceError, InputError, ShapeError
 from ..integrators import Solution
 from ..lie._common import wrap_angle
+from ..reduction.nonholonomic import reduced_numeric
 from ..systems.gait import Gait
+from .gait_model import gait_loop
 from .group_paths import decompose_displacement, integrate_path
 from .shape_loops import bind_loop, periodic_integral
 
@@ -106,22 +108,30 @@ def _momentum(mu: Any, G: Any) -> np.ndarray:
     return mu
 
 
-def _connection(system: Any):
-    from ..reduction.nonholonomic import bkmm_reduction
+def geometric_phase(
+    system: Any,
+    loop: Any,
+    *,
+    period: float | None = None,
+    parameters: Mapping[str, float] | None = None,
+    rtol: float = 1e-13,
+) -> np.ndarray:
+    r""":math:`-\oint\mathcal A(r)\,dr` over a closed shape loop, shape ``(k,)`` (every algebra component).
 
-    return bkmm_reduction(system).numeric()
-
-
-def geometric_phase(system: Any, loop: Gait, *, rtol: float = 1e-13) -> np.ndarray:
-    """:math:`-\\oint A_{loc}(r)\\,dr` over the loop, shape ``(k,)`` (every algebra component).
-
-    Only the abelian components are a holonomy (a phase): all of them for S^1, the rotation for SE(2).
+    ``system``: any Lagrangian system on :math:`G\times S` (or its :class:`~geomech.reduction.ReducedNumeric`);
+    ``loop``: a :class:`Gait` with a period, or formulas in ``t`` and ``T`` by shape variable with ``period``.
+    Without constraints :math:`\mathcal A` is the mechanical connection and the abelian components are the
+    geometric phase of Theorem 2.2 (all of them for S^1, the rotation for SE(2)); with constraints it is the
+    nonholonomic connection, whose abelian components are the displacement of the connection term alone,
+    whatever the loop's timing (the rotation of SE(2)). The other components are not displacements: integrate
+    on the group (:func:`reconstruct`, :func:`~geomech.analysis.gaits.analyse_gait`).
     """
-    bind_loop(system, loop)
-    conn = _connection(system)
+    model = reduced_numeric(system, parameters)
+    loop = gait_loop(model.system, loop, period, parameters=parameters)
+    bind_loop(model, loop)
 
     def integrand(t: np.ndarray) -> np.ndarray:
-        return -np.einsum("...aj,...j->...a", conn.connection(loop.r(t)), loop.rdot(t))
+        return model.xi_connection(loop.r(t), loop.rdot(t))
 
     return periodic_integral(integrand, loop.T, rtol=rtol, what="connection")
 
@@ -148,7 +158,7 @@ def phases(system: Any, loop: Gait, mu: Any = 0.0, *, g0: Any = None, rtol: floa
     """
     G = system.group
     turns = bind_loop(system, loop)
-    conn = _connection(system)
+    conn = reduced_numeric(system)
     T = loop.T
     mu = _momentum(mu, G)
     if len(G.angle_components) != 1:
@@ -207,24 +217,35 @@ def _require_centre_of_mass_frame(system: Any, conn: Any, loop: Gait, c: int, to
 
 
 def curvature_integral(
-    system: Any, loop: Gait, *, base_point: Any = None, rtol: float = 1e-12, n_radial: int = 24
+    system: Any,
+    loop: Any,
+    *,
+    period: float | None = None,
+    parameters: Mapping[str, float] | None = None,
+    base_point: Any = None,
+    rtol: float = 1e-12,
+    n_radial: int = 24,
 ) -> np.ndarray:
-    """:math:`\\iint_D B_{12}\\, dr_1 dr_2` over the region the loop encloses, weighted by its winding
-    number (Stokes: equals :math:`\\oint A\\,dr` for the abelian components), shape ``(k,)``.
+    r""":math:`\iint_D B_{12}\, dr_1 dr_2` over the region a loop in a 2-D shape space encloses, weighted by its
+    winding number, shape ``(k,)``; :math:`B = d\mathcal A - [\mathcal A, \mathcal A]` the curvature of the
+    mechanical or the nonholonomic connection (arguments as :func:`geometric_phase`).
 
-    Computed as the integral of the pull-back of :math:`B` by the cone
-    :math:`(s, t) \\mapsto c + s\\,(r(t) - c)`, whose boundary is the loop: Gauss-Legendre in ``s``,
-    trapezoidal in ``t`` (spectral for smooth loops). The connection must be smooth on that cone
-    (``base_point`` ``c``, default the loop's mean); the loop must not wind around an angle coordinate.
+    Stokes: its abelian components equal :math:`\oint\mathcal A\,dr`, minus the geometric phase (for SE(2)
+    the rotation, the bracket having no rotation part); for a small loop around :math:`r_0` the whole
+    connection-alone displacement is :math:`\exp(-\iint B) + O(\varepsilon^3)`. Computed as the integral of the
+    pull-back of :math:`B` by the cone :math:`(s, t) \mapsto c + s\,(r(t) - c)`, whose boundary is the loop:
+    Gauss-Legendre in ``s``, trapezoidal in ``t`` (spectral for smooth loops). The connection must be smooth on
+    that cone (``base_point`` ``c``, default the loop's mean); the loop must not wind around an angle
+    coordinate.
     """
-    conn = _connection(system)
-    if system.sigma != 2:
+    model = reduced_numeric(system, parameters)
+    if model.sigma != 2:
         raise ShapeError(
-            f"Expected a 2-D shape space for the curvature integral, {system.name} has "
-            f"{system.sigma} shape coordinates."
+            f"Expected a 2-D shape space for the curvature integral, {model.name} has {model.sigma} shape coordinates."
         )
+    loop = gait_loop(model.system, loop, period, parameters=parameters)
     return stokes_integral(
-        conn.curvature_2d, loop, bind_loop(system, loop), base_point=base_point, rtol=rtol, n_radial=n_radial
+        model.curvature_2d, loop, bind_loop(model, loop), base_point=base_point, rtol=rtol, n_radial=n_radial
     )
 
 
@@ -328,7 +349,7 @@ def reconstruct(
     decompose : also integrate the connection term and the momentum term alone.
     """
     G = system.group
-    conn = _connection(system)
+    conn = reduced_numeric(system)
     if isinstance(shape, Gait):
         bind_loop(system, shape)
         if t_eval is None:

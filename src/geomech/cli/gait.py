@@ -80,7 +80,8 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from ..plot.gaits import gait_connection_field, gait_curvature_map, gait_momentum, gait_paths
+    from ..plot.gaits import gait_momentum, gait_paths
+    from ..plot.phases import connection_field, curvature_map
 
     outputs = Outputs(out)
 
@@ -92,9 +93,9 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
     if analysis.model.sigma == 2 and not any(analysis.winding):
         for c in range(analysis.model.k):
             name = analysis.model.group.algebra_names[c]
-            save(gait_connection_field(analysis, component=c), f"connection_{name}.png")
-            save(gait_curvature_map(analysis, component=c), f"curvature_{name}.png")
-        save(gait_curvature_map(analysis), "curvature.png")  # the default component (the rotation on SE(2))
+            save(connection_field(analysis, component=c), f"connection_{name}.png")
+            save(curvature_map(analysis, component=c), f"curvature_{name}.png")
+        save(curvature_map(analysis), "curvature.png")  # the default component (the rotation on SE(2))
     outputs.dataset("gait.nc", analysis.to_dataset())
     files = outputs.paths("gait.json")
     outputs.json("gait.json", {**summary, "files": files})

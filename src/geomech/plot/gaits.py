@@ -12,24 +12,14 @@ from typing import Any
 import numpy as np
 
 from ..lie.groups import SE2
-from .phases import _component, _curvature_panel, _draw_loop, _grid, _labels, group_path
+from .phases import group_path
 
-__all__ = ["gait_paths", "gait_momentum", "gait_connection_field", "gait_curvature_map"]
+__all__ = ["gait_paths", "gait_momentum"]
 
 _STYLE = {
     "connection": dict(color="C2", ls="--", label=r"connection term $-\mathcal{A}^{nh}\dot r$ alone"),
     "momentum": dict(color="C1", ls=":", label=r"momentum term $\mathbb{I}^{-1}p$ alone"),
 }
-
-
-def _model(system: Any) -> Any:
-    from ..reduction import ReducedNumeric, bkmm_reduction
-
-    if isinstance(system, ReducedNumeric):
-        return system
-    if hasattr(system, "model"):
-        return system.model
-    return bkmm_reduction(system).numeric()
 
 
 def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool = True) -> Any:
@@ -102,75 +92,4 @@ def gait_momentum(analysis: Any, *, ax: Any = None) -> Any:
         ax.legend(loc="best", fontsize=8)
         dp = analysis.momentum_change
         ax.set_title(f"{analysis.system.name}: change per period {np.round(dp[0], 6).tolist()}", fontsize=9)
-    return ax
-
-
-def gait_connection_field(
-    system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21, ax: Any = None
-) -> Any:
-    """A row of :math:`-\\mathcal A^{nh}(r)` as a vector field on a 2-D shape space, the gait ``loop`` on top.
-
-    ``system``: a NonholonomicSystem, a :class:`~geomech.reduction.ReducedNumeric` or a GaitAnalysis (its loop
-    is drawn unless another is given). As for holonomic systems (:func:`~geomech.plot.phases.connection_field`)
-    the arrows are the body velocity a unit shape velocity along each axis produces, so a loop that runs with
-    the arrows gains in that component through the connection term. ``component``: an index or a name
-    (``"omega"``, ``"v_x"``, ``"theta"``...), default the rotation.
-    """
-    import matplotlib.pyplot as plt
-
-    if loop is None and hasattr(system, "loop"):
-        loop = system.loop
-    model = _model(system)
-    X, Y, _ = _grid(model, bounds, loop, n)
-    A_all = model.connection(np.stack([X, Y], -1))
-    c = _component(model, component, np.moveaxis(A_all, -2, -1))
-    A = A_all[..., c, :]
-    if ax is None:
-        _, ax = plt.subplots(figsize=(5.2, 4.8))
-    mag = np.hypot(A[..., 0], A[..., 1])
-    name = model.group.algebra_names[c]
-    if mag.max() > 0:
-        q = ax.quiver(X, Y, -A[..., 0], -A[..., 1], mag, cmap="viridis", pivot="mid")
-        ax.figure.colorbar(q, ax=ax, label=f"$|A^{{nh}}|$ ({name})")
-    else:
-        # a zero field has no arrows to scale (matplotlib would divide by zero)
-        ax.text(0.5, 0.92, f"the {name} component vanishes here", ha="center", transform=ax.transAxes)
-    if loop is not None:
-        _draw_loop(ax, loop)
-    _labels(ax, model)
-    ax.set_title(f"{model.name}:\n$-\\mathcal{{A}}^{{nh}}$, {name} component", fontsize=10)
-    return ax
-
-
-def gait_curvature_map(
-    system: Any,
-    *,
-    component: Any = None,
-    loop: Any = None,
-    bounds: Any = None,
-    n: int = 121,
-    ax: Any = None,
-    shade: bool = True,
-) -> Any:
-    """The curvature :math:`B_{12}` of the nonholonomic connection (one component) as a heat map on a 2-D
-    shape space, the gait drawn and the enclosed region shaded by its signed winding number.
-
-    For the rotation of SE(2), :math:`-\\iint B` is the turn the connection term gives alone (exactly); for
-    the other components only to leading order in the loop's size.
-    """
-    import matplotlib.pyplot as plt
-
-    if loop is None and hasattr(system, "loop"):
-        loop = system.loop
-    model = _model(system)
-    X, Y, b = _grid(model, bounds, loop, n)
-    B_all = model.curvature(np.stack([X, Y], -1))[..., 0, 1]
-    c = _component(model, component, B_all)
-    if ax is None:
-        _, ax = plt.subplots(figsize=(5.6, 4.8))
-    _curvature_panel(ax, model, X, Y, B_all[..., c], b, c, loop, shade, "the connection-alone turn")
-    _labels(ax, model)
-    ax.set_title(
-        f"{model.name}:\ncurvature of $\\mathcal{{A}}^{{nh}}$, {model.group.algebra_names[c]} component", fontsize=10
-    )
     return ax

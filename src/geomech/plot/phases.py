@@ -155,33 +155,54 @@ def _curvature_panel(
     )
 
 
+def _numeric(system: Any) -> Any:
+    """The numeric reduction behind ``system`` (a Lagrangian system on G x S, its ReducedNumeric, or an analysis
+    holding one as ``model``)."""
+    from ..reduction import reduced_numeric
+
+    return system.model if hasattr(system, "model") else reduced_numeric(system)
+
+
+def _connection_tex(model: Any) -> str:
+    return r"\mathcal{A}^{nh}" if model.c else "A_{loc}"
+
+
 def connection_field(
     system: Any, *, component: Any = None, loop: Any = None, bounds: Any = None, n: int = 21, ax: Any = None
 ) -> Any:
-    """The row ``component`` of :math:`-A_{loc}(r)` as a vector field on a 2-D shape space.
+    """The row ``component`` of :math:`-\\mathcal A(r)` (the mechanical connection, or the nonholonomic one for
+    a system with constraints) as a vector field on a 2-D shape space.
 
-    Following the convention of gait design, the arrows are the body velocity (in that component) a
-    unit shape velocity along each axis would produce, so a loop that runs along the arrows gains
-    :math:`-\\oint A` in it. ``component`` is an index or a name (``"theta"``, ``"x"``, ``"omega"``...);
-    default the rotation. ``loop`` (a :class:`~geomech.systems.Gait`) is drawn on top.
+    ``system``: a Lagrangian system on G x S, its :class:`~geomech.reduction.ReducedNumeric`, or a GaitAnalysis
+    (its loop is drawn unless another is given). Following the convention of gait design, the arrows are the
+    body velocity (in that component) a unit shape velocity along each axis would produce, so a loop that runs
+    along the arrows gains :math:`-\\oint\\mathcal A` in it. ``component`` is an index or a name (``"theta"``,
+    ``"x"``, ``"omega"``...); default the rotation. ``loop`` (a :class:`~geomech.systems.Gait`) is drawn on top.
     """
     import matplotlib.pyplot as plt
 
-    from ..reduction import bkmm_reduction
-
-    X, Y, _ = _grid(system, bounds, loop, n)
-    A_all = bkmm_reduction(system).numeric().connection(np.stack([X, Y], -1))
-    c = _component(system, component, np.moveaxis(A_all, -2, -1))
+    if loop is None and hasattr(system, "loop"):
+        loop = system.loop
+    model = _numeric(system)
+    X, Y, _ = _grid(model, bounds, loop, n)
+    A_all = model.connection(np.stack([X, Y], -1))
+    c = _component(model, component, np.moveaxis(A_all, -2, -1))
     A = A_all[..., c, :]
     if ax is None:
         _, ax = plt.subplots(figsize=(5.2, 4.8))
     mag = np.hypot(A[..., 0], A[..., 1])
-    q = ax.quiver(X, Y, -A[..., 0], -A[..., 1], mag, cmap="viridis", pivot="mid")
-    ax.figure.colorbar(q, ax=ax, label=f"$|A^{{{system.group.algebra_names[c]}}}|$".replace("_", ""))
+    name = model.group.algebra_names[c]
+    tex = _connection_tex(model)
+    if mag.max() > 0:
+        q = ax.quiver(X, Y, -A[..., 0], -A[..., 1], mag, cmap="viridis", pivot="mid")
+        ax.figure.colorbar(q, ax=ax, label=f"$|{tex}|$ ({name})")
+    else:
+        # a zero field has no arrows to scale (matplotlib would divide by zero)
+        ax.text(0.5, 0.92, f"the {name} component vanishes here", ha="center", transform=ax.transAxes)
     if loop is not None:
         _draw_loop(ax, loop)
-    _labels(ax, system)
-    ax.set_title(f"{system.name}:\n$-A_{{loc}}$, {system.group.algebra_names[c]} component", fontsize=10)
+    _labels(ax, model)
+    ax.set_title(f"{model.name}:\n$-{tex}$, {name} component", fontsize=10)
     return ax
 
 
@@ -195,23 +216,27 @@ def curvature_map(
     ax: Any = None,
     shade: bool = True,
 ) -> Any:
-    """The curvature :math:`B_{12}` (component ``component``) as a heat map on a 2-D shape space, with
-    the gait ``loop`` drawn and the region it encloses hatched by its signed winding number (``//`` and a
-    red outline counterclockwise, ``\\\\`` and a blue outline clockwise, with a legend), annotated with
-    :math:`-\\iint w B` (the geometric phase for the abelian components). By default the rotation
-    component (S^1, SE(2)), else the component of largest curvature."""
+    """The curvature :math:`B_{12}` (component ``component``) of the mechanical or nonholonomic connection as a
+    heat map on a 2-D shape space, with the gait ``loop`` drawn and the region it encloses hatched by its signed
+    winding number (``//`` and a red outline counterclockwise, ``\\\\`` and a blue outline clockwise, with a
+    legend), annotated with :math:`-\\iint w B`: the geometric phase (without constraints) or the turn of the
+    connection term alone (with constraints) for the abelian components. By default the rotation component
+    (S^1, SE(2)), else the component of largest curvature. ``system`` as for :func:`connection_field`."""
     import matplotlib.pyplot as plt
 
-    from ..reduction import bkmm_reduction
-
-    X, Y, b = _grid(system, bounds, loop, n)
-    B_all = bkmm_reduction(system).numeric().curvature_2d(np.stack([X, Y], -1))
-    c = _component(system, component, B_all)
+    if loop is None and hasattr(system, "loop"):
+        loop = system.loop
+    model = _numeric(system)
+    X, Y, b = _grid(model, bounds, loop, n)
+    B_all = model.curvature_2d(np.stack([X, Y], -1))
+    c = _component(model, component, B_all)
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.8))
-    _curvature_panel(ax, system, X, Y, B_all[..., c], b, c, loop, shade, "the geometric phase")
-    _labels(ax, system)
-    ax.set_title(f"{system.name}:\ncurvature, {system.group.algebra_names[c]} component", fontsize=10)
+    what = "the connection-alone turn" if model.c else "the geometric phase"
+    _curvature_panel(ax, model, X, Y, B_all[..., c], b, c, loop, shade, what)
+    _labels(ax, model)
+    name = model.group.algebra_names[c]
+    ax.set_title(f"{model.name}:\ncurvature of ${_connection_tex(model)}$, {name} component", fontsize=10)
     return ax
 
 

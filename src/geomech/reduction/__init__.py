@@ -14,7 +14,7 @@ from .classical import (
 )
 from .euler_coordinates import EulerCoordinates, body_angular_velocity
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
-from .nonholonomic import NonholonomicReduction, bkmm_reduction
+from .nonholonomic import NonholonomicReduction, bkmm_reduction, reduced_numeric
 from .reduced_numeric import ReducedNumeric
 from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
 
@@ -29,6 +29,7 @@ __all__ = [
     "bkmm_reduction",
     "lagrange_dalembert",
     "poisson_reduction",
+    "reduced_numeric",
     "ClassicalSerretAndoyer",
     "EulerCoordinates",
     "GeneralizedSerretAndoyer",

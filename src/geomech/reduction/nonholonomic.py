@@ -74,6 +74,7 @@ __all__ = [
     "NonholonomicReduction",
     "ReducedNumeric",
     "bkmm_reduction",
+    "reduced_numeric",
 ]
 
 _simp_matrix = simplify_matrix
@@ -603,3 +604,11 @@ def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> Nonholonomi
                 f"variables, got {basis!r}."
             ) from exc
     return NonholonomicReduction(system, *_bkmm_fields(system, key))
+
+
+def reduced_numeric(system: Any, parameters: Mapping[str, float] | None = None, basis: Any = None) -> ReducedNumeric:
+    """``bkmm_reduction(system, basis).numeric(parameters)``, or ``system`` itself when it is already a
+    :class:`ReducedNumeric` (the analyses and pictures take either)."""
+    if isinstance(system, ReducedNumeric):
+        return system
+    return bkmm_reduction(system, basis).numeric(parameters)
