@@ -16,6 +16,27 @@ def _show(value: Any) -> str:
     return f"an array of shape {arr.shape}"
 
 
+def parameter_update(values: Any, known: Any, owner: str, positive: Any = ()) -> dict[str, float]:
+    """New values for named parameters (``with_parameters`` of every system): each name must be one of ``known``
+    and each value a finite number (> 0 for the names in ``positive``: masses, lengths, inertias)."""
+    known = sorted(known)
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {owner} are {known or 'none'}.")
+    out: dict[str, float] = {}
+    for k, v in values.items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"Expected parameter `{k}` of {owner} to be a number, got {v!r}.") from exc
+        if not np.isfinite(x):
+            raise InputError(f"Expected parameter `{k}` of {owner} to be finite, got {x}.")
+        if k in positive and not x > 0:
+            raise InputError(f"Expected parameter `{k}` of {owner} to be positive (a mass or inertia), got {x:g}.")
+        out[k] = x
+    return out
+
+
 def as_float_array(value: Any, name: str) -> np.ndarray:
     """Return ``value`` as a float64 array, or raise :class:`InputError` naming ``name``."""
     try:

@@ -106,6 +106,10 @@ class StructurePreservingControl:
             raise InputError(f"Expected `body` to be a RotorBody, got {type(body).__name__}.")
         self.body = body
         self.kind = kind
+        # what with_parameters needs to build the same law again with other values
+        self._law: dict[str, Any] = dict(
+            phi_exprs=phi_exprs, variables=variables, phi_callables=phi_callables, integral=integral
+        )
         n = body.n_rotors
         self.n_rotors = n
         self.probe_radius = V.positive_scalar(probe_radius, "probe_radius")
@@ -408,6 +412,27 @@ class StructurePreservingControl:
                 f"from central differences at m = {np.round(m[k], 6).tolist()}; pass the derivative "
                 "of this phi."
             )
+
+    def with_parameters(self, **values: float) -> StructurePreservingControl:
+        """The same control law with other parameter values: the model's (the body's named inertias
+        ``lambda_i``, ``I3`` and the conserved ``p``) and phi's, as every system's ``with_parameters``; the new
+        control is checked and built as a new one (its closed loop, Hamiltonian and existence condition)."""
+        lam_names = () if self._lam_syms is None else tuple(str(s) for s in self._lam_syms)
+        new = V.parameter_update(values, self.parameters, f"this {self.kind} control", lam_names)
+        merged = {**self.parameters, **new}
+        body = self.body
+        if any(k in new for k in lam_names):
+            body = body.with_parameters(**{k: merged[k] for k in lam_names})
+        p_names = [str(s) for s in self._p_syms]
+        model = set(p_names) | set(lam_names)
+        return type(self)(
+            body,
+            self.kind,
+            phi_params={k: v for k, v in merged.items() if k not in model},
+            p=[merged[k] for k in p_names],
+            probe_radius=self.probe_radius,
+            **self._law,
+        )
 
     def theta(self, values: Mapping[str, float] | None = None) -> np.ndarray:
         """The parameter vector (sorted by name), with ``values`` overriding the control's own."""

@@ -141,11 +141,7 @@ class LeftInvariantSystem:
                 f"{self.name} was built from Python callables and has no named parameters; build it with "
                 "LeftInvariantSystem.from_expression to set parameter values."
             )
-        unknown = sorted(set(values) - set(self.parameters))
-        if unknown:
-            known = sorted(self.parameters) or "none"
-            raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {known}.")
-        merged = {**self.parameters, **{k: float(v) for k, v in values.items()}}
+        merged = {**self.parameters, **V.parameter_update(values, self.parameters, self.name)}
         return LeftInvariantSystem.from_expression(self.expression, merged, name=self.name)
 
     # -- the Hamiltonian and its derivatives ----------------------------------------------------

@@ -98,6 +98,26 @@ class RigidBody:
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError("RigidBody is immutable; build a new one.")
 
+    @property
+    def parameters(self) -> dict[str, float]:
+        """The principal moments ``I1, I2, I3`` by name (those of :attr:`system`); none for a body given by a
+        full tensor, which has no named parameters."""
+        return dict(self.system.parameters)
+
+    def with_parameters(self, **values: float) -> RigidBody:
+        """The same body with other principal moments (``I1``, ``I2``, ``I3``), as every system's
+        ``with_parameters``; the triangle inequality of a real body is checked again."""
+        if not self._diagonal:
+            raise InputError(
+                "This rigid body was given by a full inertia tensor and has no named parameters; build "
+                "RigidBody(new_tensor) instead."
+            )
+        merged = {
+            **self.parameters,
+            **V.parameter_update(values, self.parameters, "free rigid body", ("I1", "I2", "I3")),
+        }
+        return RigidBody([merged["I1"], merged["I2"], merged["I3"]])
+
     def _build_system(self) -> LeftInvariantSystem:
         m = sp.Matrix(M_SYMBOLS)
         if self._diagonal:

@@ -41,6 +41,7 @@ angular momentum :math:`\\pi = R m` constant; the energy changes at the rate
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -280,6 +281,30 @@ class RotorBody:
         if self.is_principal and self.n_rotors == 3 and np.array_equal(np.abs(self.axes), np.eye(3)):
             return sp.symbols("lambda1:4", positive=True), sp.symbols("J1:4", positive=True)
         return None, sp.symbols(f"J1:{self.n_rotors + 1}", positive=True)
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """The named inertias of the seed's layouts (:meth:`symbols`) and their values, as every system's
+        ``parameters``; empty for other layouts, which are given by numbers."""
+        return self.parameter_values()
+
+    def with_parameters(self, **values: float) -> RotorBody:
+        """The same layout with other named inertias (``lambda1, lambda2, I3, J3`` for one rotor on axis 3,
+        ``lambda1..3, J1..3`` for three on the principal axes)."""
+        lam_syms, J_syms = self.symbols()
+        known = set(self.parameters) | ({str(s) for s in J_syms} if lam_syms is not None else set())
+        new = V.parameter_update(values, known, self.name, known)
+        lam = np.array(self.inertia, dtype=float)
+        for i, s in enumerate(lam_syms or ()):
+            lam[i, i] = new.get(str(s), lam[i, i])
+        J = self.rotor_inertia
+        if any(str(s) in new for s in J_syms):
+            if J is None and not all(str(s) in new for s in J_syms):
+                raise InputError(
+                    f"The rotor inertias of {self.name} are unspecified: give all of {[str(s) for s in J_syms]}."
+                )
+            J = np.array([new.get(str(s), J[i] if J is not None else 0.0) for i, s in enumerate(J_syms)])
+        return dataclasses.replace(self, inertia=lam, rotor_inertia=J)
 
     def parameter_values(self) -> dict[str, float]:
         """Values of the symbols of :meth:`symbols` by name (the rotors' only when they are known)."""
