@@ -126,7 +126,7 @@ def test_errors_are_one_line_and_status_2(capsys, args, words):
 
 def test_unknown_model_and_missing_parameters(capsys):
     code, _, err = run(capsys, "no_such_board", *DRIVE, "--period", "1")
-    assert code == 2 and "unknown example 'no_such_board'" in err and err.count("\n") == 1
+    assert code == 2 and "Unknown example 'no_such_board'" in err and err.count("\n") == 1
     code, _, err = run(capsys, "snakeboard_bkmm", *DRIVE, "--period", "1")
     assert code == 2 and "--param J0=VALUE" in err and err.count("\n") == 1
 

@@ -157,7 +157,7 @@ def test_bad_models_give_one_line_and_status_2(capsys, tmp_path, body, match):
 
 def test_bad_command_lines(capsys):
     code, _, err = _run(capsys, "derive", "unicycle")
-    assert code == 2 and "unknown example" in err
+    assert code == 2 and "Unknown example" in err
     code, _, err = _run(capsys, "simulate", "snakeboard", "--param", "m=1", "--shape", "psi")
     assert code == 2 and "NAME=VALUE" in err
     code, _, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS[:10], "--shape", "rho=t")

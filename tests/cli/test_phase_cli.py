@@ -206,4 +206,4 @@ def test_loop_on_the_spacecraft_reconstructs_on_so3(capsys):
     code, _, err = run(capsys, "phase", "loop", "spacecraft", *shape, "--mu", "0.1")
     assert code == 2 and "3 component(s) for SO(3)" in err
     code, _, err = run(capsys, "phase", "loop", "no-such-model", *shape)
-    assert code == 2 and "Unknown MODEL" in err
+    assert code == 2 and "Unknown example" in err

@@ -45,16 +45,10 @@ def _pairs(items: tuple[str, ...], option: str, numeric: bool) -> dict[str, Any]
 
 
 def nonholonomic_system(model: str, params: dict[str, float]):
-    """A built-in example by name, or the system a model file defines (``system``, or ``build(**params)``)."""
-    from ..systems.nonholonomic_examples import EXAMPLES
-
+    """A built-in example by name (any of ``geomech.systems.models.EXAMPLES``), or the system a model file
+    defines (``system``, or ``build(**params)``)."""
     if is_model_file(model):
         return load_model(model, params)
-    if model not in EXAMPLES:
-        raise click.BadParameter(
-            f"unknown example {model!r}; choose one of {', '.join(EXAMPLES)}, or give a model file (.py)",
-            param_hint="'MODEL'",
-        )
     return example_system(model, params)
 
 

@@ -18,7 +18,6 @@ import click
 import numpy as np
 
 from ..errors import InputError
-from ..systems.holonomic_examples import EXAMPLES
 from ._args import (
     FloatVector,
     OutDir,
@@ -198,20 +197,13 @@ def rigid_body_cmd(
 
 
 def _holonomic_system(model: str, params: dict[str, float]) -> Any:
-    """A built-in model of ``phase loop`` or a model file defining a HolonomicSystem."""
+    """A built-in example without constraints, or a model file defining a HolonomicSystem."""
     from ..systems.holonomic import HolonomicSystem
-    from ..systems.models import load_model
+    from ..systems.models import example_system, load_model
 
-    if model in EXAMPLES:
-        if params:
-            raise InputError(f"--param applies to model files; the built-in {model!r} has fixed parameters.")
-        return EXAMPLES[model]()
     if is_model_file(model):
         return load_model(model, params, kind=HolonomicSystem)
-    raise InputError(
-        f"Unknown MODEL {model!r}: give one of {', '.join(sorted(EXAMPLES))} or a model file "
-        "(.py) that defines a HolonomicSystem (docs/phases.md)."
-    )
+    return example_system(model, params, kind=HolonomicSystem, purpose="phase loop (Theorem 2.2)")
 
 
 @phase.command("loop")
@@ -232,7 +224,7 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
     help="Spatial momentum: one number for S^1, 'px,py,L' for SE(2), three for SO(3) (default 0).",
 )
 @click.option(
-    "--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value for a model file (repeatable)."
+    "--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value of the model (repeatable)."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option(
@@ -251,9 +243,10 @@ def loop_cmd(
     as_json: bool,
     out: Path | None,
 ) -> None:
-    """Phases and reconstruction for a closed shape loop of a holonomic MODEL: a built-in one (two-bodies,
-    three-link, three-link-middle, planar-3-body, spacecraft) or a model file (.py) that defines ``system``
-    (a HolonomicSystem) or ``build(**params)`` returning one (docs/phases.md).
+    """Phases and reconstruction for a closed shape loop of a MODEL without constraints: a built-in one
+    (two_bodies, three_link, three_link_middle, planar_3_body, spacecraft; dashes for underscores also work) or
+    a model file (.py) that defines ``system`` (a HolonomicSystem) or ``build(**params)`` returning one
+    (docs/phases.md).
 
     Prints the geometric, dynamic and total phase (eq. 2.3) of the rotation where the formula holds,
     the curvature integral over the enclosed area (Stokes) on a 2-D shape space, and the net motion

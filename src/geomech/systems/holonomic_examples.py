@@ -260,13 +260,13 @@ def spacecraft_with_rotors(
 #: The built-in holonomic examples by name (``geomech phase loop MODEL``): each a function of no arguments.
 EXAMPLES: dict[str, Callable[[], HolonomicSystem]] = {
     # two pinned bodies, I1 = 1, I2 = 3; shape psi (an angle); G = S^1
-    "two-bodies": lambda: two_pinned_bodies(1.0, 3.0),
+    "two_bodies": lambda: two_pinned_bodies(1.0, 3.0),
     # the unit three-link chain in its centre-of-mass frame; shape alpha1, alpha2; SE(2)
-    "three-link": lambda: three_link_chain(origin="com"),
+    "three_link": lambda: three_link_chain(origin="com"),
     # the unit three-link chain in the middle link's frame; SE(2)
-    "three-link-middle": lambda: three_link_chain(origin="middle"),
+    "three_link_middle": lambda: three_link_chain(origin="middle"),
     # three unit point masses with gravity; shape rho, a2, b2; SE(2)
-    "planar-3-body": lambda: planar_point_masses([1.0, 1.0, 1.0]),
+    "planar_3_body": lambda: planar_point_masses([1.0, 1.0, 1.0]),
     # a rigid body (3, 2, 1) with rotors (J = 0.2) on body axes 1 and 2; shape the rotor angles; SO(3)
     "spacecraft": lambda: spacecraft_with_rotors(),
 }

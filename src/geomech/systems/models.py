@@ -1,5 +1,10 @@
 """Systems by name or from a user's model file.
 
+The built-in examples are one registry, :data:`EXAMPLES` (snake_case names; a name with dashes is the same
+name): the nonholonomic ones (:mod:`~geomech.systems.nonholonomic_examples`) and those without constraints
+(:mod:`~geomech.systems.holonomic_examples`), every one a Lagrangian system on G x S that takes parameter values
+through ``with_parameters``. The command line reads the same registry.
+
 A model file is Python that defines ``system`` or ``build(**params)`` returning one. It is code by design,
 run as ``python FILE.py`` would run it: use only files you trust. What it prints goes to stderr, so that a
 command's JSON on stdout stays valid; an exception or ``sys.exit`` inside it is one
@@ -17,8 +22,14 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import GeomechError, InputError
+from .holonomic_examples import EXAMPLES as _WITHOUT_CONSTRAINTS
+from .nonholonomic_examples import EXAMPLES as _NONHOLONOMIC
 
-__all__ = ["load_model", "model_builder", "example_system"]
+__all__ = ["EXAMPLES", "example_name", "example_system", "load_model", "model_builder"]
+
+#: Every built-in example by name: a function returning the system (its default parameter values, where it has
+#: them; ``with_parameters`` gives others).
+EXAMPLES: dict[str, Callable[[], Any]] = {**_NONHOLONOMIC, **_WITHOUT_CONSTRAINTS}
 
 
 def _kinds(kind: Any) -> tuple[tuple[type, ...], str]:
@@ -111,13 +122,44 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-def example_system(name: str, params: dict[str, float]):
-    """The built-in nonholonomic example ``name`` with parameter values ``params``; unknown names are an error."""
-    from ..systems.nonholonomic_examples import EXAMPLES
+def example_name(name: str) -> str | None:
+    """The registry's name for ``name`` (dashes read as underscores), or None when it names no example."""
+    key = name.strip().replace("-", "_")
+    return key if key in EXAMPLES else None
 
-    system = EXAMPLES[name]()
-    names = {p.name for p in system.parameter_symbols}
-    unknown = sorted(set(params) - names)
+
+def example_system(name: str, params: dict[str, float] | None = None, *, kind: Any = None, purpose: str = "") -> Any:
+    """The built-in example ``name`` with parameter values ``params``; an unknown name, an unknown parameter, or
+    (with ``kind``) an example of another kind is an :class:`InputError` that says what fits."""
+    kinds, names = _kinds(kind)
+    key = example_name(name)
+    if key is None:
+        fitting = [n for n in EXAMPLES if kind is None or _is_kind(n, kinds)]
+        raise InputError(f"Unknown example {name!r}; choose one of {', '.join(fitting)}, or give a model file (.py).")
+    system: Any = EXAMPLES[key]()
+    if not _has_kind(system, kinds):
+        fitting = [n for n in EXAMPLES if _is_kind(n, kinds)]
+        raise InputError(
+            f"{key} is a {type(system).__name__}, and {purpose or 'this'} needs a {names}: choose one of "
+            f"{', '.join(fitting)}, or give a model file (.py)."
+        )
+    params = dict(params or {})
+    known = {p.name for p in system.parameter_symbols}
+    unknown = sorted(set(params) - known)
     if unknown:
-        raise InputError(f"{name} has no parameter(s) {unknown}; its parameters are {sorted(names)}.")
+        raise InputError(f"{key} has no parameter(s) {unknown}; its parameters are {sorted(known)}.")
     return system.with_parameters(**params) if params else system
+
+
+def _has_kind(system: Any, kinds: tuple[type, ...]) -> bool:
+    return isinstance(system, kinds)
+
+
+def _is_kind(name: str, kinds: tuple[type, ...]) -> bool:
+    """Whether the example ``name`` is one of ``kinds``, without building it (the registry's two parts are its
+    two kinds)."""
+    from .holonomic import HolonomicSystem
+    from .nonholonomic import NonholonomicSystem
+
+    cls: type = HolonomicSystem if name in _WITHOUT_CONSTRAINTS else NonholonomicSystem
+    return issubclass(cls, kinds)
