@@ -330,6 +330,49 @@ class NonholonomicSystem:
         merged.update(_checked_values({s.name: s for s in self.parameter_symbols}, values, self.name))
         return dataclasses.replace(self, parameters=merged)
 
+    def legendre_transform(self) -> Any:
+        r"""The left-invariant Hamiltonian :math:`H(m)` on :math:`\mathfrak{so}(3)^*` of a system on SO(3) with no
+        shape variables and no constraints (a rigid body given by its Lagrangian), for the Serret-Andoyer route.
+
+        The Legendre transform :math:`m = \partial l/\partial\xi = \mathbb I\,\xi` of the reduced Lagrangian
+        :math:`l(\xi) = \tfrac12\xi^T\mathbb I\,\xi - V` gives :math:`H(m) = \tfrac12 m^T\mathbb I^{-1}m + V`,
+        :math:`m` the body angular momentum in the group's basis of :math:`\mathfrak{so}(3)` (the hat basis,
+        :math:`\dot m = m\times\nabla H`). It is hyperregular: :math:`\mathbb I` is constant (G-invariance, no
+        shape) and positive definite (checked when the system was built). Returns a
+        :class:`~geomech.systems.LeftInvariantSystem` with this system's parameter values.
+        """
+        from ..lie import SO3
+        from ..symbolic.compile import M_SYMBOLS
+        from .left_invariant import LeftInvariantSystem
+
+        if not isinstance(self.group.numeric, SO3):
+            raise InputError(
+                f"The Legendre transform to a left-invariant H(m) on so(3)* needs G = SO(3); {self.name} has "
+                f"G = {self.group.name}: reduce it with geomech.reduction.bkmm_reduction instead."
+            )
+        if self.sigma or self.c:
+            raise InputError(
+                f"{self.name} has {self.sigma} shape variable(s) and {self.c} constraint(s): its reduced dynamics is "
+                "not a Lie-Poisson system on so(3)* alone (H(m) would depend on the shape); reduce it with "
+                "geomech.reduction.bkmm_reduction instead."
+            )
+        l = self.body_lagrangian
+        xi = list(self.xi)
+        inertia = sp.hessian(l, xi)
+        V = sp.simplify(-l.subs({x: 0 for x in xi}))
+        m = sp.Matrix(M_SYMBOLS)
+        inv = inertia.inv().applyfunc(simplify_expr)
+        H = sp.expand((m.T * inv * m)[0, 0] / 2) + V
+        names = {s.name for s in H.free_symbols} - {s.name for s in M_SYMBOLS}
+        missing = sorted(names - set(self.parameters))
+        if missing:
+            raise InputError(
+                f"{self.name}: H(m) needs values for parameter(s) {missing}; give them with "
+                f"with_parameters({', '.join(f'{k}=...' for k in missing)}) first."
+            )
+        values = {k: v for k, v in self.parameters.items() if k in names}
+        return LeftInvariantSystem.from_expression(H, values, name=f"{self.name} (Legendre transform)")
+
     # ---------------- identity for caches ----------------
     @cached_property
     def key(self) -> tuple:
@@ -472,6 +515,8 @@ class NonholonomicSystem:
                 raise SymbolicError(f"{self.name}: the Lagrangian is not polynomial in the velocities.")
         rng = np.random.default_rng(7)
         pt = self._random_point(rng, self.q)
+        # the values given, where they are (products of inertia need not be positive); generic ones elsewhere
+        pt.update({s: self.parameters[s.name] for s in self.parameter_symbols if s.name in self.parameters})
         M = np.array(self.mass_matrix.subs(pt).evalf(), dtype=float)
         A = np.array(self.constraint_matrix.subs(pt).evalf(), dtype=float).reshape(self.c, self.n)
         _, sv, vt = np.linalg.svd(A) if self.c else (None, np.zeros(0), np.eye(self.n))
