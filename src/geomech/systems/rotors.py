@@ -306,6 +306,38 @@ class RotorBody:
             J = np.array([new.get(str(s), J[i] if J is not None else 0.0) for i, s in enumerate(J_syms)])
         return dataclasses.replace(self, inertia=lam, rotor_inertia=J)
 
+    def lagrangian_system(self) -> Any:
+        """This body as a Lagrangian system on :math:`SO(3)\\times T^N`, in the one description of every
+        mechanical system (:class:`~geomech.systems.HolonomicSystem`): the Lagrangian :math:`L_f` above in the body
+        angular velocity and the rotor rates, shape the rotor angles :math:`\\gamma_i`, with this body's named
+        parameters (:meth:`symbols`) or its numbers. Its body momentum :math:`\\partial l/\\partial\\omega` is
+        :math:`m` and :math:`\\partial l/\\partial\\dot\\gamma_i = \\Gamma_i`; its reduction is the mechanical
+        connection of the rotors and its Euler-Lagrange equations are eqs. (26, 38) with :math:`u` as shape
+        forces (tested against them)."""
+        from .holonomic import HolonomicSystem
+
+        J = self.require_rotor_inertia("The Lagrangian system")
+        lam_syms, J_syms = self.symbols()
+        n = self.n_rotors
+        w = sp.Matrix(sp.symbols("omega_1 omega_2 omega_3", real=True))
+        gammas = sp.symbols(f"gamma1:{n + 1}", real=True)
+        Lam = sp.diag(*lam_syms) if lam_syms is not None else sp.Matrix(self.inertia.tolist())
+        Js = list(J_syms) if lam_syms is not None else [sp.Float(v) for v in J]
+        axes = np.rint(self.axes).astype(int) if self.is_principal else self.axes
+        lagrangian = (w.T * Lam * w)[0, 0] / 2
+        for k in range(n):
+            rate = sp.Symbol(f"{gammas[k]}_dot", real=True)
+            lagrangian += Js[k] * (sum(sp.sympify(a) * x for a, x in zip(axes[k].tolist(), w)) + rate) ** 2 / 2
+        return HolonomicSystem.from_reduced(
+            lagrangian,
+            "SO3",
+            list(w),
+            gammas,
+            parameters=self.parameters if lam_syms is not None else None,
+            shape_angles=tuple(range(n)),
+            name=self.name,
+        )
+
     def parameter_values(self) -> dict[str, float]:
         """Values of the symbols of :meth:`symbols` by name (the rotors' only when they are known)."""
         lam_syms, J_syms = self.symbols()
