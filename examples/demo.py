@@ -37,7 +37,7 @@ def main(out: Path) -> None:
         m1**2 / 6 + m2**2 / 4 + m3**2 / 2 + m3**4 / 10 + m1 + m2 + m3, name="gyrostat-like body"
     )
     sa = gm.GeneralizedSerretAndoyer(system)
-    print("   reduced Hamiltonian h_p(l, L) =", sa.reduced_expression(axis=2))
+    print("   reduced Hamiltonian h_p(l, L) =", sa.h_p(axis=2))
     m0, R0 = np.array([0.2, 0.9, 0.3]), gm.lie.so3.exp(np.array([0.3, -0.2, 1.1]))
     t = np.linspace(0.0, 40.0, 2001)
     red = gm.solve(system, gm.integrators.SerretAndoyerAtlas(axis=3), t_final=40.0, saveat=t, m0=m0, R0=R0)

@@ -57,7 +57,7 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
         body, "h_max*tanh(k*v/h_max)", parameters={"k": k, "h_max": h_max}, probe_radius=G
     )
     print(f"   Theorem 5 needs phi'(0) > 1 - I3/lambda2 = {k_min:.4g}; chosen k = {k:.4g}")
-    print(f"   closed-loop Hamiltonian H_c = {control.hamiltonian_expression}")
+    print(f"   closed-loop Hamiltonian H_c = {control.H_c}")
     lemma = control.lemma4_check()
     hyp = control.hyperregularity()
     print(f"   existence of H_c: {control.condition.detail}")

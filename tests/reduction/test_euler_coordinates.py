@@ -123,7 +123,7 @@ def test_rotation_matrix_is_eq1(derived, rng):
 # -- eq. 5, eq. 4 and eq. 16: the paper's formulas and misprints ---------------------------------------
 def test_free_body_hamiltonian_simplifies_to_eq5():
     ec = EulerCoordinates(RigidBody(INERTIA))
-    K = ec.hamiltonian_expression()
+    K = ec.canonical_hamiltonian()
     I1, I2, I3 = sp.symbols("I1 I2 I3", real=True)
     X = (P_ - S_ * sp.cos(TH_)) / sp.sin(TH_)
     s, c = sp.sin(PSI_), sp.cos(PSI_)
@@ -138,7 +138,7 @@ def test_free_body_hamiltonian_simplifies_to_eq5():
     q = np.array([0.4, 1.0, -0.7, 0.5, -1.2, 0.8])
     val = float(eq5.subs(dict(zip((PHI_, TH_, PSI_, P_, T_, S_, I1, I2, I3), (*q, *INERTIA)))))
     assert ec.hamiltonian(q) == pytest.approx(val, rel=1e-14)
-    Kn = ec.hamiltonian_expression(substitute_parameters=True)
+    Kn = ec.canonical_hamiltonian(substitute_parameters=True)
     assert not (Kn.free_symbols - set(ec.symbols))
 
 
@@ -239,7 +239,7 @@ def test_callable_system_numeric_side_works_and_symbolic_side_says_it_needs_a_fo
     assert np.allclose(ec.vector_field(q), ref.vector_field(q), rtol=1e-12, atol=1e-12)
     assert np.allclose(ec.canonical_system().vector_field(q), ref.vector_field(q), atol=1e-12)
     with pytest.raises(SymbolicError, match="formula"):
-        ec.hamiltonian_expression()
+        ec.canonical_hamiltonian()
     with pytest.raises(SymbolicError):
         ec.hamilton_equations()
 

@@ -85,7 +85,7 @@ def test_reduced_hamiltonian_of_the_free_body_is_eq_10():
     l, L = sp.symbols("l L", real=True)
     G = sp.Symbol("G", positive=True)
     body = RigidBody([3.0, 2.0, 1.25])
-    expr = GeneralizedSerretAndoyer(body).reduced_expression(axis=2)
+    expr = GeneralizedSerretAndoyer(body).h_p(axis=2)
     eq10 = (sp.sin(l) ** 2 / I1 + sp.cos(l) ** 2 / I2) * (G**2 - L**2) / 2 + L**2 / (2 * I3)
     eq10 = eq10.subs({I1: 3.0, I2: 2.0, I3: 1.25})
     assert sp.simplify(sp.expand_trig(expr - eq10)) == 0
@@ -109,7 +109,7 @@ def test_callable_systems_reduce_without_a_formula(rng):
     y = np.array([0.3, 0.4])
     np.testing.assert_allclose(red.vector_field(y), GeneralizedSerretAndoyer(ref).reduced_vector_field(y, 1.1))
     with pytest.raises(SymbolicError, match="needs a formula"):
-        sa.reduced_expression()
+        sa.h_p()
 
 
 def test_chart_poles_and_bad_input():

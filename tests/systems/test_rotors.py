@@ -35,7 +35,8 @@ def test_eq24_is_the_legendre_transform_of_eq22():
     lam1, lam2, I3, J3 = sp.symbols("lambda1 lambda2 I3 J3", positive=True)
     L = (lam1 * w[0] ** 2 + lam2 * w[1] ** 2 + I3 * w[2] ** 2) / 2 + J3 * (w[2] + gd) ** 2 / 2
     H, (G1,) = legendre_hamiltonian(L, w, [gd])
-    expr, (Gam,) = RotorBody.one_rotor(3.0, 2.0, 1.0, 0.5).hamiltonian_expression()
+    body = RotorBody.one_rotor(3.0, 2.0, 1.0, 0.5)
+    expr, (Gam,) = body.H_f, body.Gamma_symbols
     expr = expr.xreplace(
         {s: sp.Symbol(str(s), positive=True) for s in expr.free_symbols if str(s) in ("lambda1", "lambda2", "I3", "J3")}
     )
@@ -49,7 +50,8 @@ def test_eq37_is_the_legendre_transform_of_eq35_with_the_rotor_term_squared():
     J = sp.symbols("J1:4", positive=True)
     L = sum(l_ * wi**2 for l_, wi in zip(lam, w)) / 2 + sum(j * (wi + g) ** 2 / 2 for j, wi, g in zip(J, w, gd))
     H, Gs = legendre_hamiltonian(L, w, gd)
-    expr, Gam = RotorBody.three_rotors([3.0, 2.0, 1.0], [0.1, 0.2, 0.3]).hamiltonian_expression()
+    body = RotorBody.three_rotors([3.0, 2.0, 1.0], [0.1, 0.2, 0.3])
+    expr, Gam = body.H_f, body.Gamma_symbols
     expr = expr.xreplace({s: sp.Symbol(str(s), positive=True) for s in expr.free_symbols if str(s)[0] in "lJ"})
     assert sp.simplify(H - expr.xreplace(dict(zip(Gam, Gs)))) == 0
     # eq. (35) as printed, J_i/2 (w_i + gd_i) without the square, is linear in the rotor rates: its Legendre
@@ -68,7 +70,7 @@ def test_numeric_hamiltonian_legendre_and_lagrangian_agree(rng):
     # For a quadratic Lagrangian, H = L at corresponding points.
     np.testing.assert_allclose(body.hamiltonian(m, Gamma), body.lagrangian(omega, gdot), rtol=1e-13)
     # and the symbolic Hamiltonian agrees with the numeric one
-    expr, Gam = body.hamiltonian_expression()
+    expr, Gam = body.H_f, body.Gamma_symbols
     f = sp.lambdify([m1, m2, m3, *Gam], expr)
     np.testing.assert_allclose(f(*m[0], *Gamma[0]), body.hamiltonian(m[0], Gamma[0]), rtol=1e-12)
 

@@ -123,7 +123,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
     values = parse_params(params)
     system = LeftInvariantSystem.from_expression(parse_formula(hamiltonian, "--hamiltonian"), values)
     sa = GeneralizedSerretAndoyer(system)
-    h = sa.reduced_expression(axis - 1)
+    h = sa.h_p(axis - 1)
     ldot, Ldot = sp.simplify(sp.diff(h, L_SYM)), sp.simplify(-sp.diff(h, l_SYM))
     summary = {
         "hamiltonian": str(system.expression),

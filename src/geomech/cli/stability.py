@@ -144,7 +144,7 @@ def _model_json(control: Any, G: float) -> dict[str, Any]:
             "phi": [str(e) for e in (control.phi_of_v or control.phi_expression)],
             "parameters": dict(control.parameters),
         },
-        "closed_loop_hamiltonian": str(control.hamiltonian_expression),
+        "closed_loop_hamiltonian": str(control.H_c),
         "closed_loop_hamiltonian_closed_form": control.hamiltonian_is_closed_form,
         "existence_condition": {
             "holds": control.condition.holds,

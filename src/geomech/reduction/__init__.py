@@ -5,11 +5,11 @@ from .almost_poisson import AlmostPoissonStructure, PoissonReduction, almost_poi
 from .classical import (
     ClassicalSerretAndoyer,
     LPeriod,
+    andoyer_hamiltonian,
     momentum_l,
     period_of_l,
     period_of_l_from_momentum,
     reduced_hamiltonian,
-    reduced_hamiltonian_expression,
     reduced_vector_field,
 )
 from .euler_coordinates import EulerCoordinates, body_angular_velocity
@@ -40,7 +40,7 @@ __all__ = [
     "period_of_l",
     "period_of_l_from_momentum",
     "reduced_hamiltonian",
-    "reduced_hamiltonian_expression",
+    "andoyer_hamiltonian",
     "reduced_vector_field",
     "spatial_frame",
 ]

@@ -46,7 +46,7 @@ __all__ = [
     "period_of_l",
     "period_of_l_from_momentum",
     "reduced_hamiltonian",
-    "reduced_hamiltonian_expression",
+    "andoyer_hamiltonian",
     "reduced_vector_field",
 ]
 
@@ -251,7 +251,7 @@ def reduced_vector_field(l: Any, L: Any, G: Any, inertia: Any) -> np.ndarray:
     return np.stack([ldot, Ldot], -1)
 
 
-def reduced_hamiltonian_expression(inertia: Any = None) -> sp.Expr:
+def andoyer_hamiltonian(inertia: Any = None) -> sp.Expr:
     """Eq. (10) as a sympy expression in ``l, L, G`` (:attr:`ClassicalSerretAndoyer.symbols`) and
     ``I1, I2, I3`` (positive symbols) or, with ``inertia``, those values (as exact rationals of the floats).
     """

@@ -183,7 +183,7 @@ class EulerCoordinates:
     ----------
     system : LeftInvariantSystem or an object wrapping one (``RigidBody``)
         The Hamiltonian. Everything numeric works for a system built from a callable; the symbolic
-        methods (:meth:`hamiltonian_expression`, :meth:`hamilton_equations`) need a formula.
+        methods (:meth:`canonical_hamiltonian`, :meth:`hamilton_equations`) need a formula.
 
     Notes
     -----
@@ -358,7 +358,7 @@ class EulerCoordinates:
         name = f"{self.system.name} in 3-1-3 Euler coordinates"
         if self.system.expression is not None:
             return CanonicalSystem.from_expression(
-                self.hamiltonian_expression(substitute_parameters=True),
+                self.canonical_hamiltonian(substitute_parameters=True),
                 self.symbols[:3],
                 self.symbols[3:],
                 name=name,
@@ -376,7 +376,7 @@ class EulerCoordinates:
     def _parameter_subs(self) -> dict[sp.Symbol, float]:
         return {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}
 
-    def hamiltonian_expression(self, *, substitute_parameters: bool = False) -> sp.Expr:
+    def canonical_hamiltonian(self, *, substitute_parameters: bool = False) -> sp.Expr:
         """:math:`K(\\phi, \\theta, \\psi, \\Phi, \\Theta, \\Psi) = H(m(q))` as a sympy expression in
         :attr:`symbols` (eq. 6 substituted into H).
 
@@ -390,7 +390,7 @@ class EulerCoordinates:
         """
         key = ("K", substitute_parameters)
         if key not in self._cache:
-            expr = self.system.require_expression("EulerCoordinates.hamiltonian_expression()")
+            expr = self.system.require_expression("EulerCoordinates.canonical_hamiltonian()")
             if substitute_parameters:
                 expr = expr.subs(self._parameter_subs())
             m = _body_momentum_expressions()
@@ -401,11 +401,11 @@ class EulerCoordinates:
         """Right-hand sides of Hamilton's equations
         :math:`(\\dot\\phi, \\dot\\theta, \\dot\\psi, \\dot\\Phi, \\dot\\Theta, \\dot\\Psi)` as sympy
         expressions in :attr:`symbols`: :math:`(\\partial_P K, -\\partial_q K)` with
-        :math:`K` from :meth:`hamiltonian_expression`. :math:`\\dot\\Phi = 0` (phi is cyclic).
+        :math:`K` from :meth:`canonical_hamiltonian`. :math:`\\dot\\Phi = 0` (phi is cyclic).
         """
         key = ("eqs", substitute_parameters)
         if key not in self._cache:
-            K = self.hamiltonian_expression(substitute_parameters=substitute_parameters)
+            K = self.canonical_hamiltonian(substitute_parameters=substitute_parameters)
             q, P = self.symbols[:3], self.symbols[3:]
             self._cache[key] = tuple(sp.diff(K, s) for s in P) + tuple(-sp.diff(K, s) for s in q)
         return self._cache[key]

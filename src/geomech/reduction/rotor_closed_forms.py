@@ -1,6 +1,6 @@
 """The seed's closed forms of the reduced closed-loop Hamiltonian (eqs. 32, 34, 42, 43), built directly from
 their printed formulas, for comparison with :math:`h_p = H_c\\circ U_p` from the generic Serret-Andoyer
-machinery (:meth:`StructurePreservingControl.reduced_expression`).
+machinery (:meth:`GeneralizedSerretAndoyer.h_p`).
 
 Each function returns a sympy expression in ``l, L, G`` (the symbols of
 :mod:`geomech.reduction.serret_andoyer`) with the control's parameter values substituted; integrals
@@ -182,7 +182,7 @@ def theorem5_boundary(lambda2: Any, I3: Any) -> Any:
     return 1 - I3 / lambda2
 
 
-def closed_loop_reduced_expression(control: StructurePreservingControl, axis: int = 2) -> sp.Expr:
+def closed_loop_h_p(control: StructurePreservingControl, axis: int = 2) -> sp.Expr:
     """:math:`h_p(l, L) = H_c(U_p(l, L))` of a closed loop (Theorems 4 and 6), from the generic Serret-Andoyer
     machinery."""
     if not control.hamiltonian_is_closed_form:
@@ -191,4 +191,4 @@ def closed_loop_reduced_expression(control: StructurePreservingControl, axis: in
             "antiderivative of phi, so H_c is computed by quadrature. Use "
             "GeneralizedSerretAndoyer(control.closed_loop()).reduced_system(G) numerically."
         )
-    return GeneralizedSerretAndoyer(control.closed_loop()).reduced_expression(axis)
+    return GeneralizedSerretAndoyer(control.closed_loop()).h_p(axis)

@@ -128,8 +128,10 @@ class SerretAndoyerChart:
         C = self.permutation
         return dl @ C.T, dL @ C.T
 
-    def symbolic(self) -> sp.Matrix:
-        """:math:`m = C\\,U_p(l, L)` as a sympy column in the symbols ``l, L, G``."""
+    @property
+    def U_p(self) -> sp.Matrix:
+        """The chart map :math:`m = C\\,U_p(l, L)` (Theorem 3) as a sympy column in the symbols ``l, L, G``;
+        :meth:`inverse` evaluates it."""
         s = sp.sqrt(G_SYM**2 - L_SYM**2)
         return sp.Matrix(self.permutation.astype(int).tolist()) * sp.Matrix(
             [s * sp.sin(l_SYM), s * sp.cos(l_SYM), L_SYM]
@@ -199,7 +201,7 @@ class GeneralizedSerretAndoyer:
             raise SingularityError(f"phi' is unbounded at the poles L = +-G of the chart about axis {axis + 1}.")
         return G * (w[..., 0] * np.sin(l) + w[..., 1] * np.cos(l)) / s
 
-    def reduced_expression(self, axis: int = 2, *, simplify: bool = True) -> sp.Expr:
+    def h_p(self, axis: int = 2, *, simplify: bool = True) -> sp.Expr:
         """:math:`h_p(l, L)` as a sympy expression in ``l, L, G`` (needs a formula for H).
 
         ``simplify=False`` skips sympy's simplification, which is slow and, with float parameters,
@@ -207,7 +209,7 @@ class GeneralizedSerretAndoyer:
         """
         expr = self.system.require_expression("The symbolic reduced Hamiltonian")
         subs = {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}
-        m = self.charts[_axis(axis)].symbolic()
+        m = self.charts[_axis(axis)].U_p
         h = expr.subs(subs).xreplace(dict(zip(M_SYMBOLS, m)))
         return sp.simplify(h) if simplify else h
 
@@ -220,7 +222,7 @@ class GeneralizedSerretAndoyer:
         axis = _axis(axis)
         if self.system.expression is not None:
             return CanonicalSystem.from_expression(
-                self.reduced_expression(axis, simplify=False),
+                self.h_p(axis, simplify=False),
                 (l_SYM,),
                 (L_SYM,),
                 name=f"h_p (axis {axis + 1})",

@@ -240,7 +240,7 @@ def lemma4_check(control: Any, n: int = 32, seed: int = 3) -> Lemma4Check:
     d1 = control.body.angular_velocity(m, control.rotor_momentum(m))
     if control.hamiltonian_is_closed_form:
         variables = [*M_SYMBOLS, *control._psyms]
-        grad = compile_vector([sp.diff(control.hamiltonian_expression, s) for s in M_SYMBOLS], variables)
+        grad = compile_vector([sp.diff(control.H_c, s) for s in M_SYMBOLS], variables)
         g = grad(control._cat(m, control.theta()))
         route = "sympy derivative of the closed-form H_c"
     else:

@@ -85,7 +85,7 @@ class StructurePreservingControl:
     parameters : the values of every parameter symbol: the model's (``lambda1, lambda2, I3, p`` for one
         rotor, ``lambda1..3, p1..3`` for three, ``p1..pN`` otherwise) and phi's.
     condition : the :class:`ClosedLoopCondition` that was verified.
-    hamiltonian_expression : :math:`H_c` as sympy (with an unevaluated ``Integral`` where sympy found no
+    H_c : the closed-loop Hamiltonian :math:`H_c` as sympy (with an unevaluated ``Integral`` where sympy found no
         antiderivative; then :attr:`hamiltonian_is_closed_form` is False and quadrature is used).
     """
 
@@ -483,9 +483,9 @@ class StructurePreservingControl:
         self.potential_expression: sp.Expr | None = psi
         self.hamiltonian_is_closed_form = psi is not None
         if psi is not None:
-            self.hamiltonian_expression = quad - psi
+            self.H_c = quad - psi
         else:
-            self.hamiltonian_expression = quad - potential_integral(self)
+            self.H_c = quad - potential_integral(self)
         self._psi_f = None if psi is None else compile_scalar(psi, [*M_SYMBOLS, *self._psyms])
 
     def potential(self, m: Any, theta: np.ndarray | None = None) -> np.ndarray:
@@ -574,11 +574,11 @@ class StructurePreservingControl:
         """The closed loop as a :class:`LeftInvariantSystem` with Hamiltonian :math:`H_c`.
 
         From the formula when :math:`H_c` has one (every symbolic feature of the rigid-body core applies:
-        ``GeneralizedSerretAndoyer(...).reduced_expression()`` is :math:`h_p = H_c\\circ U_p`); otherwise
+        ``GeneralizedSerretAndoyer(...).h_p()`` is :math:`h_p = H_c\\circ U_p`); otherwise
         from callables: :math:`H_c` by quadrature, its gradient :math:`F` and Hessian :math:`DF` exact.
         """
         if self.hamiltonian_is_closed_form:
-            expr = self.hamiltonian_expression
+            expr = self.H_c
             names = {str(s) for s in expr.free_symbols} - {str(s) for s in M_SYMBOLS}
             params = {k: v for k, v in self.parameters.items() if k in names}
             return LeftInvariantSystem.from_expression(expr, params, name="closed loop H_c")
@@ -611,7 +611,7 @@ class StructurePreservingControl:
             "body": self.body.to_json(),
             "phi": None if self.phi_expression is None else [str(e) for e in self.phi_expression],
             "parameters": dict(self.parameters),
-            "closed_loop_hamiltonian": str(self.hamiltonian_expression),
+            "closed_loop_hamiltonian": str(self.H_c),
             "closed_loop_hamiltonian_closed_form": self.hamiltonian_is_closed_form,
             "condition": {
                 "holds": self.condition.holds,

@@ -249,15 +249,21 @@ class RotorBody:
         Gamma = V.trailing_shape(Gamma, "Gamma", (self.n_rotors,))
         return Gamma @ self.axes
 
-    def hamiltonian_expression(self) -> tuple[sp.Expr, tuple[sp.Symbol, ...]]:
-        """:math:`H_f` as sympy, in ``m1, m2, m3`` and the returned ``Gamma1 .. GammaN`` symbols.
+    @property
+    def Gamma_symbols(self) -> tuple[sp.Symbol, ...]:
+        """The rotor momenta ``Gamma1 .. GammaN`` of :attr:`H_f` (real symbols)."""
+        return tuple(sp.symbols(f"Gamma1:{self.n_rotors + 1}", real=True))
+
+    @property
+    def H_f(self) -> sp.Expr:
+        """The free Hamiltonian :math:`H_f` (eqs. 24, 37) as sympy, in ``m1, m2, m3`` and
+        :attr:`Gamma_symbols`; :meth:`hamiltonian` evaluates it.
 
         For the seed's layouts the inertias are the symbols ``lambda1, lambda2, I3, J3`` (one rotor) or
         ``lambda1..3, J1..3`` (three rotors); otherwise numbers.
         """
         J = self.require_rotor_inertia("The free Hamiltonian")
-        n = self.n_rotors
-        Gam = sp.symbols(f"Gamma1:{n + 1}", real=True)
+        Gam = self.Gamma_symbols
         lam_syms, J_syms = self.symbols()
         Js: Sequence[Any]
         m = sp.Matrix(M_SYMBOLS)
@@ -270,7 +276,7 @@ class RotorBody:
             Js = [sp.Float(x) for x in J]
         rel = m - A * sp.Matrix(Gam)
         expr = (rel.T * lam_inv * rel)[0, 0] / 2 + sum(g**2 / (2 * j) for g, j in zip(Gam, Js))
-        return sp.expand(expr), Gam
+        return sp.expand(expr)
 
     def symbols(self) -> tuple[tuple[sp.Symbol, ...] | None, tuple[sp.Symbol, ...]]:
         """The inertia symbols of the seed's layouts: ``(lambda1, lambda2, I3)`` and ``(J3,)`` for one
