@@ -554,7 +554,7 @@ def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
         sp.ImmutableMatrix(Il),
         sp.ImmutableMatrix(Gam),
         sp.ImmutableMatrix(mrr),
-        sp.simplify(V),
+        V,  # as the Lagrangian gives it: sympy.simplify of a sum of pair potentials takes half a minute
     )
 
 
