@@ -3,6 +3,8 @@
 import re
 from pathlib import Path
 
+import pytest
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
@@ -39,6 +41,7 @@ def _readme_commands() -> list[str]:
     return [line.split("   #")[0].strip() for line in joined.splitlines() if line.startswith("geomech ")]
 
 
+@pytest.mark.slow  # every README command run through the CLI: a long verification
 def test_readme_commands_run(tmp_path, capsys):
     import shlex
 

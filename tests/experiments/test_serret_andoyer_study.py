@@ -105,6 +105,7 @@ def test_cli_refuses_an_unwritable_directory_and_an_oversized_run_before_any_wor
     assert not (tmp_path / "big").exists()
 
 
+@pytest.mark.slow  # a convergence study over step sizes
 def test_midpoint_energy_error_is_second_order():
     errs = []
     for h in (4e-3, 2e-3):
@@ -124,6 +125,7 @@ def test_initial_state_is_on_the_level_about_the_intermediate_axis():
     assert np.degrees(np.arccos(p[2] / np.linalg.norm(p))) == pytest.approx(30.0)
 
 
+@pytest.mark.slow  # runs of the study, interrupted and resumed
 def test_inadmissible_inertias_and_interrupted_runs(tmp_path, monkeypatch):
     with pytest.raises(InputError, match="intermediate"):
         study.StudyConfig(lambda1=1.0, lambda2=1.2).validate()

@@ -125,7 +125,8 @@ def build(beta=0.3, m=2.0, m2=0.5, J=0.3, a=0.4):
 """
 
 
-@pytest.mark.parametrize("beta", [pytest.param(0.0, marks=pytest.mark.slow), 0.3])  # beta = 0: a long verification
+@pytest.mark.slow  # the derivation and gait of a new model through the command line, at beta = 0 and 0.3
+@pytest.mark.parametrize("beta", [0.0, 0.3])
 def test_a_gait_of_the_model_file_from_the_command_line(beta, tmp_path, capsys):
     # The model file writes the sleigh as text (parsed by the whitelist), the test above with sympy: the two
     # descriptions, the gait analysis (momentum equation along the gait, reconstruction on the group) and the

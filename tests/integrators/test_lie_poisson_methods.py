@@ -62,6 +62,7 @@ def test_convergence_order_of_momentum_and_attitude(name, key, steps, request, r
     assert abs(fitted_order(hs, err_R) - method.order) < 0.2, err_R
 
 
+@pytest.mark.slow  # long runs of every Lie-Poisson method twice
 def test_momentum_alone_equals_momentum_with_attitude(closed_loop, m_start):
     for key in ("strang", "lgvi", "implicit_midpoint"):
         alone = solve(closed_loop, key, m0=m_start, h=0.05, t_final=2.5)

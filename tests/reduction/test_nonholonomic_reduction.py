@@ -364,6 +364,7 @@ def test_disk_cache_can_be_switched_off(monkeypatch, tmp_path):
     assert not list(tmp_path.rglob("*.pkl"))
 
 
+@pytest.mark.slow  # the whole cold derivation of two heavy examples
 @pytest.mark.parametrize("name", ["roller_racer", "simplified_bicycle"])
 def test_the_whole_derivation_of_the_heavy_examples_is_produced(name, monkeypatch, tmp_path):
     """Every section of `geomech derive`, derived from scratch (empty caches): the objects exist, have their
