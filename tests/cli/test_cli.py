@@ -93,7 +93,7 @@ def test_reduce_prints_the_reduced_hamiltonian(capsys):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert s["hyperregular"] == "yes"
+    assert s["hyperregularity"]["status"] == "yes"
     import sympy as sp
 
     l, L, G = sp.symbols("l L G")

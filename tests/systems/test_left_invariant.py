@@ -62,7 +62,7 @@ def test_callable_system_agrees_with_formula(rng):
     m = rng.normal(size=(4, 3))
     np.testing.assert_allclose(sys.euler_vector_field(m), ref.euler_vector_field(m), rtol=1e-13)
     np.testing.assert_allclose(sys.hessian(m), ref.hessian(m), rtol=1e-6, atol=1e-8)
-    assert not sys.hessian_is_exact and sys.hyperregularity() == "unknown"
+    assert not sys.hessian_is_exact and sys.hyperregularity().status == "unknown"
     with pytest.raises(SymbolicError, match="needs a formula"):
         sys.latex()
 
@@ -72,11 +72,11 @@ def test_inverse_legendre_round_trip_and_singular_hessian(rng):
     m = rng.normal(size=(5, 3)) * 0.5
     np.testing.assert_allclose(sys.inverse_legendre(sys.legendre(m), m_guess=m * 0.9), m, atol=1e-12)
     flat = LeftInvariantSystem.from_expression(m1**2 / 2 + m2**2 / 2)
-    assert flat.hyperregularity() == "no"
+    assert flat.hyperregularity().status == "no"
     assert not flat.is_hyperregular_at([1.0, 2.0, 3.0])
     with pytest.raises(SingularityError, match="not hyperregular"):
         flat.inverse_legendre([1.0, 1.0, 0.5])
-    assert LeftInvariantSystem.from_expression(m1**2 / 2 + m2**2 / 4 + m3**2 / 6).hyperregularity() == "yes"
+    assert LeftInvariantSystem.from_expression(m1**2 / 2 + m2**2 / 4 + m3**2 / 6).hyperregularity().status == "yes"
 
 
 def test_inverse_legendre_reports_non_convergence():
@@ -127,3 +127,26 @@ def test_with_parameters_is_the_system_built_with_those_values(rng):
     callable_system = LeftInvariantSystem.from_callable(lambda m: (m**2).sum(-1) / 2, lambda m: m)
     with pytest.raises(InputError, match="from_expression"):
         callable_system.with_parameters(I1=1.0)
+
+
+def test_hyperregularity_of_non_quadratic_hamiltonians_is_decided():
+    # separable with a quartic that softens: d^2H/dm3^2 = 1 - 6 m3^2 / 5 vanishes at |m3| = sqrt(5/6)
+    soft = LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2 - m3**4 / 10).hyperregularity()
+    assert soft.status == "no" and abs(abs(soft.points[2]) - np.sqrt(5 / 6)) < 1e-12
+    # separable and stiffening: f'' = 1 + 6 m3^2 / 5 > 0, f' = m3 + 2 m3^3 / 5 onto R: a diffeomorphism
+    stiff = LeftInvariantSystem.from_expression(m1**2 / 6 + m2**2 / 4 + m3**2 / 2 + m3**4 / 10).hyperregularity()
+    assert stiff.status == "yes" and "diffeomorphism" in stiff.where
+    # strictly convex but grad H bounded (log cosh): no momentum for |omega_1| >= 1
+    bounded = LeftInvariantSystem.from_expression("log(cosh(m1)) + m2**2/4 + m3**2/2").hyperregularity()
+    assert bounded.status == "no" and "not onto" in bounded.where
+    # not separable, with a singular surface: H = |m|^2/2 - (m1 m2)^2/4 has det D^2H = 0 where the bisection
+    # lands; checked against the Hessian there
+    mixed = LeftInvariantSystem.from_expression(m1**2 / 2 + m2**2 / 2 + m3**2 / 2 - (m1 * m2) ** 2 / 4)
+    rep = mixed.hyperregularity(radius=3.0)
+    assert rep.status == "no"
+    eig = np.linalg.eigvalsh(mixed.hessian(np.array(rep.points)))
+    assert np.abs(eig).min() < 1e-8 * np.abs(eig).max()
+    # not separable and convex on the sampled ball: unknown, with the radius and the reason
+    convex = LeftInvariantSystem.from_expression(m1**2 / 2 + m2**2 / 2 + m3**2 / 2 + (m1 * m2) ** 2 / 4)
+    rep = convex.hyperregularity(radius=2.0)
+    assert rep.status == "unknown" and "|m| <= 2" in rep.where and "positive" in rep.where

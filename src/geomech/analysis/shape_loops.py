@@ -78,18 +78,26 @@ def periodic_integral(
     n0: int = 64,
     nmax: int = 2**17,
     what: str = "integral",
+    atol: float = 0.0,
 ) -> np.ndarray:
     """:math:`\\int_0^T f`, ``f`` smooth and T-periodic, by the trapezoidal rule with doubling (spectrally
-    accurate for smooth periodic integrands); falls back to adaptive Gauss-Kronrod for a kinked loop."""
+    accurate for smooth periodic integrands); falls back to adaptive Gauss-Kronrod for a kinked loop.
+    Converged when the change is within ``rtol`` of the integral's or the integrand's size, or ``atol`` (the
+    round-off of an integrand that cancels, which only its caller knows)."""
     n = n0
     t = np.arange(n) * (T / n)
-    prev = f(t).sum(0) * (T / n)
+    values = f(t)
+    prev = values.sum(0) * (T / n)
+    # the size of the integrand over the loop: an integral that cancels to zero converges against it
+    size = float(np.abs(values).max()) * T
     while n < nmax:
         mid = (np.arange(n) + 0.5) * (T / n)
-        cur = 0.5 * prev + f(mid).sum(0) * (T / (2 * n))
+        values = f(mid)
+        size = max(size, float(np.abs(values).max()) * T)
+        cur = 0.5 * prev + values.sum(0) * (T / (2 * n))
         n *= 2
-        scale = max(np.abs(cur).max(), np.abs(f(t[:1])).max() * T, 1e-300)
-        if np.abs(cur - prev).max() <= rtol * scale and n >= 2 * n0:
+        scale = max(np.abs(cur).max(), size, 1e-300)
+        if np.abs(cur - prev).max() <= rtol * scale + atol and n >= 2 * n0:
             return cur
         prev = cur
         t = np.arange(n) * (T / n)
@@ -98,8 +106,8 @@ def periodic_integral(
     from scipy.integrate import quad_vec
 
     val, err = quad_vec(lambda s: f(np.array([s]))[0], 0.0, T, epsabs=0.0, epsrel=max(rtol, 1e-13), limit=4000)
-    scale = max(np.abs(val).max(), 1e-300)
-    if np.max(err) > 1e-8 * scale:
+    scale = max(np.abs(val).max(), size, 1e-300)
+    if np.max(err) > 1e-8 * scale + atol:
         raise ConvergenceError(
             f"The quadrature of the {what} over the loop did not converge (error estimate "
             f"{np.max(err):.3g}); the loop is probably not smooth enough."

@@ -133,7 +133,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
         "l_dot": str(ldot),
         "L_dot": str(Ldot),
         "latex": {"h_p": sp.latex(h), "l_dot": sp.latex(ldot), "L_dot": sp.latex(Ldot)},
-        "hyperregular": system.hyperregularity(),
+        "hyperregularity": system.hyperregularity().to_json(),
     }
     if as_json:
         click.echo(dumps_json(summary))
@@ -146,7 +146,8 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
         click.echo(
             f"H(m)       = {summary['hamiltonian']}\nchart      : about body axis {axis}\n"
             f"h_p(l, L)  = {h}\nl'         = {ldot}\nL'         = {Ldot}\n"
-            f"hyperregular: {summary['hyperregular']}"
+            f"hyperregular: {summary['hyperregularity']['status']}"
+            + (f" ({summary['hyperregularity']['where']})" if summary["hyperregularity"]["where"] else "")
         )
 
 

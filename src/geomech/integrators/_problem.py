@@ -295,7 +295,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
             missing[Structure.LIE_POISSON_QUADRATIC] = "the quadratic form of H is not positive definite"
         else:
             result["inertia_tensor"] = np.linalg.inv(0.5 * (A + A.T))
-    if core.hyperregularity() == "no":
+    if core.hyperregularity().status == "no":
         missing[Structure.LIE_GROUP] = "H is not hyperregular (its Hessian is singular): no Lagrangian exists"
     return result
 

@@ -91,5 +91,5 @@ def gait_momentum(analysis: Any, *, ax: Any = None) -> Any:
     if analysis.p.shape[1]:
         ax.legend(loc="best", fontsize=8)
         dp = analysis.momentum_change
-        ax.set_title(f"{analysis.system.name}: change per period {np.round(dp[0], 6).tolist()}", fontsize=9)
+        ax.set_title(f"{analysis.system.name}: change per period {(np.round(dp[0], 6) + 0.0).tolist()}", fontsize=9)
     return ax

@@ -106,13 +106,14 @@ def _curvature_panel(
     loop: Any,
     shade: bool,
     what: str,
+    value: float | None,
 ) -> None:
     """Heat map of ``B`` (diverging, centred on 0), the loop, and the region it encloses hatched by its
     winding number (``//`` counterclockwise, ``\\\\`` clockwise, outlined, with a legend) and annotated with
-    :math:`-\\iint w B`, which is the phase only for abelian components (S^1, the rotation of SE(2))."""
+    ``value``, the exact :math:`-\\iint w B` (Stokes, from the loop: not a sum over the grid), which is the phase
+    only for abelian components (S^1, the rotation of SE(2))."""
     from matplotlib.patches import Patch
 
-    n = X.shape[0]
     vmax = float(np.abs(B).max()) or 1.0
     # purple-orange for the curvature, so the hatching of the enclosed region reads apart from it
     im = ax.pcolormesh(X, Y, B, cmap="PuOr_r", vmin=-vmax, vmax=vmax, shading="auto")
@@ -140,15 +141,15 @@ def _curvature_panel(
                 label=f"enclosed {text} (winding {', '.join(f'{k:+d}' for k in wins)})",
             )
         )
-    dA = (b[1] - b[0]) * (b[3] - b[2]) / (n - 1) ** 2
-    value = -float((w * B).sum() * dA)
     exact = system.group.abelian or c in system.group.angle_components
     note = what if exact else "a phase only to leading order (non-abelian)"
     ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.85)
+    if value is None:
+        return
     ax.text(
         0.02,
         0.02,
-        f"$-\\iint w\\,B \\approx$ {value:.4g}\n({note})",
+        f"$-\\iint w\\,B =$ {value:.6g}\n({note})",
         transform=ax.transAxes,
         fontsize=8,
         bbox=dict(facecolor="white", alpha=0.85, lw=0),
@@ -233,7 +234,15 @@ def curvature_map(
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 4.8))
     what = "the connection-alone turn" if model.c else "the geometric phase"
-    _curvature_panel(ax, model, X, Y, B_all[..., c], b, c, loop, shade, what)
+    value = None
+    if loop is not None:
+        from ..analysis.phases import curvature_integral
+
+        try:  # exact (Stokes over the cone of the loop); none for a loop winding around an angle coordinate
+            value = -float(curvature_integral(model, loop)[c])
+        except InputError:
+            value = None
+    _curvature_panel(ax, model, X, Y, B_all[..., c], b, c, loop, shade, what, value)
     _labels(ax, model)
     name = model.group.algebra_names[c]
     ax.set_title(f"{model.name}:\ncurvature of ${_connection_tex(model)}$, {name} component", fontsize=10)

@@ -136,3 +136,120 @@ def _scan_determinant(c: Any, R: float) -> HyperregularityReport:
     return HyperregularityReport(
         "unknown", f"det(I - A Dphi) keeps one sign on 4000 samples of |m| <= {R:g} (numeric scan; nothing proved)", ()
     )
+
+
+# -- a left-invariant H(m) -------------------------------------------------------------------------------
+def hamiltonian_hyperregularity(system: Any, R: float) -> HyperregularityReport:
+    r"""Whether the fibre derivative :math:`FH: m \mapsto \nabla H(m)` of a left-invariant H is a diffeomorphism of
+    :math:`\mathfrak{so}(3)^*` (hyperregular), decided where it can be:
+
+    * a constant Hessian (quadratic H): exactly, by its determinant;
+    * a separable :math:`H = \sum_i f_i(m_i)` (every mixed second derivative zero): :math:`FH` is a product of the
+      maps :math:`f_i'`, a diffeomorphism exactly when each :math:`f_i''` has no real zero and each :math:`f_i'`
+      is onto :math:`\mathbb R` (its limits at :math:`\pm\infty` infinite, of opposite signs), decided by sympy;
+      a real zero of :math:`f_i''` is a singular point ("no", with where), a bounded :math:`f_i'` leaves
+      momenta without a preimage ("no");
+    * otherwise, and where sympy cannot decide: the sign of :math:`\det D^2H` over samples of the ball
+      :math:`|m|\le R`; a change of sign is a singular point between two samples, located by bisection ("no",
+      with where); one sign throughout is reported as definiteness on that ball, nothing proved ("unknown").
+    """
+    if system.expression is None:
+        return HyperregularityReport("unknown", "H is given by Python callables: there is no formula to decide on", ())
+    m = list(M_SYMBOLS)
+    subs = {sp.Symbol(k, real=True): v for k, v in system.parameters.items()}
+    H = system.expression.subs(subs)
+    hess = sp.hessian(H, m)
+    if not (hess.free_symbols & set(m)):
+        det = sp.simplify(hess.det())
+        if det != 0:
+            return HyperregularityReport("yes", f"the Hessian is constant with determinant {det} != 0", ())
+        return HyperregularityReport("no", "everywhere: the Hessian is constant and singular", ())
+    if all(sp.simplify(hess[i, j]) == 0 for i in range(3) for j in range(3) if i != j):
+        report = _separable(H, m, R)
+        if report is not None:
+            return report
+    return _scan_hessian(system, R)
+
+
+def _separable(H: sp.Expr, m: list, R: float) -> HyperregularityReport | None:
+    """The verdict for :math:`H = \\sum f_i(m_i)`, or None where sympy cannot decide a component."""
+    proofs = []
+    for i, x in enumerate(m):
+        f1 = sp.diff(H, x).subs({y: 0 for y in m if y is not x})
+        f2 = sp.diff(f1, x)
+        try:
+            zeros = sp.solveset(sp.Eq(f2, 0), x, domain=sp.S.Reals)
+        except (NotImplementedError, ValueError, TypeError):
+            return None
+        if zeros == sp.S.Reals:
+            return HyperregularityReport("no", f"everywhere: d^2H/dm{i + 1}^2 = 0 identically", ())
+        if isinstance(zeros, sp.FiniteSet) and zeros and all(z.is_real for z in zeros):
+            roots = sorted(float(z) for z in zeros)
+            point = [0.0, 0.0, 0.0]
+            point[i] = roots[0]
+            return HyperregularityReport(
+                "no",
+                f"the Hessian is singular where m{i + 1} = {', '.join(f'{r:.10g}' for r in roots)} "
+                f"(d^2H/dm{i + 1}^2 = {f2} vanishes there)",
+                tuple(point),
+            )
+        if zeros is not sp.S.EmptySet:
+            return None
+        try:
+            lo, hi = sp.limit(f1, x, -sp.oo), sp.limit(f1, x, sp.oo)
+        except (NotImplementedError, ValueError, TypeError):
+            return None
+        if {lo, hi} != {sp.oo, -sp.oo}:
+            return HyperregularityReport(
+                "no",
+                f"dH/dm{i + 1} = {f1} runs from {lo} to {hi}: grad H is not onto so(3)*, angular velocities "
+                "beyond that range have no momentum",
+                (),
+            )
+        proofs.append(f"f{i + 1}'' != 0, f{i + 1}' onto R")
+    return HyperregularityReport(
+        "yes", f"H = f1(m1) + f2(m2) + f3(m3) with {'; '.join(proofs)} (sympy): grad H is a diffeomorphism", ()
+    )
+
+
+def _scan_hessian(system: Any, R: float) -> HyperregularityReport:
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(4000, 3))
+    pts = R * rng.uniform(0, 1, (4000, 1)) ** (1 / 3) * x / np.linalg.norm(x, axis=1, keepdims=True)
+    pts = np.concatenate([np.zeros((1, 3)), pts])
+
+    def det(p: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            return np.linalg.det(system.hessian(p))
+
+    d = det(pts)
+    ok = np.isfinite(d)
+    d, pts = d[ok], pts[ok]
+    if d.size and d.min() <= 0 <= d.max():
+        # a sign change between two samples: bisect the segment between them for a singular point
+        a, b = pts[int(np.argmax(d))], pts[int(np.argmin(d))]
+        da = float(det(a[None])[0])
+        for _ in range(80):
+            c = 0.5 * (a + b)
+            dc = float(det(c[None])[0])
+            if dc == 0:
+                a = b = c
+                break
+            if np.sign(dc) == np.sign(da):
+                a, da = c, dc
+            else:
+                b = c
+        c = 0.5 * (a + b)
+        return HyperregularityReport(
+            "no",
+            f"det D^2H changes sign on |m| <= {R:g}: the Hessian is singular at m = {np.round(c, 8).tolist()} "
+            "(bisection between samples of opposite sign)",
+            tuple(float(v) for v in c),
+        )
+    sign = "positive" if d.size and d.min() > 0 else "negative"
+    return HyperregularityReport(
+        "unknown",
+        f"det D^2H is {sign} on 4001 samples of |m| <= {R:g} (definite there as far as sampled; nothing proved "
+        "beyond, and H is not separable)",
+        (),
+    )

@@ -24,6 +24,7 @@ from .. import _validate as V
 from ..errors import InputError, SymbolicError
 from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS, bind_expression, compile_scalar, compile_vector
+from ._hyperregularity import HyperregularityReport, hamiltonian_hyperregularity
 
 __all__ = ["LeftInvariantSystem", "as_left_invariant"]
 
@@ -207,23 +208,13 @@ class LeftInvariantSystem:
         s = np.linalg.svd(self.hessian(m), compute_uv=False)
         return s[..., -1] > rtol * np.maximum(s[..., 0], np.finfo(float).tiny)
 
-    def hyperregularity(self) -> str:
-        """A verdict on hyperregularity: ``"yes"``, ``"no"`` or ``"unknown"``, proved where possible.
-
-        For a formula, a constant Hessian (quadratic H) is decided exactly; a determinant that sympy
-        shows never vanishes gives "yes" only when the gradient map is also shown to be proper, which
-        is left as "unknown" unless the Hessian is constant. A callable gives "unknown".
-        """
-        if self.expression is None:
-            return "unknown"
-        subs = {sp.Symbol(k, real=True): v for k, v in self.parameters.items()}
-        hess = sp.hessian(self.expression, M_SYMBOLS).subs(subs)
-        if not (hess.free_symbols & set(M_SYMBOLS)):
-            return "yes" if sp.simplify(hess.det()) != 0 else "no"
-        det = sp.simplify(hess.det())
-        if det == 0:
-            return "no"
-        return "unknown"
+    def hyperregularity(self, radius: float = 10.0) -> HyperregularityReport:
+        """Whether :math:`m \\mapsto \\nabla H(m)` is a diffeomorphism (Lemma 1's Legendre transform), as a
+        :class:`~geomech.systems._hyperregularity.HyperregularityReport`: ``status`` ``"yes"`` (proved),
+        ``"no"`` (with where it fails) or ``"unknown"`` (with the reason; ``radius`` bounds the numeric search of
+        a non-separable H). Quadratic and separable H are decided exactly (sympy); see
+        :func:`~geomech.systems._hyperregularity.hamiltonian_hyperregularity`."""
+        return hamiltonian_hyperregularity(self, V.positive_scalar(radius, "radius"))
 
     def legendre(self, m: Any) -> np.ndarray:
         """The fibre derivative :math:`FH: m \\mapsto \\omega = \\nabla H(m)` (Lemma 1)."""
