@@ -15,6 +15,7 @@ from geomech.analysis import (  # noqa: E402
     decompose_displacement,
     geometric_phase,
     integrate_path,
+    phase_history,
     phases,
     reconstruct,
     rigid_body_phase,
@@ -420,3 +421,24 @@ def test_plots_draw_and_shade(chain, tmp_path):
     ax = momentum_solid_angle(rigid_body_phase(RigidBody([3, 2, 1]), [1, 0.3, 0.2], direct=False))
     assert "Lambda" in ax.get_title()
     plt.close("all")
+
+
+def test_phase_history_ends_at_the_split_and_adds_up_to_the_reconstruction():
+    # two pinned bodies, body 2 turning once in T: theta(t) = -I2/(I1+I2) psi(t) + mu t/(I1+I2) exactly
+    from geomech.plot.phases import phase_split
+
+    system = two_pinned_bodies(1.0, 3.0)
+    loop = Gait.from_expressions(["2*pi*t/T + 0.4*sin(2*pi*t/T)"], 2.0)
+    mu = -0.7
+    hist = phase_history(system, loop, mu)
+    split = phases(system, loop, mu)
+    assert abs(hist["geometric"][-1] - split.geometric) < 1e-12 and abs(hist["dynamic"][-1] - split.dynamic) < 1e-12
+    t = hist["t"]
+    psi = 2 * np.pi * t / 2.0 + 0.4 * np.sin(2 * np.pi * t / 2.0)
+    np.testing.assert_allclose(hist["geometric"], -3.0 / 4.0 * psi, atol=1e-12)
+    np.testing.assert_allclose(hist["dynamic"], mu * t / 4.0, atol=1e-12)
+    ax = phase_split(system, loop, mu)
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert any(f"{split.geometric:.6g}" in s for s in labels) and any(f"{split.dynamic:.6g}" in s for s in labels)
+    rec = [ln for ln in ax.get_lines() if ln.get_label() == "reconstructed on the group"][0]
+    np.testing.assert_allclose(rec.get_ydata(), hist["total"], atol=1e-9)

@@ -207,3 +207,9 @@ def test_loop_on_the_spacecraft_reconstructs_on_so3(capsys):
     assert code == 2 and "3 component(s) for SO(3)" in err
     code, _, err = run(capsys, "phase", "loop", "no-such-model", *shape)
     assert code == 2 and "Unknown example" in err
+
+
+def test_two_bodies_out_draws_the_split(capsys, tmp_path):
+    code, _, err = run(capsys, "phase", "two-bodies", "--mu", "-2.5", "--period", "5.5", "--out", str(tmp_path))
+    assert code == 0, err
+    assert {"two_bodies.json", "two_bodies_theta.png", "two_bodies_phases.png"} <= {p.name for p in tmp_path.iterdir()}

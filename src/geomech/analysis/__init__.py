@@ -18,6 +18,7 @@ from .phases import (
     Reconstruction,
     curvature_integral,
     geometric_phase,
+    phase_history,
     phases,
     reconstruct,
 )
@@ -52,6 +53,7 @@ __all__ = [
     "curvature_integral",
     "decompose_displacement",
     "geometric_phase",
+    "phase_history",
     "integrate_path",
     "phases",
     "reconstruct",

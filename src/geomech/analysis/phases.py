@@ -49,6 +49,7 @@ __all__ = [
     "PhaseSplit",
     "Reconstruction",
     "phases",
+    "phase_history",
     "geometric_phase",
     "curvature_integral",
     "stokes_integral",
@@ -156,10 +157,38 @@ def phases(system: Any, loop: Gait, mu: Any = 0.0, *, g0: Any = None, rtol: floa
     about the centre of mass). Otherwise, and for SO(3) with shape, no such formula holds: use
     :func:`reconstruct`.
     """
+    T = loop.T
+    c, p_rot, integrand, turns = _phase_integrand(system, loop, mu, g0)
+    geo, inv_int = periodic_integral(integrand, T, rtol=rtol, what="phase")
+    dyn = p_rot * inv_int
+    G = system.group
+    return PhaseSplit(
+        float(geo), float(dyn), float(geo + dyn), G.coordinates[c].name, p_rot, T, tuple(int(x) for x in turns), G.name
+    )
+
+
+def phase_history(system: Any, loop: Gait, mu: Any = 0.0, t: Any = None, *, g0: Any = None) -> dict[str, np.ndarray]:
+    """The geometric and dynamic parts of eq. (2.3) accumulated from 0 to each time of ``t`` (default 201 times
+    over one period): ``{"t", "geometric", "dynamic", "total"}``, each integral a Gauss-Legendre rule of 8
+    points per interval of ``t`` on the same integrand as :func:`phases` (the values at ``T`` are its parts)."""
+    c, p_rot, integrand, _ = _phase_integrand(system, loop, mu, g0)
+    t = np.linspace(0.0, loop.T, 201) if t is None else np.asarray(V.finite(t, "t"), dtype=float).ravel()
+    x, w = np.polynomial.legendre.leggauss(8)
+    a, b = t[:-1], t[1:]
+    nodes = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * x[None, :]
+    vals = integrand(nodes.ravel()).reshape(nodes.shape + (2,))
+    steps = 0.5 * (b - a)[:, None] * np.einsum("n,knj->kj", w, vals)
+    acc = np.concatenate([np.zeros((1, 2)), np.cumsum(steps, 0)])
+    geometric, dynamic = acc[:, 0], p_rot * acc[:, 1]
+    return {"t": t, "geometric": geometric, "dynamic": dynamic, "total": geometric + dynamic}
+
+
+def _phase_integrand(system: Any, loop: Gait, mu: Any, g0: Any) -> tuple[int, float, Any, np.ndarray]:
+    """The angle component, its body momentum and the integrand ``t -> (-A_c(r) r', (I^-1)_cc(r))`` of eq. (2.3),
+    with the loop's windings; the checks of :func:`phases`."""
     G = system.group
     turns = bind_loop(system, loop)
     conn = reduced_numeric(system)
-    T = loop.T
     mu = _momentum(mu, G)
     if len(G.angle_components) != 1:
         raise InputError(
@@ -185,11 +214,7 @@ def phases(system: Any, loop: Gait, mu: Any = 0.0, *, g0: Any = None, rtol: floa
         Iinv = np.linalg.inv(conn.locked_inertia(r))[..., c, c]
         return np.stack([-np.einsum("...j,...j->...", A, loop.rdot(t)), Iinv], -1)
 
-    geo, inv_int = periodic_integral(integrand, T, rtol=rtol, what="phase")
-    dyn = p_rot * inv_int
-    return PhaseSplit(
-        float(geo), float(dyn), float(geo + dyn), G.coordinates[c].name, p_rot, T, tuple(int(x) for x in turns), G.name
-    )
+    return c, p_rot, integrand, turns
 
 
 def _require_centre_of_mass_frame(system: Any, conn: Any, loop: Gait, c: int, tol: float = 1e-10) -> None:

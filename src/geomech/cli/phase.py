@@ -67,7 +67,12 @@ def phase() -> None:
     help="Signed turns of body 2 relative to body 1 during the period (counterclockwise positive).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--out", type=OutDir(), default=None, help="Directory for two_bodies.json and a figure of theta(t).")
+@click.option(
+    "--out",
+    type=OutDir(),
+    default=None,
+    help="Directory for two_bodies.json and figures of theta(t) and its geometric and dynamic parts.",
+)
 def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, as_json: bool, out: Path | None) -> None:
     """Two planar bodies pinned at their centres of mass (section 2.2 of the nonholonomic paper).
 
@@ -105,10 +110,11 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
     }
     outputs = None
     if out is not None:
-        from ..plot.phases import group_path
+        from ..plot.phases import group_path, phase_split
 
         outputs = Outputs(out)
         _save(outputs, group_path(rec), "two_bodies_theta.png")
+        _save(outputs, phase_split(system, loop, mu), "two_bodies_phases.png")
     text = (
         f"two pinned bodies, I1 = {I1:g}, I2 = {I2:g}, mu = {mu:g}, T = {period:g}, turns = {turns}\n"
         f"geometric phase  -oint A dpsi      = {split.geometric:.12g}\n"

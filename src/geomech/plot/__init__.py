@@ -3,7 +3,14 @@ calls ``plt.show()``. matplotlib is imported lazily."""
 
 from .gaits import gait_momentum, gait_paths
 from .momentum import momentum_sphere, reduced_phase_portrait
-from .phases import connection_field, curvature_map, group_path, momentum_solid_angle, winding_numbers
+from .phases import (
+    connection_field,
+    curvature_map,
+    group_path,
+    momentum_solid_angle,
+    phase_split,
+    winding_numbers,
+)
 from .stability import equilibria_phase_portrait, stability_map_plot
 
 __all__ = [
@@ -11,6 +18,7 @@ __all__ = [
     "gait_paths",
     "connection_field",
     "curvature_map",
+    "phase_split",
     "equilibria_phase_portrait",
     "group_path",
     "momentum_solid_angle",

@@ -249,6 +249,37 @@ def curvature_map(
     return ax
 
 
+def phase_split(system: Any, loop: Any, mu: Any = 0.0, *, g0: Any = None, ax: Any = None) -> Any:
+    """Theorem 2.2 over time: the geometric part :math:`-\\int_0^t A\\,dr`, the dynamic part
+    :math:`\\mu\\int_0^t \\mathbb I^{-1}` and their sum (:func:`~geomech.analysis.phase_history`), with the angle
+    reconstructed on the group drawn over the sum and the three values at T (:func:`~geomech.analysis.phases`)
+    marked and written in the legend: the figure shows the split the text reports."""
+    import matplotlib.pyplot as plt
+
+    from ..analysis.phases import phase_history, phases, reconstruct
+
+    split = phases(system, loop, mu, g0=g0)
+    hist = phase_history(system, loop, mu, g0=g0)
+    t = hist["t"]
+    rec = reconstruct(system, loop, mu, g0=g0, t_eval=t)
+    c = [s.name for s in system.group.coordinates].index(split.component)
+    angle = rec.path.g[:, c] - rec.path.g[0, c]
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.0, 4.2))
+    ax.plot(t, hist["geometric"], color="C0", label=f"geometric $-\\oint A$ = {split.geometric:.6g}")
+    ax.plot(t, hist["dynamic"], color="C1", label=f"dynamic $\\mu\\int \\mathbb{{I}}^{{-1}}$ = {split.dynamic:.6g}")
+    ax.plot(t, hist["total"], color="k", lw=2.2, alpha=0.45, label=f"total = {split.total:.6g}")
+    ax.plot(t, angle, color="k", ls="--", lw=1.0, label="reconstructed on the group")
+    T = loop.T
+    ax.plot([T, T, T], [split.geometric, split.dynamic, split.total], "o", color="k", ms=3)
+    ax.axhline(0.0, color="0.8", lw=0.8)
+    ax.set_xlabel("$t$")
+    ax.set_ylabel(f"${_tex(system.group.coordinates[c])}(t) - {_tex(system.group.coordinates[c])}(0)$")
+    ax.legend(fontsize=8, loc="best")
+    ax.set_title(f"{system.name}: geometric and dynamic phase (eq. 2.3)", fontsize=10)
+    return ax
+
+
 def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
     """The reconstructed path in the group: for SE(2) the position with the heading drawn along it, for any
     other group its chart coordinates against time (angles unwrapped: S^1; SO(3): 3-1-3 Euler angles)."""
