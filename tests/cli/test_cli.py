@@ -111,3 +111,35 @@ def test_console_script_exit_status():
         text=True,
     )
     assert proc.returncode == 2 and proc.stderr.startswith("geomech: error:") and "Traceback" not in proc.stderr
+
+
+def test_options_alike_everywhere_vectors_and_repeats(capsys):
+    # a vector option takes spaces, commas or one quoted word; a single-valued option given twice is an error
+    from geomech.cli._args import gather_vectors
+    from geomech.cli.main import cli, main
+
+    argv = ["simulate", "geared_body", "--p0", "0.1", "-0.2", "--t-final", "1"]
+    assert gather_vectors(argv, cli) == ["simulate", "geared_body", "--p0", "0.1,-0.2", "--t-final", "1"]
+    outs = []
+    for mu in (["0", "0", "0.1"], ["0,0,0.1"], ["0 0 0.1"]):
+        code = main(
+            [
+                "phase",
+                "loop",
+                "spacecraft",
+                "--shape",
+                "varphi1=0.2*cos(2*pi*t/T)",
+                "--shape",
+                "varphi2=0.2*sin(2*pi*t/T)",
+                "--mu",
+                *mu,
+                "--json",
+            ]
+        )
+        out, err = capsys.readouterr()
+        assert code == 0, err
+        outs.append(out)
+    assert len(set(outs)) == 1
+    code = main(["phase", "two-bodies", "--mu", "-2.5", "--period", "5.5", "--period=6", "--json"])
+    _, err = capsys.readouterr()
+    assert code == 2 and err.count("\n") == 1 and "'--period' is given twice" in err

@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
-
-#: Options that take a vector of numbers, written either as separate words (--inertia 3 2 1) or
-#: comma-separated (--inertia 3,2,1).
-VECTOR_OPTIONS = ("--inertia", "--momentum", "--attitude", "--lambda", "--p", "--near", "--mu")
 
 
 def _is_number(token: str) -> bool:
@@ -22,16 +19,36 @@ def _is_number(token: str) -> bool:
     return True
 
 
-def gather_vectors(argv: Sequence[str]) -> list[str]:
-    """Join the numbers that follow a vector option into one comma-separated word, so that a wrong
-    count is reported by the option's own check rather than as a stray argument."""
+def _command(root: click.Group, argv: Sequence[str]) -> click.Command:
+    """The command ``argv`` invokes (following subcommand names from the root), or the root itself."""
+    cmd: click.Command = root
+    for tok in argv:
+        if tok.startswith("-"):
+            continue
+        if isinstance(cmd, click.Group) and tok in cmd.commands:
+            cmd = cmd.commands[tok]
+        else:
+            break
+    return cmd
+
+
+def _options(cmd: click.Command) -> list[click.Option]:
+    return [p for p in cmd.params if isinstance(p, click.Option)]
+
+
+def gather_vectors(argv: Sequence[str], root: click.Group) -> list[str]:
+    """Join the numbers that follow a vector option (a :class:`FloatVector`) into one comma-separated word, so
+    that ``--p0 0.1 0.2`` and ``--p0 0.1,0.2`` mean the same, and a wrong count is reported by the option's own
+    check rather than as a stray argument."""
+    cmd = _command(root, argv)
+    vector = {name for o in _options(cmd) if isinstance(o.type, FloatVector) for name in o.opts}
     out: list[str] = []
     i = 0
     while i < len(argv):
         tok = argv[i]
         out.append(tok)
         i += 1
-        if tok in VECTOR_OPTIONS:
+        if tok in vector:
             vals = []
             while i < len(argv) and _is_number(argv[i]):
                 vals.append(argv[i])
@@ -41,8 +58,23 @@ def gather_vectors(argv: Sequence[str]) -> list[str]:
     return out
 
 
+def repeated_option(argv: Sequence[str], root: click.Group) -> str | None:
+    """The first option given twice that takes one value (click would keep the last silently), or None."""
+    cmd = _command(root, argv)
+    single = {name: o for o in _options(cmd) if not o.multiple and not o.count for name in o.opts + o.secondary_opts}
+    seen: dict[int, str] = {}
+    for tok in argv:
+        name = tok.split("=", 1)[0]
+        if name in single:
+            key = id(single[name])
+            if key in seen:
+                return name if name == seen[key] else f"{seen[key]} / {name}"
+            seen[key] = name
+    return None
+
+
 class FloatVector(click.ParamType):
-    """A comma-separated vector of floats with one of the allowed lengths."""
+    """A vector of floats with one of the allowed lengths, its numbers separated by commas or spaces."""
 
     name = "floats"
 
@@ -52,7 +84,7 @@ class FloatVector(click.ParamType):
     def convert(self, value, param, ctx):
         if isinstance(value, tuple):
             return value
-        parts = [p for p in str(value).split(",") if p.strip() != ""]
+        parts = [p for p in re.split(r"[,\s]+", str(value).strip()) if p != ""]
         try:
             vals = tuple(float(p) for p in parts)
         except ValueError:

@@ -19,7 +19,7 @@ from .._storage import dumps_json
 from .._version import __version__
 from ..errors import GeomechError, NumericalError, SingularityError
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, OutDir, Outputs, emit, gather_vectors, parse_params
+from ._args import FloatVector, OutDir, Outputs, emit, gather_vectors, parse_params, repeated_option
 from ._progress import activity
 from .gait import gait_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
@@ -282,7 +282,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             # numpy's overflow and invalid-value warnings mean the numbers that follow are not to be trusted:
             # the run stops there (the package silences them with errstate where they are expected).
             warnings.simplefilter("error", RuntimeWarning)
-            code = _run(gather_vectors(args))
+            twice = repeated_option(args, cli)
+            if twice is not None:
+                _say("error", f"Option '{twice}' is given twice; give it once (it takes one value).")
+                return 2
+            code = _run(gather_vectors(args, cli))
         if code == 0:
             for message in dict.fromkeys(str(w.message) for w in caught):
                 _say("warning", message)
