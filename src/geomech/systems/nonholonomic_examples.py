@@ -26,6 +26,7 @@ from typing import Any
 import sympy as sp
 
 from ..lie.groups import SE2, SO3
+from ..symbolic.simplify import simplify_expr
 from .nonholonomic import NonholonomicSystem
 
 __all__ = [
@@ -383,8 +384,8 @@ def _ball() -> NonholonomicSystem:
     xd, yd, phd, thd, psd = _v("x", "y", "phi", "theta", "psi")
     R = SO3().sympy_element([ph, th, ps])[0]  # 3-1-3: Rz(phi) Rx(theta) Rz(psi)
     Rd = sum((R.diff(a) * b for a, b in zip((ph, th, ps), (phd, thd, psd))), sp.zeros(3))
-    body = (R.T * Rd).applyfunc(sp.trigsimp)  # hat of the body angular velocity omega
-    space = (Rd * R.T).applyfunc(sp.trigsimp)  # hat of the spatial angular velocity Omega = R omega
+    body = (R.T * Rd).applyfunc(simplify_expr)  # hat of the body angular velocity omega
+    space = (Rd * R.T).applyfunc(simplify_expr)  # hat of the spatial angular velocity Omega = R omega
     w = (body[2, 1], body[0, 2], body[1, 0])
     Om = (space[2, 1], space[0, 2], space[1, 0])
     L = m / 2 * (xd**2 + yd**2) + (I1 * w[0] ** 2 + I2 * w[1] ** 2 + I3 * w[2] ** 2) / 2
