@@ -233,3 +233,14 @@ def test_bad_input_is_one_line_and_status_2(capsys, args, needle):
     assert err.count("\n") == 1 and err.startswith("geomech: error:")
     assert needle in err
     assert "Traceback" not in err
+
+
+def test_stability_map_text_is_a_sentence_not_a_dict(capsys, tmp_path):
+    args = ["stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--x", "k=0.05:0.95:5"]
+    code, out, err = run(capsys, *args, "--y", "lambda2=1.2:2.8:4", "--out", str(tmp_path / "a"))
+    assert code == 0, err
+    code, js, err = run(capsys, *args, "--y", "lambda2=1.2:2.8:4", "--out", str(tmp_path / "b"), "--json")
+    counts = json.loads(js)["counts"]
+    first = out.splitlines()[0]
+    assert "{" not in first and "'" not in first
+    assert all(f"{n} {v}" in first for v, n in counts.items() if n)

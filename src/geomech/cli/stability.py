@@ -479,6 +479,8 @@ def _write_map(ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, o
         click.echo(dumps_json(summary))
     else:
         click.echo(
-            f"stability map over {xname} x {yname} ({xs.size} x {ys.size}): {counts}\n"
+            f"stability map over {xname} x {yname} ({xs.size} x {ys.size} points): "
+            + (", ".join(f"{n} {v}" for v, n in counts.items() if n) or "no verdicts")
+            + "\n"
             f"written {out / 'stability_map.png'} and {out / 'stability_map.nc'}"
         )
