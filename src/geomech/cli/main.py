@@ -22,6 +22,7 @@ from ..symbolic.formula import parse_formula
 from ._args import FloatVector, OutDir, Outputs, emit, gather_vectors, parse_params, repeated_option
 from ._progress import activity
 from .gait import gait_cmd
+from .methods import methods_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
 from .phase import phase
 from .reproduce import reproduce
@@ -153,6 +154,7 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
 
 cli.add_command(derive_cmd)
 cli.add_command(gait_cmd)
+cli.add_command(methods_cmd)
 cli.add_command(simulate_cmd)
 cli.add_command(phase)
 cli.add_command(reproduce)

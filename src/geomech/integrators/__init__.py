@@ -36,7 +36,7 @@ from .periodic import PeriodicOrbitPropagator
 from .quadrature import QuadraturePropagator
 from .serret_andoyer_propagator import SerretAndoyerPropagator
 from .solution import QUANTITIES, Failure, Solution, Status
-from .solve import DEFAULT_SAVEAT, compatible_methods, solve
+from .solve import DEFAULT_SAVEAT, compatible_methods, methods_for, solve
 
 __all__ = [
     "BKMM",
@@ -75,6 +75,7 @@ __all__ = [
     "Structure",
     "SymplecticEuler",
     "compatible_methods",
+    "methods_for",
     "get_method",
     "initial_state",
     "methods_table",

@@ -29,13 +29,25 @@ from .methods import (
 )
 from .solution import STATUS, Failure, Solution, Status, run_stats
 
-__all__ = ["solve", "compatible_methods", "DEFAULT_SAVEAT"]
+__all__ = ["solve", "compatible_methods", "methods_for", "DEFAULT_SAVEAT"]
 
 
 def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
     """Keys of the registered methods that can integrate ``system``."""
     problem = make_problem(system, attitude=attitude)
     return [k for k, m in REGISTRY.items() if _why_not(problem, m) is None]
+
+
+def methods_for(system: Any, *, attitude: bool = False) -> list[dict[str, Any]]:
+    """Every registered method's traits (as :func:`~geomech.integrators.methods_table`) with, for ``system``,
+    ``fits`` (bool) and ``why_not`` (the reason a method does not apply, or None): what ``solve`` would accept
+    and refuse, without running anything."""
+    problem = make_problem(system, attitude=attitude)
+    out = []
+    for m in REGISTRY.values():
+        why = _why_not(problem, m)
+        out.append({**m.describe(), "fits": why is None, "why_not": why})
+    return out
 
 
 def _why_not(problem: Problem, method: Method) -> str | None:
