@@ -54,6 +54,15 @@ def test_rigid_body_tensor_and_out_dir(capsys, tmp_path):
     assert "eq. (11)" in out
     assert json.loads((tmp_path / "rigid_body.json").read_text())["t_final"] == 5.0
     assert (tmp_path / "rigid_body_momentum.png").stat().st_size > 10_000
+    # the trajectory itself: m(t) on the 51 times, ending where the summary says, |m| conserved
+    xr = pytest.importorskip("xarray")
+    summary = json.loads((tmp_path / "rigid_body.json").read_text())
+    with xr.open_dataset(tmp_path / "rigid_body.nc") as ds:
+        names = [v for v in ds.data_vars if ds[v].sizes.get("t") == 51]
+        assert ds.sizes["t"] == 51 and names
+        m = np.stack([ds[k].values for k in ("m1", "m2", "m3")], -1) if "m1" in ds else ds["m"].values
+    np.testing.assert_allclose(m[-1], summary["m_final"]["reduced"], rtol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(m, axis=-1), np.linalg.norm([1, 0.3, 0.2]), rtol=1e-10)
 
 
 @pytest.mark.parametrize(

@@ -68,7 +68,8 @@ def cli() -> None:
     "--out",
     type=OutDir(),
     default=None,
-    help="Directory for rigid_body.json and a figure of the momentum on its sphere.",
+    help="Directory for rigid_body.json, the trajectory rigid_body.nc (m, R, invariants; NetCDF) and a figure of "
+    "the momentum on its sphere.",
 )
 def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json, out) -> None:
     """The free rigid body: exact elliptic solution vs the integrated Serret-Andoyer reduced system.
@@ -89,6 +90,7 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
         outputs = Outputs(out)
         fig_ax = momentum_sphere(traj.m, title=f"I = {summary['inertia']['principal_moments']}")
         outputs.figure("rigid_body_momentum.png", fig_ax, dpi=120)
+        outputs.dataset("rigid_body.nc", traj.to_dataset())
     emit(summary, as_json, summary_text(summary), outputs, "rigid_body")
 
 
