@@ -152,3 +152,23 @@ def test_options_alike_everywhere_vectors_and_repeats(capsys):
     code = main(["phase", "two-bodies", "--mu", "-2.5", "--period", "5.5", "--period=6", "--json"])
     _, err = capsys.readouterr()
     assert code == 2 and err.count("\n") == 1 and "'--period' is given twice" in err
+
+
+def test_reduce_keeps_parameters_symbolic_when_asked(capsys):
+    # the free rigid body with I1, I2 left symbolic and I3 = 1 gives eq. (10) of the seed (Andoyer's Hamiltonian)
+    import sympy as sp
+
+    from geomech.reduction import andoyer_hamiltonian
+
+    H = "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)"
+    code, out, err = run(capsys, "reduce", "--hamiltonian", H, "--param", "I3=1", "--symbolic", "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["symbolic_parameters"] == ["I1", "I2"] and s["hyperregularity"]["status"] == "unknown"
+    got = sp.sympify(s["reduced_hamiltonian"])
+    want = andoyer_hamiltonian().subs(sp.Symbol("I3", positive=True), 1)
+    names = {x.name: x for x in want.free_symbols}
+    got = got.xreplace({x: names.get(x.name, x) for x in got.free_symbols})
+    assert sp.simplify(got - want) == 0
+    code, _, err = run(capsys, "reduce", "--hamiltonian", H, "--param", "I3=1")
+    assert code == 2 and "--param I1=VALUE" in err

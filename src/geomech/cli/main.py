@@ -109,9 +109,14 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
     show_default=True,
     help="Body axis of the Serret-Andoyer chart (3 is the paper's).",
 )
+@click.option(
+    "--symbolic",
+    is_flag=True,
+    help="Keep the parameters without a --param value as symbols (h_p and the equations only; no verdicts).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option("--latex", "as_latex", is_flag=True, help="Print LaTeX.")
-def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
+def reduce_cmd(hamiltonian, params, axis, symbolic, as_json, as_latex) -> None:
     """The generalized Serret-Andoyer reduction of a left-invariant H(m) (Theorem 3).
 
     Prints the reduced Hamiltonian h_p(l, L) = H(U_p(l, L)) (eq. 21), the canonical equations
@@ -121,22 +126,42 @@ def reduce_cmd(hamiltonian, params, axis, as_json, as_latex) -> None:
 
     from ..reduction import GeneralizedSerretAndoyer
     from ..reduction.serret_andoyer import L_SYM, l_SYM
+    from ..symbolic.compile import M_SYMBOLS
     from ..systems import LeftInvariantSystem
+    from ..systems._hyperregularity import HyperregularityReport
 
     values = parse_params(params)
-    system = LeftInvariantSystem.from_expression(parse_formula(hamiltonian, "--hamiltonian"), values)
-    sa = GeneralizedSerretAndoyer(system)
-    h = sa.h_p(axis - 1)
+    expr = parse_formula(hamiltonian, "--hamiltonian")
+    free = sorted({s.name for s in expr.free_symbols} - {s.name for s in M_SYMBOLS} - set(values))
+    if symbolic and free:
+        # h_p = H o U_p with the given values substituted and the rest left as symbols; nothing numeric follows
+        from ..reduction.serret_andoyer import SerretAndoyerChart
+
+        unknown = sorted(set(values) - {s.name for s in expr.free_symbols})
+        if unknown:
+            raise click.BadParameter(f"{unknown} do not appear in the Hamiltonian", param_hint="'--param'")
+        system = None
+        given = {s: values[s.name] for s in expr.free_symbols if s.name in values}
+        U = dict(zip((s.name for s in M_SYMBOLS), SerretAndoyerChart(axis - 1).U_p))
+        h = sp.simplify(expr.subs(given).xreplace({s: U[s.name] for s in expr.free_symbols if s.name in U}))
+    else:
+        system = LeftInvariantSystem.from_expression(expr, values)
+        h = GeneralizedSerretAndoyer(system).h_p(axis - 1)
     ldot, Ldot = sp.simplify(sp.diff(h, L_SYM)), sp.simplify(-sp.diff(h, l_SYM))
     summary = {
-        "hamiltonian": str(system.expression),
-        "parameters": system.parameters,
+        "hamiltonian": str(expr if system is None else system.expression),
+        "parameters": values if system is None else system.parameters,
+        "symbolic_parameters": free if system is None else [],
         "chart_axis": axis,
         "reduced_hamiltonian": str(h),
         "l_dot": str(ldot),
         "L_dot": str(Ldot),
         "latex": {"h_p": sp.latex(h), "l_dot": sp.latex(ldot), "L_dot": sp.latex(Ldot)},
-        "hyperregularity": system.hyperregularity().to_json(),
+        "hyperregularity": (
+            HyperregularityReport("unknown", f"the parameters {free} are symbolic", ()).to_json()
+            if system is None
+            else system.hyperregularity().to_json()
+        ),
     }
     if as_json:
         click.echo(dumps_json(summary))
