@@ -202,11 +202,20 @@ def derive_cmd(model, model_file, params, sections, as_json, as_latex) -> None:
 @click.option("--t-final", type=float, default=1.0, show_default=True, help="Final time.")
 @click.option(
     "--method",
-    type=click.Choice(["full", "reduced", "discrete"]),
     default="full",
     show_default=True,
-    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA.",
+    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA. With "
+    "--hamiltonian any method of geomech.solve that fits (`geomech methods --hamiltonian ...`); full: the "
+    "Serret-Andoyer atlas.",
 )
+@click.option(
+    "--hamiltonian",
+    default=None,
+    help="Instead of MODEL: a left-invariant H(m1, m2, m3) as a formula, integrated from --momentum.",
+)
+@click.option("--momentum", type=FloatVector(3), default=None, help="With --hamiltonian: the initial m1 m2 m3.")
+@click.option("--attitude", is_flag=True, help="With --hamiltonian: integrate the attitude R from the identity too.")
+@click.option("--rtol", type=float, default=1e-10, show_default=True, help="With --hamiltonian: adaptive tolerance.")
 @click.option("--h", "step", type=float, default=1e-3, show_default=True, help="Step of the discrete method.")
 @click.option("--samples", type=click.IntRange(2, 10**6), default=201, show_default=True, help="Output times.")
 @click.option(
@@ -241,6 +250,10 @@ def simulate_cmd(
     p0,
     t_final,
     method,
+    hamiltonian,
+    momentum,
+    attitude,
+    rtol,
     step,
     samples,
     max_evaluations,
@@ -258,6 +271,33 @@ def simulate_cmd(
     """
     from ..integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, solve
 
+    if hamiltonian is not None:
+        from .hamiltonian import simulate_hamiltonian
+
+        if model is not None or model_file is not None:
+            raise click.UsageError("give MODEL (or --model) or --hamiltonian, not both")
+        extra = [o for o, v in (("--shape", shapes), ("--tau", taus), ("--q0", q0s), ("--rdot0", rdot0s)) if v]
+        if extra or p0 is not None:
+            raise click.UsageError(f"{', '.join(extra or ['--p0'])} apply to a MODEL, not to --hamiltonian")
+        simulate_hamiltonian(
+            hamiltonian,
+            _pairs(params, "--param", True),
+            momentum,
+            attitude,
+            method,
+            t_final,
+            step,
+            rtol,
+            samples,
+            max_steps,
+            as_json,
+            out,
+        )
+        return
+    if method not in ("full", "reduced", "discrete"):
+        raise click.BadParameter(f"{method!r}: choose full, reduced or discrete for a MODEL", param_hint="'--method'")
+    if momentum is not None or attitude:
+        raise click.UsageError("--momentum and --attitude apply to --hamiltonian")
     system = nonholonomic_system(one_model(model, model_file), _pairs(params, "--param", True))
     kw: dict[str, Any] = dict(
         shapes=_pairs(shapes, "--shape", False),
