@@ -26,6 +26,7 @@ from .methods import methods_cmd
 from .nonholonomic import derive_cmd, simulate_cmd
 from .phase import phase
 from .reproduce import reproduce
+from .show import show_cmd
 from .stability import stability_cmd, stability_map_cmd
 
 
@@ -182,6 +183,7 @@ def reduce_cmd(hamiltonian, params, axis, symbolic, as_json, as_latex) -> None:
 cli.add_command(derive_cmd)
 cli.add_command(gait_cmd)
 cli.add_command(methods_cmd)
+cli.add_command(show_cmd)
 cli.add_command(simulate_cmd)
 cli.add_command(phase)
 cli.add_command(reproduce)
