@@ -60,6 +60,15 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
     for a in per.values():
         assert a["wall_time_s"] >= 0 and a["compile_time_s"] >= 0
     np.testing.assert_allclose(ds.compile_time.values, [per[k]["compile_time_s"] for k in ds.approach.values])
+    # the orbit's period, and each approach's signed drift of |m| read off its own data
+    assert summary["orbit"]["kind"] == "libration" and summary["orbit"]["period_s"] > 2.0
+    final = np.linalg.norm(ds.m.isel(time=-1).values, axis=-1) - 1.0
+    for k, d in zip(ds.approach.values, final):
+        if abs(d) > 1e-10:  # the data file keeps the run's last state
+            assert np.sign(per[str(k)]["momentum_drift_final"]) == np.sign(d)
+            assert per[str(k)]["momentum_drift_direction"] == ("outward" if d > 0 else "inward")
+    inside = summary["claims"]["full_6d_stays_inside_the_sphere"]
+    assert inside["holds"] == (per["full6d_adams"]["momentum_drift_final"] < 0)
     # "whatever the method": the midpoint rule also runs on Euler's equations
     assert (
         "reduced_midpoint vs euler_midpoint" in summary["claims"]["reduced_form_better_whatever_the_method"]["evidence"]
@@ -158,3 +167,17 @@ def test_inadmissible_inertias_and_interrupted_runs(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         study.write_study(tmp_path, ds, summary, model, cfg)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_orbit_period_of_the_named_preset():
+    # lambda = (1.5, 1.0), I3 = 0.6, J3 = 0.3: 7.0155791512 s by an independent computation (the issue's); the
+    # periodic-orbit propagator and the quadrature of the level curve agree with it
+    from geomech.experiments.serret_andoyer_study import StudyConfig, _orbit, build_model
+    from geomech.integrators.quadrature import QuadraturePropagator
+
+    cfg = StudyConfig(lambda1=1.5, lambda2=1.0, I3=0.6, J3=0.3)
+    model = build_model(cfg)
+    orbit = _orbit(cfg, model)
+    assert orbit["kind"] == "libration" and abs(orbit["period_s"] - 7.0155791512) < 1e-9
+    quad = QuadraturePropagator(model.reduction.reduced_system(cfg.G, 2), model.lL0)
+    assert abs(quad.period - orbit["period_s"]) < 1e-9 * orbit["period_s"]

@@ -86,10 +86,13 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
     if as_json:
         click.echo(dumps_json(summary))
         return
-    click.echo(f"{'approach':<52} {'max energy err':>15} {'max |m| err':>12} {'time [s]':>9}")
+    o = summary["orbit"]
+    click.echo(f"orbit: {o['kind']}, period {o['period_s']:.10g} s ({o['periods_in_run']:.4g} periods in the run)")
+    click.echo(f"{'approach':<44} {'max energy err':>15} {'max |m| err':>12} {'|m(T)| - G':>11} {'time [s]':>9}")
     for a in summary["approaches"].values():
         click.echo(
-            f"{a['label']:<52} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} {a['wall_time_s']:>9.3f}"
+            f"{a['label']:<44} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} "
+            f"{a['momentum_drift_final']:>+11.2e} {a['wall_time_s']:>9.3f}"
         )
     for name, c in summary["claims"].items():
         click.echo(f"claim {name}: {'holds' if c['holds'] else 'does not hold'}")

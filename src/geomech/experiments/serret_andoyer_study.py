@@ -372,6 +372,7 @@ def _summary(
             "compile_time_s": results[a.key]["compile_time"],
             "rhs_evaluations": results[a.key]["n_rhs"],
             "status": results[a.key]["status"],
+            **_drift(results[a.key]["m"], cfg.G),
         }
         for a in todo
     }
@@ -400,6 +401,15 @@ def _summary(
                 for red, other in comparisons
             },
         },
+        "full_6d_stays_inside_the_sphere": {
+            "claim": "The full 6-D dynamics produce trajectories inside the sphere |m| = G (the seed's words for "
+            "its drift): |m(T)| < G.",
+            "holds": bool(per["full6d_adams"]["momentum_drift_final"] < 0),
+            "evidence": {
+                "momentum_drift_final": per["full6d_adams"]["momentum_drift_final"],
+                "direction": per["full6d_adams"]["momentum_drift_direction"],
+            },
+        },
         "all_but_full_6d_keep_the_momentum": {
             "claim": f"Every approach but the full 6-D one keeps |m| = G (here: to {keep_tol:g}).",
             "holds": bool(all(M[k] <= keep_tol for k in seed if k != "full6d_adams") and M["full6d_adams"] > keep_tol),
@@ -421,8 +431,31 @@ def _summary(
                 "R0 (6-D frame)": model.R0.tolist(),
             },
         },
+        "orbit": _orbit(cfg, model),
         "approaches": per,
         "claims": claims,
+    }
+
+
+def _drift(m: np.ndarray, G: float) -> dict[str, Any]:
+    """The signed change of |m| at the end of a run: outward (> 0) or inward (< 0) of the sphere |m| = G, or
+    none beyond round-off."""
+    d = float(np.linalg.norm(np.asarray(m)[-1]) - G)
+    direction = "none (round-off)" if abs(d) <= 1e-12 * G else ("outward" if d > 0 else "inward")
+    return {"momentum_drift_final": d, "momentum_drift_direction": direction}
+
+
+def _orbit(cfg: StudyConfig, model: _Model) -> dict[str, Any]:
+    """The closed-loop orbit of the initial state: its kind and period, from the periodic-orbit propagator of
+    the reduced system (one period integrated to near machine precision)."""
+    from ..integrators.periodic import PeriodicOrbitPropagator
+
+    orbit = PeriodicOrbitPropagator(model.reduction.reduced_system(cfg.G, 2), model.lL0)
+    return {
+        "kind": orbit.kind,
+        "period_s": float(orbit.period),
+        "period_error_estimate_s": float(orbit.period_error),
+        "periods_in_run": float(cfg.t_final / orbit.period) if np.isfinite(orbit.period) else 0.0,
     }
 
 
