@@ -244,3 +244,16 @@ def test_stability_map_text_is_a_sentence_not_a_dict(capsys, tmp_path):
     first = out.splitlines()[0]
     assert "{" not in first and "'" not in first
     assert all(f"{n} {v}" in first for v, n in counts.items() if n)
+
+
+def test_stability_json_starts_with_its_summary(capsys):
+    code, out, err = run(
+        capsys, "stability", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--param", "k=0.51", "--json"
+    )
+    assert code == 0, err
+    s = json.loads(out)
+    assert next(iter(s)) == "summary"
+    head, detail = s["summary"], s["equilibria"]
+    assert head["equilibria"] == len(detail) == 6
+    assert head["verdicts"] == [{"m": e["m"], "verdict": e["verdict"]} for e in detail]
+    assert sum(head["verdict_counts"].values()) == 6 and head["verdict_counts"]["unstable"] == 2

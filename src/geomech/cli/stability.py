@@ -232,7 +232,18 @@ def stability_cmd(lambdas, I3, phis, model_file, params, p, G, as_json, out) -> 
 
     control, system, model = _subject(model_file, lambdas, I3, phis, parse_params(params), p, G)
     analysis = analyse_stability(system, G)
-    summary = {**model, **analysis.to_json()}
+    detail = analysis.to_json()
+    eqs = detail.get("equilibria", [])
+    counts: dict[str, int] = {}
+    for e in eqs:
+        counts[e["verdict"]] = counts.get(e["verdict"], 0) + 1
+    head = {
+        "equilibria": len(eqs),
+        "verdict_counts": counts,
+        "complete": detail.get("complete"),
+        "verdicts": [{"m": e["m"], "verdict": e["verdict"]} for e in eqs],
+    }
+    summary = {"summary": head, **model, **detail}  # the answer first, the evidence after
     if out is not None:
         import matplotlib
 
