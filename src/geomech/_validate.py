@@ -32,7 +32,9 @@ def parameter_update(values: Any, known: Any, owner: str, positive: Any = ()) ->
         if not np.isfinite(x):
             raise InputError(f"Expected parameter `{k}` of {owner} to be finite, got {x}.")
         if k in positive and not x > 0:
-            raise InputError(f"Expected parameter `{k}` of {owner} to be positive (a mass or inertia), got {x:g}.")
+            raise InputError(
+                f"Expected parameter `{k}` of {owner} to be positive (a mass, length or inertia), got {x:g}."
+            )
         out[k] = x
     return out
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .. import _validate as V
 from ..errors import InputError, ShapeError, SymbolicError
 from ..symbolic.charts import GroupChart, group_chart
 from ..symbolic.formula import parse_formula
@@ -97,23 +98,10 @@ def _parse(
 
 
 def _checked_values(symbols: Mapping[str, sp.Symbol], values: Mapping[str, Any], owner: str) -> dict[str, float]:
-    """Parameter values as finite floats; a symbol declared positive (a mass, a length) takes only values > 0."""
-    out: dict[str, float] = {}
-    for k, v in values.items():
-        try:
-            x = float(v)
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"Expected parameter `{k}` of {owner} to be a number, got {v!r}.") from exc
-        if not np.isfinite(x):
-            raise InputError(f"Expected parameter `{k}` of {owner} to be finite, got {x}.")
-        symbol = symbols.get(k)
-        if symbol is not None and symbol.is_positive and not x > 0:
-            raise InputError(
-                f"Expected parameter `{k}` of {owner} to be positive (it is a mass, length or inertia "
-                f"declared positive), got {x:g}."
-            )
-        out[k] = x
-    return out
+    """Parameter values as finite floats (:func:`geomech._validate.parameter_update`); a symbol declared positive
+    (a mass, a length) takes only values > 0."""
+    positive = {k for k, s in symbols.items() if s.is_positive}
+    return V.parameter_update(values, symbols, owner, positive)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -322,10 +310,6 @@ class NonholonomicSystem:
 
     def with_parameters(self, **values: float) -> NonholonomicSystem:
         """The same system with more (or other) parameter values."""
-        names = {s.name for s in self.parameter_symbols}
-        unknown = sorted(set(values) - names)
-        if unknown:
-            raise InputError(f"Unknown parameter(s) {unknown}; the parameters of {self.name} are {sorted(names)}.")
         merged = dict(self.parameters)
         merged.update(_checked_values({s.name: s for s in self.parameter_symbols}, values, self.name))
         return dataclasses.replace(self, parameters=merged)
