@@ -442,4 +442,30 @@ def test_compiled_model_is_cached_by_expression():
     assert mod_a is mod_b
     # the generated source lives in the kernel cache directory, where numba keeps its machine code
     assert any(path.name.startswith("gm_c_") for path in _codegen.cache_dir().iterdir())
-    assert "def rhs(y, out0):" in open(mod_a.__file__).read()
+    assert "def rhs(y, out0, prm):" in open(mod_a.__file__).read()
+
+
+def test_systems_that_differ_only_in_parameter_values_share_one_compilation():
+    from geomech.integrators._problem import make_problem
+
+    bodies = [gm.RigidBody(inertia=I) for I in ((3.0, 2.0, 1.0), (3.5, 2.5, 1.25))]
+    modules = {id(make_problem(b, attitude=True).module(frozenset(), "auto")[0]) for b in bodies}
+    assert len(modules) == 1  # the inertias are read at run time
+    m0, R0 = [1.0, 0.3, 0.2], np.eye(3)
+    for body in bodies:
+        compiled = solve(body, "implicit_midpoint", m0=m0, R0=R0, h=0.05, t_final=2.0)
+        # the Python backend evaluates the formula with the values substituted: a second route
+        python = solve(body, "implicit_midpoint", m0=m0, R0=R0, h=0.05, t_final=2.0, backend="python")
+        assert compiled.stats["backend"] == "numba"
+        np.testing.assert_allclose(compiled.states, python.states, rtol=0, atol=1e-12)
+    # the reduced (l, L) systems of several bodies and momenta G too: one compilation for all
+    reduced = [gm.GeneralizedSerretAndoyer(b).reduced_system(G) for b in bodies for G in (1.0, 1.3)]
+    assert len({id(make_problem(r, attitude=False).module(frozenset(), "auto")[0]) for r in reduced}) == 1
+    for r in reduced:
+        y0 = [0.3, 0.2 * r.chart[0][2]]
+        got = solve(r, "gauss_legendre_2", y0=y0, h=0.1, t_final=1.0).states
+        want = solve(r, "gauss_legendre_2", y0=y0, h=0.1, t_final=1.0, backend="python").states
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    # and the two bodies do move differently
+    a, b = (solve(body, "rk4", m0=m0, h=0.05, t_final=2.0).states[-1] for body in bodies)
+    assert np.max(np.abs(a - b)) > 0.02  # |m| = 1.06: far above any round-off

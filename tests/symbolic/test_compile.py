@@ -39,18 +39,22 @@ def test_complex_step_derivative_through_the_compiled_function():
 
 
 def test_kernel_source_computes_what_the_numpy_function_does(rng):
+    k = sp.Symbol("k", real=True)
     spec_scalar = FunctionSpec("first", (EXPRS[0],), (x, y))
-    spec_array = FunctionSpec("both", ([EXPRS[0], EXPRS[1]], [[x * y, sp.cos(x)]]), (x, y))
+    spec_array = FunctionSpec("both", ([EXPRS[0], EXPRS[1]], [[k * x * y, sp.cos(k * x)]]), (x, y), parameters=(k,))
     src = kernel_source([spec_scalar, spec_array])
     assert "import" not in src  # model functions only: the loader supplies math and the decorator
+    assert "1.7" not in src  # the parameter is read at run time, not written into the source
     namespace = {"math": math, "np": np, "kernel": lambda fn: fn}
     exec(compile(src, "<kernels>", "exec"), namespace)
-    numpy_f = compile_vector([EXPRS[0], EXPRS[1], x * y, sp.cos(x)], [x, y])
-    for p in rng.uniform(-1, 1, (4, 2)):
-        out0, out1 = np.empty(2), np.empty((1, 2))
-        namespace["both"](p, out0, out1)
-        want = numpy_f(p)
-        np.testing.assert_allclose([namespace["first"](p), *out0, *out1.ravel()], [want[0], *want], rtol=1e-14)
+    for kv in (1.7, -0.3):
+        numpy_f = compile_vector([EXPRS[0], EXPRS[1], kv * x * y, sp.cos(kv * x)], [x, y])
+        for p in rng.uniform(-1, 1, (4, 2)):
+            out0, out1 = np.empty(2), np.empty((1, 2))
+            namespace["both"](p, out0, out1, np.array([kv]))
+            want = numpy_f(p)
+            got = [namespace["first"](p, np.empty(0)), *out0, *out1.ravel()]
+            np.testing.assert_allclose(got, [want[0], *want], rtol=1e-14)
 
 
 def test_formulas_with_poles_are_refused_by_both_targets():

@@ -124,6 +124,7 @@ def integrate_ivp(
 
 def run_adaptive(
     module: Any,
+    prm: np.ndarray,
     method: Any,
     Y0: np.ndarray,
     t0: float,
@@ -145,7 +146,7 @@ def run_adaptive(
 
         def f(_t: float, y: np.ndarray, count: list = count, buf: np.ndarray = buf) -> np.ndarray:
             count[0] += 1
-            rhs(np.ascontiguousarray(y, dtype=float), buf)
+            rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
             return buf.copy()
 
         solver = ode(f)

@@ -7,7 +7,9 @@ subexpressions shared, floats printed to round-trip); this module writes model a
 into one source file named by a hash of its text, imports it, and lets numba compile each loop with
 ``cache=True``: a later run, or another process, loads the machine code from disk. Passing compiled model
 functions to compiled loops as arguments would defeat numba's disk cache (the function type differs in
-every process), hence one generated file per model.
+every process), hence one generated file per model. The model's parameters (inertias, gains, the
+momentum G of a reduced system) are not written into it: the functions read them from an array ``prm``
+at run time, so a sweep over parameter values compiles once.
 
 Without numba, or for a model given as Python callables, the same template source runs as plain Python
 with wrappers around the callables (slow but identical arithmetic), so every method works everywhere.

@@ -1,8 +1,8 @@
 """Loop template: symplectic methods that use the canonical splitting y = (q, p) of the state: symplectic
 Euler (both variants), Stormer-Verlet, and the seed's second-order generating-function method.
 
-The model supplies ``grad(y, g)`` (g = (H_q, H_p)), ``ghess(y, g, Hm)`` (with the Hessian), and for the
-generating-function method ``gf_all(y, g, Hm, gw, Hw)`` and ``gf_grads(y, g, gw)``, where
+The model supplies ``grad(y, g, prm)`` (g = (H_q, H_p)), ``ghess(y, g, Hm, prm)`` (with the Hessian), and for the
+generating-function method ``gf_all(y, g, Hm, gw, Hw, prm)`` and ``gf_grads(y, g, gw, prm)``, where
 ``W = sum_i H_{q_i} H_{p_i}``. See ``_k_common.py`` for the common loop signature.
 """
 
@@ -20,19 +20,19 @@ from ._k_common import (
 )
 
 
-def grad(y, g):
+def grad(y, g, prm):
     raise NotImplementedError
 
 
-def ghess(y, g, hm):
+def ghess(y, g, hm, prm):
     raise NotImplementedError
 
 
-def gf_all(y, g, hm, gw, hw):
+def gf_all(y, g, hm, gw, hw, prm):
     raise NotImplementedError
 
 
-def gf_grads(y, g, gw):
+def gf_grads(y, g, gw, prm):
     raise NotImplementedError
 
 
@@ -40,7 +40,7 @@ def gf_grads(y, g, gw):
 
 
 @kernel
-def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, scale, counts):
+def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, scale, counts, prm):
     """Newton for the implicit half of symplectic Euler or of the generating-function method.
 
     variant 0 (Euler A):  x = p_{n+1} solving x = p_n - h H_q(q_n, x).
@@ -56,7 +56,7 @@ def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, sc
             for i in range(n):
                 tmp[i] = y[i]
                 tmp[n + i] = x[i]
-            ghess(tmp, g, hm)
+            ghess(tmp, g, hm, prm)
             for i in range(n):
                 r[i] = y[n + i] - h * g[i] - x[i]
                 for j in range(n):
@@ -67,14 +67,14 @@ def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, sc
                 tmp[i] = x[i]
                 tmp[n + i] = y[n + i]
             if variant == 1:
-                ghess(tmp, g, hm)
+                ghess(tmp, g, hm, prm)
                 for i in range(n):
                     r[i] = y[i] + h * g[n + i] - x[i]
                     for j in range(n):
                         A[i, j] = -h * hm[n + i, j]
                     A[i, i] += 1.0
             else:
-                gf_all(tmp, g, hm, gw, hw)
+                gf_all(tmp, g, hm, gw, hw, prm)
                 for i in range(n):
                     r[i] = y[i] + h * g[n + i] - hh2 * gw[n + i] - x[i]
                     for j in range(n):
@@ -90,7 +90,7 @@ def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, sc
 
 
 @kernel
-def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
+def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, prm):
     B, d = Y0.shape
     n = d // 2
     y, tmp, g, gw = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
@@ -104,7 +104,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
         store(OUT, b, 0, y)
         isave = 1
         counts[:] = 0.0
-        grad(y, g)
+        grad(y, g, prm)
         counts[0] += 1
         for i in range(n):
             xprev[i] = y[off + i]
@@ -117,7 +117,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
             for i in range(n):
                 xprev[i] = y[off + i]
             scale = max(1.0, max_abs(y))
-            code, resid = _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, scale, counts)
+            code, resid = _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, scale, counts, prm)
             if code != 0:
                 fail(OUT, INFO, b, isave, k, code, resid)
                 break
@@ -125,7 +125,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
                 for i in range(n):
                     tmp[i] = y[i]
                     tmp[n + i] = x[i]
-                grad(tmp, g)
+                grad(tmp, g, prm)
                 for i in range(n):
                     y[i] += h * g[n + i]
                     y[n + i] = x[i]
@@ -134,11 +134,11 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
                     tmp[i] = x[i]
                     tmp[n + i] = y[n + i]
                 if variant == 1:
-                    grad(tmp, g)
+                    grad(tmp, g, prm)
                     for i in range(n):
                         y[n + i] -= h * g[i]
                 else:
-                    gf_grads(tmp, g, gw)
+                    gf_grads(tmp, g, gw, prm)
                     for i in range(n):
                         y[n + i] += -h * g[i] + 0.5 * h * h * gw[i]
                 for i in range(n):
@@ -152,14 +152,14 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant):
 
 
 @kernel
-def symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """P[0]: 0 symplectic Euler A, 1 symplectic Euler B, 2 the generating-function method (a runtime value,
     so that numba compiles one loop for the three)."""
-    _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, int(P[0]))
+    _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, int(P[0]), prm)
 
 
 @kernel
-def verlet_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def verlet_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Stormer-Verlet for H = T(p) + V(q): p_{1/2} = p - h/2 V'(q), q' = q + h T'(p_{1/2}),
     p' = p_{1/2} - h/2 V'(q'); H_q at the new q is reused by the next step."""
     B, d = Y0.shape
@@ -169,17 +169,17 @@ def verlet_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         y[:] = Y0[b]
         store(OUT, b, 0, y)
         isave = 1
-        grad(y, g)
+        grad(y, g, prm)
         nrhs = 1
         for i in range(n):
             gq[i] = g[i]
         for k in range(1, nsteps + 1):
             for i in range(n):
                 y[n + i] -= 0.5 * h * gq[i]
-            grad(y, g)
+            grad(y, g, prm)
             for i in range(n):
                 y[i] += h * g[n + i]
-            grad(y, g)
+            grad(y, g, prm)
             nrhs += 2
             for i in range(n):
                 gq[i] = g[i]

@@ -4,11 +4,12 @@ Template modules (``_k_*.py``) are not imported as such by the solver: :mod:`._c
 them, minus their preamble, after the generated model functions and compiles the result with numba
 (or runs it as Python). Every loop has the signature
 
-``run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P)``
+``run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm)``
 
 with ``Y0`` the initial states ``(B, d)``, ``OUT`` the saved states ``(B, n_save, d)`` (state 0, every
 ``save_every`` steps, and the last), ``INFO`` ``(B, 5)``: status, failing step, residual, Newton
-iterations, right-hand-side evaluations, and ``P`` the method's constants.
+iterations, right-hand-side evaluations, ``P`` the method's constants and ``prm`` the model's parameter
+values, which every model function takes last (one compiled module serves every value of them).
 """
 
 import math

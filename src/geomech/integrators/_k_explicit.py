@@ -1,4 +1,4 @@
-"""Loop template: explicit methods for any ODE ``y' = rhs(y)`` (classical RK4, Adams-Bashforth-Moulton 4).
+"""Loop template: explicit methods for any ODE ``y' = rhs(y, prm)`` (classical RK4, Adams-Bashforth-Moulton 4).
 
 See ``_k_common.py`` for the template mechanism and the common loop signature.
 """
@@ -15,7 +15,7 @@ from ._k_common import (
 )
 
 
-def rhs(y, out):
+def rhs(y, out, prm):
     raise NotImplementedError
 
 
@@ -23,24 +23,24 @@ def rhs(y, out):
 
 
 @kernel
-def rk4_step(y, h, k1, k2, k3, k4, tmp):
+def rk4_step(y, h, k1, k2, k3, k4, tmp, prm):
     d = y.shape[0]
-    rhs(y, k1)
+    rhs(y, k1, prm)
     for i in range(d):
         tmp[i] = y[i] + 0.5 * h * k1[i]
-    rhs(tmp, k2)
+    rhs(tmp, k2, prm)
     for i in range(d):
         tmp[i] = y[i] + 0.5 * h * k2[i]
-    rhs(tmp, k3)
+    rhs(tmp, k3, prm)
     for i in range(d):
         tmp[i] = y[i] + h * k3[i]
-    rhs(tmp, k4)
+    rhs(tmp, k4, prm)
     for i in range(d):
         y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @kernel
-def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     B, d = Y0.shape
     y = np.empty(d)
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
@@ -50,7 +50,7 @@ def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         isave = 1
         done = 0
         for k in range(1, nsteps + 1):
-            rk4_step(y, h, k1, k2, k3, k4, tmp)
+            rk4_step(y, h, k1, k2, k3, k4, tmp, prm)
             done = k
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
             if isave < 0:
@@ -59,7 +59,7 @@ def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
 
 
 @kernel
-def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Adams-Bashforth-Moulton PECE of order 4, started by three RK4 steps.
 
     P: y* = y_n + h/24 (55 f_n - 59 f_{n-1} + 37 f_{n-2} - 9 f_{n-3});  E: f* = f(y*);
@@ -75,21 +75,21 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         store(OUT, b, 0, y)
         isave = 1
         nrhs = 1
-        rhs(y, F[0])
+        rhs(y, F[0], prm)
         for k in range(1, nsteps + 1):
             if k <= 3:
-                rk4_step(y, h, k1, k2, k3, k4, tmp)
+                rk4_step(y, h, k1, k2, k3, k4, tmp, prm)
                 nrhs += 4
             else:
                 for i in range(d):
                     tmp[i] = y[i] + h / 24.0 * (55.0 * F[0, i] - 59.0 * F[1, i] + 37.0 * F[2, i] - 9.0 * F[3, i])
-                rhs(tmp, fp)
+                rhs(tmp, fp, prm)
                 for i in range(d):
                     y[i] += h / 24.0 * (9.0 * fp[i] + 19.0 * F[0, i] - 5.0 * F[1, i] + F[2, i])
                 nrhs += 1
             for j in range(3, 0, -1):
                 F[j, :] = F[j - 1, :]
-            rhs(y, F[0])
+            rhs(y, F[0], prm)
             nrhs += 1
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
             if isave < 0:
@@ -103,7 +103,7 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
 
 
 @kernel
-def erk_stages(y, h, A, K, tmp, ns):
+def erk_stages(y, h, A, K, tmp, ns, prm):
     """Stages 1..ns-1 of an explicit Runge-Kutta step of size h from y (K[0] holds f(y))."""
     d = y.shape[0]
     for s in range(1, ns):
@@ -112,7 +112,7 @@ def erk_stages(y, h, A, K, tmp, ns):
             for j in range(s):
                 acc += A[s, j] * K[j, i]
             tmp[i] = y[i] + h * acc
-        rhs(tmp, K[s])
+        rhs(tmp, K[s], prm)
 
 
 @kernel
@@ -134,7 +134,7 @@ def section_value(f0, y, y0, shift, w):
 
 
 @kernel
-def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
+def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, prm):
     """Integrate y' = f(y) from y0 until the first return to y0 (to y0 + w shift, w = +-1, for a rotation
     of an angle coordinate), adaptive steps of the 8th-order solution, errors estimated as DOP853 does.
 
@@ -164,7 +164,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
         comp[i] = 0.0
         YM[0, i] = y0[i]
     TM[0] = 0.0
-    rhs(y, f0)
+    rhs(y, f0, prm)
     for i in range(d):
         K[0, i] = f0[i]
     nfev = 1
@@ -193,7 +193,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     for i in range(d):
         tmp[i] = y0[i] + h0 * f0[i]
-    rhs(tmp, fz)
+    rhs(tmp, fz, prm)
     nfev += 1
     d2 = 0.0
     for i in range(d):
@@ -214,11 +214,11 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
         if k >= max_steps:
             INFO[0] = 1.0
             break
-        erk_stages(y, h, A, K, tmp, ns)
+        erk_stages(y, h, A, K, tmp, ns, prm)
         for i in range(d):
             dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
             ynew[i] = y[i] + dy[i]
-        rhs(ynew, K[ns])
+        rhs(ynew, K[ns], prm)
         nfev += ns
         err5 = 0.0
         err3 = 0.0
@@ -273,10 +273,10 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
             if da <= 4.0 * chord and db <= 4.0 * chord:
                 tau = h * (-ga) / (gb - ga)
                 for _newton in range(8):
-                    erk_stages(y, tau, A, K, tmp, ns)
+                    erk_stages(y, tau, A, K, tmp, ns, prm)
                     for i in range(d):
                         z[i] = y[i] + (erk_increment(tau, B, K, ns, i) + comp[i])
-                    rhs(z, fz)
+                    rhs(z, fz, prm)
                     nfev += ns
                     gz = section_value(f0, z, y0, shift, w)
                     slope = 0.0
@@ -331,7 +331,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO):
 
 
 @kernel
-def orbit_states(YM, TM, idx, tau, A, B, OUT):
+def orbit_states(YM, TM, idx, tau, A, B, OUT, prm):
     """OUT[j] = one Runge-Kutta step of size tau[j] from the mesh point idx[j] (dense output)."""
     d = YM.shape[1]
     ns = 12
@@ -344,12 +344,12 @@ def orbit_states(YM, TM, idx, tau, A, B, OUT):
         if m != last:
             for i in range(d):
                 y[i] = YM[m, i]
-            rhs(y, K[0])
+            rhs(y, K[0], prm)
             last = m
         if tau[j] == 0.0:
             for i in range(d):
                 OUT[j, i] = y[i]
             continue
-        erk_stages(y, tau[j], A, K, tmp, ns)
+        erk_stages(y, tau[j], A, K, tmp, ns, prm)
         for i in range(d):
             OUT[j, i] = y[i] + erk_increment(tau[j], B, K, ns, i)

@@ -22,11 +22,11 @@ from ._k_common import (
 )
 
 
-def rhs(y, out):
+def rhs(y, out, prm):
     raise NotImplementedError
 
 
-def fjac(y, out, jac):
+def fjac(y, out, jac, prm):
     raise NotImplementedError
 
 
@@ -34,7 +34,7 @@ def fjac(y, out, jac):
 
 
 @kernel
-def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """y_{n+1} = y_n + h f((y_n + y_{n+1})/2), as Z = (y_{n+1} - y_n)/2 solving Z = (h/2) f(y_n + Z).
 
     The predictor extrapolates the last two increments (error O(h^3)), so Newton usually stops after two
@@ -42,7 +42,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
     """
     B, d = Y0.shape
     if d == 2:
-        midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit)
+        midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm)
         return
     hh = 0.5 * h
     y, Z, Z1, Z2 = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
@@ -52,7 +52,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         y[:] = Y0[b]
         store(OUT, b, 0, y)
         isave = 1
-        rhs(y, f)
+        rhs(y, f, prm)
         nrhs = 1
         nnewton = 0
         for i in range(d):
@@ -68,7 +68,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
             for it in range(maxit):
                 for i in range(d):
                     tmp[i] = y[i] + Z[i]
-                fjac(tmp, f, J)
+                fjac(tmp, f, J, prm)
                 nrhs += 1
                 nnewton += 1
                 for i in range(d):
@@ -96,7 +96,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
 
 
 @kernel
-def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit):
+def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
     """midpoint_run for d = 2 (one degree of freedom, the reduced Serret-Andoyer systems) on scalars."""
     B = Y0.shape[0]
     hh = 0.5 * h
@@ -106,7 +106,7 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit):
         OUT[b, 0, 0], OUT[b, 0, 1] = y0, y1
         isave = 1
         y[0], y[1] = y0, y1
-        rhs(y, f)
+        rhs(y, f, prm)
         nrhs = 1
         nnewton = 0
         p0, p1 = hh * f[0], hh * f[1]  # the last two increments, for the predictor
@@ -119,7 +119,7 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit):
             resid = np.inf
             for it in range(maxit):
                 y[0], y[1] = y0 + z0, y1 + z1
-                fjac(y, f, J)
+                fjac(y, f, J, prm)
                 nrhs += 1
                 nnewton += 1
                 r0, r1 = hh * f[0] - z0, hh * f[1] - z1
@@ -156,7 +156,7 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit):
 
 
 @kernel
-def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """s-stage Gauss-Legendre collocation in the stage increments Z_i = Y_i - y_n:
     Z_i = h sum_j a_ij f(y_n + Z_j), y_{n+1} = y_n + sum_i d_i Z_i with d = b^T A^{-1} (Hairer & Wanner
     II, IV.8: no extra evaluations of f, and no amplification of the Newton error by h f').
@@ -178,7 +178,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         y[:] = Y0[b]
         store(OUT, b, 0, y)
         isave = 1
-        rhs(y, f0)
+        rhs(y, f0, prm)
         nrhs = 1
         nnewton = 0
         for i in range(s):
@@ -193,7 +193,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
                 for i in range(s):
                     for u in range(d):
                         tmp[u] = y[u] + Z[i * d + u]
-                    fjac(tmp, F[i], Js[i])
+                    fjac(tmp, F[i], Js[i], prm)
                 nrhs += s
                 nnewton += 1
                 for i in range(s):

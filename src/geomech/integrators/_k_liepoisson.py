@@ -4,7 +4,7 @@
 - ``split_run``: splitting of H = f1(m1) + f2(m2) + f3(m3); each part's flow is an exact rotation about a
   body axis. Model: ``dh0, dh1, dh2`` (the scalar derivatives f_i').
 - ``mv_run``: the discrete Moser-Veselov rigid body (free body, P = inertia tensor, row-major).
-- ``lgvi_run``: the Lie-group variational integrator for a hyperregular H. Model: ``ghess3(m, g, Hm)``.
+- ``lgvi_run``: the Lie-group variational integrator for a hyperregular H. Model: ``ghess3(m, g, Hm, prm)``.
 
 See ``_k_common.py`` for the common loop signature.
 """
@@ -27,19 +27,19 @@ from ._k_common import (
 )
 
 
-def dh0(x):
+def dh0(x, prm):
     raise NotImplementedError
 
 
-def dh1(x):
+def dh1(x, prm):
     raise NotImplementedError
 
 
-def dh2(x):
+def dh2(x, prm):
     raise NotImplementedError
 
 
-def ghess3(m, g, hm):
+def ghess3(m, g, hm, prm):
     raise NotImplementedError
 
 
@@ -62,15 +62,15 @@ def cosm1_sin(t):
 
 
 @kernel
-def axis_flow(y, axis, tau, attitude):
+def axis_flow(y, axis, tau, attitude, prm):
     """Exact flow for time ``tau`` of H_i = f_i(m_i): m_i is constant, so w = f_i'(m_i) is, and
     m(t) = exp(-t w e_i^) m, R(t) = R exp(t w e_i^)."""
     if axis == 0:
-        w = dh0(y[0])
+        w = dh0(y[0], prm)
     elif axis == 1:
-        w = dh1(y[1])
+        w = dh1(y[1], prm)
     else:
-        w = dh2(y[2])
+        w = dh2(y[2], prm)
     c, s = cosm1_sin(tau * w)
     j = (axis + 1) % 3
     k = (axis + 2) % 3
@@ -87,7 +87,7 @@ def axis_flow(y, axis, tau, attitude):
 
 
 @kernel
-def flow_block(A, axis, tau, n, T):
+def flow_block(A, axis, tau, n, T, prm):
     """axis_flow for the momenta of a block of trajectories, A of shape (3, K) (structure of arrays):
     simple loops over contiguous lanes, which LLVM vectorises. The angles and their maximum come in one
     pass; f_i' is a scalar call per lane (libm's tan, for the closed loop, is most of the cost: numba has
@@ -95,15 +95,15 @@ def flow_block(A, axis, tau, n, T):
     tmax = 0.0
     if axis == 0:
         for q in range(n):
-            T[q] = tau * dh0(A[0, q])
+            T[q] = tau * dh0(A[0, q], prm)
             tmax = max(tmax, abs(T[q]))
     elif axis == 1:
         for q in range(n):
-            T[q] = tau * dh1(A[1, q])
+            T[q] = tau * dh1(A[1, q], prm)
             tmax = max(tmax, abs(T[q]))
     else:
         for q in range(n):
-            T[q] = tau * dh2(A[2, q])
+            T[q] = tau * dh2(A[2, q], prm)
             tmax = max(tmax, abs(T[q]))
     j = (axis + 1) % 3
     k = (axis + 2) % 3
@@ -127,7 +127,7 @@ def flow_block(A, axis, tau, n, T):
 
 
 @kernel
-def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P):
+def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm):
     """split_run for d = 3 (no attitude), by blocks of 256 trajectories: the throughput loop."""
     B = Y0.shape[0]
     J = int(P[0])
@@ -150,14 +150,14 @@ def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P):
         isave = 1
         pending = False
         for k in range(1, nsteps + 1):
-            flow_block(A, axes[0], merged if pending else taus[0], n, T)
+            flow_block(A, axes[0], merged if pending else taus[0], n, T, prm)
             for j in range(1, J - 1):
-                flow_block(A, axes[j], taus[j], n, T)
+                flow_block(A, axes[j], taus[j], n, T, prm)
             saving = is_save(k, nsteps, save_every)
             if J > 1:
                 pending = fsal and k < nsteps and not saving
                 if not pending:
-                    flow_block(A, axes[J - 1], taus[J - 1], n, T)
+                    flow_block(A, axes[J - 1], taus[J - 1], n, T, prm)
             if saving:
                 for q in range(n):
                     for i in range(3):
@@ -173,13 +173,13 @@ def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P):
 
 
 @kernel
-def split_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def split_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """One step is the composition P = (J, axes[J], coefficients[J]); when the first and last sub-flows
     are about the same axis, the last one of a step is merged with the first one of the next (the flows
     of one f_i commute) except where a state is saved."""
     B, d = Y0.shape
     if d == 3:
-        split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P)
+        split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm)
         return
     attitude = d == 12
     J = int(P[0])
@@ -193,14 +193,14 @@ def split_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         isave = 1
         pending = 0.0
         for k in range(1, nsteps + 1):
-            axis_flow(y, int(axes[0]), (coef[0] + pending) * h, attitude)
+            axis_flow(y, int(axes[0]), (coef[0] + pending) * h, attitude, prm)
             for j in range(1, J - 1):
-                axis_flow(y, int(axes[j]), coef[j] * h, attitude)
+                axis_flow(y, int(axes[j]), coef[j] * h, attitude, prm)
             if J > 1:
                 if fsal and k < nsteps and not is_save(k, nsteps, save_every):
                     pending = coef[J - 1]
                 else:
-                    axis_flow(y, int(axes[J - 1]), coef[J - 1] * h, attitude)
+                    axis_flow(y, int(axes[J - 1]), coef[J - 1] * h, attitude, prm)
                     pending = 0.0
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
             if isave < 0:
@@ -331,7 +331,7 @@ def lgvi_mu(X, m, param, mu, D, u, v):
 
 
 @kernel
-def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Discrete Euler-Lagrange equations of L_d = h l(tau^{-1}(R_k^T R_{k+1}) / h) in momentum form:
     find X with X = h grad H(J_r(X) m_k); then F = tau(X), R_{k+1} = R_k F, m_{k+1} = F^T m_k."""
     B, d = Y0.shape
@@ -346,7 +346,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
         isave = 1
         for i in range(3):
             m[i] = y[i]
-        ghess3(m, g, hm)
+        ghess3(m, g, hm, prm)
         nrhs = 1
         nnewton = 0
         for i in range(3):
@@ -362,7 +362,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
             resid = np.inf
             for it in range(maxit):
                 lgvi_mu(X, m, param, mu, D, u, v)
-                ghess3(mu, g, hm)
+                ghess3(mu, g, hm, prm)
                 nrhs += 1
                 nnewton += 1
                 for i in range(3):
@@ -394,7 +394,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
 
 
 @kernel
-def mv_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P):
+def mv_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Moser-Veselov: h m_k^ = F J_d - J_d F^T with J_d = tr(I)/2 - I; with F = cay(2 f) this reads
     h m + h m x f + f (f . h m) - 2 I f = 0 (Lee, Leok & McClamroch 2007), solved for f by Newton;
     then m_{k+1} = F^T m_k, R_{k+1} = R_k F."""

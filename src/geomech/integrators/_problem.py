@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import weakref
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,6 +48,12 @@ class Problem:
     missing: dict[Structure, str] = field(default_factory=dict)
     split_axis_order: tuple[int, int, int] = (0, 1, 2)
     inertia_tensor: np.ndarray | None = None
+    # The compiled model is generated from ``model_expression`` (``expression`` before its numeric parameters
+    # were substituted) and reads the values ``prm`` of ``parameter_symbols`` at run time: one compilation
+    # serves every value of the parameters (a sweep over inertias compiles once).
+    model_expression: sp.Expr | None = None
+    parameter_symbols: tuple[sp.Symbol, ...] = ()
+    prm: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -85,7 +92,8 @@ class Problem:
                 # cheap to add, and one module per model and layout keeps numba's compilations down
                 features = features | {"split"}
             try:
-                src = _model_source(self.kind, self.layout, self.expression, self.variables, features)
+                model = self.expression if self.model_expression is None else self.model_expression
+                src = _model_source(self.kind, self.layout, model, self.variables, self.parameter_symbols, features)
                 tag = "c" if self.kind == "canonical" else self.layout
                 return _codegen.compiled_module(src, tag), "numba"
             except NotImplementedError:
@@ -201,10 +209,24 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
     return Problem(kind="lie_poisson", layout=layout, dim=12 if attitude else 3, system=system, core=core, **analysis)
 
 
+def _runtime_parameters(expr: sp.Expr, variables: tuple, values: Mapping[str, float]) -> dict[str, Any]:
+    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array."""
+    symbols = tuple(sorted(expr.free_symbols - set(variables), key=lambda s: s.name))
+    missing = [s.name for s in symbols if s.name not in values]
+    if missing:  # pragma: no cover - the systems substitute or validate every parameter they hold
+        raise InputError(f"The formula has symbols {missing} without values.")
+    prm = np.array([float(values[s.name]) for s in symbols], dtype=float)
+    return {"model_expression": expr, "parameter_symbols": symbols, "prm": prm}
+
+
 def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
     variables = tuple(core.q_symbols) + tuple(core.p_symbols)
     missing: dict[Structure, str] = {}
     expr = core.expression
+    runtime: dict[str, Any] = {}
+    if core.template is not None:
+        template, values = core.template
+        runtime = _runtime_parameters(template, variables, values)
     if expr is None:
         missing[Structure.SEPARABLE_CANONICAL] = (
             f"{core.name} was built from Python callables, so its separability cannot be checked; build it "
@@ -233,7 +255,7 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
             f"{core.name} has {core.n} degrees of freedom; propagation by the period "
             "needs one (a reduced system: GeneralizedSerretAndoyer(H).reduced_system(G))"
         )
-    return {"expression": expr, "variables": variables, "missing": missing}
+    return {"expression": expr, "variables": variables, "missing": missing, **runtime}
 
 
 def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
@@ -261,6 +283,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
     subs = {sp.Symbol(k, real=True): v for k, v in core.parameters.items()}
     H = core.expression.subs(subs)
     result["expression"] = H
+    result.update(_runtime_parameters(core.expression, tuple(M_SYMBOLS), dict(core.parameters)))
     grad = [sp.diff(H, s) for s in M_SYMBOLS]
     for i in range(3):
         for j in range(i + 1, 3):
@@ -303,20 +326,24 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
 _GF_STUBS = """
 
 @kernel
-def gf_all(y, out0, out1, out2, out3):
+def gf_all(y, out0, out1, out2, out3, prm):
     return
 
 
 @kernel
-def gf_grads(y, out0, out1):
+def gf_grads(y, out0, out1, prm):
     return
 """
 
 
 # -- generated model source ---------------------------------------------------------------------------
 @functools.lru_cache(maxsize=64)
-def _model_source(kind: str, layout: str, expr: sp.Expr, variables: tuple, features: frozenset[str]) -> str:
-    FS = _codegen.FunctionSpec
+def _model_source(
+    kind: str, layout: str, expr: sp.Expr, variables: tuple, parameters: tuple, features: frozenset[str]
+) -> str:
+    def FS(name: str, outputs: tuple, args: tuple, scalar_args: bool = False) -> Any:
+        return _codegen.FunctionSpec(name, outputs, args, scalar_args=scalar_args, parameters=parameters)
+
     if kind == "canonical":
         n = len(variables) // 2
         g = [sp.diff(expr, v) for v in variables]
@@ -383,23 +410,23 @@ def _canonical_python(core: CanonicalSystem, features: frozenset[str]) -> dict[s
     def H2(y: np.ndarray) -> np.ndarray:
         return core._hessian(y) if core._hessian is not None else _fd_hessian(G, y)
 
-    def ham(y):
+    def ham(y, prm):
         return float(core._hamiltonian(np.asarray(y)))
 
-    def grad(y, g):
+    def grad(y, g, prm):
         g[:] = G(np.asarray(y))
 
-    def ghess(y, g, hm):
+    def ghess(y, g, hm, prm):
         g[:] = G(np.asarray(y))
         hm[:, :] = H2(np.asarray(y))
 
-    def rhs(y, f):
+    def rhs(y, f, prm):
         g = G(np.asarray(y))
         f[:n] = g[n:]
         f[n:] = -g[:n]
 
-    def fjac(y, f, jac):
-        rhs(y, f)
+    def fjac(y, f, jac, prm):
+        rhs(y, f, prm)
         hm = H2(np.asarray(y))
         jac[:n, :] = hm[n:, :]
         jac[n:, :] = -hm[:n, :]
@@ -429,11 +456,11 @@ def _gf_python(core: CanonicalSystem) -> dict[str, Any]:
         v = f_all(np.asarray(y, dtype=float))
         return v[:N], v[N : N + N * N].reshape(N, N), v[N + N * N : 2 * N + N * N], v[2 * N + N * N :].reshape(N, N)
 
-    def gf_all(y, g_out, hm_out, gw_out, hw_out):
+    def gf_all(y, g_out, hm_out, gw_out, hw_out, prm):
         a, b, c, d = parts(y)
         g_out[:], hm_out[:, :], gw_out[:], hw_out[:, :] = a, b, c, d
 
-    def gf_grads(y, g_out, gw_out):
+    def gf_grads(y, g_out, gw_out, prm):
         a, _, c, _ = parts(y)
         g_out[:], gw_out[:] = a, c
 
@@ -443,22 +470,22 @@ def _gf_python(core: CanonicalSystem) -> dict[str, Any]:
 def _lie_poisson_python(core: LeftInvariantSystem, expr: sp.Expr | None, features: frozenset[str]) -> dict[str, Any]:
     G, Hs = core._gradient, core._hessian
 
-    def ham(y):
+    def ham(y, prm):
         return float(core._hamiltonian(np.asarray(y[:3])))
 
-    def ghess3(m, g, hm):
+    def ghess3(m, g, hm, prm):
         g[:] = G(np.asarray(m))
         hm[:, :] = Hs(np.asarray(m))
 
-    def rhs(y, f):
+    def rhs(y, f, prm):
         m = np.asarray(y[:3])
         w = G(m)
         f[:3] = np.cross(m, w)
         if y.shape[0] == 12:
             f[3:] = (np.asarray(y[3:]).reshape(3, 3) @ hat(w, check=False)).ravel()
 
-    def fjac(y, f, jac):
-        rhs(y, f)
+    def fjac(y, f, jac, prm):
+        rhs(y, f, prm)
         m = np.asarray(y[:3])
         w, hm = G(m), Hs(m)
         jac[:, :] = 0.0
@@ -483,7 +510,7 @@ def _lie_poisson_python(core: LeftInvariantSystem, expr: sp.Expr | None, feature
 
 
 def _scalar_function(fn: Any) -> Any:
-    def scalar(x: float) -> float:
+    def scalar(x: float, prm: Any = None) -> float:
         return float(fn(np.array([x], dtype=float)))
 
     return scalar

@@ -82,11 +82,13 @@ def dop853_tableau() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
-def _kernels(system: CanonicalSystem) -> tuple[Any, str]:
-    """The compiled module of ``system`` (cached with the system: a later propagator skips the look-up)."""
+def _kernels(system: CanonicalSystem) -> tuple[Any, str, np.ndarray]:
+    """The compiled module of ``system``, the backend and the model's parameter values (cached with the
+    system: a later propagator skips the look-up)."""
     entry = _KERNELS.get(system)
     if entry is None:
-        entry = make_problem(system, attitude=False).module(frozenset(), "auto")
+        problem = make_problem(system, attitude=False)
+        entry = (*problem.module(frozenset(), "auto"), problem.prm)
         _KERNELS[system] = entry
     return entry
 
@@ -166,27 +168,29 @@ class PeriodicOrbitPropagator:
             raise InputError(f"Expected the initial p = y0[1] = {y0[1]:.17g} inside `L_bounds` ({lo:g}, {hi:g}).")
         self._args = {"L_bounds": L_bounds, "angle_period": angle_period, "energy_tol": energy_tol}
 
-        module, self.backend = _kernels(system)
-        self._module = module
+        module, self.backend, prm = _kernels(system)
+        self._module, self._prm = module, prm
         A, b, e5, e3 = dop853_tableau()
         shift = np.array([angle_period or 0.0, 0.0])
         compile_time = 0.0
         if self.backend == "numba" and not module.orbit_return.signatures:
             start = time.perf_counter()
-            module.orbit_return(y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9))
+            module.orbit_return(
+                y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9), prm
+            )
             module.orbit_states(
-                np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b, np.empty((1, 2))
+                np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b, np.empty((1, 2)), prm
             )
             compile_time = time.perf_counter() - start
         start = time.perf_counter()
         TM, YM, info = np.empty(max_steps + 1), np.empty((max_steps + 1, 2)), np.zeros(9)
         with np.errstate(all="ignore"):
-            module.orbit_return(y0, A, b, e5, e3, tol, shift, lo, hi, int(max_steps), TM, YM, info)
+            module.orbit_return(y0, A, b, e5, e3, tol, shift, lo, hi, int(max_steps), TM, YM, info, prm)
         self.stats = {"compile_time": compile_time, "run_time": time.perf_counter() - start}
         status, n_mesh = int(info[0]), int(info[1])
         self.nfev, self.n_mesh = int(info[5]), n_mesh
         self._TM, self._YM = TM[:n_mesh], YM[:n_mesh]
-        self.energy = float(module.ham(y0)) if self.backend == "numba" else float(system.hamiltonian(y0))
+        self.energy = float(module.ham(y0, prm)) if self.backend == "numba" else float(system.hamiltonian(y0))
         self.quadrature: QuadraturePropagator | None = None
         self._use_quadrature = False
         self.failure: str | None = None
@@ -248,7 +252,7 @@ class PeriodicOrbitPropagator:
         idx = np.clip(np.searchsorted(self._TM, r, side="right") - 1, 0, self.n_mesh - 2)
         out = np.empty((flat.size, 2))
         A, b, _, _ = dop853_tableau()
-        self._module.orbit_states(self._YM, self._TM, idx, r - self._TM[idx], A, b, out)
+        self._module.orbit_states(self._YM, self._TM, idx, r - self._TM[idx], A, b, out, self._prm)
         if self.winding:
             out[:, 0] += n * (self.winding * self.angle_period)
         return out.reshape(t.shape + (2,))

@@ -151,16 +151,17 @@ def _run_compiled(
     tol: float,
     maxit: int,
     P: np.ndarray,
+    prm: np.ndarray,
     threads: int,
 ) -> None:
     B = Y0.shape[0]
     if threads <= 1 or B < 2:
-        kern(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P)
+        kern(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm)
         return
     bounds = np.linspace(0, B, min(threads, B) + 1).astype(int)
     with ThreadPoolExecutor(max_workers=len(bounds) - 1) as pool:
         futures = [
-            pool.submit(kern, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P)
+            pool.submit(kern, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, prm)
             for a, b in zip(bounds[:-1], bounds[1:])
         ]
         for fut in futures:
@@ -172,6 +173,7 @@ _CODES = {status: code for code, status in STATUS.items()}
 
 def _run_ivp(
     module: Any,
+    prm: np.ndarray,
     method: SolveIVP,
     Y0: np.ndarray,
     t0: float,
@@ -191,7 +193,7 @@ def _run_ivp(
         buf = np.empty(d)
 
         def f(_t: float, y: np.ndarray, buf: np.ndarray = buf) -> np.ndarray:
-            module.rhs(np.ascontiguousarray(y, dtype=float), buf)
+            module.rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
             return buf.copy()
 
         Y, failure, nfev, n = integrate_ivp(
@@ -539,11 +541,13 @@ def solve(
         internal = 0
     elif isinstance(method, SolveIVP):
         assert tolerances is not None
-        internal = _run_ivp(module, method, Y0, t0, saved_t, tolerances, max_evaluations, OUT, INFO, reasons, reached)
+        internal = _run_ivp(
+            module, problem.prm, method, Y0, t0, saved_t, tolerances, max_evaluations, OUT, INFO, reasons, reached
+        )
     elif isinstance(method, AdaptiveAdams):
         assert tolerances is not None
         with np.errstate(all="ignore"):
-            internal = run_adaptive(module, method, Y0, t0, saved_t, tolerances, OUT, INFO)
+            internal = run_adaptive(module, problem.prm, method, Y0, t0, saved_t, tolerances, OUT, INFO)
     elif isinstance(method, (PeriodicOrbit, Quadrature)):
         internal, compile_time = _run_periodic(problem.core, method, Y0, saved_t - t0, OUT, INFO, reasons)
         t_start += compile_time
@@ -556,7 +560,18 @@ def solve(
             from numba.core.errors import NumbaError
 
             try:
-                kern(Y0[:1].copy(), h_step, 1, 1, np.empty((1, 2, d)), np.zeros((1, 5)), tol, int(max_newton), P)
+                kern(
+                    Y0[:1].copy(),
+                    h_step,
+                    1,
+                    1,
+                    np.empty((1, 2, d)),
+                    np.zeros((1, 5)),
+                    tol,
+                    int(max_newton),
+                    P,
+                    problem.prm,
+                )
             except NumbaError:
                 # a function sympy prints but numba cannot compile: the same loop in Python
                 if backend == "numba":
@@ -569,7 +584,9 @@ def solve(
         if used != "numba" or B * nsteps < 20_000:
             n_threads = 1
         with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
-            _run_compiled(kern, Y0, h_step, nsteps, every, OUT, INFO, tol, int(max_newton), P, int(n_threads))
+            _run_compiled(
+                kern, Y0, h_step, nsteps, every, OUT, INFO, tol, int(max_newton), P, problem.prm, int(n_threads)
+            )
         internal = B * nsteps
     run_time = time.perf_counter() - t_start
 

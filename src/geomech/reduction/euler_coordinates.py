@@ -358,11 +358,12 @@ class EulerCoordinates:
         name = f"{self.system.name} in 3-1-3 Euler coordinates"
         if self.system.expression is not None:
             return CanonicalSystem.from_expression(
-                self.canonical_hamiltonian(substitute_parameters=True),
+                self.canonical_hamiltonian(),
                 self.symbols[:3],
                 self.symbols[3:],
                 name=name,
                 angle_coordinates=(0, 1, 2),
+                substitutions=self._parameter_subs(),
             )
         return CanonicalSystem(
             n=3,

@@ -207,11 +207,15 @@ class GeneralizedSerretAndoyer:
         ``simplify=False`` skips sympy's simplification, which is slow and, with float parameters,
         works in floating point; numerical use needs no simplified form.
         """
-        expr = self.system.require_expression("The symbolic reduced Hamiltonian")
-        subs = {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}
-        m = self.charts[_axis(axis)].U_p
-        h = expr.subs(subs).xreplace(dict(zip(M_SYMBOLS, m)))
+        h = self._h_p_with_parameters(axis).subs(self._parameter_subs())
         return sp.simplify(h) if simplify else h
+
+    def _parameter_subs(self) -> dict[sp.Symbol, float]:
+        return {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}
+
+    def _h_p_with_parameters(self, axis: int) -> sp.Expr:
+        expr = self.system.require_expression("The symbolic reduced Hamiltonian")
+        return expr.xreplace(dict(zip(M_SYMBOLS, self.charts[_axis(axis)].U_p)))
 
     def reduced_system(self, G: float, axis: int = 2) -> CanonicalSystem:
         """The reduced system as a 1-degree-of-freedom :class:`CanonicalSystem` ``y = (l, L)``.
@@ -222,12 +226,12 @@ class GeneralizedSerretAndoyer:
         axis = _axis(axis)
         if self.system.expression is not None:
             return CanonicalSystem.from_expression(
-                self.h_p(axis, simplify=False),
+                self._h_p_with_parameters(axis),
                 (l_SYM,),
                 (L_SYM,),
                 name=f"h_p (axis {axis + 1})",
                 angle_coordinates=(0,),
-                substitutions={G_SYM: G},
+                substitutions={G_SYM: G, **self._parameter_subs()},
                 chart=((1, -G, G),),
             )
 

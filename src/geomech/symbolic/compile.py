@@ -200,17 +200,21 @@ class FunctionSpec:
     ``outputs`` is a tuple of sympy objects: a single scalar gives ``def name(y): return ...``; otherwise
     each output (a list or a nested list) is an array argument written in place,
     ``def name(y, out0, out1, ...)``. With ``scalar_args`` the arguments are the variables themselves,
-    ``def name(x0, x1, ...)``.
+    ``def name(x0, x1, ...)``. Every function takes last the array ``prm`` of the values of
+    ``parameters`` (symbols of the outputs that are not variables, in this order), read at run time: one
+    compiled function serves every value of the parameters.
     """
 
     name: str
     outputs: tuple[Any, ...]
     variables: tuple[sp.Symbol, ...]
     scalar_args: bool = False
+    parameters: tuple[sp.Symbol, ...] = ()
 
 
 def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
     alias = {v: sp.Symbol(f"_a{i}") for i, v in enumerate(spec.variables)}
+    alias.update({v: sp.Symbol(f"_p{i}") for i, v in enumerate(spec.parameters)})
     shapes: list[tuple[int, ...]] = []
     flat: list[Any] = []
     for out in spec.outputs:
@@ -234,9 +238,11 @@ def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
         args = ["y"]
     if not scalar_return:
         args += [f"out{k}" for k in range(len(spec.outputs))]
+    args.append("prm")
     lines = ["@kernel", f"def {spec.name}({', '.join(args)}):"]
     if not spec.scalar_args:
         lines += [f"    _a{i} = y[{i}]" for i in range(len(spec.variables))]
+    lines += [f"    _p{i} = prm[{i}]" for i in range(len(spec.parameters))]
     for sym, expr in replacements:
         lines.append(f"    {sym} = {printer.doprint(expr)}")
     if scalar_return:

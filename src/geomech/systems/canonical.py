@@ -45,6 +45,9 @@ class CanonicalSystem:
     that reaches their ends is reported as failed (``left_chart``), not continued with a formula that has
     lost its meaning."""
     """Indices of the q that are angles (defined modulo 2 pi)."""
+    template: tuple[sp.Expr, Mapping[str, float]] | None = field(default=None, repr=False)
+    """``expression`` before its numeric parameters were substituted, and their values: the compiled
+    solvers read the values at run time, so systems that differ only in them share one compilation."""
 
     @classmethod
     def from_expression(
@@ -60,8 +63,15 @@ class CanonicalSystem:
     ) -> CanonicalSystem:
         """Build from a sympy Hamiltonian; gradient and Hessian are exact (differentiated symbolically)."""
         names = {s.name: s for s in (*q_symbols, *p_symbols)}
-        expr = to_expression(expression, "expression", names).subs(dict(substitutions or {}))
+        given = to_expression(expression, "expression", names)
+        subs = dict(substitutions or {})
+        expr = given.subs(subs)
         y = list(q_symbols) + list(p_symbols)
+        numbers = {k: v for k, v in subs.items() if isinstance(k, sp.Symbol) and _is_number(v)}
+        template = given.subs({k: v for k, v in subs.items() if k not in numbers})
+        template_ok = not (template.free_symbols - set(y) - set(numbers)) and len({k.name for k in numbers}) == len(
+            numbers
+        )
         grad = [sp.diff(expr, s) for s in y]
         hess = [[sp.diff(g, s) for s in y] for g in grad]
         return cls(
@@ -75,6 +85,7 @@ class CanonicalSystem:
             p_symbols=tuple(p_symbols),
             angle_coordinates=tuple(angle_coordinates),
             chart=tuple((int(i), float(lo), float(hi)) for i, lo, hi in chart),
+            template=(template, {k.name: float(v) for k, v in numbers.items()}) if template_ok else None,
         )
 
     def _y(self, y: Any) -> np.ndarray:
@@ -100,3 +111,10 @@ class CanonicalSystem:
         """Hamilton's equations :math:`(\\dot q, \\dot p) = (\\partial_p H, -\\partial_q H)`."""
         g = self.gradient(y)
         return np.concatenate([g[..., self.n :], -g[..., : self.n]], axis=-1)
+
+
+def _is_number(value: Any) -> bool:
+    try:
+        return bool(np.isfinite(float(value)))
+    except (TypeError, ValueError):
+        return False
