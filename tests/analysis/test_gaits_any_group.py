@@ -2,6 +2,7 @@
 on the group (the generic matrix group) against the full constrained simulation in the chart."""
 
 import numpy as np
+import pytest
 import sympy as sp
 
 from geomech import solve
@@ -28,6 +29,7 @@ def _sleigh_with_rotor() -> NonholonomicSystem:
     return NonholonomicSystem.from_lagrangian(L, G, ("psi",), [v[1], v[2]], name="sleigh3d_rotor")
 
 
+@pytest.mark.slow
 def test_gait_on_se3_matches_the_full_simulation():
     s = _sleigh_with_rotor()
     gait = {"psi": "1.5*sin(2*pi*t/T)"}

@@ -291,6 +291,7 @@ def test_plots(tmp_path):
     plt.close("all")
 
 
+@pytest.mark.slow
 def test_spacecraft_example_runs(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(sys, "argv", ["spacecraft_control.py", "--out", str(tmp_path)])
     namespace = runpy.run_path(str(EXAMPLE), run_name="not_main")

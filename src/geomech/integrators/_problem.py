@@ -91,10 +91,14 @@ class Problem:
             if self.kind == "lie_poisson" and self.has(Structure.LIE_POISSON_SPLIT):
                 # cheap to add, and one module per model and layout keeps numba's compilations down
                 features = features | {"split"}
+            if self.kind == "canonical" and self.dim == 2:
+                # likewise the generating-function terms of a one-degree-of-freedom system (third derivatives
+                # of H(q, p), cheap there): every method then shares one module
+                features = features | {"gf"}
             try:
                 model = self.expression if self.model_expression is None else self.model_expression
-                src = _model_source(self.kind, self.layout, model, self.variables, self.parameter_symbols, features)
-                tag = "c" if self.kind == "canonical" else self.layout
+                src = _model_source(self.kind, model, self.variables, self.parameter_symbols, features)
+                tag = "c" if self.kind == "canonical" else "m"
                 return _codegen.compiled_module(src, tag), "numba"
             except NotImplementedError:
                 if backend == "numba":
@@ -336,11 +340,28 @@ def gf_grads(y, out0, out1, prm):
 """
 
 
+_LAYOUT_DISPATCH = """
+
+@kernel
+def rhs(y, out0, prm):
+    if y.shape[0] == 12:
+        rhs12(y, out0, prm)
+    else:
+        rhs3(y, out0, prm)
+
+
+@kernel
+def fjac(y, out0, out1, prm):
+    if y.shape[0] == 12:
+        fjac12(y, out0, out1, prm)
+    else:
+        fjac3(y, out0, out1, prm)
+"""
+
+
 # -- generated model source ---------------------------------------------------------------------------
 @functools.lru_cache(maxsize=64)
-def _model_source(
-    kind: str, layout: str, expr: sp.Expr, variables: tuple, parameters: tuple, features: frozenset[str]
-) -> str:
+def _model_source(kind: str, expr: sp.Expr, variables: tuple, parameters: tuple, features: frozenset[str]) -> str:
     def FS(name: str, outputs: tuple, args: tuple, scalar_args: bool = False) -> Any:
         return _codegen.FunctionSpec(name, outputs, args, scalar_args=scalar_args, parameters=parameters)
 
@@ -366,29 +387,30 @@ def _model_source(
         # the symplectic-Euler loop shares code with the generating-function one and numba types every
         # name it calls, taken branch or not: without "gf", inert stand-ins
         return _codegen.kernel_source(specs) + _GF_STUBS
+    # One module for both layouts, m (d = 3) and (m, R) (d = 12): the loops are the same code for both and
+    # rhs/fjac dispatch on the state's length, so a model simulated with and without its attitude compiles
+    # each loop once.
     m = list(M_SYMBOLS)
     g = [sp.diff(expr, s) for s in m]
     hm = [[sp.diff(gi, s) for s in m] for gi in g]
     fm = [m[1] * g[2] - m[2] * g[1], m[2] * g[0] - m[0] * g[2], m[0] * g[1] - m[1] * g[0]]
-    state = m
-    f = fm
-    if layout == "mR":
-        R = sp.Matrix(3, 3, _R_SYMBOLS)
-        w = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
-        state = m + list(_R_SYMBOLS)
-        f = fm + list(R * w)
-    jf = [[sp.diff(fi, s) for s in state] for fi in f]
+    R = sp.Matrix(3, 3, _R_SYMBOLS)
+    w = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
+    state = m + list(_R_SYMBOLS)
+    f = fm + list(R * w)
     specs = [
         FS("ham", (expr,), tuple(m)),
         FS("ghess3", (g, hm), tuple(m)),
-        FS("rhs", (f,), tuple(state)),
-        FS("fjac", (f, jf), tuple(state)),
+        FS("rhs3", (fm,), tuple(m)),
+        FS("fjac3", (fm, [[sp.diff(fi, s) for s in m] for fi in fm]), tuple(m)),
+        FS("rhs12", (f,), tuple(state)),
+        FS("fjac12", (f, [[sp.diff(fi, s) for s in state] for fi in f]), tuple(state)),
     ]
     if "split" in features:
         for i in range(3):
             part = g[i].subs({m[j]: 0 for j in range(3) if j != i})
             specs.append(FS(f"dh{i}", (part,), (m[i],), scalar_args=True))
-    return _codegen.kernel_source(specs)
+    return _codegen.kernel_source(specs) + _LAYOUT_DISPATCH
 
 
 # -- Python model functions (systems from callables, or formulas numba cannot compile) -------------
