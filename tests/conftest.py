@@ -35,6 +35,18 @@ def pytest_unconfigure(config):
 
 
 @pytest.fixture(autouse=True, scope="session")
+def check_every_json_document():
+    """Every JSON document a command prints or writes in any test is validated against the schema."""
+    before = os.environ.get("GEOMECH_CHECK_JSON")
+    os.environ["GEOMECH_CHECK_JSON"] = "1"
+    yield
+    if before is None:
+        os.environ.pop("GEOMECH_CHECK_JSON", None)
+    else:
+        os.environ["GEOMECH_CHECK_JSON"] = before
+
+
+@pytest.fixture(autouse=True, scope="session")
 def hermetic_cache():
     """GEOMECH_CACHE_DIR points at the run's temporary directory for the whole session."""
     path = os.path.join(os.environ[_ROOT_VAR], "cache")

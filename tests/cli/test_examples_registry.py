@@ -42,11 +42,11 @@ def test_phase_loop_takes_either_spelling_and_parameters_of_a_built_in(capsys):
     code, out_snake, err = run(capsys, "phase", "loop", "two_bodies", *loop)
     assert code == 0, err
     a, b = json.loads(out_dash), json.loads(out_snake)
-    assert a["phase"] == b["phase"]
-    assert abs(a["phase"]["geometric"] + 2 * math.pi * 3 / 4) < 1e-12
+    assert a["summary"]["phase"] == b["summary"]["phase"]
+    assert abs(a["summary"]["phase"]["geometric"] + 2 * math.pi * 3 / 4) < 1e-12
     code, out, err = run(capsys, "phase", "loop", "two_bodies", "--param", "I2=2", *loop)
     assert code == 0, err
-    assert abs(json.loads(out)["phase"]["geometric"] + 2 * math.pi * 2 / 3) < 1e-12
+    assert abs(json.loads(out)["summary"]["phase"]["geometric"] + 2 * math.pi * 2 / 3) < 1e-12
     code, _, err = run(capsys, "phase", "loop", "snakeboard", *loop)
     assert code == 2 and err.count("\n") == 1 and "needs a HolonomicSystem" in err and "two_bodies" in err
 
@@ -73,7 +73,7 @@ def test_derive_and_simulate_take_a_system_without_constraints(capsys):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert abs(s["final_configuration"]["theta"] - mu / 3.0) < 1e-8
+    assert abs(s["summary"]["final_configuration"]["theta"] - mu / 3.0) < 1e-8
 
 
 def test_gait_of_a_system_without_constraints_agrees_with_phase_loop(capsys):
@@ -91,12 +91,12 @@ def test_gait_of_a_system_without_constraints_agrees_with_phase_loop(capsys):
         "--json",
     )
     assert code == 0, err
-    gait = json.loads(out)["net_displacement"]
+    gait = json.loads(out)["summary"]["net_displacement"]
     code, out, err = run(
         capsys, "phase", "loop", "three_link_middle", *(x for s in shapes for x in ("--shape", s)), "--json"
     )
     assert code == 0, err
-    loop = json.loads(out)["net_motion_coordinates"]
+    loop = json.loads(out)["summary"]["net_displacement"]
     assert abs(loop["theta"]) > 1e-3  # a real reorientation
     for c in ("x", "y", "theta"):
         assert abs(gait[c] - loop[c]) < 1e-9

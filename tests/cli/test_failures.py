@@ -86,12 +86,12 @@ def test_nan_never_reaches_the_json(capsys, monkeypatch):
 
     def with_nan(*a, **k):
         summary, traj = real(*a, **k)
-        summary["drift"]["energy_relative"] = float("nan")
+        summary["summary"]["drift"]["energy_relative"] = float("nan")
         return summary, traj
 
     monkeypatch.setattr(rigid_body, "run_rigid_body", with_nan)
     code, out, err = run(capsys, *RIGID, "--json")
-    assert code == 1 and out == "" and "drift.energy_relative" in err and err.count("\n") == 1
+    assert code == 1 and out == "" and "summary.drift.energy_relative" in err and err.count("\n") == 1
 
 
 def test_warnings_are_one_line_each_and_dropped_after_an_error(capsys, monkeypatch):

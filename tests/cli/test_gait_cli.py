@@ -29,9 +29,9 @@ def test_json_summary_matches_the_closed_form_momentum_gain(capsys):
     assert code == 0, err
     s = json.loads(out)
     want = 4 * np.pi * 0.3 * 1.0 * (2 * np.pi / 1.5) * jv(1, 0.4)  # Bessel closed form, see the analysis tests
-    assert np.allclose(np.array(s["momentum_change_per_period"])[:, 0], want, rtol=1e-9)
+    assert np.allclose(np.array(s["summary"]["momentum_change_per_period"])[:, 0], want, rtol=1e-9)
     assert s["p0"] == [-0.25] and s["periods"] == 2 and len(s["displacement_per_period"]) == 2
-    assert set(s["net_displacement"]) == {"x", "y", "theta"}
+    assert set(s["summary"]["net_displacement"]) == {"x", "y", "theta"}
     assert "not a geometric/dynamic phase decomposition" in s["note"]
 
 
@@ -69,7 +69,7 @@ def test_text_and_files(capsys, tmp_path):
     ds = xr.load_dataset(tmp_path / "gait.nc")
     assert ds["g"].shape == (41, 3) and abs(float(ds["g"][0, 2]) - 0.5) < 1e-15
     s = json.loads((tmp_path / "gait.json").read_text())
-    assert abs(s["net_displacement"]["theta"]) > 0.2  # the rotate gait turns the board
+    assert abs(s["summary"]["net_displacement"]["theta"]) > 0.2  # the rotate gait turns the board
 
 
 def test_model_file(capsys, tmp_path):
@@ -96,9 +96,9 @@ def test_model_file(capsys, tmp_path):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert s["momentum_change_per_period"] == [[]]
+    assert s["summary"]["momentum_change_per_period"] == [[]]
     assert s["momentum_alone"] == {"x": 0.0, "y": 0.0, "theta": 0.0}
-    assert s["net_displacement"] == pytest.approx(s["connection_alone"], abs=1e-12)
+    assert s["summary"]["net_displacement"] == pytest.approx(s["connection_alone"], abs=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -133,3 +133,31 @@ def test_unknown_model_and_missing_parameters(capsys):
 
 def test_command_object():
     assert isinstance(gait_cmd, click.Command) and gait_cmd.name == "gait"
+
+
+class _NoDerivation(dict):
+    """Stands in for the store of derived symbolic objects: any look-up is a derivation begun."""
+
+    def __getitem__(self, key):
+        raise AssertionError(f"derived {key[2]} of {key[0]} before checking the names")
+
+
+BALL = ["chaplygin_ball", *(f"--param={k}={v}" for k, v in (("I1", 1), ("I2", 1.2), ("I3", 1.4), ("m", 1), ("r", 0.5)))]
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["gait", *BALL, "--shape-loop", "nosuch=sin(2*pi*t)", "--period", "1"], "'nosuch', which is not a shape"),
+        (["simulate", *BALL, "--shape", "nosuch=t"], "['nosuch'], which are not shape variables"),
+        (["simulate", *BALL, "--q0", "nosuch=1"], "`--q0` names ['nosuch']"),
+        (["gait", *BALL[:-1], "--param", "nosuch=1", "--shape-loop", "theta=t", "--period", "1"], "nosuch"),
+        (["simulate", *BALL, "--param", "nosuch=1"], "nosuch"),
+    ],
+)
+def test_names_are_checked_before_any_derivation(capsys, monkeypatch, args, words):
+    # the Chaplygin ball's derivation takes seconds to minutes: a misspelt name must not wait for it
+    monkeypatch.setattr("geomech.symbolic.cache._SHARED", _NoDerivation())
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and words in err, err

@@ -26,19 +26,21 @@ def test_which_methods_fit_a_hamiltonian_and_why_the_others_do_not(capsys):
     code, out, err = run(capsys, "methods", *quad)
     assert code == 0, err
     s = json.loads(out)
-    assert "moser_veselov" in s["fit"] and "symplectic_euler" not in s["fit"]  # a free rigid body, not canonical
+    assert (
+        "moser_veselov" in s["summary"]["fit"] and "symplectic_euler" not in s["summary"]["fit"]
+    )  # a free rigid body, not canonical
     code, out, err = run(capsys, "methods", "--hamiltonian", "m1**2/6 + m2**2/4 + m3**2/2 + m3**4/10", "--json")
     s = json.loads(out)
     mv = next(d for d in s["methods"] if d["key"] == "moser_veselov")
     assert not mv["fits"] and "not quadratic" in mv["why_not"]
-    assert "splitting_4_yoshida" in s["fit"]  # separable: the split flows apply
+    assert "splitting_4_yoshida" in s["summary"]["fit"]  # separable: the split flows apply
 
 
 def test_a_nonholonomic_system_fits_its_own_methods(capsys):
     args = ["methods", "chaplygin_sleigh", "--param", "m=1", "--param", "I_c=0.2", "--param", "a=0.3"]
     code, out, err = run(capsys, *args, "--json")
     assert code == 0, err
-    assert set(json.loads(out)["fit"]) == {"lagrange_dalembert", "bkmm", "discrete_lagrange_dalembert"}
+    assert set(json.loads(out)["summary"]["fit"]) == {"lagrange_dalembert", "bkmm", "discrete_lagrange_dalembert"}
     code, out, err = run(capsys, *args)
     assert out.startswith("methods that fit chaplygin_sleigh (3 of") and "not for this system:" in out
     code, _, err = run(capsys, "methods", "snakeboard", "--hamiltonian", "m1**2")

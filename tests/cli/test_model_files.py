@@ -88,7 +88,7 @@ def test_a_control_in_a_file_is_the_control_given_by_options(capsys, tmp_path):
         str(tmp_path / "b"),
     )
     assert code == 0, err
-    assert json.loads(out)["counts"] == json.loads(out2)["counts"]
+    assert json.loads(out)["summary"]["verdict_counts"] == json.loads(out2)["summary"]["verdict_counts"]
     xr = pytest.importorskip("xarray")
     a = xr.open_dataset(tmp_path / "a" / "stability_map.nc")
     b = xr.open_dataset(tmp_path / "b" / "stability_map.nc")

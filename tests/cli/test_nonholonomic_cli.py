@@ -52,11 +52,11 @@ def test_simulate_snakeboard_json_matches_the_library(capsys, tmp_path):
         shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"},
     )
     for k in ("x", "y", "theta"):
-        assert data["final_configuration"][k] == pytest.approx(ref.final()[k], abs=1e-9)
+        assert data["summary"]["final_configuration"][k] == pytest.approx(ref.final()[k], abs=1e-9)
     assert data["nonholonomic_momentum"][0] == pytest.approx(ref.p[-1, 0], abs=1e-9)
-    assert data["constraint_residual_max"] < 1e-8
+    assert data["summary"]["constraint_residual_max"] < 1e-8
     assert data["work_by_shape_inputs"] == pytest.approx(ref.work[-1], abs=1e-9)
-    assert abs(data["energy_change_minus_work"]) < 1e-8
+    assert abs(data["summary"]["energy_change_minus_work"]) < 1e-8
     header = (tmp_path / "trajectory.csv").read_text().splitlines()[0]
     assert header.startswith("t,x,y,theta") and (tmp_path / "path.png").stat().st_size > 1000
     assert json.loads((tmp_path / "summary.json").read_text())["system"] == "snakeboard"
@@ -86,10 +86,12 @@ def test_derive_snakeboard_json_and_latex(capsys):
     code, out, err = _run(capsys, "derive", "snakeboard_bkmm", "--json")
     assert code == 0, err
     data = json.loads(out)
-    assert set(data) == {"system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction"}
+    sections = ["lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction"]
+    assert list(data) == ["schema", "command", "summary", "definition", *sections]
+    assert data["summary"] == {"system": "snakeboard_bkmm", "sections": sections}
     assert "2*J0*phi_dot*psi_dot*cos(phi)**2" in data["bkmm"]["text"]["momentum equation p' (eq. 1.2)"][0][0]
     assert data["almost_poisson"]["text"]["Jacobi identity holds"] == "False"
-    assert data["system"]["invariance"]["ok"]
+    assert data["definition"]["invariance"]["ok"]
     code, out, _ = _run(capsys, "derive", "snakeboard_bkmm", "--latex", "--section", "bkmm")
     assert code == 0 and r"\dot{\phi}" in out and "== bkmm ==" in out
 
@@ -171,7 +173,10 @@ def test_simulate_with_initial_momentum(capsys):
     code, out, _ = _run(capsys, *base, "--p0", "1,0.5", "--t-final", "5", "--json")
     assert code == 0
     summary = json.loads(out)
-    assert summary["constraint_residual_max"] < 1e-8 and abs(summary["final_configuration"]["x"]) > 0.5
+    assert (
+        summary["summary"]["constraint_residual_max"] < 1e-8
+        and abs(summary["summary"]["final_configuration"]["x"]) > 0.5
+    )
     # the sleigh's known end state: the turning dies out and all the energy goes into forward motion,
     # p1 = m v -> sqrt(2 m E); here E = 0.931 (v0 = 1, omega0 = 0.5 / (I_c + m a^2))
     assert abs(summary["nonholonomic_momentum"][0] - (2 * summary["energy_initial"]) ** 0.5) < 1e-3
@@ -207,7 +212,18 @@ def test_derive_json_exports_the_short_forms(capsys):
     assert r"\lambda_{1} = " in lda["latex"]["multipliers lambda on D"]
     jac = data["almost_poisson"]["text"]["Jacobiators Jac(q^i, pt_a, pt_b) = (Z K_ab)^i and Jac(pt_a, pt_b, pt_c)"]
     assert list(jac) == ["Jac(x, pt1, pt2)", "Jac(y, pt1, pt2)", "Jac(theta, pt1, pt2)"]
-    assert data["system"]["latex"]["constraints"] == [
+    assert data["definition"]["latex"]["constraints"] == [
         r"- \dot{x} \sin{\left(\theta \right)} + \dot{y} "
         r"\cos{\left(\theta \right)}"
     ]
+
+
+def test_derive_text_has_no_python_reprs_and_fits_a_terminal(capsys):
+    code, out, err = _run(capsys, "derive", "snakeboard_bkmm")
+    assert code == 0, err
+    lines = out.splitlines()
+    assert max(len(line) for line in lines) <= 120
+    assert not any("['" in line or "[[" in line for line in lines)
+    assert "shape: psi, phi" in lines
+    # a matrix row by row, its size said
+    assert any(line.startswith("locked inertia I(r) = (") for line in lines)

@@ -34,11 +34,15 @@ def test_two_bodies_json_is_the_closed_form(capsys):
     assert code == 0, err
     s = json.loads(out)
     want = -2 * math.pi * (-1) * 3 / 4 + (-2.5) * 5.5 / 4  # from (I1 + I2) theta' + I2 psi' = mu
-    assert abs(s["total_phase"] - want) < 1e-10
-    assert abs(s["geometric_phase"] - 3 * math.pi / 2) < 1e-12
-    assert abs(s["dynamic_phase"] - (-2.5 * 5.5 / 4)) < 1e-12
-    assert abs(s["reconstructed"] - want) < 1e-9
-    assert s["angles_wrapped"] is False
+    head, ph = s["summary"], s["summary"]["phase"]
+    assert abs(ph["total"] - want) < 1e-10
+    assert abs(ph["geometric"] - 3 * math.pi / 2) < 1e-12
+    assert abs(ph["dynamic"] - (-2.5 * 5.5 / 4)) < 1e-12
+    assert abs(head["reconstructed"] - want) < 1e-9 and abs(head["closed_form"] - want) < 1e-12
+    assert (
+        -math.pi < ph["total_wrapped"] <= math.pi
+        and abs(math.remainder(ph["total"] - ph["total_wrapped"], 2 * math.pi)) < 1e-12
+    )
 
 
 def test_two_bodies_default_turns_and_text(capsys):
@@ -53,11 +57,11 @@ def test_rigid_body_json(capsys):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert abs(s["difference"]) < 1e-8
-    assert abs(s["total"] - (s["geometric"] + s["dynamic"])) < 1e-14
+    head, ph = s["summary"], s["summary"]["phase"]
+    assert abs(head["difference"]) < 1e-8
+    assert abs(ph["total"] - (ph["geometric"] + ph["dynamic"])) < 1e-14
     assert abs(s["period"] - 19.1353045602) < 1e-8
-    assert s["angles_wrapped"]["direct_wrapped"] is True and s["angles_wrapped"]["total"] is False
-    assert -math.pi < s["direct_wrapped"] <= math.pi
+    assert -math.pi < head["direct_wrapped"] <= math.pi and s["axis"] in (1, 3)  # 1-based, as on the CLI
 
 
 def test_rigid_body_out_dir(capsys, tmp_path):
@@ -99,8 +103,9 @@ def test_loop_command(capsys, tmp_path):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert abs(s["phase"]["geometric"] + s["curvature_integral"][2]) < 1e-10
-    assert abs(s["net_motion_coordinates"]["theta"] - s["phase"]["total"]) < 1e-9
+    head = s["summary"]
+    assert abs(head["phase"]["geometric"] + s["curvature_integral"][2]) < 1e-10
+    assert abs(head["net_displacement"]["theta"] - head["phase"]["total"]) < 1e-9
     for f in ("loop.json", "connection.png", "curvature.png", "path.png"):
         assert (tmp_path / f).exists()
 
@@ -182,7 +187,8 @@ def test_loop_on_a_users_holonomic_model_file(tmp_path, capsys):
     s = json.loads(out)
     # body 1 turns by (mu T - 2 pi turns I2) / (I1 + I2) with I1 = 2 from --param, I2 = 3, turns = -1
     want = (-2.5 * 5.5 + 2 * math.pi * 3) / 5
-    assert abs(s["phase"]["total"] - want) < 1e-10 and abs(s["net_motion_coordinates"]["theta"] - want) < 1e-9
+    head = s["summary"]
+    assert abs(head["phase"]["total"] - want) < 1e-10 and abs(head["net_displacement"]["theta"] - want) < 1e-9
     code, _, err = run(capsys, "phase", "loop", str(f), "--shape", "psi=t", "--param", "I9=2")
     assert code == 2 and err.count("\n") == 1 and "I9" in err
     nonholonomic = tmp_path / "nh.py"
@@ -198,9 +204,9 @@ def test_loop_on_the_spacecraft_reconstructs_on_so3(capsys):
     code, out, err = run(capsys, "phase", "loop", "spacecraft", *shape, "--mu", "0", "0", "0", "--json")
     assert code == 0, err
     s = json.loads(out)
-    assert s["phase"]["available"] is False  # SO(3) with a shape space: no phase formula
+    assert s["summary"]["phase"] is None and "phase_unavailable" in s  # SO(3) with a shape space: no formula
     # a small loop at zero momentum: the holonomy is exp(-iint B) to leading order in the loop's size
-    rot = [s["net_motion_coordinates"][f"log_omega_{i}"] for i in (1, 2, 3)]
+    rot = [s["summary"]["net_displacement"][f"log_omega_{i}"] for i in (1, 2, 3)]
     B = s["curvature_integral"]
     assert abs(rot[2] + B[2]) < 1e-3 * abs(B[2]) and abs(rot[0]) + abs(rot[1]) < 1e-2 * abs(B[2])
     code, _, err = run(capsys, "phase", "loop", "spacecraft", *shape, "--mu", "0.1")

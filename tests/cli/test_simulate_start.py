@@ -44,7 +44,7 @@ def test_the_board_starts_at_rest_even_off_phi_zero(tmp_path, capsys):
     ds = xr.open_dataset(tmp_path / "trajectory.nc")
     assert list(ds.coordinate.values) == ["x", "y", "theta", "psi", "phi"]
     assert ds.attrs["command"].startswith("geomech simulate snakeboard") and ds.attrs["initial_state"].startswith("at")
-    np.testing.assert_allclose(ds.q.isel(t=-1).values, list(s["final_configuration"].values()), atol=1e-12)
+    np.testing.assert_allclose(ds.q.isel(t=-1).values, list(s["summary"]["final_configuration"].values()), atol=1e-12)
     assert float(np.abs(ds.constraint_residual).max()) < 1e-8
 
 

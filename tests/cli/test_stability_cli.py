@@ -28,7 +28,7 @@ def test_stability_json_issue_example(capsys, k, expected):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert s["complete"] and len(s["equilibria"]) == 6
+    assert s["summary"]["complete"] and len(s["equilibria"]) == 6
     e = spin(s, [0.0, 1.0, 0.0])
     assert (
         e["verdicts"]["lagrange_dirichlet"],
@@ -98,7 +98,7 @@ def test_three_rotors(capsys):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert s["model"]["kind"] == "diagonal" and s["complete"]
+    assert s["model"]["kind"] == "diagonal" and s["summary"]["complete"]
     code, out, err = run(
         capsys,
         "stability",
@@ -143,7 +143,7 @@ def test_stability_map_writes_figure_and_data(capsys, tmp_path):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert s["counts"]["stable"] > 0 and s["counts"]["unstable"] > 0
+    assert s["summary"]["verdict_counts"]["stable"] > 0 and s["summary"]["verdict_counts"]["unstable"] > 0
     assert (tmp_path / "stability_map.png").stat().st_size > 10_000
     ds = xr.open_dataset(tmp_path / "stability_map.nc")
     margin = ds["k"].values[None, :] - (1 - 1 / ds["lambda2"].values[:, None])
@@ -240,7 +240,7 @@ def test_stability_map_text_is_a_sentence_not_a_dict(capsys, tmp_path):
     code, out, err = run(capsys, *args, "--y", "lambda2=1.2:2.8:4", "--out", str(tmp_path / "a"))
     assert code == 0, err
     code, js, err = run(capsys, *args, "--y", "lambda2=1.2:2.8:4", "--out", str(tmp_path / "b"), "--json")
-    counts = json.loads(js)["counts"]
+    counts = json.loads(js)["summary"]["verdict_counts"]
     first = out.splitlines()[0]
     assert "{" not in first and "'" not in first
     assert all(f"{n} {v}" in first for v, n in counts.items() if n)
@@ -252,8 +252,8 @@ def test_stability_json_starts_with_its_summary(capsys):
     )
     assert code == 0, err
     s = json.loads(out)
-    assert next(iter(s)) == "summary"
+    assert list(s)[:3] == ["schema", "command", "summary"]
     head, detail = s["summary"], s["equilibria"]
-    assert head["equilibria"] == len(detail) == 6
+    assert head["n_equilibria"] == len(detail) == 6
     assert head["verdicts"] == [{"m": e["m"], "verdict": e["verdict"]} for e in detail]
     assert sum(head["verdict_counts"].values()) == 6 and head["verdict_counts"]["unstable"] == 2

@@ -61,17 +61,18 @@ def test_cli_writes_figures_data_and_summary(tmp_path, capsys):
         assert a["wall_time_s"] >= 0 and a["compile_time_s"] >= 0
     np.testing.assert_allclose(ds.compile_time.values, [per[k]["compile_time_s"] for k in ds.approach.values])
     # the orbit's period, and each approach's signed drift of |m| read off its own data
-    assert summary["orbit"]["kind"] == "libration" and summary["orbit"]["period_s"] > 2.0
+    assert summary["summary"]["orbit"]["kind"] == "libration" and summary["summary"]["orbit"]["period_s"] > 2.0
     final = np.linalg.norm(ds.m.isel(time=-1).values, axis=-1) - 1.0
     for k, d in zip(ds.approach.values, final):
         if abs(d) > 1e-10:  # the data file keeps the run's last state
             assert np.sign(per[str(k)]["momentum_drift_final"]) == np.sign(d)
             assert per[str(k)]["momentum_drift_direction"] == ("outward" if d > 0 else "inward")
-    inside = summary["claims"]["full_6d_stays_inside_the_sphere"]
+    inside = summary["summary"]["claims"]["full_6d_stays_inside_the_sphere"]
     assert inside["holds"] == (per["full6d_adams"]["momentum_drift_final"] < 0)
     # "whatever the method": the midpoint rule also runs on Euler's equations
     assert (
-        "reduced_midpoint vs euler_midpoint" in summary["claims"]["reduced_form_better_whatever_the_method"]["evidence"]
+        "reduced_midpoint vs euler_midpoint"
+        in summary["summary"]["claims"]["reduced_form_better_whatever_the_method"]["evidence"]
     )
 
 
@@ -94,7 +95,7 @@ def test_cli_lambda_sets_the_inertias(tmp_path, capsys):
     )
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert json.loads(out)["parameters"]["lambda1"] == 1.3
+    assert json.loads(out)["config"]["lambda1"] == 1.3
     code = main(["reproduce", "serret-andoyer", "--out", str(tmp_path), "--lambda", "1.3"])
     assert code == 2 and "expected 2 numbers" in capsys.readouterr().err
 

@@ -159,7 +159,7 @@ def test_a_gait_of_the_model_file_from_the_command_line(beta, tmp_path, capsys):
     )
     out = capsys.readouterr()
     assert code == 0, out.err
-    cli = json.loads(out.out)["net_displacement"]
+    cli = json.loads(out.out)["summary"]["net_displacement"]
     # the file's system in-process: the same analysis; p0 is in its reduction's basis, which scales with how beta
     # is given (a symbol there, a number here), so the other description starts from the velocity p0 means
     mine = load_model(str(path), {"beta": beta})
@@ -176,7 +176,7 @@ def test_a_gait_of_the_model_file_from_the_command_line(beta, tmp_path, capsys):
     code = main(["simulate", str(path), "--p0", "0.4,0.2", "--t-final", "1", "--param", f"beta={beta}", "--json"])
     out = capsys.readouterr()
     assert code == 0, out.err
-    final = json.loads(out.out)["final_configuration"]
+    final = json.loads(out.out)["summary"]["final_configuration"]
     _, qd0 = initial_state(mine, p0=p0)
     free = gm.solve(tilted_sleigh(beta), LagrangeDAlembert(), t_final=1.0, saveat=2, qdot0=qd0, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose([final[k] for k in ("x", "y", "theta", "s")], free.q[-1], atol=1e-8)

@@ -205,7 +205,6 @@ class GaitAnalysis:
             "momentum_at_period_starts": self.p[idx].tolist(),
             "momentum_change_per_period": self.momentum_change.tolist(),
             "displacement_frame": "body frame at the start: g(t0)^-1 g(t0 + n T)",
-            "angles_unwrapped": bool(self.model.group.angle_components),
             "note": _NOTE,
             "integrator": {
                 "group": self.path.method.key,

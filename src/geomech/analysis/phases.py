@@ -93,7 +93,6 @@ class PhaseSplit:
             "period": self.period,
             "winding": list(self.winding),
             "group": self.group,
-            "wrapped": False,
         }
 
 

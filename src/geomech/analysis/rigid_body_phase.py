@@ -92,17 +92,6 @@ class RigidBodyPhase:
             )
         }
         out["spatial_momentum"] = np.asarray(self.spatial_momentum).tolist()
-        out["wrapped"] = {
-            "solid_angle": False,
-            "geometric": False,
-            "dynamic": False,
-            "total": False,
-            "total_wrapped": True,
-            "direct_wrapped": True,
-            "reconstructed_wrapped": True,
-            "difference": True,
-            "range": "(-pi, pi]",
-        }
         return out
 
 

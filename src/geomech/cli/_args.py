@@ -202,16 +202,56 @@ class Outputs:
         return write_set(self.out, self._writers)
 
 
-def emit(summary: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
-    """Print the summary (JSON, checked finite, or ``text``) and, with ``--out``, commit the files with
-    ``name.json`` among them."""
+#: The version of the JSON documents the commands print with ``--json`` (and write as ``NAME.json``); described
+#: by ``schema.json`` beside this module and docs/json.md. A change of a name or a type is a new version.
+SCHEMA = "geomech-cli/1"
+
+
+def schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of every command's ``--json`` document."""
+    import json
+    from importlib.resources import files
+
+    return json.loads(files("geomech.cli").joinpath("schema.json").read_text())
+
+
+def document(command: str, summary: dict[str, Any], detail: dict[str, Any]) -> dict[str, Any]:
+    """A command's JSON document: ``schema`` (:data:`SCHEMA`), ``command``, the ``summary`` block (the answer),
+    then the ``detail`` (the evidence)."""
+    doc: dict[str, Any] = {"schema": SCHEMA, "command": command, "summary": summary}
+    clash = sorted(set(doc) & set(detail))
+    if clash:  # pragma: no cover - a programming error, caught by the schema tests
+        raise ValueError(f"detail keys {clash} are reserved")
+    doc.update(detail)
+    return doc
+
+
+def emit(doc: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
+    """Print the document (JSON, checked finite, or ``text``) and, with ``--out``, commit the files with
+    ``name.json`` (the document, with ``files`` listing what was written) among them."""
     from .._storage import dumps_json
 
-    body = dumps_json(summary) if as_json else text
     if outputs is not None:
-        outputs.json(f"{name}.json", summary)
+        doc = {**doc, "files": outputs.paths(f"{name}.json")}
+        check_document(doc)
+        outputs.json(f"{name}.json", doc)
         outputs.commit()
-    click.echo(body)
+        text += "\nwritten: " + ", ".join(doc["files"])
+    elif as_json:
+        check_document(doc)
+    click.echo(dumps_json(doc) if as_json else text)
+
+
+def check_document(doc: dict[str, Any]) -> None:
+    """With ``GEOMECH_CHECK_JSON=1`` in the environment, validate ``doc`` against :func:`schema` (needs the
+    jsonschema package; the test suite sets it, so that every document any test prints is checked)."""
+    import os
+
+    if os.environ.get("GEOMECH_CHECK_JSON", "") in ("", "0"):
+        return
+    import jsonschema
+
+    jsonschema.validate(doc, schema(), cls=jsonschema.Draft202012Validator)
 
 
 def model_argument(what: str) -> Any:

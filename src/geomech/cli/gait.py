@@ -17,9 +17,18 @@ from typing import Any
 
 import click
 
-from .._storage import dumps_json
 from ..errors import InputError
-from ._args import FloatVector, OutDir, Outputs, model_argument, one_model, parse_params, parse_shape_loop
+from ._args import (
+    FloatVector,
+    OutDir,
+    Outputs,
+    document,
+    emit,
+    model_argument,
+    one_model,
+    parse_params,
+    parse_shape_loop,
+)
 from ._progress import activity
 
 __all__ = ["gait_cmd"]
@@ -50,10 +59,11 @@ def _text(s: dict[str, Any]) -> str:
     def fmt(d: dict) -> str:
         return ", ".join(f"{k} {v:.10g}" for k, v in d.items())
 
+    head = s["summary"]
     lines = [
         f"{s['system']} on {s['group']}, shape ({', '.join(s['shape'])}), T = {s['period']:g}, "
         f"{s['periods']} period(s), p0 = {s['p0']}",
-        f"net displacement g(0)^-1 g(NT)          : {fmt(s['net_displacement'])}",
+        f"net displacement g(0)^-1 g(NT)          : {fmt(head['net_displacement'])}",
     ]
     for j, d in enumerate(s["displacement_per_period"]):
         lines.append(f"  period {j + 1}: g(t0)^-1 g(t0 + T)        : {fmt(d)}")
@@ -61,20 +71,20 @@ def _text(s: dict[str, Any]) -> str:
         f"connection term -A^nh r' alone          : {fmt(s['connection_alone'])}",
         f"momentum term I^-1 p alone              : {fmt(s['momentum_alone'])}",
     ]
-    if s["momentum_change_per_period"] and s["momentum_change_per_period"][0]:
+    change = head["momentum_change_per_period"]
+    if change and change[0]:
         lines.append(
             "momentum change per period p((j+1)T) - p(jT): "
-            + "; ".join("[" + ", ".join(f"{x:.6g}" for x in d) + "]" for d in s["momentum_change_per_period"])
+            + "; ".join("[" + ", ".join(f"{x:.6g}" for x in d) + "]" for d in change)
         )
     else:
         lines.append("no nonholonomic momentum (S_q = 0): the connection term is the whole motion")
     lines.append("note: " + s["note"])
-    if "files" in s:
-        lines.append("files: " + ", ".join(s["files"]))
     return "\n".join(lines)
 
 
-def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
+def _figures(analysis: Any, out: Path) -> Outputs:
+    """The figures and the data of ``--out`` (gait.json joins them when the document is emitted)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -97,11 +107,8 @@ def _write(analysis: Any, summary: dict, out: Path) -> list[str]:
             save(curvature_map(analysis, component=c), f"curvature_{name}.png")
         save(curvature_map(analysis), "curvature.png")  # the default component (the rotation on SE(2))
     outputs.dataset("gait.nc", analysis.to_dataset())
-    files = outputs.paths("gait.json")
-    outputs.json("gait.json", {**summary, "files": files})
-    outputs.commit()
     plt.close("all")
-    return files
+    return outputs
 
 
 @click.command("gait")
@@ -173,8 +180,8 @@ def gait_cmd(
             g0=_named(system, g0, "--g0"),
             samples_per_period=samples,
         )
-    summary = analysis.summary()
-    summary["model"] = model
-    if out is not None:
-        summary["files"] = _write(analysis, summary, out)
-    click.echo(dumps_json(summary) if as_json else _text(summary))
+    detail = analysis.summary()
+    head = {k: detail.pop(k) for k in ("net_displacement", "momentum_change_per_period")}
+    doc = document("gait", head, detail)
+    outputs = _figures(analysis, out) if out is not None else None
+    emit(doc, as_json, _text(doc), outputs, "gait")

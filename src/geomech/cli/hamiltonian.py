@@ -10,10 +10,9 @@ from typing import Any
 import click
 import numpy as np
 
-from .._storage import dumps_json
 from ..errors import InputError, NumericalError
 from ..symbolic.formula import parse_formula
-from ._args import Outputs
+from ._args import Outputs, document, emit
 from ._progress import activity
 
 __all__ = ["simulate_hamiltonian"]
@@ -69,24 +68,31 @@ def simulate_hamiltonian(
     m = np.asarray(sol.m)
     E = system.hamiltonian(m)
     C = np.linalg.norm(m, axis=-1)
-    summary: dict[str, Any] = {
+    head: dict[str, Any] = {
+        "status": sol.status.value,
+        "m_final": m[-1].tolist(),
+        "drift": {
+            "energy": float(np.abs(E - E[0]).max()),
+            "casimir": float(np.abs(C - C[0]).max()),
+        },
+    }
+    detail: dict[str, Any] = {
         "system": system.name,
         "hamiltonian": str(system.expression),
         "parameters": system.parameters,
         "method": key,
         "t_final": t_final,
         "m0": m[0].tolist(),
-        "m_final": m[-1].tolist(),
-        "energy_drift_max": float(np.abs(E - E[0]).max()),
-        "casimir_drift_max": float(np.abs(C - C[0]).max()),
         "attitude": bool(attitude),
         "stats": {k: v for k, v in sol.stats.items() if isinstance(v, (int, float, str))},
     }
     if attitude:
         R = np.asarray(sol.R)
         pi = np.einsum("nij,nj->ni", R, m)
-        summary["R_final"] = R[-1].tolist()
-        summary["spatial_momentum_drift_max"] = float(np.abs(pi - pi[0]).max())
+        head["drift"]["spatial_momentum"] = float(np.abs(pi - pi[0]).max())
+        detail["R_final"] = R[-1].tolist()
+    doc = document("simulate", head, detail)
+    outputs = None
     if out is not None:
         outputs = Outputs(out)
         ds = sol.to_dataset()
@@ -94,17 +100,12 @@ def simulate_hamiltonian(
         ds.attrs["command"] = "geomech " + " ".join(shlex.quote(a) for a in argv)
         outputs.dataset("trajectory.nc", ds)
         outputs.file("trajectory.csv", sol.to_csv)
-        outputs.json("summary.json", summary)
-        summary["files"] = outputs.paths()
-        outputs.commit()
-    if as_json:
-        click.echo(dumps_json(summary))
-        return
+    drift = head["drift"]
     lines = [
-        f"{system.name} = {summary['hamiltonian']} by {key} to t = {t_final:g}",
+        f"{system.name} = {detail['hamiltonian']} by {key} to t = {t_final:g}",
         f"m(0) = {np.round(m[0], 12).tolist()}",
         f"m(T) = {np.round(m[-1], 12).tolist()}",
-        f"drift over the run: energy {summary['energy_drift_max']:.3g}, Casimir |m| {summary['casimir_drift_max']:.3g}"
-        + (f", spatial momentum {summary['spatial_momentum_drift_max']:.3g}" if attitude else ""),
+        f"drift over the run: energy {drift['energy']:.3g}, Casimir |m| {drift['casimir']:.3g}"
+        + (f", spatial momentum {drift['spatial_momentum']:.3g}" if attitude else ""),
     ]
-    click.echo("\n".join(lines))
+    emit(doc, as_json, "\n".join(lines), outputs, "summary")

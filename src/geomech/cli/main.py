@@ -12,14 +12,14 @@ import sys
 import traceback
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 import click
 
-from .._storage import dumps_json
 from .._version import __version__
 from ..errors import GeomechError, NumericalError, SingularityError
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, OutDir, Outputs, emit, gather_vectors, parse_params, repeated_option
+from ._args import FloatVector, OutDir, Outputs, document, emit, gather_vectors, parse_params, repeated_option
 from ._progress import activity
 from .gait import gait_cmd
 from .methods import methods_cmd
@@ -81,18 +81,20 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
     from ..experiments.rigid_body import run_rigid_body, summary_text
 
     with activity(f"integrating the reduced system to t = {t_final:g}"):
-        summary, traj = run_rigid_body(
+        result, traj = run_rigid_body(
             inertia, momentum, t_final=t_final, samples=samples, rtol=rtol, max_turns=max_turns
         )
+    head = result.pop("summary")
+    doc = document("rigid-body", head, result)
     outputs = None
     if out is not None:
         from ..plot import momentum_sphere
 
         outputs = Outputs(out)
-        fig_ax = momentum_sphere(traj.m, title=f"I = {summary['inertia']['principal_moments']}")
+        fig_ax = momentum_sphere(traj.m, title=f"I = {doc['inertia']['principal_moments']}")
         outputs.figure("rigid_body_momentum.png", fig_ax, dpi=120)
         outputs.dataset("rigid_body.nc", traj.to_dataset())
-    emit(summary, as_json, summary_text(summary), outputs, "rigid_body")
+    emit(doc, as_json, summary_text(doc), outputs, "rigid_body")
 
 
 @cli.command("reduce")
@@ -149,23 +151,29 @@ def reduce_cmd(hamiltonian, params, axis, symbolic, as_json, as_latex) -> None:
         system = LeftInvariantSystem.from_expression(expr, values)
         h = GeneralizedSerretAndoyer(system).h_p(axis - 1)
     ldot, Ldot = sp.simplify(sp.diff(h, L_SYM)), sp.simplify(-sp.diff(h, l_SYM))
-    summary = {
-        "hamiltonian": str(expr if system is None else system.expression),
-        "parameters": values if system is None else system.parameters,
-        "symbolic_parameters": free if system is None else [],
-        "chart_axis": axis,
+    head: dict[str, Any] = {
         "reduced_hamiltonian": str(h),
-        "l_dot": str(ldot),
-        "L_dot": str(Ldot),
-        "latex": {"h_p": sp.latex(h), "l_dot": sp.latex(ldot), "L_dot": sp.latex(Ldot)},
         "hyperregularity": (
             HyperregularityReport("unknown", f"the parameters {free} are symbolic", ()).to_json()
             if system is None
             else system.hyperregularity().to_json()
         ),
     }
+    summary = document(
+        "reduce",
+        head,
+        {
+            "hamiltonian": str(expr if system is None else system.expression),
+            "parameters": values if system is None else system.parameters,
+            "symbolic_parameters": free if system is None else [],
+            "chart_axis": axis,
+            "l_dot": str(ldot),
+            "L_dot": str(Ldot),
+            "latex": {"h_p": sp.latex(h), "l_dot": sp.latex(ldot), "L_dot": sp.latex(Ldot)},
+        },
+    )
     if as_json:
-        click.echo(dumps_json(summary))
+        emit(summary, True, "", None, "reduce")
     elif as_latex:
         click.echo(
             f"h_p(l, L) = {summary['latex']['h_p']}\n\\dot l = {summary['latex']['l_dot']}\n"
@@ -175,8 +183,8 @@ def reduce_cmd(hamiltonian, params, axis, symbolic, as_json, as_latex) -> None:
         click.echo(
             f"H(m)       = {summary['hamiltonian']}\nchart      : about body axis {axis}\n"
             f"h_p(l, L)  = {h}\nl'         = {ldot}\nL'         = {Ldot}\n"
-            f"hyperregular: {summary['hyperregularity']['status']}"
-            + (f" ({summary['hyperregularity']['where']})" if summary["hyperregularity"]["where"] else "")
+            f"hyperregular: {head['hyperregularity']['status']}"
+            + (f" ({head['hyperregularity']['where']})" if head["hyperregularity"]["where"] else "")
         )
 
 

@@ -7,9 +7,8 @@ from typing import Any
 
 import click
 
-from .._storage import dumps_json
 from ..symbolic.formula import parse_formula
-from ._args import is_model_file, parse_params
+from ._args import document, emit, is_model_file, parse_params
 
 __all__ = ["methods_cmd"]
 
@@ -63,11 +62,11 @@ def methods_cmd(model: str | None, hamiltonian: str | None, params: tuple, attit
     system = _system(model, hamiltonian, parse_params(params))
     rows = methods_table() if system is None else methods_for(system, attitude=attitude)
     if as_json:
-        summary: dict[str, Any] = {"system": None if system is None else getattr(system, "name", str(system))}
-        if system is not None:
-            summary["fit"] = [d["key"] for d in rows if d["fits"]]
-        summary["methods"] = rows
-        click.echo(dumps_json(summary))
+        head: dict[str, Any] = {
+            "system": None if system is None else getattr(system, "name", str(system)),
+            "fit": None if system is None else [d["key"] for d in rows if d["fits"]],
+        }
+        emit(document("methods", head, {"methods": rows}), True, "", None, "methods")
         return
     header = f"{'method':<28} {'kind':<11} {'order':>5}  {'preserves':<33} needs"
     lines = []

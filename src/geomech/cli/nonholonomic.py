@@ -13,12 +13,11 @@ from typing import Any
 
 import click
 
-from .._storage import dumps_json
 from ..errors import InputError, NumericalError
 from ..lie.groups import SE2
 from ..symbolic.formula import parse_formula
 from ..systems.models import example_system, load_model
-from ._args import FloatVector, OutDir, Outputs, is_model_file, model_argument, one_model
+from ._args import FloatVector, OutDir, Outputs, document, emit, is_model_file, model_argument, one_model
 from ._progress import activity
 
 __all__ = ["derive_cmd", "simulate_cmd"]
@@ -147,25 +146,88 @@ def derive_cmd(model, model_file, params, sections, as_json, as_latex) -> None:
     with activity(f"deriving {system.name}"):
         data = derivation(system, tuple(sections) or _SECTIONS)
     if as_json:
-        click.echo(dumps_json(data))
+        rest = {k: v for k, v in data.items() if k != "system"}
+        head = {"system": system.name, "sections": list(rest)}
+        definition = {"definition": data["system"]} if "system" in data else {}
+        emit(document("derive", head, {**definition, **rest}), True, "", None, "derive")
         return
+    lines: list[str] = []
     for key, val in data.items():
-        click.echo(f"== {key} ==")
+        lines.append(f"== {key} ==")
         if key == "system":
             tex = val["latex"]
             for k, v in val.items():
                 if k == "latex":
                     continue
                 if as_latex and k == "lagrangian":
-                    click.echo(f"L = {tex['lagrangian']}")
+                    lines.append(f"L = {tex['lagrangian']}")
                 elif as_latex and k == "constraints":
-                    click.echo(r"\text{constraints: } " + r",\; ".join(f"{c} = 0" for c in tex["constraints"]))
+                    lines.append(r"\text{constraints: } " + r",\; ".join(f"{c} = 0" for c in tex["constraints"]))
                 else:
-                    click.echo(f"{k}: {v}")
+                    lines += _rendered(k, v, ":")
             continue
         items = val["latex"] if as_latex else val["text"]
         for k, v in items.items():
-            click.echo(f"{k} = {v}" if as_latex else f"{k} = {v}")
+            lines += [f"{k} = {v}"] if as_latex else _rendered(k, v, " =")
+    click.echo("\n".join(lines))
+
+
+def _rendered(name: str, value: Any, sep: str, width: int = 120) -> list[str]:
+    """``name`` and a derived value as text lines of at most ``width`` characters where they can be broken: a
+    list as its items (a matrix row by row), a dict as its entries, a long formula wrapped at its spaces."""
+    import textwrap
+
+    def wrap(line: str, indent: str) -> list[str]:
+        return textwrap.wrap(
+            line, width, subsequent_indent=indent + "    ", break_long_words=False, break_on_hyphens=False
+        ) or [line]
+
+    if isinstance(value, dict):
+        out = [f"{name}{sep}"]
+        for k, v in value.items():
+            shown = (", ".join(map(_plain, v)) or "none") if isinstance(v, list) else v
+            out += wrap(f"  {k}: {shown}", "  ")
+        return out
+    while isinstance(value, list) and len(value) == 1 and isinstance(value[0], list) and _depth(value) > 2:
+        value = value[0]  # a matrix wrapped in a list of one
+    if isinstance(value, list):
+        if value and all(isinstance(row, list) for row in value):
+            cells = [[_plain(c) for c in row] for row in value]
+            head = f"{name}{sep} ({len(cells)} x {len(cells[0]) if cells else 0})"
+            if _depth(value) > 2:  # a list of matrices (structure constants): one matrix a line, rows split by ;
+                head = f"{name}{sep} ({len(value)} matrices)"
+                flat = [f"  {_plain(row)}" for row in value]
+            else:
+                flat = [f"  [{', '.join(row)}]" for row in cells]
+            if all(len(r) <= width for r in flat):
+                return [head, *flat]
+            out = [head]
+            for i, row in enumerate(cells):
+                for j, c in enumerate(row):
+                    out += wrap(f"  [{i + 1},{j + 1}] {c}", "  ")
+            return out
+        items = [_plain(v) for v in value]
+        one = f"{name}{sep} {', '.join(items)}"
+        if len(one) <= width:
+            return [one]
+        out = [f"{name}{sep}"]
+        for i, v in enumerate(items):
+            out += wrap(f"  [{i + 1}] {v}", "  ")
+        return out
+    return wrap(f"{name}{sep} {value}", "")
+
+
+def _depth(value: Any) -> int:
+    return 1 + max((_depth(v) for v in value), default=0) if isinstance(value, list) else 0
+
+
+def _plain(value: Any) -> str:
+    """A nested list as text without quotes, a matrix by rows: ``[a, b; c, d]``."""
+    if isinstance(value, list):
+        if value and all(isinstance(row, list) for row in value):
+            return "[" + "; ".join(", ".join(_plain(c) for c in row) for row in value) + "]"
+        return "[" + ", ".join(_plain(c) for c in value) + "]"
+    return str(value)
 
 
 @click.command("simulate")
@@ -343,7 +405,10 @@ def simulate_cmd(
     if not sol.success:
         raise NumericalError(sol.message)
     label = _method_label(sol, step)
-    summary = {"initial_state": start, **_summary(sol, label)}
+    detail = _summary(sol, label)
+    head = {k: detail.pop(k) for k in _HEADLINE}
+    doc = document("simulate", head, {"initial_state": start, **detail})
+    outputs = None
     if out is not None:
         outputs = Outputs(out)
         outputs.file("trajectory.csv", sol.to_csv)
@@ -352,23 +417,22 @@ def simulate_cmd(
         ds.attrs["command"] = "geomech " + " ".join(shlex.quote(a) for a in argv)
         ds.attrs["initial_state"] = start
         outputs.dataset("trajectory.nc", ds)
-        outputs.json("summary.json", summary)
         outputs.figure("path.png", _plot_path(sol, label), dpi=110)
-        summary["files"] = outputs.paths()
-        outputs.commit()
-    if as_json:
-        click.echo(dumps_json(summary))
-        return
-    fc = ", ".join(f"{k} = {v:.6g}" for k, v in summary["final_configuration"].items())
-    click.echo(
-        f"{summary['system']} by {summary['method']} to t = {summary['t_final']:g}\n"
+    fc = ", ".join(f"{k} = {v:.6g}" for k, v in head["final_configuration"].items())
+    text = (
+        f"{detail['system']} by {detail['method']} to t = {detail['t_final']:g}\n"
         f"final configuration: {fc}\n"
-        f"nonholonomic momentum: {summary['nonholonomic_momentum']}\n"
-        f"constraint residual |A(q) qdot|: max {summary['constraint_residual_max']:.3g}, "
-        f"final {summary['constraint_residual_final']:.3g}\n"
-        f"work by shape inputs: {summary['work_by_shape_inputs']:.6g} "
-        f"(energy change {summary['energy_final'] - summary['energy_initial']:.6g})"
+        f"nonholonomic momentum: {detail['nonholonomic_momentum']}\n"
+        f"constraint residual |A(q) qdot|: max {head['constraint_residual_max']:.3g}, "
+        f"final {detail['constraint_residual_final']:.3g}\n"
+        f"work by shape inputs: {detail['work_by_shape_inputs']:.6g} "
+        f"(energy change {detail['energy_final'] - detail['energy_initial']:.6g})"
     )
+    emit(doc, as_json, text, outputs, "summary")
+
+
+#: What a nonholonomic run's summary block holds; the rest of :func:`_summary` is the detail.
+_HEADLINE = ("status", "final_configuration", "constraint_residual_max", "energy_change_minus_work")
 
 
 def _method_label(sol, step: float) -> str:

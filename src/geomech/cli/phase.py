@@ -22,6 +22,7 @@ from ._args import (
     FloatVector,
     OutDir,
     Outputs,
+    document,
     emit,
     is_model_file,
     model_argument,
@@ -32,6 +33,9 @@ from ._args import (
 from ._progress import activity
 
 __all__ = ["phase"]
+
+#: The parts of a phase every phase command reports (in its summary's ``phase``).
+_PHASE = ("geometric", "dynamic", "total", "total_wrapped")
 
 _WRAP_NOTE = (
     "geometric, dynamic and total are unwrapped real numbers; '*_wrapped' values are reduced to "
@@ -93,21 +97,13 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
     split = phases(system, loop, mu)
     rec = reconstruct(system, loop, mu, t_eval=np.linspace(0.0, period, 201))
     closed = -2 * math.pi * turns * I2 / (I1 + I2) + mu * period / (I1 + I2)
-    summary = {
-        "I1": I1,
-        "I2": I2,
-        "mu": mu,
-        "period": period,
-        "turns": turns,
-        "geometric_phase": split.geometric,
-        "dynamic_phase": split.dynamic,
-        "total_phase": split.total,
-        "total_phase_wrapped": split.total_wrapped,
-        "closed_form": closed,
-        "reconstructed": float(rec.path.g[-1, 0] - rec.path.g[0, 0]),
-        "angles_wrapped": False,
-        "note": _WRAP_NOTE,
-    }
+    phase_json = {k: v for k, v in split.to_json().items() if k in _PHASE}
+    reconstructed = float(rec.path.g[-1, 0] - rec.path.g[0, 0])
+    doc = document(
+        "phase two-bodies",
+        {"phase": phase_json, "closed_form": closed, "reconstructed": reconstructed},
+        {"I1": I1, "I2": I2, "mu": [mu], "period": period, "turns": turns, "note": _WRAP_NOTE},
+    )
     outputs = None
     if out is not None:
         from ..plot.phases import group_path, phase_split
@@ -121,9 +117,9 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
         f"dynamic phase    mu int 1/I dt     = {split.dynamic:.12g}\n"
         f"total phase of body 1 (unwrapped)  = {split.total:.12g}   (wrapped: {split.total_wrapped:.12g})\n"
         f"closed form                        = {closed:.12g}\n"
-        f"reconstructed on the group         = {summary['reconstructed']:.12g}"
+        f"reconstructed on the group         = {reconstructed:.12g}"
     )
-    emit(summary, as_json, text, outputs, "two_bodies")
+    emit(doc, as_json, text, outputs, "two_bodies")
 
 
 @phase.command("rigid-body")
@@ -167,21 +163,20 @@ def rigid_body_cmd(
     body = RigidBody(arr.reshape(3, 3) if arr.size == 9 else arr)
     R0 = None if attitude is None else so3.exp(np.asarray(attitude, dtype=float))
     res = rigid_body_phase(body, np.asarray(momentum, dtype=float), R0=R0, rtol=rtol)
-    summary = {
-        "inertia": arr.tolist(),
-        "momentum0": list(momentum),
-        **res.to_json(),
-        "angles_wrapped": {
-            "solid_angle": False,
-            "geometric": False,
-            "dynamic": False,
-            "total": False,
-            "total_wrapped": True,
-            "direct_wrapped": True,
-        },
+    res_json = res.to_json()
+    head = {
+        "phase": {k: res_json.pop(k) for k in _PHASE},
+        "direct_wrapped": res_json.pop("direct_wrapped"),
+        "difference": res_json.pop("difference"),
+    }
+    res_json["axis"] = res.axis + 1  # 1-based, as on the command line
+    detail = {
+        "inertia": {"tensor": body.tensor.tolist(), "principal_moments": body.principal_moments.tolist()},
+        "m0": [float(x) for x in momentum],
+        **res_json,
         "note": _WRAP_NOTE,
     }
-    summary.pop("wrapped", None)
+    doc = document("phase rigid-body", head, detail)
     outputs = None
     if out is not None:
         from ..plot.phases import momentum_solid_angle
@@ -199,7 +194,7 @@ def rigid_body_cmd(
         f"direct integration, wrapped         = {res.direct_wrapped:.12g}\n"
         f"difference (wrapped)                = {res.difference:.3g}"
     )
-    emit(summary, as_json, text, outputs, "rigid_body_phase")
+    emit(doc, as_json, text, outputs, "rigid_body_phase")
 
 
 def _holonomic_system(model: str, params: dict[str, float]) -> Any:
@@ -273,29 +268,32 @@ def loop_cmd(
             f"Expected `--mu` with {system.group.dim} component(s) for {system.group.name}, got "
             f"{mu_arr.size}: {mu_arr.tolist()}."
         )
-    summary: dict[str, Any] = {
-        "model": model,
-        "shape": {n: str(given[n]) for n in names},
+    detail: dict[str, Any] = {
+        "system": system.name,
+        "loop": {n: str(given[n]) for n in names},
         "period": period,
         "mu": mu_arr.tolist(),
         "group": system.group.name,
     }
+    phase_json: dict[str, Any] | None
     try:
         with activity("phases over the loop"):
             split = phases(system, loop, mu_arr)
-        summary["phase"] = split.to_json()
+        phase_json = split.to_json()
     except InputError as exc:
         # A phase formula needs an abelian rotation; say why not and still reconstruct.
         if "Theorem 2.2" not in str(exc) and "rotational phase formula" not in str(exc):
             raise
-        summary["phase"] = {"available": False, "reason": str(exc)}
+        phase_json = None
+        detail["phase_unavailable"] = str(exc)
     if system.sigma == 2:
         B = curvature_integral(system, loop) if not np.any(_winding(system, loop)) else None
-        summary["curvature_integral"] = None if B is None else B.tolist()
+        detail["curvature_integral"] = None if B is None else B.tolist()
     with activity("reconstruction on the group"):
         rec = reconstruct(system, loop, mu_arr)
-    summary["net_motion_coordinates"] = rec.path.net_motion()
-    summary["note"] = _WRAP_NOTE
+    detail["note"] = _WRAP_NOTE
+    head: dict[str, Any] = {"phase": phase_json, "net_displacement": rec.path.net_motion()}
+    doc = document("phase loop", head, detail)
     outputs = None
     if out is not None:
         from ..plot.phases import connection_field, curvature_map, group_path
@@ -306,22 +304,20 @@ def loop_cmd(
             _save(outputs, curvature_map(system, loop=loop), "curvature.png")
         _save(outputs, group_path(rec), "path.png")
     lines = [f"{model}: {system.name}, G = {system.group.name}, T = {period:g}, mu = {mu_arr.tolist()}"]
-    ph = summary["phase"]
-    if ph.get("available", True):
+    if phase_json is not None:
         lines += [
-            f"geometric phase ({ph['component']}) = {ph['geometric']:.12g}",
-            f"dynamic phase                = {ph['dynamic']:.12g}",
-            f"total phase (unwrapped)      = {ph['total']:.12g}",
+            f"geometric phase ({phase_json['component']}) = {phase_json['geometric']:.12g}",
+            f"dynamic phase                = {phase_json['dynamic']:.12g}",
+            f"total phase (unwrapped)      = {phase_json['total']:.12g}",
         ]
     else:
-        lines.append(f"phase formula: not available ({ph['reason']})")
-    if summary.get("curvature_integral") is not None:
-        lines.append(f"iint B over the enclosed area = {summary['curvature_integral']}")
+        lines.append(f"phase formula: not available ({detail['phase_unavailable']})")
+    if detail.get("curvature_integral") is not None:
+        lines.append(f"iint B over the enclosed area = {detail['curvature_integral']}")
     lines.append(
-        "net motion (reconstructed)   = "
-        + ", ".join(f"{k} {v:.12g}" for k, v in summary["net_motion_coordinates"].items())
+        "net motion (reconstructed)   = " + ", ".join(f"{k} {v:.12g}" for k, v in head["net_displacement"].items())
     )
-    emit(summary, as_json, "\n".join(lines), outputs, "loop")
+    emit(doc, as_json, "\n".join(lines), outputs, "loop")
 
 
 def _winding(system: Any, loop: Any) -> np.ndarray:

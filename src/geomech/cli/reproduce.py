@@ -7,8 +7,7 @@ import sys
 
 import click
 
-from .._storage import dumps_json
-from ._args import FloatVector, OutDir
+from ._args import FloatVector, OutDir, check_document, document, emit
 
 __all__ = ["reproduce"]
 
@@ -81,12 +80,15 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
     command = "geomech " + " ".join(shlex.quote(a) for a in argv)
     cfg.validate()
     prepare_output(out)
-    ds, summary, model = run_study(cfg, progress=terminal_progress, command=command)
+    ds, result, model = run_study(cfg, progress=terminal_progress, command=command)
+    head = {"orbit": result.pop("orbit"), "claims": result.pop("claims")}
+    summary = document("reproduce serret-andoyer", head, result)
+    check_document(summary)
     written = write_study(out, ds, summary, model, cfg)
     if as_json:
-        click.echo(dumps_json(summary))
+        emit(summary, True, "", None, "summary")
         return
-    o = summary["orbit"]
+    o = head["orbit"]
     click.echo(f"orbit: {o['kind']}, period {o['period_s']:.10g} s ({o['periods_in_run']:.4g} periods in the run)")
     click.echo(f"{'approach':<44} {'max energy err':>15} {'max |m| err':>12} {'|m(T)| - G':>11} {'time [s]':>9}")
     for a in summary["approaches"].values():
@@ -94,6 +96,6 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
             f"{a['label']:<44} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} "
             f"{a['momentum_drift_final']:>+11.2e} {a['wall_time_s']:>9.3f}"
         )
-    for name, c in summary["claims"].items():
+    for name, c in head["claims"].items():
         click.echo(f"claim {name}: {'holds' if c['holds'] else 'does not hold'}")
     click.echo("wrote " + ", ".join(str(p) for p in written))

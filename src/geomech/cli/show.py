@@ -9,9 +9,8 @@ from typing import Any
 import click
 import numpy as np
 
-from .._storage import dumps_json
 from ..errors import InputError
-from ._args import OutDir, Outputs
+from ._args import OutDir, Outputs, document, emit
 
 __all__ = ["show_cmd"]
 
@@ -57,7 +56,7 @@ def _summary(ds: Any, path: Path) -> dict[str, Any]:
     "--out",
     type=OutDir(),
     default=None,
-    help="Directory for a figure of every variable over time (show.png).",
+    help="Directory for show.json and a figure of every variable over time (show.png).",
 )
 def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
     """Summarise a NetCDF file geomech wrote (a trajectory, a gait, a stability map): the command and
@@ -71,17 +70,15 @@ def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
         ds = xr.open_dataset(p).load()
     except (OSError, ValueError) as exc:
         raise InputError(f"{path!r} is not a NetCDF file xarray can read: {exc}") from exc
+    outputs = None
     with ds:
         summary = _summary(ds, p)
         if out is not None:
             outputs = Outputs(out)
             outputs.figure("show.png", _plot(ds, p.name), dpi=110)
-            summary["files"] = outputs.paths()
-            outputs.commit()
-    if as_json:
-        click.echo(dumps_json(summary))
-        return
     a = summary["attributes"]
+    head = {"file": summary.pop("file"), **{k: a.get(k) for k in ("system", "method", "status")}}
+    doc = document("show", head, summary)
     lines = [f"{p.name}: " + ", ".join(f"{k} {v}" for k, v in summary["dims"].items())]
     for key in ("command", "system", "method", "status", "geomech_version"):
         if key in a:
@@ -94,7 +91,7 @@ def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
         final = v.get("final")
         fin = "" if final is None else f" final {np.round(np.atleast_1d(final), 6).tolist()}"
         lines.append(f"  {name:<{width}} ({', '.join(v['dims'])}) {rng}{fin}")
-    click.echo("\n".join(lines))
+    emit(doc, as_json, "\n".join(lines), outputs, "show")
 
 
 def _plot(ds: Any, title: str) -> Any:

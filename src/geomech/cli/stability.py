@@ -13,9 +13,8 @@ from typing import Any
 import click
 import numpy as np
 
-from .._storage import dumps_json
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, OutDir, Outputs, parse_params
+from ._args import FloatVector, OutDir, Outputs, document, emit, parse_params
 
 __all__ = ["stability_cmd", "stability_map_cmd"]
 
@@ -238,12 +237,13 @@ def stability_cmd(lambdas, I3, phis, model_file, params, p, G, as_json, out) -> 
     for e in eqs:
         counts[e["verdict"]] = counts.get(e["verdict"], 0) + 1
     head = {
-        "equilibria": len(eqs),
+        "n_equilibria": len(eqs),
         "verdict_counts": counts,
-        "complete": detail.get("complete"),
+        "complete": detail.pop("complete", None),
         "verdicts": [{"m": e["m"], "verdict": e["verdict"]} for e in eqs],
     }
-    summary = {"summary": head, **model, **detail}  # the answer first, the evidence after
+    summary = document("stability", head, {**model, **detail})  # the answer first, the evidence after
+    outputs = None
     if out is not None:
         import matplotlib
 
@@ -253,12 +253,10 @@ def stability_cmd(lambdas, I3, phis, model_file, params, p, G, as_json, out) -> 
         from ..plot.stability import equilibria_phase_portrait
 
         outputs = Outputs(out)
-        outputs.json("stability.json", summary)
         outputs.figure("stability_phase_portrait.png", equilibria_phase_portrait(system, G, analysis), dpi=120)
         plt.close("all")
-        outputs.commit()
     if as_json:
-        click.echo(dumps_json(summary))
+        emit(summary, True, "", outputs, "stability")
         return
     if control is not None:
         lines = [
@@ -286,7 +284,7 @@ def stability_cmd(lambdas, I3, phis, model_file, params, p, G, as_json, out) -> 
             f"    Lagrange-Dirichlet: {r.lagrange_dirichlet.verdict}; energy-Casimir: "
             f"{r.energy_casimir.verdict}; linearisation: {r.linearisation.verdict}  => {r.verdict}"
         )
-    click.echo("\n".join(lines))
+    emit(summary, False, "\n".join(lines), outputs, "stability")
 
 
 def _check_swept_body(control: Any, lambdas: tuple[float, ...], *sweeps: tuple[str, np.ndarray, str]) -> None:
@@ -477,21 +475,12 @@ def _write_map(ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, o
         k: int((ds["verdict"].values == v).sum())
         for k, v in (("stable", 1), ("inconclusive", 0), ("unstable", -1), ("none", -9))
     }
-    summary = {
-        **model,
-        "x": {"name": xname, "values": xs.tolist()},
-        "y": {"name": yname, "values": ys.tolist()},
-        "counts": counts,
-        "files": {"figure": str(out / "stability_map.png"), "data": str(out / "stability_map.nc")},
-    }
-    outputs.json("stability_map.json", summary)
-    outputs.commit()
-    if as_json:
-        click.echo(dumps_json(summary))
-    else:
-        click.echo(
-            f"stability map over {xname} x {yname} ({xs.size} x {ys.size} points): "
-            + (", ".join(f"{n} {v}" for v, n in counts.items() if n) or "no verdicts")
-            + "\n"
-            f"written {out / 'stability_map.png'} and {out / 'stability_map.nc'}"
-        )
+    doc = document(
+        "stability-map",
+        {"points": int(xs.size * ys.size), "verdict_counts": counts},
+        {**model, "x": {"name": xname, "values": xs.tolist()}, "y": {"name": yname, "values": ys.tolist()}},
+    )
+    text = f"stability map over {xname} x {yname} ({xs.size} x {ys.size} points): " + (
+        ", ".join(f"{n} {v}" for v, n in counts.items() if n) or "no verdicts"
+    )
+    emit(doc, as_json, text, outputs, "stability_map")

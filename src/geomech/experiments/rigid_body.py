@@ -60,29 +60,31 @@ def run_rigid_body(
     p = np.einsum("nij,nj->ni", traj.R, traj.m)
     m_exact = exact.momentum(t[-1])
     period_exact = float(exact.period) if exact.period is not None else math.inf
+    quadrature = _quadrature_period(body, m0, period_exact)
     summary: dict[str, Any] = {
-        "inertia": {"tensor": body.tensor.tolist(), "principal_moments": body.principal_moments.tolist()},
-        "momentum0": m0.tolist(),
-        "t_final": t_final,
-        "energy": E0,
-        "casimir": C0,
         "family": exact.family,
-        "m_final": {
-            "exact": m_exact.tolist(),
-            "reduced": traj.m[-1].tolist(),
-            "max_abs_difference": float(np.abs(traj.m - exact.momentum(t)).max()),
-        },
+        "period": _finite_or_none(period_exact),
+        "m_error_max": float(np.abs(traj.m - exact.momentum(t)).max()),
         "drift": {
             "energy_relative": float(np.abs(E - E0).max() / abs(E0)),
             "casimir_relative": float(np.abs(C - C0).max() / C0),
             "spatial_momentum": float(np.abs(p - p[0]).max() / math.sqrt(C0)),
         },
-        "period": {"elliptic": _finite_or_none(period_exact), **_quadrature_period(body, m0, period_exact)},
+    }
+    detail: dict[str, Any] = {
+        "inertia": {"tensor": body.tensor.tolist(), "principal_moments": body.principal_moments.tolist()},
+        "m0": m0.tolist(),
+        "t_final": t_final,
+        "energy": E0,
+        "casimir": C0,
+        "m_final": traj.m[-1].tolist(),
+        "m_exact_final": m_exact.tolist(),
+        "period_quadrature": quadrature,
         "chart_switches": traj.stats["chart_switches"],
         "rhs_evaluations": traj.stats["n_rhs"],
         "rtol": rtol,
     }
-    return summary, traj
+    return {"summary": summary, **detail}, traj
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -105,19 +107,26 @@ def _quadrature_period(body: RigidBody, m0: np.ndarray, period_exact: float) -> 
 
 
 def summary_text(s: dict[str, Any]) -> str:
-    """A readable rendering of :func:`run_rigid_body`'s summary."""
+    """A readable rendering of :func:`run_rigid_body`'s result."""
     fmt = lambda v: "[" + ", ".join(f"{x: .12f}" for x in v) + "]"  # noqa: E731
-    per = s["period"]
+    head, quad = s["summary"], s["period_quadrature"]
+    period = "none (a separatrix or an equilibrium)" if head["period"] is None else f"{head['period']:.12g} s"
+    drift = head["drift"]
     lines = [
-        f"free rigid body, principal moments {s['inertia']['principal_moments']}, m0 = {s['momentum0']}",
-        f"  energy {s['energy']:.12g}, |m|^2 {s['casimir']:.12g}, motion: {s['family']}",
-        f"  m({s['t_final']:g}) exact (elliptic)  {fmt(s['m_final']['exact'])}",
-        f"  m({s['t_final']:g}) reduced (l, L)    {fmt(s['m_final']['reduced'])}",
-        f"  max |difference| over the run   {s['m_final']['max_abs_difference']:.2e}",
-        f"  drift: energy {s['drift']['energy_relative']:.2e}, Casimir {s['drift']['casimir_relative']:.2e}, "
-        f"spatial momentum {s['drift']['spatial_momentum']:.2e}",
-        f"  period: elliptic {per['elliptic']}, eq. (11) quadrature {per.get('quadrature_eq11')}"
-        + (f" (relative difference {per['relative_difference']:.1e})" if "relative_difference" in per else ""),
+        f"free rigid body, principal moments {fmt(s['inertia']['principal_moments'])}, m0 = {fmt(s['m0'])}",
+        f"  energy {s['energy']:.12g}, |m|^2 {s['casimir']:.12g}, motion: {head['family']}",
+        f"  m({s['t_final']:g}) exact (elliptic)  {fmt(s['m_exact_final'])}",
+        f"  m({s['t_final']:g}) reduced (l, L)    {fmt(s['m_final'])}",
+        f"  max |difference| over the run   {head['m_error_max']:.2e}",
+        f"  drift: energy {drift['energy_relative']:.2e}, Casimir {drift['casimir_relative']:.2e}, "
+        f"spatial momentum {drift['spatial_momentum']:.2e}",
+        f"  period: elliptic {period}; eq. (11) quadrature "
+        + (
+            f"{quad['quadrature_eq11']:.12g} s"
+            if quad.get("quadrature_eq11") is not None
+            else f"none ({quad.get('quadrature_note', '')})"
+        )
+        + (f" (relative difference {quad['relative_difference']:.1e})" if "relative_difference" in quad else ""),
         f"  chart switches: {s['chart_switches']}",
     ]
     return "\n".join(lines)

@@ -419,8 +419,8 @@ def _summary(
     return {
         "study": "serret-andoyer section 8.1",
         "geomech_version": __version__,
-        "command": command,
-        "parameters": asdict(cfg),
+        "command_line": command,
+        "config": asdict(cfg),
         "choices": {
             "inertias": "not given by the seed; chosen admissible: lambda1 > lambda2 > I3 + J3 and "
             "G^2/(2 lambda1) < Hc < G^2/(2 lambda2)",
