@@ -182,3 +182,61 @@ def test_the_orbit_period_of_the_named_preset():
     assert orbit["kind"] == "libration" and abs(orbit["period_s"] - 7.0155791512) < 1e-9
     quad = QuadraturePropagator(model.reduction.reduced_system(cfg.G, 2), model.lL0)
     assert abs(quad.period - orbit["period_s"]) < 1e-9 * orbit["period_s"]
+
+
+@pytest.mark.slow  # a run of the study through the command line
+def test_the_cross_checked_preset_from_the_command_line(tmp_path, capsys):
+    # the preset's period (independent: 7.0155791512 s) and the errors of the seed's approaches over half a second
+    args = ["reproduce", "serret-andoyer", "--preset", "cross-checked", "--t-final", "0.5", "--no-extras"]
+    code = main([*args, "--out", str(tmp_path), "--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    doc = json.loads(out)
+    assert {k: doc["config"][k] for k in ("lambda1", "lambda2", "I3", "J3")} == study.PRESETS["cross-checked"][
+        "inertias"
+    ]
+    assert abs(doc["summary"]["orbit"]["period_s"] - 7.0155791512) < 1e-9
+    per = doc["approaches"]
+    for k in ("reduced_adams", "reduced_generating", "reduced_midpoint"):
+        assert per[k]["max_momentum_error"] < 1e-14  # |m| = G by construction (G = 1)
+    # Adams at tolerance 1e-6 keeps neither; the midpoint rule's energy error is O(h^2) = 1e-6 at most here
+    assert per["euler_adams"]["max_momentum_error"] > 1e-12 and per["full6d_adams"]["max_momentum_error"] > 1e-12
+    assert per["reduced_midpoint"]["max_energy_error"] < 1e-6
+    code = main([*args, "--lambda", "1.5", "1.0", "--out", str(tmp_path / "b")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "--preset" in err and "--lambda" in err
+    from geomech.cli.reproduce import _PRESET_NAMES
+
+    assert set(_PRESET_NAMES) == set(study.PRESETS)
+    assert study.StudyConfig.preset("default") == study.StudyConfig()
+
+
+def test_chart_coordinates_invert_the_chart():
+    from geomech.reduction import SerretAndoyerChart
+
+    rng = np.random.default_rng(5)
+    lL = np.column_stack([rng.uniform(-3, 3, 50), rng.uniform(-0.95, 0.95, 50)])
+    m = SerretAndoyerChart(2).inverse(lL, 1.0)
+    np.testing.assert_allclose(study.chart_coordinates(m), lL, atol=1e-14)
+    # off the sphere the chart still reads l from the direction and L = m3
+    np.testing.assert_allclose(study.chart_coordinates(1.01 * m), np.column_stack([lL[:, 0], 1.01 * lL[:, 1]]))
+
+
+@pytest.mark.slow  # a run of the study
+def test_figures_6_and_7_show_every_approach_and_the_drift():
+    cfg = study.StudyConfig(t_final=0.2, extras=False)
+    ds, _, _ = study.run_study(cfg)
+    n = ds.approach.size
+    ax = study.figure7(ds, cfg).axes[0]
+    labels = [line.get_label() for line in ax.lines if not line.get_label().startswith("_")]
+    assert len(labels) == n and sum("(mapped by the chart)" in x for x in labels) == n - ds.reduced_approach.size
+    drift = study.figure6(ds, cfg.G).axes[-1]
+    assert drift.get_yscale() == "symlog" and len(drift.lines) == n + 1  # every approach, and the zero line
+    full = next(
+        line for line in drift.lines if line.get_label().startswith(str(ds.label.sel(approach="full6d_adams").values))
+    )
+    want = np.linalg.norm(ds.m.sel(approach="full6d_adams").values, axis=-1) - cfg.G
+    np.testing.assert_allclose(full.get_ydata(), want)
+    import matplotlib.pyplot as plt
+
+    plt.close("all")

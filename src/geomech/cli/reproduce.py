@@ -17,6 +17,9 @@ def reproduce() -> None:
     """Reproduce a paper's numerical study: figures, data file (NetCDF) and summary.json."""
 
 
+_PRESET_NAMES = ("default", "cross-checked")  # experiments.serret_andoyer_study.PRESETS (checked by the tests)
+
+
 @reproduce.command("serret-andoyer")
 @click.option(
     "--out",
@@ -35,15 +38,21 @@ def reproduce() -> None:
     help="Keep every n-th step in the data file and the figures.",
 )
 @click.option(
+    "--preset",
+    type=click.Choice(sorted(_PRESET_NAMES)),
+    default=None,
+    help="Named inertias: default (lambda 1.2 1.0, I3 0.6, J3 0.2) or cross-checked (lambda 1.5 1.0, I3 0.6, "
+    "J3 0.3: an orbit of period 7.0155791512 s computed independently). Not with --lambda, --I3, --J3.",
+)
+@click.option(
     "--lambda",
     "lambdas",
     type=FloatVector(2),
-    default="1.2,1.0",
-    show_default=True,
-    help="lambda1 lambda2: locked inertias about axes 1 and 2 (the seed gives none).",
+    default=None,
+    help="lambda1 lambda2: locked inertias about axes 1 and 2 (the seed gives none) [default: 1.2 1.0].",
 )
-@click.option("--I3", "I3", type=float, default=0.6, show_default=True, help="The body's own moment about axis 3.")
-@click.option("--J3", "J3", type=float, default=0.2, show_default=True, help="The rotor's axial moment.")
+@click.option("--I3", "I3", type=float, default=None, help="The body's own moment about axis 3 [default: 0.6].")
+@click.option("--J3", "J3", type=float, default=None, help="The rotor's axial moment [default: 0.2].")
 @click.option(
     "--max-steps",
     type=float,
@@ -54,7 +63,9 @@ def reproduce() -> None:
 @click.option("--no-extras", is_flag=True, help="Only the seed's five approaches.")
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json to stdout.")
 @click.pass_context
-def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_steps, no_extras, as_json) -> None:
+def serret_andoyer_cmd(
+    ctx, out, t_final, h, save_every, preset, lambdas, I3, J3, max_steps, no_extras, as_json
+) -> None:
     """Section 8.1 of the Serret-Andoyer paper: five simulations of the controlled rigid body with one rotor
     (phi(v) = 2 tan(v/G), p = 0, G = 1, H_c = 0.47), and geomech's Lie-Poisson and Gauss-Legendre methods."""
     from ..experiments.serret_andoyer_study import (
@@ -65,11 +76,16 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
         write_study,
     )
 
-    cfg = StudyConfig(
-        lambda1=lambdas[0],
-        lambda2=lambdas[1],
-        I3=I3,
-        J3=J3,
+    given = {k: v for k, v in (("--lambda", lambdas), ("--I3", I3), ("--J3", J3)) if v is not None}
+    if preset is not None and given:
+        raise click.UsageError(f"--preset sets the inertias; drop {', '.join(given)} or --preset")
+    inertias: dict[str, float] = {}
+    if lambdas is not None:
+        inertias.update(lambda1=lambdas[0], lambda2=lambdas[1])
+    inertias.update({k: v for k, v in (("I3", I3), ("J3", J3)) if v is not None})
+    cfg = StudyConfig.preset(
+        preset or "default",
+        **inertias,
         h=h,
         t_final=t_final,
         save_every=save_every,
@@ -90,10 +106,11 @@ def serret_andoyer_cmd(ctx, out, t_final, h, save_every, lambdas, I3, J3, max_st
         return
     o = head["orbit"]
     click.echo(f"orbit: {o['kind']}, period {o['period_s']:.10g} s ({o['periods_in_run']:.4g} periods in the run)")
-    click.echo(f"{'approach':<44} {'max energy err':>15} {'max |m| err':>12} {'|m(T)| - G':>11} {'time [s]':>9}")
+    w = max(len(a["label"]) for a in summary["approaches"].values())
+    click.echo(f"{'approach':<{w}} {'max energy err':>15} {'max |m| err':>12} {'|m(T)| - G':>11} {'time [s]':>9}")
     for a in summary["approaches"].values():
         click.echo(
-            f"{a['label']:<44} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} "
+            f"{a['label']:<{w}} {a['max_energy_error']:>15.3e} {a['max_momentum_error']:>12.3e} "
             f"{a['momentum_drift_final']:>+11.2e} {a['wall_time_s']:>9.3f}"
         )
     for name, c in head["claims"].items():

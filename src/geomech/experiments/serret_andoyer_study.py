@@ -45,6 +45,21 @@ MAX_SAVED = 5e6
 """States kept per approach (with 9 approaches about 1 GB of momenta; the figures stay drawable)."""
 
 
+#: Named inertias of the study (the seed gives none): ``default``, and ``cross-checked``, whose orbit at the
+#: seed's H_c = 0.47 has a period computed independently of geomech (7.0155791512 s), checked by the tests
+#: with the errors of every approach.
+PRESETS: dict[str, dict[str, Any]] = {
+    "default": {
+        "inertias": {"lambda1": 1.2, "lambda2": 1.0, "I3": 0.6, "J3": 0.2},
+        "about": "geomech's choice of admissible inertias",
+    },
+    "cross-checked": {
+        "inertias": {"lambda1": 1.5, "lambda2": 1.0, "I3": 0.6, "J3": 0.3},
+        "about": "an orbit of period 7.0155791512 s, by an independent computation",
+    },
+}
+
+
 @dataclass(frozen=True)
 class StudyConfig:
     """Parameters of the study (defaults: the seed's example with admissible inertias of our choice)."""
@@ -68,6 +83,13 @@ class StudyConfig:
     tilt: float = math.pi / 6
     """Angle between the spatial momentum and s3 in the frame of the 6-D Euler-angle dynamics (the
     seed does not say; 0 would make the 6-D dynamics the reduced one in disguise)."""
+
+    @classmethod
+    def preset(cls, name: str, **changes: Any) -> StudyConfig:
+        """The study with the inertias of the preset ``name`` (:data:`PRESETS`), other fields from ``changes``."""
+        if name not in PRESETS:
+            raise InputError(f"Unknown preset {name!r}; the presets are {sorted(PRESETS)}.")
+        return cls(**{**PRESETS[name]["inertias"], **changes})
 
     def validate(self) -> None:
         lam1, lam2, I3, J3 = self.lambda1, self.lambda2, self.I3, self.J3
@@ -502,17 +524,22 @@ def figure5(ds: Any) -> Any:
 
 
 def figure6(ds: Any, G: float) -> Any:
-    """Body momentum trajectories: three projections and a 3-D view on the sphere (the seed's figure 6)."""
+    """Body momentum trajectories: three projections and a 3-D view on the sphere (the seed's figure 6), and
+    below them the signed drift off the sphere, ``|m(t)| - G``, of every approach on a symmetric log scale: at
+    the scale of the projections the drift (1e-4 at most) cannot be seen, and its sign (outward or inward) is
+    what the seed's claim is about."""
     import matplotlib.pyplot as plt
+    from matplotlib.gridspec import GridSpec
 
     from ..plot import momentum_sphere
 
-    fig = plt.figure(figsize=(10, 9))
+    fig = plt.figure(figsize=(10, 12))
+    grid = GridSpec(3, 2, figure=fig, height_ratios=(1.0, 1.0, 0.75))
     keys = list(ds.approach.values)
     style = _styles(keys)
     pairs = ((0, 1), (1, 2), (0, 2))
     for i, (a, b) in enumerate(pairs):
-        ax = fig.add_subplot(2, 2, i + 1)
+        ax = fig.add_subplot(grid[i // 2, i % 2])
         for k, lab in zip(keys, ds.label.values):
             m = ds.m.sel(approach=k).values
             ax.plot(m[:, a], m[:, b], label=str(lab), **style[k])
@@ -520,14 +547,40 @@ def figure6(ds: Any, G: float) -> Any:
         ax.set_ylabel(f"$m_{b + 1}$")
         ax.set_aspect("equal", adjustable="datalim")
     fig.axes[0].legend(fontsize=6)
-    ax3 = fig.add_subplot(2, 2, 4, projection="3d")
+    ax3 = fig.add_subplot(grid[1, 1], projection="3d")
     momentum_sphere(ds.m.sel(approach="reduced_midpoint").values, ax=ax3, title=f"on the sphere |m| = {G:g}")
+    drift_ax = fig.add_subplot(grid[2, :])
+    drifts = {str(k): np.linalg.norm(ds.m.sel(approach=k).values, axis=-1) - G for k in keys}
+    scale = max(float(np.max(np.abs(d))) for d in drifts.values())
+    for k, lab in zip(keys, ds.label.values):
+        drift_ax.plot(ds.time, drifts[str(k)], label=str(lab), **style[str(k)])
+    # linear within a few ulps of G, logarithmic beyond: both the round-off of the reduced forms and the
+    # drift of the others are visible, with their signs
+    drift_ax.set_yscale("symlog", linthresh=8 * np.finfo(float).eps * G)
+    decades = [10.0**e * G for e in range(-14, 1, 3) if 10.0**e * G <= 10 * max(scale, 1e-14 * G)]
+    drift_ax.set_yticks([-d for d in decades[::-1]] + [0.0] + decades)  # sparse enough not to overlap
+    drift_ax.axhline(0.0, color="0.3", linewidth=0.6)
+    drift_ax.set_xlabel("t [s]")
+    drift_ax.set_ylabel("$|m(t)| - G$")
+    drift_ax.set_title(
+        f"the drift off the momentum sphere, signed (> 0: outward); largest {scale:.2g}", loc="left", fontsize=9
+    )
+    drift_ax.grid(True, alpha=0.3)
     fig.tight_layout()
     return fig
 
 
+def chart_coordinates(m: np.ndarray) -> np.ndarray:
+    """``(l, L)`` of body momenta ``m`` in the Serret-Andoyer chart about body axis 3 (eq. 20:
+    ``m = (sqrt(G^2 - L^2) sin l, sqrt(G^2 - L^2) cos l, L)``), whatever ``|m|``: for an approach that does not
+    keep ``|m| = G`` the point moves across the level curves of ``h_p``, which is what figure 7 shows."""
+    m = np.asarray(m, dtype=float)
+    return np.stack([np.arctan2(m[..., 0], m[..., 1]), m[..., 2]], -1)
+
+
 def figure7(ds: Any, cfg: StudyConfig) -> Any:
-    """The reduced flow in (l, L): level sets of h_p and every reduced approach's states (the seed's figure 7)."""
+    """The reduced flow in (l, L): level sets of h_p and every approach's states (the seed's figure 7), the
+    reduced ones from their own (l, L), the others mapped by the chart (:func:`chart_coordinates`)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
@@ -537,15 +590,19 @@ def figure7(ds: Any, cfg: StudyConfig) -> Any:
     fig.colorbar(cs, ax=ax, label="$h_p(l, L)$")
     ax.contour(ll, LL, hp, levels=[cfg.Hc], colors="k", linewidths=1.0, linestyles="--", zorder=4)
     style = _styles(list(ds.approach.values))
-    marker = iter(["o", "s", "^", "v", "D", "x"])
-    for k in ds.reduced_approach.values:
-        lL = ds.lL.sel(reduced_approach=k).values
-        label = str(ds.label.sel(approach=k).values)
+    markers = ["o", "s", "^", "v", "D", "x", "+", "<", ">", "p", "h", "*"]
+    reduced = {str(k) for k in ds.reduced_approach.values}
+    for i, k in enumerate(str(k) for k in ds.approach.values):
+        if k in reduced:
+            lL = ds.lL.sel(reduced_approach=k).values
+        else:
+            lL = chart_coordinates(ds.m.sel(approach=k).values)
+        label = str(ds.label.sel(approach=k).values) + ("" if k in reduced else " (mapped by the chart)")
         ax.plot(
             np.angle(np.exp(1j * lL[::7, 0])),
             lL[::7, 1],
-            next(marker),
-            color=style[str(k)]["color"],
+            markers[i % len(markers)],
+            color=style[k]["color"],
             markersize=2.0,
             markerfacecolor="none",
             markeredgewidth=0.5,
@@ -557,11 +614,11 @@ def figure7(ds: Any, cfg: StudyConfig) -> Any:
     ax.set_xlabel("$l$ [rad]")
     ax.set_ylabel("$L$ [kg m$^2$/s]")
     ax.set_title(
-        f"reduced flow, chart about body axis 3, G = {cfg.G:g}; dashed: $h_p = H_c = {cfg.Hc:g}$",
+        f"every approach in (l, L), chart about body axis 3, G = {cfg.G:g}; dashed: $h_p = H_c = {cfg.Hc:g}$",
         loc="left",
         fontsize=9,
     )
-    ax.legend(loc="upper right", fontsize=7, markerscale=3)
+    ax.legend(loc="upper right", fontsize=6, markerscale=3)
     fig.tight_layout()
     return fig
 
