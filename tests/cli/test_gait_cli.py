@@ -149,7 +149,7 @@ BALL = ["chaplygin_ball", *(f"--param={k}={v}" for k, v in (("I1", 1), ("I2", 1.
     "args, words",
     [
         (["gait", *BALL, "--shape-loop", "nosuch=sin(2*pi*t)", "--period", "1"], "'nosuch', which is not a shape"),
-        (["simulate", *BALL, "--shape", "nosuch=t"], "['nosuch'], which are not shape variables"),
+        (["simulate", *BALL, "--shape", "nosuch=t"], "`--shape` names ['nosuch'], which are not shape variables"),
         (["simulate", *BALL, "--q0", "nosuch=1"], "`--q0` names ['nosuch']"),
         (["gait", *BALL[:-1], "--param", "nosuch=1", "--shape-loop", "theta=t", "--period", "1"], "nosuch"),
         (["simulate", *BALL, "--param", "nosuch=1"], "nosuch"),

@@ -77,6 +77,19 @@ def test_every_command_follows_the_schema(name, capsys, tmp_path, validator):
         assert len(name_json) == 1 and json.loads(open(name_json[0]).read()) == doc
 
 
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_every_command_prints_a_readable_summary(name, capsys, tmp_path):
+    # without --json: text for a terminal, no Python reprs, no line over 120 columns
+    args = [a.replace("{out}", str(tmp_path / "out")) for a in COMMANDS[name]]
+    code = main(args)
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines and max(len(line) for line in lines) <= 120, max(lines, key=len)
+    for line in lines:
+        assert not any(r in line for r in ("['", "{'", "array(", "None", "np.float")), line
+
+
 def test_show_follows_the_schema(capsys, tmp_path, validator):
     _document(capsys, tmp_path, COMMANDS["simulate"])
     doc = _document(capsys, tmp_path, ["show", str(tmp_path / "out" / "trajectory.nc")])

@@ -236,10 +236,18 @@ def emit(doc: dict, as_json: bool, text: str, outputs: Outputs | None, name: str
         check_document(doc)
         outputs.json(f"{name}.json", doc)
         outputs.commit()
-        text += "\nwritten: " + ", ".join(doc["files"])
+        text += "\n" + written(outputs.out, doc["files"])
     elif as_json:
         check_document(doc)
     click.echo(dumps_json(doc) if as_json else text)
+
+
+def written(out: Path, files: Any) -> str:
+    """``written to OUT:`` and the names of the files, wrapped to 120 columns."""
+    import textwrap
+
+    names = ", ".join(Path(f).name for f in files)
+    return f"written to {out}:\n" + "\n".join(textwrap.wrap(names, 118, initial_indent="  ", subsequent_indent="  "))
 
 
 def check_document(doc: dict[str, Any]) -> None:

@@ -12,6 +12,7 @@ exit status 2.
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -79,7 +80,7 @@ def _text(s: dict[str, Any]) -> str:
         )
     else:
         lines.append("no nonholonomic momentum (S_q = 0): the connection term is the whole motion")
-    lines.append("note: " + s["note"])
+    lines += textwrap.wrap("note: " + s["note"], 120, subsequent_indent="  ")
     return "\n".join(lines)
 
 

@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from ._args import FloatVector, OutDir, check_document, document, emit
+from ._args import FloatVector, OutDir, check_document, document, emit, written
 
 __all__ = ["reproduce"]
 
@@ -100,7 +100,7 @@ def serret_andoyer_cmd(
     head = {"orbit": result.pop("orbit"), "claims": result.pop("claims")}
     summary = document("reproduce serret-andoyer", head, result)
     check_document(summary)
-    written = write_study(out, ds, summary, model, cfg)
+    files = write_study(out, ds, summary, model, cfg)
     if as_json:
         emit(summary, True, "", None, "summary")
         return
@@ -115,4 +115,4 @@ def serret_andoyer_cmd(
         )
     for name, c in head["claims"].items():
         click.echo(f"claim {name}: {'holds' if c['holds'] else 'does not hold'}")
-    click.echo("wrote " + ", ".join(str(p) for p in written))
+    click.echo(written(out, files))

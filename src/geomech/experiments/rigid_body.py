@@ -113,7 +113,11 @@ def summary_text(s: dict[str, Any]) -> str:
     period = "none (a separatrix or an equilibrium)" if head["period"] is None else f"{head['period']:.12g} s"
     drift = head["drift"]
     lines = [
-        f"free rigid body, principal moments {fmt(s['inertia']['principal_moments'])}, m0 = {fmt(s['m0'])}",
+        "free rigid body, principal moments "
+        + ", ".join(f"{x:g}" for x in s["inertia"]["principal_moments"])
+        + ", m0 = ("
+        + ", ".join(f"{x:g}" for x in s["m0"])
+        + ")",
         f"  energy {s['energy']:.12g}, |m|^2 {s['casimir']:.12g}, motion: {head['family']}",
         f"  m({s['t_final']:g}) exact (elliptic)  {fmt(s['m_exact_final'])}",
         f"  m({s['t_final']:g}) reduced (l, L)    {fmt(s['m_final'])}",

@@ -127,7 +127,7 @@ def _setup(system: NonholonomicSystem, shapes: Any, tau: Any) -> _Setup:
     assert gait.names is not None
     unknown = [n for n in gait.names if n not in names]
     if unknown:
-        raise InputError(f"The gait names {unknown}, which are not shape variables of {system.name} ({names}).")
+        raise InputError(f"`shapes` names {unknown}, which are not shape variables of {system.name} ({names}).")
     prescribed = [names.index(n) for n in gait.names]
     free = [i for i in range(system.sigma) if i not in prescribed]
     return _Setup(system, gait, prescribed, free, _Torques(system, free, tau))
