@@ -19,11 +19,11 @@ demo: $(STAMP)
 	MPLBACKEND=Agg $(PY) examples/demo.py --out demo-output
 
 test: $(STAMP)
-	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q
+	MPLBACKEND=Agg $(PY) -m pytest -n 2 --dist worksteal -q
 
 # The quick loop: no slow runs, and the compiled kernels and derivations kept in .test-cache/ between runs
 test-fast: $(STAMP)
-	GEOMECH_TEST_ROOT=$(CURDIR)/.test-cache MPLBACKEND=Agg $(PY) -m pytest -n 2 -q -m "not slow"
+	GEOMECH_TEST_ROOT=$(CURDIR)/.test-cache MPLBACKEND=Agg $(PY) -m pytest -n 2 --dist worksteal -q -m "not slow"
 
 fuzz: $(STAMP)
 	GEOMECH_FUZZ_EXAMPLES=$${GEOMECH_FUZZ_EXAMPLES:-300} MPLBACKEND=Agg $(PY) -m pytest -q -s -p no:xdist \

@@ -65,7 +65,12 @@ def test_the_schema_is_a_valid_draft_2020_12_schema():
     }
 
 
-@pytest.mark.parametrize("name", list(COMMANDS))
+# the study compiles five integrators for its own systems (15 s on a fresh cache): in the slow suite, where its
+# own tests validate its document too
+CASES = [pytest.param(n, marks=pytest.mark.slow) if n.startswith("reproduce") else n for n in COMMANDS]
+
+
+@pytest.mark.parametrize("name", CASES)
 def test_every_command_follows_the_schema(name, capsys, tmp_path, validator):
     doc = _document(capsys, tmp_path, COMMANDS[name])
     validator.validate(doc)
@@ -77,7 +82,7 @@ def test_every_command_follows_the_schema(name, capsys, tmp_path, validator):
         assert len(name_json) == 1 and json.loads(open(name_json[0]).read()) == doc
 
 
-@pytest.mark.parametrize("name", list(COMMANDS))
+@pytest.mark.parametrize("name", CASES)
 def test_every_command_prints_a_readable_summary(name, capsys, tmp_path):
     # without --json: text for a terminal, no Python reprs, no line over 120 columns
     args = [a.replace("{out}", str(tmp_path / "out")) for a in COMMANDS[name]]

@@ -47,7 +47,16 @@ def references(closed_loop, body, m_start):
     return {"closed_loop": _direct(closed_loop, m_start, R_START, T), "body": _direct(body, m_start, R_START, T)}
 
 
-@pytest.mark.parametrize("name, key, steps", ORDER_CASES, ids=[f"{c[0]}-{c[1]}" for c in ORDER_CASES])
+# In the fast suite: one implicit, one splitting and one group method on the closed loop, and the body's; the
+# rest (their loops are the canonical methods', whose orders the fast suite checks) in the slow suite.
+_FAST = {("closed_loop", "implicit_midpoint"), ("closed_loop", "strang"), ("closed_loop", "lgvi")}
+_ORDER_PARAMS = [
+    pytest.param(*c, id=f"{c[0]}-{c[1]}", marks=() if c[0] == "body" or c[:2] in _FAST else pytest.mark.slow)
+    for c in ORDER_CASES
+]
+
+
+@pytest.mark.parametrize("name, key, steps", _ORDER_PARAMS)
 def test_convergence_order_of_momentum_and_attitude(name, key, steps, request, references, m_start, fitted_order):
     system = request.getfixturevalue(name)
     m_ref, R_ref = references[name]
