@@ -97,9 +97,15 @@ class Problem:
                 features = features | {"gf"}
             try:
                 model = self.expression if self.model_expression is None else self.model_expression
-                src = _model_source(self.kind, model, self.variables, self.parameter_symbols, features)
-                tag = "c" if self.kind == "canonical" else "m"
-                return _codegen.compiled_module(src, tag), "numba"
+                src, derived = _model_source(
+                    self.kind, self.layout, model, self.variables, self.parameter_symbols, features
+                )
+                tag = "c" if self.kind == "canonical" else self.layout
+                module = _codegen.compiled_module(src, tag)
+                base = self.prm[: len(self.parameter_symbols)]
+                extra = np.atleast_1d(np.asarray(derived(base), dtype=float)) if derived is not None else np.empty(0)
+                self.prm = np.concatenate([base, extra]).astype(float)
+                return module, "numba"
             except NotImplementedError:
                 if backend == "numba":
                     raise
@@ -214,13 +220,25 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
 
 
 def _runtime_parameters(expr: sp.Expr, variables: tuple, values: Mapping[str, float]) -> dict[str, Any]:
-    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array."""
-    symbols = tuple(sorted(expr.free_symbols - set(variables), key=lambda s: s.name))
+    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array.
+
+    A parameter in a denominator (``m1**2 / (2 I1)``) is read as its reciprocal, a parameter of its own whose
+    value is computed here once: the compiled functions multiply where a formula with the values written in
+    would have. The parameters are constants of the motion, so the derivatives the loops need are unchanged.
+    """
+    symbols = sorted(expr.free_symbols - set(variables), key=lambda s: s.name)
     missing = [s.name for s in symbols if s.name not in values]
     if missing:  # pragma: no cover - the systems substitute or validate every parameter they hold
         raise InputError(f"The formula has symbols {missing} without values.")
-    prm = np.array([float(values[s.name]) for s in symbols], dtype=float)
-    return {"model_expression": expr, "parameter_symbols": symbols, "prm": prm}
+    inverse = {s: sp.Symbol(f"{s.name}__inverse", real=True) for s in symbols}
+    expr = expr.replace(
+        lambda e: e.is_Pow and e.base in inverse and e.exp.is_number and e.exp.is_negative,
+        lambda e: inverse[e.base] ** (-e.exp),
+    )
+    used = [inverse[s] for s in symbols if inverse[s] in expr.free_symbols]
+    names = {v: k.name for k, v in inverse.items()}
+    prm = [float(values[s.name]) for s in symbols] + [1.0 / float(values[names[r]]) for r in used]
+    return {"model_expression": expr, "parameter_symbols": (*symbols, *used), "prm": np.array(prm, dtype=float)}
 
 
 def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
@@ -340,30 +358,19 @@ def gf_grads(y, out0, out1, prm):
 """
 
 
-_LAYOUT_DISPATCH = """
-
-@kernel
-def rhs(y, out0, prm):
-    if y.shape[0] == 12:
-        rhs12(y, out0, prm)
-    else:
-        rhs3(y, out0, prm)
-
-
-@kernel
-def fjac(y, out0, out1, prm):
-    if y.shape[0] == 12:
-        fjac12(y, out0, out1, prm)
-    else:
-        fjac3(y, out0, out1, prm)
-"""
-
-
 # -- generated model source ---------------------------------------------------------------------------
 @functools.lru_cache(maxsize=64)
-def _model_source(kind: str, expr: sp.Expr, variables: tuple, parameters: tuple, features: frozenset[str]) -> str:
+def _model_source(
+    kind: str, layout: str, expr: sp.Expr, variables: tuple, parameters: tuple, features: frozenset[str]
+) -> tuple[str, Any]:
+    """The model functions' source, and the function that computes the derived parameters they read after the
+    given ones (None without any)."""
+
     def FS(name: str, outputs: tuple, args: tuple, scalar_args: bool = False) -> Any:
-        return _codegen.FunctionSpec(name, outputs, args, scalar_args=scalar_args, parameters=parameters)
+        return (name, outputs, args, scalar_args)
+
+    def emit(specs: list, suffix: str = "") -> tuple[str, Any]:
+        return _emit(specs, parameters, suffix)
 
     if kind == "canonical":
         n = len(variables) // 2
@@ -383,34 +390,93 @@ def _model_source(kind: str, expr: sp.Expr, variables: tuple, parameters: tuple,
             gw = [sp.diff(w, v) for v in variables]
             hw = [[sp.diff(e, v) for v in variables] for e in gw]
             specs += [FS("gf_all", (g, hm, gw, hw), variables), FS("gf_grads", (g, gw), variables)]
-            return _codegen.kernel_source(specs)
+            return emit(specs)
         # the symplectic-Euler loop shares code with the generating-function one and numba types every
         # name it calls, taken branch or not: without "gf", inert stand-ins
-        return _codegen.kernel_source(specs) + _GF_STUBS
-    # One module for both layouts, m (d = 3) and (m, R) (d = 12): the loops are the same code for both and
-    # rhs/fjac dispatch on the state's length, so a model simulated with and without its attitude compiles
-    # each loop once.
+        return emit(specs, _GF_STUBS)
+    # One module per layout, m (d = 3) or (m, R) (d = 12): a module for both, rhs dispatching on the state's
+    # length, compiled each loop once for both but cost 40 % of a rigid body's run time in that call.
     m = list(M_SYMBOLS)
     g = [sp.diff(expr, s) for s in m]
     hm = [[sp.diff(gi, s) for s in m] for gi in g]
     fm = [m[1] * g[2] - m[2] * g[1], m[2] * g[0] - m[0] * g[2], m[0] * g[1] - m[1] * g[0]]
-    R = sp.Matrix(3, 3, _R_SYMBOLS)
-    w = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
-    state = m + list(_R_SYMBOLS)
-    f = fm + list(R * w)
+    state, f = m, fm
+    if layout == "mR":
+        R = sp.Matrix(3, 3, _R_SYMBOLS)
+        w = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
+        state, f = m + list(_R_SYMBOLS), fm + list(R * w)
     specs = [
         FS("ham", (expr,), tuple(m)),
         FS("ghess3", (g, hm), tuple(m)),
-        FS("rhs3", (fm,), tuple(m)),
-        FS("fjac3", (fm, [[sp.diff(fi, s) for s in m] for fi in fm]), tuple(m)),
-        FS("rhs12", (f,), tuple(state)),
-        FS("fjac12", (f, [[sp.diff(fi, s) for s in state] for fi in f]), tuple(state)),
+        FS("rhs", (f,), tuple(state)),
+        FS("fjac", (f, [[sp.diff(fi, s) for s in state] for fi in f]), tuple(state)),
     ]
     if "split" in features:
         for i in range(3):
             part = g[i].subs({m[j]: 0 for j in range(3) if j != i})
             specs.append(FS(f"dh{i}", (part,), (m[i],), scalar_args=True))
-    return _codegen.kernel_source(specs) + _LAYOUT_DISPATCH
+    return emit(specs)
+
+
+def _emit(entries: list, parameters: tuple, suffix: str) -> tuple[str, Any]:
+    """Source of the model functions ``entries`` (name, outputs, variables, scalar_args) with the parameter-only
+    coefficients hoisted (:func:`_hoist`), and the compiled function of the derived parameters."""
+    table: dict[sp.Expr, sp.Symbol] = {}
+    pset = frozenset(parameters)
+
+    def hoisted(out: Any) -> Any:
+        if isinstance(out, (list, tuple)):
+            return [hoisted(o) for o in out]
+        return _hoist(sp.sympify(out), pset, table) if pset else out
+
+    entries = [(n, tuple(hoisted(o) for o in outs), v, sc) for n, outs, v, sc in entries]
+    derived = list(table.items())
+    names = tuple(parameters) + tuple(sym for _, sym in derived)
+    specs = [_codegen.FunctionSpec(n, outs, v, scalar_args=sc, parameters=names) for n, outs, v, sc in entries]
+    fn = compile_vector([c for c, _ in derived], list(parameters)) if derived else None
+    return _codegen.kernel_source(specs) + suffix, fn
+
+
+def _hoist(e: sp.Expr, pset: frozenset, table: dict) -> sp.Expr:
+    """``e`` with every sum's terms grouped by their state-dependent factor and each group's coefficient, an
+    expression in the parameters alone, replaced by a derived parameter computed once per run (in ``table``):
+    ``m2 m3 / I3 - m3 m2 / I2`` becomes ``m2 m3 d`` with ``d = 1/I3 - 1/I2``, the arithmetic a formula with the
+    values written in would have after constant folding. No expansion: each sum is grouped as it stands."""
+    if e.is_Atom or not (e.free_symbols & pset):
+        return e
+    if e.free_symbols <= pset:
+        return _derived(e, pset, table)
+    args = [_hoist(a, pset, table) for a in e.args]
+    if e.is_Add:
+        groups: dict[sp.Expr, list[sp.Expr]] = {}
+        for t in args:
+            c, rest = _coefficient(t, pset)
+            groups.setdefault(rest, []).append(c)
+        return sp.Add(*(_derived(sp.Add(*cs), pset, table) * rest for rest, cs in groups.items()))
+    if e.is_Mul:
+        c, rest = _coefficient(sp.Mul(*args), pset)
+        return _derived(c, pset, table) * rest
+    return e.func(*args)
+
+
+def _coefficient(t: sp.Expr, pset: frozenset) -> tuple[sp.Expr, sp.Expr]:
+    """``t = c * rest`` with ``c`` the factors of ``t`` in the parameters alone (numbers included)."""
+    factors = sp.Mul.make_args(t)
+    c = [f for f in factors if f.free_symbols <= pset]
+    rest = [f for f in factors if not f.free_symbols <= pset]
+    return sp.Mul(*c), sp.Mul(*rest)
+
+
+def _derived(c: sp.Expr, pset: frozenset, table: dict) -> sp.Expr:
+    """``c`` itself when it costs nothing (a number, a parameter, a number times a parameter), else its
+    derived parameter."""
+    if c.is_Number or c in pset:
+        return c
+    if c.is_Mul and len(c.args) == 2 and c.args[0].is_Number and c.args[1] in pset:
+        return c
+    if c not in table:
+        table[c] = sp.Symbol(f"geomech_derived_{len(table)}", real=True)
+    return table[c]
 
 
 # -- Python model functions (systems from callables, or formulas numba cannot compile) -------------

@@ -242,7 +242,8 @@ def _function_source(spec: FunctionSpec, printer: _Printer) -> str:
     lines = ["@kernel", f"def {spec.name}({', '.join(args)}):"]
     if not spec.scalar_args:
         lines += [f"    _a{i} = y[{i}]" for i in range(len(spec.variables))]
-    lines += [f"    _p{i} = prm[{i}]" for i in range(len(spec.parameters))]
+    used = set().union(*(e.free_symbols for e in flat)) if flat else set()
+    lines += [f"    _p{i} = prm[{i}]" for i in range(len(spec.parameters)) if sp.Symbol(f"_p{i}") in used]
     for sym, expr in replacements:
         lines.append(f"    {sym} = {printer.doprint(expr)}")
     if scalar_return:
