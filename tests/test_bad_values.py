@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from cli_helpers import run
 
 import geomech as gm
-from geomech.cli.main import main
 from geomech.errors import InputError, SingularityError
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, snakeboard
 
@@ -44,12 +44,6 @@ def test_the_compiled_euler_vector_field_raises_at_gimbal_lock_like_the_other():
             e.vector_field(bad)
         with pytest.raises(SingularityError, match="gimbal lock"):
             e.compiled_vector_field()(bad)
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_a_stability_map_cannot_sweep_where_stability_refuses(capsys, tmp_path):

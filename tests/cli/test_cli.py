@@ -6,14 +6,9 @@ import sys
 
 import numpy as np
 import pytest
+from cli_helpers import run
 
 from geomech.cli.main import main
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_help(capsys):
@@ -127,7 +122,7 @@ def test_console_script_exit_status():
 def test_options_alike_everywhere_vectors_and_repeats(capsys):
     # a vector option takes spaces, commas or one quoted word; a single-valued option given twice is an error
     from geomech.cli._args import gather_vectors
-    from geomech.cli.main import cli, main
+    from geomech.cli.main import cli
 
     argv = ["simulate", "geared_body", "--p0", "0.1", "-0.2", "--t-final", "1"]
     assert gather_vectors(argv, cli) == ["simulate", "geared_body", "--p0", "0.1,-0.2", "--t-final", "1"]

@@ -5,16 +5,10 @@ import json
 import math
 
 import pytest
+from cli_helpers import run
 
-from geomech.cli.main import main
 from geomech.systems import HolonomicSystem, holonomic_examples, nonholonomic_examples
 from geomech.systems.models import EXAMPLES, example_name, example_system
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_the_registry_holds_both_kinds_under_one_naming():

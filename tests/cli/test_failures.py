@@ -9,17 +9,11 @@ import sys
 import time
 
 import pytest
+from cli_helpers import run
 
-from geomech.cli.main import main
 from geomech.errors import ConvergenceError
 
 RIGID = ["rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2", "--t-final", "1"]
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.mark.parametrize(

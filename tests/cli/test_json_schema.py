@@ -6,9 +6,9 @@ import json
 
 import jsonschema
 import pytest
+from cli_helpers import run
 
 from geomech.cli._args import SCHEMA, schema
-from geomech.cli.main import main
 
 SNAKE = ["snakeboard_bkmm", "--param", "m=1", "--param", "r=1", "--param", "J0=0.3", "--param", "J1=0.1"]
 SLEIGH = ["chaplygin_sleigh", "--param", "m=1", "--param", "a=0.5", "--param", "I_c=0.2"]
@@ -44,9 +44,7 @@ COMMANDS = {
 
 
 def _document(capsys, tmp_path, args):
-    args = [a.replace("{out}", str(tmp_path / "out")) for a in args]
-    code = main([*args, "--json"])
-    out, err = capsys.readouterr()
+    code, out, err = run(capsys, *(a.replace("{out}", str(tmp_path / "out")) for a in args), "--json")
     assert code == 0, err
     return json.loads(out)
 
@@ -85,9 +83,7 @@ def test_every_command_follows_the_schema(name, capsys, tmp_path, validator):
 @pytest.mark.parametrize("name", CASES)
 def test_every_command_prints_a_readable_summary(name, capsys, tmp_path):
     # without --json: text for a terminal, no Python reprs, no line over 120 columns
-    args = [a.replace("{out}", str(tmp_path / "out")) for a in COMMANDS[name]]
-    code = main(args)
-    out, err = capsys.readouterr()
+    code, out, err = run(capsys, *(a.replace("{out}", str(tmp_path / "out")) for a in COMMANDS[name]))
     assert code == 0, err
     lines = out.splitlines()
     assert lines and max(len(line) for line in lines) <= 120, max(lines, key=len)

@@ -2,14 +2,9 @@
 
 import json
 
-from geomech.cli.main import main
+from cli_helpers import run
+
 from geomech.integrators import REGISTRY
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_every_method_is_listed_with_its_traits(capsys):

@@ -6,8 +6,7 @@ import json
 
 import numpy as np
 import pytest
-
-from geomech.cli.main import main
+from cli_helpers import run
 
 FREE_BODY = """
 from geomech import LeftInvariantSystem
@@ -24,12 +23,6 @@ def build(k=0.51, lambda2=2.0):
     body = RotorBody.one_rotor(3.0, lambda2, 1.0)
     return StructurePreservingControl.one_rotor(body, "k*v", parameters={"k": k}, probe_radius=1.0)
 """
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def nearest(summary, m):

@@ -5,8 +5,9 @@ import textwrap
 
 import numpy as np
 import pytest
+from cli_helpers import run as _run
 
-from geomech.cli.main import cli, main
+from geomech.cli.main import cli
 from geomech.cli.nonholonomic import derive_cmd, simulate_cmd
 from geomech.integrators import LagrangeDAlembert, solve
 from geomech.systems.nonholonomic_examples import snakeboard
@@ -33,12 +34,6 @@ SNAKE_ARGS = [
     "--t-final",
     "1",
 ]
-
-
-def _run(capsys, *argv):
-    code = main(list(argv))
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_simulate_snakeboard_json_matches_the_library(capsys, tmp_path):

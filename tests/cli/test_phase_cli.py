@@ -4,14 +4,7 @@ import json
 import math
 
 import pytest
-
-from geomech.cli.main import main
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
+from cli_helpers import run
 
 
 def test_two_bodies_json_is_the_closed_form(capsys):

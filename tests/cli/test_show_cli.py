@@ -4,17 +4,11 @@ import json
 
 import numpy as np
 import pytest
+from cli_helpers import run
 
 from geomech import LeftInvariantSystem, solve
-from geomech.cli.main import main
 
 xr = pytest.importorskip("xarray")
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_a_written_trajectory_reads_back(capsys, tmp_path):

@@ -5,14 +5,7 @@ import json
 
 import numpy as np
 import pytest
-
-from geomech.cli.main import main
-
-
-def run(capsys, *args):
-    code = main(list(args))
-    out, err = capsys.readouterr()
-    return code, out, err
+from cli_helpers import run
 
 
 def spin(summary, m):

@@ -159,6 +159,11 @@ class OutDir(click.ParamType):
             raise click.UsageError(str(exc), ctx) from None
 
 
+def out_option(help: str, *, required: bool = False) -> Any:
+    """The ``--out DIR`` option of a command (checked writable before any work; see :class:`Outputs`)."""
+    return click.option("--out", type=OutDir(), required=required, default=None, help=help)
+
+
 class Outputs:
     """The files of one command's ``--out``, written all together at the end, all or nothing
     (:func:`geomech._storage.write_set`): an interrupted or failed run leaves no half set behind."""

@@ -21,12 +21,12 @@ import click
 from ..errors import InputError
 from ._args import (
     FloatVector,
-    OutDir,
     Outputs,
     document,
     emit,
     model_argument,
     one_model,
+    out_option,
     parse_params,
     parse_shape_loop,
 )
@@ -138,12 +138,7 @@ def _figures(analysis: Any, out: Path) -> Outputs:
     "--samples", type=click.IntRange(3, 10**5), default=201, show_default=True, help="Output times per period."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).",
-)
+@out_option("Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).")
 def gait_cmd(
     model: str | None,
     model_file: str | None,

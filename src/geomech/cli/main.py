@@ -19,7 +19,16 @@ import click
 from .._version import __version__
 from ..errors import GeomechError, NumericalError, SingularityError
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, OutDir, Outputs, document, emit, gather_vectors, parse_params, repeated_option
+from ._args import (
+    FloatVector,
+    Outputs,
+    document,
+    emit,
+    gather_vectors,
+    out_option,
+    parse_params,
+    repeated_option,
+)
 from ._progress import activity
 from .gait import gait_cmd
 from .methods import methods_cmd
@@ -65,12 +74,9 @@ def cli() -> None:
     help="Refuse runs of more turns of the body (t_final |omega| / 2 pi), about 60 ms each.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for rigid_body.json, the trajectory rigid_body.nc (m, R, invariants; NetCDF) and a figure of "
-    "the momentum on its sphere.",
+@out_option(
+    "Directory for rigid_body.json, the trajectory rigid_body.nc (m, R, invariants; NetCDF) and a figure of "
+    "the momentum on its sphere."
 )
 def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json, out) -> None:
     """The free rigid body: exact elliptic solution vs the integrated Serret-Andoyer reduced system.

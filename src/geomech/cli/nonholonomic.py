@@ -17,7 +17,7 @@ from ..errors import InputError, NumericalError
 from ..lie.groups import SE2
 from ..symbolic.formula import parse_formula
 from ..systems.models import example_system, load_model
-from ._args import FloatVector, OutDir, Outputs, document, emit, is_model_file, model_argument, one_model
+from ._args import FloatVector, Outputs, document, emit, is_model_file, model_argument, one_model, out_option
 from ._progress import activity
 
 __all__ = ["derive_cmd", "simulate_cmd"]
@@ -295,12 +295,7 @@ def _plain(value: Any) -> str:
     help="Refuse discrete runs of more steps ((t_final) / h).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.",
-)
+@out_option("Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
 def simulate_cmd(
     model,
     model_file,

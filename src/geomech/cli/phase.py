@@ -20,13 +20,13 @@ import numpy as np
 from ..errors import InputError
 from ._args import (
     FloatVector,
-    OutDir,
     Outputs,
     document,
     emit,
     is_model_file,
     model_argument,
     one_model,
+    out_option,
     parse_params,
     parse_shape_loop,
 )
@@ -71,12 +71,7 @@ def phase() -> None:
     help="Signed turns of body 2 relative to body 1 during the period (counterclockwise positive).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for two_bodies.json and figures of theta(t) and its geometric and dynamic parts.",
-)
+@out_option("Directory for two_bodies.json and figures of theta(t) and its geometric and dynamic parts.")
 def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, as_json: bool, out: Path | None) -> None:
     """Two planar bodies pinned at their centres of mass (section 2.2 of the nonholonomic paper).
 
@@ -138,12 +133,7 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
 )
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Tolerance of the direct integration.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for rigid_body_phase.json and a figure of the enclosed solid angle.",
-)
+@out_option("Directory for rigid_body_phase.json and a figure of the enclosed solid angle.")
 def rigid_body_cmd(
     inertia: tuple, momentum: tuple, attitude: tuple | None, rtol: float, as_json: bool, out: Path | None
 ) -> None:
@@ -228,12 +218,7 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
     "--param", "params", multiple=True, metavar="NAME=VALUE", help="A parameter value of the model (repeatable)."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for loop.json and figures (connection, curvature with the loop, path).",
-)
+@out_option("Directory for loop.json and figures (connection, curvature with the loop, path).")
 def loop_cmd(
     model: str | None,
     model_file: str | None,

@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from ._args import FloatVector, OutDir, check_document, document, emit, written
+from ._args import FloatVector, check_document, document, emit, out_option, written
 
 __all__ = ["reproduce"]
 
@@ -21,12 +21,10 @@ _PRESET_NAMES = ("default", "cross-checked")  # experiments.serret_andoyer_study
 
 
 @reproduce.command("serret-andoyer")
-@click.option(
-    "--out",
-    type=OutDir(),
-    required=True,
-    help="Directory for figure5_errors.png, figure6_trajectories.png, figure7_reduced_flow.png, "
+@out_option(
+    "Directory for figure5_errors.png, figure6_trajectories.png, figure7_reduced_flow.png, "
     "serret_andoyer_study.nc and summary.json.",
+    required=True,
 )
 @click.option("--t-final", type=float, default=100.0, show_default=True, help="Duration [s] (the seed gives none).")
 @click.option("--h", "h", type=float, default=1e-3, show_default=True, help="Step, and Adams' output interval [s].")

@@ -10,7 +10,7 @@ import click
 import numpy as np
 
 from ..errors import InputError
-from ._args import OutDir, Outputs, document, emit
+from ._args import Outputs, document, emit, out_option
 
 __all__ = ["show_cmd"]
 
@@ -52,12 +52,7 @@ def _summary(ds: Any, path: Path) -> dict[str, Any]:
 @click.command("show")
 @click.argument("path", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for show.json and a figure of every variable over time (show.png).",
-)
+@out_option("Directory for show.json and a figure of every variable over time (show.png).")
 def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
     """Summarise a NetCDF file geomech wrote (a trajectory, a gait, a stability map): the command and
     parameters it records, its dimensions, and each variable with its range and final value."""

@@ -14,7 +14,7 @@ import click
 import numpy as np
 
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, OutDir, Outputs, document, emit, parse_params
+from ._args import FloatVector, Outputs, document, emit, out_option, parse_params
 
 __all__ = ["stability_cmd", "stability_map_cmd"]
 
@@ -213,12 +213,7 @@ def _model_options(f):
 @click.command("stability")
 @_model_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option(
-    "--out",
-    type=OutDir(),
-    default=None,
-    help="Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.",
-)
+@out_option("Directory for stability.json and the reduced phase portrait stability_phase_portrait.png.")
 def stability_cmd(lambdas, I3, phis, model_file, params, p, G, as_json, out) -> None:
     """Relative equilibria of a rotor control's closed loop and three stability verdicts on each.
 
@@ -341,12 +336,7 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
     help="Reference body momentum: the equilibrium nearest to it is assessed; default (0, G, 0), the "
     "intermediate-axis spin.",
 )
-@click.option(
-    "--out",
-    type=OutDir(),
-    required=True,
-    help="Directory for stability_map.png, stability_map.nc and stability_map.json.",
-)
+@out_option("Directory for stability_map.png, stability_map.nc and stability_map.json.", required=True)
 @click.option(
     "--max-points",
     type=click.IntRange(1, None),
