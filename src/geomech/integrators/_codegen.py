@@ -7,7 +7,10 @@ subexpressions shared, floats printed to round-trip); this module writes model a
 into one source file named by a hash of its text, imports it, and lets numba compile each loop with
 ``cache=True``: a later run, or another process, loads the machine code from disk. Passing compiled model
 functions to compiled loops as arguments would defeat numba's disk cache (the function type differs in
-every process), hence one generated file per model. The model's parameters (inertias, gains, the
+every process), hence one generated file per model. The loop helpers that never call the model (status
+codes, saving, Newton updates, small solves, rotations) are split off, by reading the templates' syntax
+trees, into one shared generated module that every model module imports: numba compiles them once for
+all models instead of once per model. The model's parameters (inertias, gains, the
 momentum G of a reduced system) are not written into it: the functions read them from an array ``prm``
 at run time, so a sweep over parameter values compiles once.
 
@@ -17,6 +20,9 @@ with wrappers around the callables (slow but identical arithmetic), so every met
 
 from __future__ import annotations
 
+import ast
+import builtins
+import functools
 import hashlib
 import importlib.util
 import os
@@ -59,14 +65,60 @@ def cache_dir() -> Path:
 
 
 def _template_text() -> str:
+    return "\n\n".join(f"# ---- {name} ----\n" + text for name, text in _template_sources())
+
+
+def _template_sources() -> list[tuple[str, str]]:
+    """Each template's text without its preamble."""
     here = Path(__file__).parent
-    parts = []
+    sources = []
     for name in _TEMPLATES:
         text = (here / name).read_text()
         start, end = text.index(_PREAMBLE_START), text.index(_PREAMBLE_END)
         end = text.index("\n", end) + 1
-        parts.append(f"# ---- {name} ----\n" + text[:start] + text[end:])
-    return "\n\n".join(parts)
+        sources.append((name, text[:start] + text[end:]))
+    return sources
+
+
+@functools.cache
+def _template_split() -> tuple[str, str, tuple[str, ...]]:
+    """The templates split into (shared source, per-model source, names the shared source defines).
+
+    A function belongs to the model when it reads a name no template defines (a model function such as
+    ``rhs``), or calls a function that does; everything else (constants, helpers) is shared.
+    """
+    functions: dict[str, tuple[ast.FunctionDef, str]] = {}
+    order: list[tuple[str, str]] = []  # (kind, text) in template order; kind is a function name or ""
+    defined: set[str] = set()
+    for _, text in _template_sources():
+        lines = text.splitlines()
+        for node in ast.parse(text).body:
+            first = min([node.lineno] + [d.lineno for d in getattr(node, "decorator_list", [])])
+            segment = "\n".join(lines[first - 1 : node.end_lineno])
+            if isinstance(node, ast.FunctionDef):
+                functions[node.name] = (node, segment)
+                order.append((node.name, segment))
+                defined.add(node.name)
+            elif isinstance(node, ast.Assign):
+                defined.update(t.id for t in node.targets if isinstance(t, ast.Name))
+                order.append(("", segment))
+    known = defined | set(dir(builtins)) | {"math", "np", "kernel"}
+    reads = {
+        name: {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+        - {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+        - {a.arg for a in node.args.args}
+        for name, (node, _) in functions.items()
+    }
+    per_model = {name for name, used in reads.items() if used - known}
+    while True:
+        more = {name for name, used in reads.items() if used & per_model} - per_model
+        if not more:
+            break
+        per_model |= more
+    shared = [text for kind, text in order if kind not in per_model]
+    model = [text for kind, text in order if kind in per_model]
+    names = tuple(sorted(defined - per_model))
+    return "\n\n\n".join(shared) + "\n", "\n\n\n".join(model) + "\n", names
 
 
 _HEADER_NUMBA = (
@@ -76,30 +128,40 @@ _HEADER_NUMBA = (
 _HEADER_PYTHON = "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n"
 
 
+def _load(source: str, tag: str) -> Any:
+    """Import the generated ``source`` (written once into the cache, named by its hash); caller holds _LOCK."""
+    import numba
+
+    digest = hashlib.sha256((numba.__version__ + source).encode()).hexdigest()[:24]
+    if digest in _MODULES:
+        return _MODULES[digest]
+    path = cache_dir() / f"gm_{tag}_{digest}.py"
+    if not path.exists() or path.read_text() != source:
+        write_atomic(path, source)  # concurrent processes never import a half-written file
+    name = f"geomech_kernels_{tag}_{digest}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None  # always set for a ``.py`` file location
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    _MODULES[digest] = module
+    return module
+
+
 def compiled_module(model_src: str, tag: str) -> Any:
     """Import (generating once) the numba module made of ``model_src`` and the loop templates.
 
-    Kept in memory for the process; the generated file and numba's cache persist across runs.
+    The model-independent helpers live in one shared module (``gm_k_*``) that the model module imports.
+    Kept in memory for the process; the generated files and numba's cache persist across runs.
     """
-    import numba
-
-    source = _HEADER_NUMBA + model_src + "\n\n" + _template_text()
-    digest = hashlib.sha256((numba.__version__ + source).encode()).hexdigest()[:24]
+    shared_src, model_part, names = _template_split()
     with _LOCK:
-        if digest in _MODULES:
-            return _MODULES[digest]
-        directory = cache_dir()
-        path = directory / f"gm_{tag}_{digest}.py"
-        if not path.exists() or path.read_text() != source:
-            write_atomic(path, source)  # concurrent processes never import a half-written file
-        name = f"geomech_kernels_{tag}_{digest}"
-        spec = importlib.util.spec_from_file_location(name, path)
-        assert spec is not None and spec.loader is not None  # always set for a ``.py`` file location
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-        _MODULES[digest] = module
-        return module
+        shared = _load(_HEADER_NUMBA + shared_src, "k")
+        imports = "".join(f"{name} = _shared.{name}\n" for name in names)
+        source = (
+            _HEADER_NUMBA + f"import {shared.__name__} as _shared\n\n{imports}\n\n" + model_src + "\n\n" + model_part
+        )
+        return _load(source, tag)
 
 
 class _Namespace:
