@@ -1,4 +1,4 @@
-"""The periodic-orbit propagator: its tableau against the order conditions, periods against the elliptic
+"""The periodic-orbit propagator (its tableau is tested with the Dormand-Prince pairs): periods against the elliptic
 free-body period, states against the exact free-body solution (any t, negative t), the seed's reduced closed
 loop against the independent quadrature propagator, rotations, equilibria, separatrices and bad input."""
 
@@ -10,24 +10,11 @@ import sympy as sp
 
 from geomech import CanonicalSystem, RigidBody
 from geomech.errors import InputError, SingularityError
-from geomech.integrators.periodic import PeriodicOrbitPropagator, dop853_tableau
+from geomech.integrators.periodic import PeriodicOrbitPropagator
 from geomech.integrators.quadrature import QuadraturePropagator
 from geomech.reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
 
 CHART = SerretAndoyerChart(2)
-
-
-def test_tableau_satisfies_the_quadrature_order_conditions_to_order_8():
-    """b . c^k = 1/(k+1) for k < 8 (necessary for order 8), c = A 1, A strictly lower triangular; the error
-    weights annihilate constants (they are differences of two quadratures)."""
-    A, b, e5, e3 = dop853_tableau()
-    c = A.sum(axis=1)
-    assert np.all(np.triu(A) == 0)
-    for k in range(8):
-        assert b @ c**k == pytest.approx(1 / (k + 1), abs=1e-15), k
-    # and one tree of order 8 beyond the bushy ones: b . (c^6 A c) = 1/(8 * 2) ... checked via sum b A c^6
-    assert b @ (A @ c**6) == pytest.approx(1 / 56, abs=1e-14)
-    assert abs(e5.sum()) < 1e-15 and abs(e3.sum()) < 1e-15
 
 
 def _free_body(inertia, m0):

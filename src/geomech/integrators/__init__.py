@@ -1,5 +1,5 @@
-"""Simulation: ``solve(system, method, ...)``, the integrators (compiled where they are fixed-step), and
-exact propagation of one-degree-of-freedom systems by quadrature."""
+"""Simulation: ``solve(system, method, ...)``, the integrators (compiled: the fixed-step ones and the Dormand-Prince
+pairs), and exact propagation of one-degree-of-freedom systems by quadrature."""
 
 from ._one_dof import CriticalPoint, OrbitIntegral
 from .methods import (
@@ -11,6 +11,7 @@ from .methods import (
     AdamsBashforthMoulton4,
     AdaptiveAdams,
     DiscreteLagrangeDAlembert,
+    DormandPrince,
     GaussLegendre,
     GeneratingFunction,
     ImplicitMidpoint,
@@ -53,6 +54,7 @@ __all__ = [
     "AdamsBashforthMoulton4",
     "AdaptiveAdams",
     "SolveIVP",
+    "DormandPrince",
     "CriticalPoint",
     "Failure",
     "GaussLegendre",

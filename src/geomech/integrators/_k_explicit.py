@@ -1,4 +1,5 @@
-"""Loop template: explicit methods for any ODE ``y' = rhs(y, prm)`` (classical RK4, Adams-Bashforth-Moulton 4).
+"""Loop template: explicit methods for any ODE ``y' = rhs(y, prm)`` (classical RK4, Adams-Bashforth-Moulton 4,
+the embedded Dormand-Prince pairs with error control and dense output, one period of a periodic orbit).
 
 See ``_k_common.py`` for the template mechanism and the common loop signature.
 """
@@ -9,7 +10,9 @@ import numpy as np
 
 # >>> template preamble (removed when compiled)
 from ._k_common import (
+    fail,
     finish_step,
+    finite,
     kernel,
     store,
 )
@@ -103,10 +106,11 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def erk_stages(y, h, A, K, tmp, ns, prm):
-    """Stages 1..ns-1 of an explicit Runge-Kutta step of size h from y (K[0] holds f(y))."""
+def erk_stages(y, h, A, K, tmp, first, stop, prm):
+    """Stages first..stop-1 of an explicit Runge-Kutta step of size h from y (K[0] holds f(y), and every
+    stage before ``first`` is computed)."""
     d = y.shape[0]
-    for s in range(1, ns):
+    for s in range(first, stop):
         for i in range(d):
             acc = 0.0
             for j in range(s):
@@ -121,6 +125,91 @@ def erk_increment(h, B, K, ns, i):
     for j in range(ns):
         acc += B[j] * K[j, i]
     return h * acc
+
+
+@kernel
+def first_step_guess(y0, f0, rtol, atol):
+    """Hairer's first guess of the initial step, h0, and the scaled RMS size of f(y0), d1 ([HNW] II.4)."""
+    d = y0.shape[0]
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(d):
+        sc = atol + rtol * abs(y0[i])
+        d0 += (y0[i] / sc) ** 2
+        d1 += (f0[i] / sc) ** 2
+    d0 = math.sqrt(d0 / d)
+    d1 = math.sqrt(d1 / d)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    return h0, d1
+
+
+@kernel
+def first_step(y0, f0, f1, h0, d1, rtol, atol, q):
+    """The initial step from f0 = f(y0) and f1 = f(y0 + h0 f0), for an error estimate of order q."""
+    d = y0.shape[0]
+    d2 = 0.0
+    for i in range(d):
+        sc = atol + rtol * abs(y0[i])
+        d2 += ((f1[i] - f0[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / d) / h0
+    if max(d1, d2) <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (q + 1.0))
+    return min(100.0 * h0, h1)
+
+
+@kernel
+def erk_error_norm(y, ynew, K, E, E2, n, h, rtol, atol, combined):
+    """The scaled error estimate of a step: the RMS of h E.K / (atol + rtol max(|y|, |y1|)), or with
+    ``combined`` DOP853's blend of its 5th- and 3rd-order estimates, |h| e5^2 / sqrt((e5^2 + e3^2 / 100) d).
+    Infinite where the estimate is not finite."""
+    d = y.shape[0]
+    a = 0.0
+    c = 0.0
+    for i in range(d):
+        sc = atol + rtol * max(abs(y[i]), abs(ynew[i]))
+        e = 0.0
+        e2 = 0.0
+        for j in range(n):
+            e += E[j] * K[j, i]
+            e2 += E2[j] * K[j, i]
+        a += (e / sc) ** 2
+        c += (e2 / sc) ** 2
+    if not (math.isfinite(a) and math.isfinite(c)):
+        return np.inf
+    if combined:
+        if a == 0.0 and c == 0.0:
+            return 0.0
+        return abs(h) * a / math.sqrt((a + 0.01 * c) * d)
+    return abs(h) * math.sqrt(a / d)
+
+
+@kernel
+def dense_coefficients(h, D, K, F):
+    """F[k] = h sum_j D[k, j] K[j]: the vectors of a step's continuous extension."""
+    for k in range(D.shape[0]):
+        for i in range(F.shape[1]):
+            acc = 0.0
+            for j in range(D.shape[1]):
+                acc += D[k, j] * K[j, i]
+            F[k, i] = h * acc
+
+
+@kernel
+def dense_value(y, F, theta, alternating, out):
+    """The continuous extension at theta: y + sum_k F_k theta^(k+1), or Hairer's nested form
+    theta (F_0 + (1 - theta)(F_1 + theta (F_2 + ...)))."""
+    npow = F.shape[0]
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for q in range(npow):
+            acc += F[npow - 1 - q, i]
+            if not alternating or q % 2 == 0:
+                acc *= theta
+            else:
+                acc *= 1.0 - theta
+        out[i] = y[i] + acc
 
 
 @kernel
@@ -182,29 +271,12 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
         INFO[5] = nfev
         return
     # initial step (Hairer, Norsett & Wanner II.4): a first-order guess, then the order-8 rule
-    d0 = 0.0
-    d1 = 0.0
-    for i in range(d):
-        sc = tol + tol * abs(y0[i])
-        d0 += (y0[i] / sc) ** 2
-        d1 += (f0[i] / sc) ** 2
-    d0 = math.sqrt(d0 / d)
-    d1 = math.sqrt(d1 / d)
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0, d1 = first_step_guess(y0, f0, tol, tol)
     for i in range(d):
         tmp[i] = y0[i] + h0 * f0[i]
     rhs(tmp, fz, prm)
     nfev += 1
-    d2 = 0.0
-    for i in range(d):
-        sc = tol + tol * abs(y0[i])
-        d2 += ((fz[i] - f0[i]) / sc) ** 2
-    d2 = math.sqrt(d2 / d) / h0
-    if max(d1, d2) <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    h = min(100.0 * h0, h1)
+    h = first_step(y0, f0, fz, h0, d1, tol, tol, 7)
     t = 0.0
     tcomp = 0.0
     errsum = 0.0
@@ -214,36 +286,20 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
         if k >= max_steps:
             INFO[0] = 1.0
             break
-        erk_stages(y, h, A, K, tmp, ns, prm)
+        erk_stages(y, h, A, K, tmp, 1, ns, prm)
         for i in range(d):
             dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
             ynew[i] = y[i] + dy[i]
         rhs(ynew, K[ns], prm)
         nfev += ns
-        err5 = 0.0
-        err3 = 0.0
-        ok = True
-        for i in range(d):
-            sc = tol + tol * max(abs(y[i]), abs(ynew[i]))
-            e5 = 0.0
-            e3 = 0.0
-            for j in range(ns + 1):
-                e5 += E5[j] * K[j, i]
-                e3 += E3[j] * K[j, i]
-            err5 += (e5 / sc) ** 2
-            err3 += (e3 / sc) ** 2
-            if not math.isfinite(ynew[i]):
-                ok = False
+        ok = finite(ynew)
         if not ok:
             h *= 0.25
             if h < 1e-14 * max(1.0, t):
                 INFO[0] = 2.0
                 break
             continue
-        if err5 == 0.0 and err3 == 0.0:
-            err = 0.0
-        else:
-            err = abs(h) * err5 / math.sqrt((err5 + 0.01 * err3) * d)
+        err = erk_error_norm(y, ynew, K, E5, E3, ns + 1, h, tol, tol, True)
         if err > 1.0:
             h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
             if h < 1e-14 * max(1.0, t):
@@ -273,7 +329,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
             if da <= 4.0 * chord and db <= 4.0 * chord:
                 tau = h * (-ga) / (gb - ga)
                 for _newton in range(8):
-                    erk_stages(y, tau, A, K, tmp, ns, prm)
+                    erk_stages(y, tau, A, K, tmp, 1, ns, prm)
                     for i in range(d):
                         z[i] = y[i] + (erk_increment(tau, B, K, ns, i) + comp[i])
                     rhs(z, fz, prm)
@@ -350,6 +406,120 @@ def orbit_states(YM, TM, idx, tau, A, B, OUT, prm):
             for i in range(d):
                 OUT[j, i] = y[i]
             continue
-        erk_stages(y, tau[j], A, K, tmp, ns, prm)
+        erk_stages(y, tau[j], A, K, tmp, 1, ns, prm)
         for i in range(d):
             OUT[j, i] = y[i] + erk_increment(tau[j], B, K, ns, i)
+
+
+# -- adaptive integration by an embedded pair, with dense output ------------------------------------------
+
+
+@kernel
+def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, prm):
+    """Integrate each row of Y0 from t0 by the embedded pair (A, B; error weights E, E2 on the stages and
+    f(y1); continuous extension D, its extra stages the rows of A past ns), saving at the times TS (monotone,
+    away from t0) by the continuous extension, or exactly where a step ends on one. ``q`` is the order of the
+    error estimate; ``dop853`` selects DOP853's blended error estimate and nested continuous extension.
+
+    INFO[b]: status (0, 2 non-finite, 4 step size underflow, 8 evaluation budget spent), the index of the
+    first time of TS not reached, NaN, 0, evaluations of f, the time reached, accepted and rejected steps.
+    """
+    nb, d = Y0.shape
+    n = TS.shape[0]
+    n_total = A.shape[0]
+    K = np.empty((n_total, d))
+    F = np.empty((D.shape[0], d))
+    y = np.empty(d)
+    ynew = np.empty(d)
+    dy = np.empty(d)
+    comp = np.empty(d)
+    tmp = np.empty(d)
+    out = np.empty(d)
+    t_end = TS[n - 1]
+    direction = 1.0 if t_end >= t0 else -1.0
+    expo = -1.0 / (q + 1.0)
+    for b in range(nb):
+        for j in range(INFO.shape[1]):
+            INFO[b, j] = 0.0
+        for i in range(d):
+            y[i] = Y0[b, i]
+            comp[i] = 0.0
+        k = 0
+        while k < n and TS[k] == t0:
+            store(OUT, b, k, y)
+            k += 1
+        t = t0
+        status = 0
+        nfev = 0
+        steps = 0
+        rejected = 0
+        if k < n:
+            rhs(y, K[0], prm)
+            nfev = 1
+            span = abs(t_end - t0)
+            h0, d1 = first_step_guess(y, K[0], rtol, atol)
+            h0 = min(h0, span)
+            for i in range(d):
+                tmp[i] = y[i] + direction * h0 * K[0, i]
+            rhs(tmp, K[1], prm)
+            nfev += 1
+            h_abs = min(first_step(y, K[0], K[1], h0, d1, rtol, atol, q), span)
+            if not (finite(K[0]) and math.isfinite(h_abs)):
+                status = 2
+        nonfinite = False
+        retry = False
+        while k < n and status == 0:
+            if nfev + ns > max_evals:
+                status = 8
+                break
+            min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
+            if not (h_abs >= min_step):
+                status = 2 if nonfinite else 4
+                break
+            tnew = t + direction * h_abs
+            if direction * (tnew - t_end) > 0.0:
+                tnew = t_end
+            h = tnew - t
+            erk_stages(y, h, A, K, tmp, 1, ns, prm)
+            for i in range(d):
+                dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
+                ynew[i] = y[i] + dy[i]
+            rhs(ynew, K[ns], prm)
+            nfev += ns
+            err = erk_error_norm(y, ynew, K, E, E2, ns + 1, h, rtol, atol, dop853)
+            nonfinite = not (finite(ynew) and math.isfinite(err))
+            if nonfinite or err >= 1.0:
+                h_abs = abs(h) * (0.2 if nonfinite else max(0.2, 0.9 * err**expo))
+                rejected += 1
+                retry = True
+                continue
+            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err**expo)
+            if retry:
+                factor = min(1.0, factor)
+            extended = False
+            while k < n and direction * (TS[k] - tnew) <= 0.0:
+                if TS[k] == tnew:
+                    store(OUT, b, k, ynew)
+                else:
+                    if not extended:
+                        erk_stages(y, h, A, K, tmp, ns + 1, n_total, prm)
+                        nfev += n_total - ns - 1
+                        dense_coefficients(h, D, K, F)
+                        extended = True
+                    dense_value(y, F, (TS[k] - t) / h, dop853, out)
+                    store(OUT, b, k, out)
+                k += 1
+            for i in range(d):
+                comp[i] = (y[i] - ynew[i]) + dy[i]
+                y[i] = ynew[i]
+                K[0, i] = K[ns, i]
+            t = tnew
+            steps += 1
+            h_abs = abs(h) * factor
+            retry = False
+        if status != 0:
+            fail(OUT, INFO, b, k, k, status, np.nan)
+        INFO[b, 4] = nfev
+        INFO[b, 5] = t
+        INFO[b, 6] = steps
+        INFO[b, 7] = rejected

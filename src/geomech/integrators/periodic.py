@@ -27,7 +27,6 @@ its errors) as documented there.
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 import weakref
@@ -40,9 +39,10 @@ from ..errors import InputError, SingularityError
 from ..systems.canonical import CanonicalSystem
 from ._one_dof import one_dof_arguments
 from ._problem import make_problem
+from .methods import embedded_pair
 from .quadrature import QuadraturePropagator
 
-__all__ = ["PeriodicOrbitPropagator", "dop853_tableau"]
+__all__ = ["PeriodicOrbitPropagator"]
 
 _EPS = float(np.finfo(float).eps)
 _AUTO: Any = object()
@@ -57,29 +57,6 @@ _STATUS = {
     3: "the step size underflowed (y0 at, or the orbit through, a critical point)",
 }
 _KERNELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-@functools.cache
-def dop853_tableau() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(A, b, e5, e3)`` of Dormand & Prince's 8(5,3) pair: the 12-stage tableau of the 8th-order solution
-    and the weights of its 5th- and 3rd-order error estimates on the 12 stages and f at the new point
-    ([HNW] II.10; the coefficients as scipy's DOP853 uses them, read on first use; the order conditions
-    are checked by the tests)."""
-    try:
-        from scipy.integrate._ivp import dop853_coefficients as dop
-    except ImportError as exc:  # the module has been where it is since scipy 1.0; say so if that changes
-        raise ImportError(
-            "PeriodicOrbitPropagator reads Dormand-Prince 8(5,3) coefficients from "
-            "scipy.integrate._ivp.dop853_coefficients, which this scipy lacks; install scipy>=1.11,<2."
-        ) from exc
-
-    n = dop.N_STAGES
-    return (
-        np.ascontiguousarray(dop.A[:n, :n], dtype=float),
-        np.array(dop.B, dtype=float),
-        np.array(dop.E5, dtype=float),
-        np.array(dop.E3, dtype=float),
-    )
 
 
 def _kernels(system: CanonicalSystem) -> tuple[Any, str, np.ndarray]:
@@ -170,7 +147,8 @@ class PeriodicOrbitPropagator:
 
         module, self.backend, prm = _kernels(system)
         self._module, self._prm = module, prm
-        A, b, e5, e3 = dop853_tableau()
+        pair = embedded_pair("DOP853")
+        A, b, e5, e3 = pair.A, pair.b, pair.e, pair.e2
         shift = np.array([angle_period or 0.0, 0.0])
         compile_time = 0.0
         if self.backend == "numba" and not module.orbit_return.signatures:
@@ -251,7 +229,8 @@ class PeriodicOrbitPropagator:
         r = flat - n * T
         idx = np.clip(np.searchsorted(self._TM, r, side="right") - 1, 0, self.n_mesh - 2)
         out = np.empty((flat.size, 2))
-        A, b, _, _ = dop853_tableau()
+        pair = embedded_pair("DOP853")
+        A, b = pair.A, pair.b
         self._module.orbit_states(self._YM, self._TM, idx, r - self._TM[idx], A, b, out, self._prm)
         if self.winding:
             out[:, 0] += n * (self.winding * self.angle_period)

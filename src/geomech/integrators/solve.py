@@ -4,20 +4,21 @@ from __future__ import annotations
 
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
-from ._adaptive import MAX_EVALUATIONS, integrate_ivp, run_adaptive
+from ._adaptive import MAX_EVALUATIONS, run_adaptive
 from ._problem import Problem, make_problem
+from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic
 from ._times import DEFAULT_SAVEAT, time_grid
 from ._times import tolerances as method_tolerances
 from .methods import (
     REGISTRY,
     AdaptiveAdams,
+    DormandPrince,
     IncompatibleMethodError,
     Kind,
     Method,
@@ -30,6 +31,9 @@ from .methods import (
 from .solution import STATUS, Failure, Solution, Status, run_stats
 
 __all__ = ["solve", "compatible_methods", "methods_for", "DEFAULT_SAVEAT"]
+
+#: Default ceiling on evaluations of a compiled adaptive loop, per trajectory (seconds of compiled work).
+MAX_EVALUATIONS_COMPILED = 100_000_000
 
 
 def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
@@ -140,154 +144,6 @@ def _batch_index(b: int, batch_shape: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(int(j) for j in np.unravel_index(b, batch_shape)) if batch_shape else ()
 
 
-def _run_compiled(
-    kern: Any,
-    Y0: np.ndarray,
-    h: float,
-    nsteps: int,
-    save_every: int,
-    OUT: np.ndarray,
-    INFO: np.ndarray,
-    tol: float,
-    maxit: int,
-    P: np.ndarray,
-    prm: np.ndarray,
-    threads: int,
-) -> None:
-    B = Y0.shape[0]
-    if threads <= 1 or B < 2:
-        kern(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm)
-        return
-    bounds = np.linspace(0, B, min(threads, B) + 1).astype(int)
-    with ThreadPoolExecutor(max_workers=len(bounds) - 1) as pool:
-        futures = [
-            pool.submit(kern, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, prm)
-            for a, b in zip(bounds[:-1], bounds[1:])
-        ]
-        for fut in futures:
-            fut.result()
-
-
-_CODES = {status: code for code, status in STATUS.items()}
-
-
-def _run_ivp(
-    module: Any,
-    prm: np.ndarray,
-    method: SolveIVP,
-    Y0: np.ndarray,
-    t0: float,
-    times: np.ndarray,
-    tolerances: tuple[float, float],
-    max_evaluations: Any,
-    OUT: np.ndarray,
-    INFO: np.ndarray,
-    reasons: dict[int, str],
-    reached: dict[int, float],
-) -> int:
-    """Each row of ``Y0`` by a scipy solver on the compiled right-hand side; fills ``OUT`` and ``INFO`` as the
-    loops do, ``reasons`` and ``reached`` (the last time reached) for a failed row; returns the steps taken."""
-    d = Y0.shape[1]
-    steps = 0
-    for b in range(Y0.shape[0]):
-        buf = np.empty(d)
-
-        def f(_t: float, y: np.ndarray, buf: np.ndarray = buf) -> np.ndarray:
-            module.rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
-            return buf.copy()
-
-        Y, failure, nfev, n = integrate_ivp(
-            type(method).__name__, f, Y0[b], t0, times, method.solver, tolerances, max_evaluations
-        )
-        OUT[b] = Y
-        INFO[b, 4] = nfev
-        steps += n
-        if failure is not None:
-            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[failure.kind], failure.step, np.nan
-            reasons[b], reached[b] = failure.detail, failure.time
-    return steps
-
-
-def _run_atlas(
-    problem: Problem,
-    method: SerretAndoyerAtlas,
-    Y0: np.ndarray,
-    t0: float,
-    times: np.ndarray,
-    tolerances: tuple[float, float],
-    OUT: np.ndarray,
-    INFO: np.ndarray,
-    reasons: dict[int, str],
-    reached: dict[int, float],
-) -> tuple[int, dict[str, np.ndarray]]:
-    """Each row of ``Y0`` on the Serret-Andoyer atlas; fills ``OUT`` and ``INFO`` as the loops do and returns
-    the chart switches and the (l, L, phi) and chart axis along each run."""
-    from ..reduction.serret_andoyer import GeneralizedSerretAndoyer
-    from ._atlas import run_atlas
-
-    sa = GeneralizedSerretAndoyer(problem.core, switch_at=method.switch_at)
-    B, n = Y0.shape[0], len(times)
-    lLphi, axis = np.full((B, n, 3), np.nan), np.full((B, n), np.nan)
-    switches = 0
-    for b in range(B):
-        m0 = Y0[b, :3]
-        if not np.linalg.norm(m0) > 0:
-            raise InputError("Expected `m0` to be nonzero: the Serret-Andoyer atlas charts the sphere |m| = G > 0.")
-        R0 = Y0[b, 3:].reshape(3, 3) if problem.layout == "mR" else np.eye(3)
-        first = None if method.axis is None else method.axis - 1
-        run = run_atlas(sa, m0, R0, t0, times, tolerances, first)
-        OUT[b, :, :3] = run.m
-        if problem.layout == "mR":
-            OUT[b, :, 3:] = run.R.reshape(n, 9)
-        lLphi[b], axis[b] = run.lLphi, run.axis
-        INFO[b, 4] = run.nfev
-        switches += len(run.switches)
-        if run.failure is not None:
-            INFO[b, 0], INFO[b, 1], INFO[b, 2] = _CODES[run.failure.kind], run.failure.step, np.nan
-            reasons[b], reached[b] = run.failure.detail, run.failure.time
-    return switches, {"serret_andoyer": lLphi, "chart_axis": axis}
-
-
-def _run_periodic(
-    core: Any,
-    method: PeriodicOrbit | Quadrature,
-    Y0: np.ndarray,
-    times: np.ndarray,
-    OUT: np.ndarray,
-    INFO: np.ndarray,
-    reasons: dict[int, str],
-) -> tuple[int, float]:
-    """Each row of ``Y0`` by :class:`PeriodicOrbitPropagator` or :class:`QuadraturePropagator`; returns
-    (mesh steps or quadrature nodes, compile time)."""
-    from ..errors import NumericalError, SingularityError
-    from .periodic import PeriodicOrbitPropagator
-    from .quadrature import QuadraturePropagator
-
-    steps, compile_time = 0, 0.0
-    orbit: QuadraturePropagator | PeriodicOrbitPropagator
-    for b in range(Y0.shape[0]):
-        try:
-            if isinstance(method, Quadrature):
-                orbit = QuadraturePropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
-                if not np.isfinite(orbit.period):
-                    raise SingularityError(
-                        f"The orbit of y0 = {Y0[b].tolist()} is a {orbit.kind}: it has no period; use an integrator."
-                    )
-                OUT[b] = orbit.state(times)
-            else:
-                orbit = PeriodicOrbitPropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
-                compile_time += orbit.stats["compile_time"]
-                OUT[b] = orbit.state(times)
-                steps += orbit.n_mesh
-            INFO[b, 4] = orbit.nfev
-        except NumericalError as exc:
-            OUT[b] = np.nan
-            OUT[b, times == 0.0] = Y0[b]
-            INFO[b, 0], INFO[b, 1], INFO[b, 2] = 5, 1, np.nan
-            reasons[b] = str(exc)
-    return steps, compile_time
-
-
 def solve(
     system: Any,
     method: Any,
@@ -312,7 +168,7 @@ def solve(
     tau: Any = None,
     parameters: Any = None,
     max_steps: int = V.MAX_STEPS,
-    max_evaluations: int = MAX_EVALUATIONS,
+    max_evaluations: int | None = None,
     memory_limit: float = V.MEMORY_LIMIT,
     newton_tol: float = 1e-14,
     max_newton: int = 20,
@@ -375,9 +231,10 @@ def solve(
         Ceiling on steps times trajectories of a fixed-step method (default 1e9, tens of seconds to minutes
         of compiled work): a larger run is refused before it starts, with its estimated cost.
     max_evaluations : int
-        Ceiling on right-hand-side evaluations of an adaptive method on a Lagrangian system (default
-        200,000): a run projected far above it is refused after a short pilot, and a run that reaches it
-        stops with the status ``budget_exhausted``.
+        Ceiling on right-hand-side evaluations of an adaptive method, per trajectory: a run that reaches it
+        stops with the status ``budget_exhausted``, its states so far kept. Default 200,000 where the
+        equations are evaluated in Python (then a run projected far above it is refused after a short pilot),
+        and 10^8 for the compiled Dormand-Prince pairs (seconds of compiled work).
     memory_limit : float
         Ceiling in bytes (default 2 GiB) on the saved states: more is refused before any allocation.
     newton_tol : float
@@ -437,7 +294,7 @@ def solve(
             t0=t0,
             g0=g0,
             tolerances=tolerances,
-            max_evaluations=max_evaluations,
+            max_evaluations=MAX_EVALUATIONS if max_evaluations is None else max_evaluations,
             memory_limit=memory_limit,
         )
         return _finish(solution, raise_on_failure)
@@ -464,7 +321,7 @@ def solve(
             gamma0=gamma0,
             tau=tau,
             tolerances=tolerances,
-            max_evaluations=max_evaluations,
+            max_evaluations=MAX_EVALUATIONS if max_evaluations is None else max_evaluations,
             memory_limit=memory_limit,
         )
         return _finish(solution, raise_on_failure)
@@ -491,7 +348,7 @@ def solve(
             parameters=parameters,
             tolerances=tolerances,
             max_steps=max_steps,
-            max_evaluations=max_evaluations,
+            max_evaluations=MAX_EVALUATIONS if max_evaluations is None else max_evaluations,
             memory_limit=memory_limit,
             newton_tol=tol,
             max_newton=int(max_newton),
@@ -527,7 +384,7 @@ def solve(
         saved_t = times.t
         saved_steps = np.arange(len(saved_t))
     OUT = np.empty((B, len(saved_steps), d))
-    INFO = np.zeros((B, 5))
+    INFO = np.zeros((B, INFO_COLUMNS))
     module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)
     compile_time = 0.0
     t_start = time.perf_counter()
@@ -537,19 +394,41 @@ def solve(
     switches = 0
     if isinstance(method, SerretAndoyerAtlas):
         assert tolerances is not None
-        switches, along = _run_atlas(problem, method, Y0, t0, saved_t, tolerances, OUT, INFO, reasons, reached)
+        switches, along = run_atlas(problem, method, Y0, t0, saved_t, tolerances, OUT, INFO, reasons, reached)
         internal = 0
     elif isinstance(method, SolveIVP):
         assert tolerances is not None
-        internal = _run_ivp(
-            module, problem.prm, method, Y0, t0, saved_t, tolerances, max_evaluations, OUT, INFO, reasons, reached
+        budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
+        internal = run_ivp(
+            module, problem.prm, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached
         )
+    elif isinstance(method, DormandPrince):
+        assert tolerances is not None
+        budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
+        n_threads = threads if threads is not None else (os.cpu_count() or 1)
+        internal, compile_time = run_embedded(
+            module,
+            used,
+            problem.prm,
+            method,
+            Y0,
+            t0,
+            saved_t,
+            tolerances,
+            V.positive_scalar(budget, "max_evaluations"),
+            OUT,
+            INFO,
+            reasons,
+            reached,
+            int(n_threads) if B > 1 else 1,
+        )
+        t_start += compile_time
     elif isinstance(method, AdaptiveAdams):
         assert tolerances is not None
         with np.errstate(all="ignore"):
             internal = run_adaptive(module, problem.prm, method, Y0, t0, saved_t, tolerances, OUT, INFO)
     elif isinstance(method, (PeriodicOrbit, Quadrature)):
-        internal, compile_time = _run_periodic(problem.core, method, Y0, saved_t - t0, OUT, INFO, reasons)
+        internal, compile_time = run_periodic(problem.core, method, Y0, saved_t - t0, OUT, INFO, reasons)
         t_start += compile_time
     else:
         kern = getattr(module, method.kernel)
@@ -584,7 +463,7 @@ def solve(
         if used != "numba" or B * nsteps < 20_000:
             n_threads = 1
         with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
-            _run_compiled(
+            run_compiled(
                 kern, Y0, h_step, nsteps, every, OUT, INFO, tol, int(max_newton), P, problem.prm, int(n_threads)
             )
         internal = B * nsteps

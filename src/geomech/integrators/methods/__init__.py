@@ -18,6 +18,7 @@ References (short keys as in the docstrings):
 - [SA] the Serret-Andoyer paper (seeds/000), section 8.
 - [KM] Koon & Marsden, The geometric structure of nonholonomic mechanics (seeds/004).
 - [CM] Cortes & Martinez, Non-holonomic integrators, Nonlinearity 14 (2001).
+- [DP] Dormand & Prince, A family of embedded Runge-Kutta formulae, J. Comput. Appl. Math. 6 (1980).
 - [MK] Munthe-Kaas, High order Runge-Kutta methods on manifolds, Appl. Numer. Math. 29 (1999).
 """
 
@@ -28,6 +29,7 @@ from typing import Any
 from ...errors import InputError
 from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
+from ._embedded import DormandPrince, EmbeddedPair, embedded_pair
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._group import RKMK, RKMK4
 from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
@@ -49,6 +51,9 @@ __all__ = [
     "AdamsBashforthMoulton4",
     "AdaptiveAdams",
     "SolveIVP",
+    "DormandPrince",
+    "EmbeddedPair",
+    "embedded_pair",
     "SymplecticEuler",
     "StormerVerlet",
     "ImplicitMidpoint",
@@ -78,6 +83,8 @@ REGISTRY: dict[str, Method] = {
         AdamsBashforthMoulton4(),
         AdaptiveAdams(),
         SolveIVP(),
+        DormandPrince("DOP853"),
+        DormandPrince("DOPRI5"),
         SymplecticEuler("A"),
         SymplecticEuler("B"),
         StormerVerlet(),

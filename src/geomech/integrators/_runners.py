@@ -1,0 +1,244 @@
+"""The runners behind :func:`~geomech.solve` for the systems with a compiled model: each fills the saved
+states ``OUT`` (batch, times, state) and the ``INFO`` rows (status, first step or output not reached, residual,
+Newton iterations, evaluations, and for the adaptive loops the time reached and the accepted and rejected
+steps) the way the compiled loops do, so that one code turns them into a :class:`~geomech.Solution`."""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ._adaptive import integrate_ivp
+from ._problem import Problem
+from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP
+from .solution import STATUS
+
+__all__ = ["CODES", "INFO_COLUMNS", "run_compiled", "run_embedded", "run_ivp", "run_atlas", "run_periodic"]
+
+#: Columns of the INFO array of a run.
+INFO_COLUMNS = 8
+
+
+def _chunks(B: int, threads: int) -> list[tuple[int, int]]:
+    bounds = np.linspace(0, B, min(threads, B) + 1).astype(int)
+    return list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
+
+
+def _threaded(call: Any, B: int, threads: int) -> None:
+    """``call(a, b)`` on the rows a:b of a batch, split over ``threads`` threads (the compiled loops release
+    the GIL)."""
+    if threads <= 1 or B < 2:
+        call(0, B)
+        return
+    with ThreadPoolExecutor(max_workers=min(threads, B)) as pool:
+        for fut in [pool.submit(call, a, b) for a, b in _chunks(B, threads)]:
+            fut.result()
+
+
+def run_compiled(
+    kern: Any,
+    Y0: np.ndarray,
+    h: float,
+    nsteps: int,
+    save_every: int,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    tol: float,
+    maxit: int,
+    P: np.ndarray,
+    prm: np.ndarray,
+    threads: int,
+) -> None:
+    """A fixed-step loop over the batch ``Y0``."""
+
+    def call(a: int, b: int) -> None:
+        kern(Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, prm)
+
+    _threaded(call, Y0.shape[0], threads)
+
+
+CODES = {status: code for code, status in STATUS.items()}
+
+
+def run_ivp(
+    module: Any,
+    prm: np.ndarray,
+    method: SolveIVP,
+    Y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+    reached: dict[int, float],
+) -> int:
+    """Each row of ``Y0`` by a scipy solver on the compiled right-hand side; fills ``OUT`` and ``INFO`` as the
+    loops do, ``reasons`` and ``reached`` (the last time reached) for a failed row; returns the steps taken."""
+    d = Y0.shape[1]
+    steps = 0
+    for b in range(Y0.shape[0]):
+        buf = np.empty(d)
+
+        def f(_t: float, y: np.ndarray, buf: np.ndarray = buf) -> np.ndarray:
+            module.rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
+            return buf.copy()
+
+        Y, failure, nfev, n = integrate_ivp(
+            type(method).__name__, f, Y0[b], t0, times, method.solver, tolerances, max_evaluations
+        )
+        OUT[b] = Y
+        INFO[b, 4] = nfev
+        steps += n
+        if failure is not None:
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = CODES[failure.kind], failure.step, np.nan
+            reasons[b], reached[b] = failure.detail, failure.time
+    return steps
+
+
+def run_atlas(
+    problem: Problem,
+    method: SerretAndoyerAtlas,
+    Y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+    reached: dict[int, float],
+) -> tuple[int, dict[str, np.ndarray]]:
+    """Each row of ``Y0`` on the Serret-Andoyer atlas; fills ``OUT`` and ``INFO`` as the loops do and returns
+    the chart switches and the (l, L, phi) and chart axis along each run."""
+    from ..reduction.serret_andoyer import GeneralizedSerretAndoyer
+    from ._atlas import run_atlas
+
+    sa = GeneralizedSerretAndoyer(problem.core, switch_at=method.switch_at)
+    B, n = Y0.shape[0], len(times)
+    lLphi, axis = np.full((B, n, 3), np.nan), np.full((B, n), np.nan)
+    switches = 0
+    for b in range(B):
+        m0 = Y0[b, :3]
+        if not np.linalg.norm(m0) > 0:
+            raise InputError("Expected `m0` to be nonzero: the Serret-Andoyer atlas charts the sphere |m| = G > 0.")
+        R0 = Y0[b, 3:].reshape(3, 3) if problem.layout == "mR" else np.eye(3)
+        first = None if method.axis is None else method.axis - 1
+        run = run_atlas(sa, m0, R0, t0, times, tolerances, first)
+        OUT[b, :, :3] = run.m
+        if problem.layout == "mR":
+            OUT[b, :, 3:] = run.R.reshape(n, 9)
+        lLphi[b], axis[b] = run.lLphi, run.axis
+        INFO[b, 4] = run.nfev
+        switches += len(run.switches)
+        if run.failure is not None:
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = CODES[run.failure.kind], run.failure.step, np.nan
+            reasons[b], reached[b] = run.failure.detail, run.failure.time
+    return switches, {"serret_andoyer": lLphi, "chart_axis": axis}
+
+
+def run_periodic(
+    core: Any,
+    method: PeriodicOrbit | Quadrature,
+    Y0: np.ndarray,
+    times: np.ndarray,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+) -> tuple[int, float]:
+    """Each row of ``Y0`` by :class:`PeriodicOrbitPropagator` or :class:`QuadraturePropagator`; returns
+    (mesh steps or quadrature nodes, compile time)."""
+    from ..errors import NumericalError, SingularityError
+    from .periodic import PeriodicOrbitPropagator
+    from .quadrature import QuadraturePropagator
+
+    steps, compile_time = 0, 0.0
+    orbit: QuadraturePropagator | PeriodicOrbitPropagator
+    for b in range(Y0.shape[0]):
+        try:
+            if isinstance(method, Quadrature):
+                orbit = QuadraturePropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
+                if not np.isfinite(orbit.period):
+                    raise SingularityError(
+                        f"The orbit of y0 = {Y0[b].tolist()} is a {orbit.kind}: it has no period; use an integrator."
+                    )
+                OUT[b] = orbit.state(times)
+            else:
+                orbit = PeriodicOrbitPropagator(core, Y0[b], L_bounds=method.L_bounds, tol=method.tol)
+                compile_time += orbit.stats["compile_time"]
+                OUT[b] = orbit.state(times)
+                steps += orbit.n_mesh
+            INFO[b, 4] = orbit.nfev
+        except NumericalError as exc:
+            OUT[b] = np.nan
+            OUT[b, times == 0.0] = Y0[b]
+            INFO[b, 0], INFO[b, 1], INFO[b, 2] = 5, 1, np.nan
+            reasons[b] = str(exc)
+    return steps, compile_time
+
+
+def run_embedded(
+    module: Any,
+    used: str,
+    prm: np.ndarray,
+    method: DormandPrince,
+    Y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    reasons: dict[int, str],
+    reached: dict[int, float],
+    threads: int,
+) -> tuple[int, float]:
+    """Each row of ``Y0`` by the compiled Dormand-Prince loop; returns (accepted steps, compile time)."""
+    pair = method.tableau()
+    rtol, atol = tolerances
+    budget = float(max_evaluations)
+    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, prm)
+    compile_time = 0.0
+    if used == "numba" and not module.erk_run.signatures:
+        # the first call compiles (or loads numba's disk cache): timed apart on a one-step problem
+        start = time.perf_counter()
+        probe = np.array([t0, t0 + (times[-1] - t0) * 1e-9])
+        module.erk_run(
+            Y0[:1].copy(),
+            t0,
+            probe,
+            np.empty((1, 2, Y0.shape[1])),
+            np.zeros((1, INFO.shape[1])),
+            rtol,
+            atol,
+            1.0,
+            *args,
+        )
+        compile_time = time.perf_counter() - start
+
+    def call(a: int, b: int) -> None:
+        module.erk_run(Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args)
+
+    with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
+        _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
+    for row in np.flatnonzero(INFO[:, 0] != 0):
+        b = int(row)
+        reached[b] = float(INFO[b, 5])
+        code = int(INFO[b, 0])
+        if code == 8:
+            reasons[b] = (
+                f"stopped after {int(INFO[b, 4])} evaluations, at t = {INFO[b, 5]:.6g} of {times[-1]:.6g}: the motion "
+                "is faster, or the span longer, than the budget allows; shorten t_final or raise `max_evaluations`"
+            )
+        elif code == 4:
+            reasons[b] = (
+                f"the step size fell below the resolution of t at t = {INFO[b, 5]:.6g} to meet rtol = {rtol:g}, "
+                f"atol = {atol:g}: a singularity of the equations, or tolerances below round-off"
+            )
+        else:
+            reasons[b] = f"the state or its error estimate is not finite past t = {INFO[b, 5]:.6g} (a blow-up)"
+    return int(INFO[:, 6].sum()), compile_time

@@ -1,0 +1,130 @@
+"""Compiled embedded Runge-Kutta pairs with error control and dense output: Dormand & Prince's 8(5,3)
+(DOP853) and 5(4) (DOPRI5), and their tableaux as one type shared with the periodic-orbit propagator."""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ...errors import InputError
+from ._base import Kind, Method, Structure
+
+__all__ = ["EmbeddedPair", "embedded_pair", "DormandPrince"]
+
+
+@dataclass(frozen=True, eq=False)
+class EmbeddedPair:
+    """The tableau of an explicit embedded Runge-Kutta pair with a continuous extension.
+
+    A step of size ``h`` from ``y`` takes the stages ``K_0 = f(y)``, ``K_s = f(y + h sum_j A[s, j] K_j)``
+    for ``s < n_stages``, and ``y1 = y + h b . K``; ``K_{n_stages} = f(y1)`` (first of the next step).
+    The local error estimate is ``h e . K`` (and ``h e2 . K`` for DOP853's 3rd-order estimate, zero
+    otherwise), on the stages and ``f(y1)``. Rows of ``A`` beyond ``n_stages`` are the extra stages of the
+    dense output. The dense output is ``y + sum_k F_k phi_k(theta)``, ``theta = (t - t_n)/h``, with
+    ``F_k = h sum_j dense[k, j] K_j`` and ``phi_k = theta^(k+1)`` (``alternating`` False), or, as in Hairer's
+    DOP853, the nested form ``F_0 + (1 - theta)(F_1 + theta(F_2 + (1 - theta)(F_3 + ...)))`` times ``theta``.
+    """
+
+    name: str
+    A: np.ndarray
+    b: np.ndarray
+    e: np.ndarray
+    e2: np.ndarray
+    dense: np.ndarray
+    alternating: bool
+    n_stages: int
+    order: int
+    error_order: int
+    dense_order: int
+
+    @property
+    def c(self) -> np.ndarray:
+        return self.A.sum(axis=1)
+
+    @property
+    def n_total(self) -> int:
+        """Stages, ``f(y1)`` and the extra stages of the dense output."""
+        return int(self.A.shape[0])
+
+
+@functools.cache
+def embedded_pair(name: str) -> EmbeddedPair:
+    """The tableau ``"DOP853"`` (Dormand & Prince 8(5,3), [HNW] II.10) or ``"DOPRI5"`` (Dormand & Prince 5(4)
+    with Shampine's dense output of order 4), with the coefficients scipy's solvers of the same names use."""
+    from scipy.integrate import DOP853, RK45
+
+    if name == "DOP853":
+        ns = DOP853.n_stages
+        n_total = ns + 1 + len(DOP853.C_EXTRA)
+        A = np.zeros((n_total, n_total))
+        A[:ns, :ns] = DOP853.A
+        A[ns, :ns] = DOP853.B
+        A[ns + 1 :, :] = DOP853.A_EXTRA
+        b = np.array(DOP853.B, dtype=float)
+        # F0 = y1 - y, F1 = h f(y) - (y1 - y), F2 = 2 (y1 - y) - h (f(y1) + f(y)), F3.. = h D . K
+        bb, e0, e1 = np.zeros(n_total), np.eye(n_total)[0], np.eye(n_total)[ns]
+        bb[:ns] = b
+        dense = np.vstack([bb, e0 - bb, 2 * bb - e1 - e0, np.asarray(DOP853.D, dtype=float)])
+        return EmbeddedPair(
+            "DOP853", A, b, np.array(DOP853.E5, float), np.array(DOP853.E3, float), dense, True, ns, 8, 7, 7
+        )
+    if name == "DOPRI5":
+        ns = RK45.n_stages
+        A = np.zeros((ns + 1, ns + 1))
+        A[:ns, : ns - 1] = RK45.A
+        A[ns, :ns] = RK45.B
+        dense = np.ascontiguousarray(np.asarray(RK45.P, dtype=float).T)
+        return EmbeddedPair(
+            "DOPRI5", A, np.array(RK45.B, float), np.array(RK45.E, float), np.zeros(ns + 1), dense, False, ns, 5, 4, 4
+        )
+    raise InputError(f"Expected an embedded pair 'DOP853' or 'DOPRI5', got {name!r}.")
+
+
+_PAIRS = {"DOP853": "dop853", "DOPRI5": "dopri5"}
+
+
+@dataclass(frozen=True)
+class DormandPrince(Method):
+    """A Dormand-Prince embedded Runge-Kutta pair, compiled, with error control and dense output.
+
+    ``pair="DOP853"`` (the default): order 8 with the 5th- and 3rd-order error estimates combined as in
+    Hairer's DOP853, dense output of order 7 (three more evaluations in a step where a state is saved);
+    ``pair="DOPRI5"``: order 5, 4th-order error estimate, dense output of order 4 (Shampine), first same as
+    last. Steps are accepted when the scaled RMS error estimate (``atol + rtol max(|y|, |y1|)``) is below 1,
+    resized by ``0.9 err^(-1/(q+1))`` within [0.2, 10] (no growth right after a rejection); the first step by
+    Hairer's rule. The state is summed with compensation, so that round-off does not grow with the number of
+    steps. The same arithmetic as scipy's solvers of these names, in a compiled loop over a batch (threads).
+    Kind: adaptive (``rtol``, ``atol``; default 1e-10, 1e-12). Order: 8 (DOP853) or 5 (DOPRI5); explicit;
+    not symplectic nor symmetric. Structure: any ODE with a compiled right-hand side. Cost: 12 (DOP853) or
+    6 (DOPRI5) evaluations a step.
+    Reference: [HNW] II.4-II.6, II.10; Shampine, Math. Comp. 46 (1986).
+
+    Parameters
+    ----------
+    pair : {"DOP853", "DOPRI5"}
+    """
+
+    pair: str = "DOP853"
+    structure: ClassVar[Structure] = Structure.ODE
+    kind: ClassVar[Kind] = Kind.ADAPTIVE
+    explicit: ClassVar[bool] = True
+    default_tolerances: ClassVar[tuple[float, float]] = (1e-10, 1e-12)
+    kernel: ClassVar[str] = "erk_run"
+
+    def __post_init__(self) -> None:
+        if self.pair not in _PAIRS:
+            raise InputError(f"Expected `pair` to be one of {sorted(_PAIRS)}, got {self.pair!r}.")
+
+    @property
+    def order(self) -> int:
+        return embedded_pair(self.pair).order
+
+    @property
+    def key(self) -> str:
+        return _PAIRS[self.pair]
+
+    def tableau(self) -> EmbeddedPair:
+        return embedded_pair(self.pair)
