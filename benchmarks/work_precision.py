@@ -73,12 +73,16 @@ SCIPY_TOLS_QUICK = {"RK45": [1e-8], "DOP853": [1e-10, 1e-13], "LSODA": [1e-10]}
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 HEYOKA_TOLS_QUICK = [1e-9, 1e-15]
 ADAMS_TOLS = [1e-8, 1e-10, 1e-12]
+# the compiled Dormand-Prince pairs
+DP_TOLS = {"dop853": [1e-8, 1e-10, 1e-12, 1e-14], "dopri5": [1e-8, 1e-10, 1e-12]}
+DP_TOLS_QUICK = {"dop853": [1e-10, 1e-13], "dopri5": [1e-10]}
 ADAMS_TOLS_QUICK = [1e-10]
 QUAD_TOLS = [1e-8, 1e-10, 1e-12, 1e-14]
 QUAD_TOLS_QUICK = [1e-10, 1e-14]
 PERIODIC_TOLS = [1e-12, 1e-13, 1e-14, 1e-15]
 PERIODIC_TOLS_QUICK = [1e-13, 1e-15]
 EXACT = ("quadrature", "periodic_orbit")  # propagators through the period: cost independent of t
+ADAPTIVE = ("adams", "dop853", "dopri5")  # adaptive methods: rows by tolerance, not by step
 
 
 # -- problems -------------------------------------------------------------------------------------------
@@ -669,6 +673,12 @@ def main(argv: list[str] | None = None) -> int:
             rec.update(param="tol", value=tol)
             recs.append(rec)
         log("  adams (VODE, output every 1): " + brief([r for r in recs if r["method"] == "adams"]))
+        for key, tols in (DP_TOLS_QUICK if quick else DP_TOLS).items():
+            for tol in tols:
+                rec = run_geomech(prob, key, key, 1.0, T_SHORT, ref["short"], repeats, tol=tol)
+                rec.update(param="tol", value=tol)
+                recs.append(rec)
+            log(f"  {key} (compiled, output every 1): " + brief(recs[-len(tols) :]))
         if isinstance(prob, ReducedClosedLoop):
             for tol in QUAD_TOLS_QUICK if quick else QUAD_TOLS:
                 recs.append(run_quadrature(prob, tol, T_SHORT, ref["short"], repeats))
@@ -711,6 +721,12 @@ def main(argv: list[str] | None = None) -> int:
                 long_recs.append(run_quadrature(prob, r["value"], T_LONG, ref["long"], 1 if quick else 3))
             elif r["method"] == "periodic_orbit":
                 long_recs.append(run_periodic(prob, r["value"], T_LONG, ref["long"], 1 if quick else 3))
+            elif r["param"] == "tol":
+                rec = run_geomech(
+                    prob, r["method"], r["method"], 1.0, T_LONG, ref["long"], 1 if quick else 2, tol=r["value"]
+                )
+                rec.update(param="tol", value=r["value"])
+                long_recs.append(rec)
             else:
                 long_recs.append(
                     run_geomech(prob, r["method"], r["method"], r["value"], T_LONG, ref["long"], 1 if quick else 2)
@@ -766,12 +782,13 @@ def targets(results: dict) -> list[dict]:
     red = results["problems"]["reduced"]
     hey = [r for r in red["short"] if r["solver"] == "heyoka"]
     gmr = [r for r in red["short"] if r["solver"] == "geomech"]
-    fixed = [r for r in gmr if r["method"] not in EXACT + ("adams",)]
+    fixed = [r for r in gmr if r["method"] not in EXACT + ADAPTIVE]
     h_best = fastest_to(hey, 1e-11)
     for name, pool in (
         ("fixed-step geomech", fixed),
         ("quadrature propagator", [r for r in gmr if r["method"] == "quadrature"]),
         ("periodic-orbit propagator", [r for r in gmr if r["method"] == "periodic_orbit"]),
+        ("compiled DOP853", [r for r in gmr if r["method"] == "dop853"]),
     ):
         g = fastest_to(pool, 1e-11)
         met = g is not None and (h_best is None or g["wall"] <= h_best["wall"])
@@ -790,7 +807,10 @@ def targets(results: dict) -> list[dict]:
     hey_l = [r for r in red["long"] if r["solver"] == "heyoka"]
     hb = fastest_to(hey_l, 1e-9)
     for name, pool in (
-        ("fixed-step geomech", [r for r in red["long"] if r["solver"] == "geomech" and r["method"] not in EXACT]),
+        (
+            "fixed-step geomech",
+            [r for r in red["long"] if r["solver"] == "geomech" and r["method"] not in EXACT + ADAPTIVE],
+        ),
         ("quadrature propagator", [r for r in red["long"] if r["method"] == "quadrature"]),
         ("periodic-orbit propagator", [r for r in red["long"] if r["method"] == "periodic_orbit"]),
     ):

@@ -66,7 +66,7 @@ def test_registry_traits_are_those_of_the_theory():
     with pytest.raises(InputError, match="rk4"):
         get_method("rk5")
     with pytest.raises(InputError, match="stages"):
-        GaussLegendre(4)
+        GaussLegendre(7)
     with pytest.raises(InputError, match="order"):
         LiePoissonSplitting(order=3)
 

@@ -10,7 +10,7 @@ import sympy as sp
 
 import geomech as gm
 from geomech.integrators._problem import make_problem
-from geomech.integrators.methods._lie_poisson import _composition_weights
+from geomech.integrators.methods import composition_weights
 from geomech.integrators.solve import solve
 
 
@@ -22,7 +22,7 @@ def _unmerged(system, m0, h, n_steps, order, composition, axis_order):
     y = np.array(m0, dtype=float)
     out = [y.copy()]
     for _ in range(n_steps):
-        for g in _composition_weights(order, composition):
+        for g in composition_weights(order, composition):
             for axis, frac in ((a, 0.5), (b, 0.5), (c, 1.0), (b, 0.5), (a, 0.5)):
                 theta = g * frac * h * float(d[axis](y[axis]))
                 j, k = (axis + 1) % 3, (axis + 2) % 3

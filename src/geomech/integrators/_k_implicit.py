@@ -159,15 +159,19 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
 def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """s-stage Gauss-Legendre collocation in the stage increments Z_i = Y_i - y_n:
     Z_i = h sum_j a_ij f(y_n + Z_j), y_{n+1} = y_n + sum_i d_i Z_i with d = b^T A^{-1} (Hairer & Wanner
-    II, IV.8: no extra evaluations of f, and no amplification of the Newton error by h f').
+    II, IV.8: no extra evaluations of f, and no amplification of the Newton error by h f'). A step is the
+    composition of J such steps of sizes gamma_1 h, ..., gamma_J h (J = 1, gamma = 1: one step); the
+    increments of one sub-step, rescaled, start Newton's method at the next.
 
-    P = (s, A (row-major), d, c).
+    P = (s, A (row-major), d, c, J, gamma_1..gamma_J).
     """
     B, d = Y0.shape
     s = int(P[0])
     a = P[1 : 1 + s * s]
     dc = P[1 + s * s : 1 + s * s + s]
     c = P[1 + s * s + s : 1 + s * s + 2 * s]
+    J = int(P[1 + s * s + 2 * s])
+    gam = P[2 + s * s + 2 * s : 2 + s * s + 2 * s + J]
     n = s * d
     y, tmp, f0 = np.empty(d), np.empty(d), np.empty(d)
     Z, r = np.empty(n), np.empty(n)
@@ -181,45 +185,57 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
         rhs(y, f0, prm)
         nrhs = 1
         nnewton = 0
+        hprev = h * gam[0]
         for i in range(s):
             for u in range(d):
-                Z[i * d + u] = c[i] * h * f0[u]
+                Z[i * d + u] = c[i] * hprev * f0[u]
         for k in range(1, nsteps + 1):
-            scale = max(1.0, max_abs(y))
-            dprev = 0.0
-            code = ST_NEWTON
-            resid = np.inf
-            for it in range(maxit):
-                for i in range(s):
-                    for u in range(d):
-                        tmp[u] = y[u] + Z[i * d + u]
-                    fjac(tmp, F[i], Js[i], prm)
-                nrhs += s
-                nnewton += 1
-                for i in range(s):
-                    for u in range(d):
-                        acc = 0.0
-                        for j in range(s):
-                            acc += a[i * s + j] * F[j, u]
-                        r[i * d + u] = h * acc - Z[i * d + u]
-                        for j in range(s):
-                            hij = -h * a[i * s + j]
-                            for v in range(d):
-                                M[i * d + u, j * d + v] = hij * Js[j, u, v]
-                        M[i * d + u, i * d + u] += 1.0
-                resid = max_abs(r)
-                state, dprev = newton_update(M, r, Z, n, dprev, it, scale, tol)
-                if state >= 0:
-                    code = state
+            code = 0
+            resid = 0.0
+            for jj in range(J):
+                hh = h * gam[jj]
+                if hh != hprev:
+                    ratio = hh / hprev
+                    for q in range(n):
+                        Z[q] *= ratio
+                    hprev = hh
+                scale = max(1.0, max_abs(y))
+                dprev = 0.0
+                code = ST_NEWTON
+                resid = np.inf
+                for it in range(maxit):
+                    for i in range(s):
+                        for u in range(d):
+                            tmp[u] = y[u] + Z[i * d + u]
+                        fjac(tmp, F[i], Js[i], prm)
+                    nrhs += s
+                    nnewton += 1
+                    for i in range(s):
+                        for u in range(d):
+                            acc = 0.0
+                            for j in range(s):
+                                acc += a[i * s + j] * F[j, u]
+                            r[i * d + u] = hh * acc - Z[i * d + u]
+                            for j in range(s):
+                                hij = -hh * a[i * s + j]
+                                for v in range(d):
+                                    M[i * d + u, j * d + v] = hij * Js[j, u, v]
+                            M[i * d + u, i * d + u] += 1.0
+                    resid = max_abs(r)
+                    state, dprev = newton_update(M, r, Z, n, dprev, it, scale, tol)
+                    if state >= 0:
+                        code = state
+                        break
+                if code != 0:
                     break
+                for u in range(d):
+                    acc = 0.0
+                    for i in range(s):
+                        acc += dc[i] * Z[i * d + u]
+                    y[u] += acc
             if code != 0:
                 fail(OUT, INFO, b, isave, k, code, resid)
                 break
-            for u in range(d):
-                acc = 0.0
-                for i in range(s):
-                    acc += dc[i] * Z[i * d + u]
-                y[u] += acc
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
             if isave < 0:
                 break

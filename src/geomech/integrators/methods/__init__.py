@@ -29,6 +29,7 @@ from typing import Any
 from ...errors import InputError
 from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
+from ._composition import COMPOSITION_TABLES, Composition, composition_weights
 from ._embedded import DormandPrince, EmbeddedPair, embedded_pair
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._group import RKMK, RKMK4
@@ -52,6 +53,9 @@ __all__ = [
     "AdaptiveAdams",
     "SolveIVP",
     "DormandPrince",
+    "Composition",
+    "COMPOSITION_TABLES",
+    "composition_weights",
     "EmbeddedPair",
     "embedded_pair",
     "SymplecticEuler",
@@ -93,9 +97,17 @@ REGISTRY: dict[str, Method] = {
         GaussLegendre(1),
         GaussLegendre(2),
         GaussLegendre(3),
+        GaussLegendre(4),
+        GaussLegendre(5),
+        GaussLegendre(6),
+        Composition(6),
+        Composition(8),
+        Composition(10),
         LiePoissonSplitting(2),
         LiePoissonSplitting(4, "yoshida"),
         LiePoissonSplitting(4, "suzuki"),
+        LiePoissonSplitting(6, "s9"),
+        LiePoissonSplitting(8, "s17"),
         MoserVeselov(),
         LieGroupVariational("cayley"),
         LieGroupVariational("exp"),

@@ -3,6 +3,7 @@ midpoint, the generating-function method, Gauss-Legendre collocation ([HLW], [MW
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -145,26 +146,35 @@ class GeneratingFunction(Method):
         return "generating_function"
 
 
-def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r3, r15 = np.sqrt(3.0), np.sqrt(15.0)
-    if s == 1:
-        return np.array([[0.5]]), np.array([1.0]), np.array([0.5])
-    if s == 2:
-        A = np.array([[0.25, 0.25 - r3 / 6], [0.25 + r3 / 6, 0.25]])
-        return A, np.array([0.5, 0.5]), np.array([0.5 - r3 / 6, 0.5 + r3 / 6])
-    A = np.array(
-        [
-            [5 / 36, 2 / 9 - r15 / 15, 5 / 36 - r15 / 30],
-            [5 / 36 + r15 / 24, 2 / 9, 5 / 36 - r15 / 24],
-            [5 / 36 + r15 / 30, 2 / 9 + r15 / 15, 5 / 36],
+@functools.cache
+def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, b, c, d)`` of s-stage Gauss-Legendre collocation, ``d = b^T A^{-1}``, computed in 40-digit arithmetic
+    and rounded once: the nodes c are the zeros of the shifted Legendre polynomial P_s(2c - 1) (numpy's
+    Gauss-Legendre nodes refined by Newton's method in mpmath), b and A the collocation conditions
+    sum_j b_j c_j^k = 1/(k+1) and sum_j a_ij c_j^k = c_i^(k+1)/(k+1), k < s ([HNW] II.7)."""
+    import mpmath  # type: ignore[import-untyped]
+
+    with mpmath.workdps(40):
+        c = [
+            (mpmath.findroot(lambda x: mpmath.legendre(s, x), mpmath.mpf(float(x0))) + 1) / 2
+            for x0 in np.polynomial.legendre.leggauss(s)[0]
         ]
-    )
-    return A, np.array([5 / 18, 4 / 9, 5 / 18]), np.array([0.5 - r15 / 10, 0.5, 0.5 + r15 / 10])
+        Vi = mpmath.matrix([[cj**k for cj in c] for k in range(s)]) ** -1  # V[k, j] = c_j^k
+        b = [sum(Vi[j, k] / (k + 1) for k in range(s)) for j in range(s)]
+        A = mpmath.matrix([[sum(Vi[j, k] * ci ** (k + 1) / (k + 1) for k in range(s)) for j in range(s)] for ci in c])
+        d = mpmath.lu_solve(A.T, mpmath.matrix(b))
+        as_float = lambda v: np.array([float(x) for x in v])  # noqa: E731
+        return (
+            np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]),
+            as_float(b),
+            as_float(c),
+            as_float(d),
+        )
 
 
 @dataclass(frozen=True)
 class GaussLegendre(Method):
-    """Gauss-Legendre collocation with ``stages`` = s = 1, 2, 3 stages (s = 1 is the midpoint rule).
+    """Gauss-Legendre collocation with ``stages`` = s = 1 to 6 stages (s = 1 is the midpoint rule).
 
     Order 2s; symplectic (canonical systems), symmetric, preserves quadratic invariants (so
     :math:`|m|^2`). Structure: any ODE with a Jacobian. Cost per step: Newton iterations on s d unknowns,
@@ -181,8 +191,8 @@ class GaussLegendre(Method):
     features: ClassVar[frozenset[str]] = frozenset({"rhs", "fjac"})
 
     def __post_init__(self) -> None:
-        if self.stages not in (1, 2, 3) or isinstance(self.stages, bool):
-            raise InputError(f"Expected `stages` to be 1, 2 or 3, got {self.stages!r}.")
+        if self.stages not in range(1, 7) or isinstance(self.stages, bool):
+            raise InputError(f"Expected `stages` to be 1 to 6, got {self.stages!r}.")
 
     @property
     def order(self) -> int:
@@ -194,9 +204,8 @@ class GaussLegendre(Method):
 
     def tableau(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The Butcher tableau ``(A, b, c)``."""
-        return _gauss_tableau(self.stages)
+        return _gauss_tableau(self.stages)[:3]
 
     def constants(self, problem: Any) -> np.ndarray:
-        A, b, c = self.tableau()
-        d = np.linalg.solve(A.T, b)  # d^T = b^T A^{-1}
-        return np.concatenate([[self.stages], A.ravel(), d, c])
+        A, _, c, d = _gauss_tableau(self.stages)
+        return np.concatenate([[self.stages], A.ravel(), d, c, [1.0, 1.0]])  # one step: the composition (1)

@@ -11,16 +11,7 @@ import numpy as np
 
 from ...errors import InputError
 from ._base import Kind, Method, Structure
-
-
-def _composition_weights(order: int, composition: str) -> tuple[float, ...]:
-    if order == 2:
-        return (1.0,)
-    if composition == "yoshida":
-        g1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-        return (g1, 1.0 - 2.0 * g1, g1)
-    g1 = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))  # Suzuki's fractal of five Strang steps
-    return (g1, g1, 1.0 - 4.0 * g1, g1, g1)
+from ._composition import check_composition, composition_weights
 
 
 @dataclass(frozen=True)
@@ -32,13 +23,16 @@ class LiePoissonSplitting(Method):
     exact rotation :math:`m(t) = \\exp(-t\\omega_i \\hat e_i)\\, m`, :math:`R(t) = R \\exp(t\\omega_i \\hat e_i)`.
     ``order=2`` is Strang's symmetric composition
     :math:`\\varphi^{a}_{h/2}\\varphi^{b}_{h/2}\\varphi^{c}_{h}\\varphi^{b}_{h/2}\\varphi^{a}_{h/2}` (the costliest
-    part c in the middle, the last sub-flow merged with the next step's first); ``order=4`` composes it
-    as Yoshida's triple jump or Suzuki's five-fold fractal.
+    part c in the middle, the last sub-flow merged with the next step's first); higher orders compose it
+    (``composition``): Yoshida's triple jump or Suzuki's five-fold fractal, recursively (any even order), or
+    the optimised compositions ``"s7"``, ``"s9"`` (order 6), ``"s15"``, ``"s17"`` (order 8), ``"s35"`` (order 10)
+    of [HLW] V.3.2 (:func:`~geomech.integrators.methods.composition_weights`).
 
-    Order 2 or 4; explicit; Poisson (each sub-flow is a Hamiltonian flow), symmetric; keeps the Casimir
+    Order 2, 4, 6, 8 or 10; explicit; Poisson (each sub-flow is a Hamiltonian flow), symmetric; keeps the Casimir
     :math:`|m|` and, with the attitude, the spatial momentum :math:`p = R m` to round-off. Structure:
     Lie-Poisson on so(3)* with a split Hamiltonian (checked symbolically: the mixed second derivatives
-    vanish). Cost per step: 4 (order 2) or 12 / 16 (order 4) derivative evaluations and rotations.
+    vanish). Cost per step: 4 derivative evaluations and rotations for each Strang step (1 at order 2, 3 or 5
+    for the order-4 compositions, J for a table of J steps).
     Reference: [HLW] VII.5.4 (the free rigid body), II.4 and V.3 (compositions); [Y].
     """
 
@@ -54,23 +48,21 @@ class LiePoissonSplitting(Method):
     features: ClassVar[frozenset[str]] = frozenset({"rhs", "split"})
 
     def __post_init__(self) -> None:
-        if self.order not in (2, 4) or isinstance(self.order, bool):
-            raise InputError(f"Expected `order` to be 2 or 4, got {self.order!r}.")
-        if self.composition not in ("yoshida", "suzuki"):
-            raise InputError(f"Expected `composition` to be 'yoshida' or 'suzuki', got {self.composition!r}.")
+        if self.order != 2:
+            check_composition(self.order, self.composition, (2, 4, 6, 8, 10))
         if self.axis_order is not None and sorted(self.axis_order) != [0, 1, 2]:
             raise InputError(f"Expected `axis_order` to be a permutation of (0, 1, 2), got {self.axis_order!r}.")
 
     @property
     def key(self) -> str:
-        return "strang" if self.order == 2 else f"splitting_4_{self.composition}"
+        return "strang" if self.order == 2 else f"splitting_{self.order}_{self.composition}"
 
     def sequence(self, axis_order: tuple[int, int, int]) -> list[tuple[int, float]]:
         """One step as (axis, fraction of h) sub-flows, adjacent flows about one axis merged."""
         a, b, c = self.axis_order or axis_order
         strang = [(a, 0.5), (b, 0.5), (c, 1.0), (b, 0.5), (a, 0.5)]
         seq: list[tuple[int, float]] = []
-        for g in _composition_weights(self.order, self.composition):
+        for g in composition_weights(self.order, self.composition):
             for axis, frac in strang:
                 if seq and seq[-1][0] == axis:
                     seq[-1] = (axis, seq[-1][1] + g * frac)
