@@ -14,6 +14,7 @@ from ._k_common import (
     fail,
     finish_step,
     kernel,
+    load,
     max_abs,
     newton_update,
     store,
@@ -100,7 +101,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, p
     counts = np.zeros(2)  # rhs evaluations, Newton iterations
     off = n if variant == 0 else 0  # the implicit unknown is p (variant 0) or q
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         counts[:] = 0.0
@@ -166,7 +167,7 @@ def verlet_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     n = d // 2
     y, g, gq = np.empty(d), np.empty(d), np.empty(n)
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         grad(y, g, prm)

@@ -41,6 +41,13 @@ def finite(y):
 
 
 @kernel
+def load(y, Y0, b):
+    """y = Y0[b], element by element (a slice assignment would compile numba's shape-mismatch error path)."""
+    for i in range(y.shape[0]):
+        y[i] = Y0[b, i]
+
+
+@kernel
 def store(OUT, b, isave, y):
     for i in range(y.shape[0]):
         OUT[b, isave, i] = y[i]

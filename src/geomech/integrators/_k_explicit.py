@@ -14,6 +14,7 @@ from ._k_common import (
     finish_step,
     finite,
     kernel,
+    load,
     store,
 )
 
@@ -48,7 +49,7 @@ def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     y = np.empty(d)
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         done = 0
@@ -74,7 +75,7 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     fp = np.empty(d)
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         nrhs = 1
@@ -91,7 +92,8 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
                     y[i] += h / 24.0 * (9.0 * fp[i] + 19.0 * F[0, i] - 5.0 * F[1, i] + F[2, i])
                 nrhs += 1
             for j in range(3, 0, -1):
-                F[j, :] = F[j - 1, :]
+                for i in range(d):
+                    F[j, i] = F[j - 1, i]
             rhs(y, F[0], prm)
             nrhs += 1
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)

@@ -15,6 +15,7 @@ from ._k_common import (
     fail,
     finish_step,
     kernel,
+    load,
     max_abs,
     newton_done,
     newton_update,
@@ -49,7 +50,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     f, r, tmp = np.empty(d), np.empty(d), np.empty(d)
     J, A = np.empty((d, d)), np.empty((d, d))
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         rhs(y, f, prm)
@@ -179,7 +180,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     Js = np.empty((s, d, d))
     M = np.empty((n, n))
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         rhs(y, f0, prm)

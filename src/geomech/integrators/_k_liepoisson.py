@@ -21,6 +21,7 @@ from ._k_common import (
     finish_step,
     is_save,
     kernel,
+    load,
     max_abs,
     newton_update,
     store,
@@ -188,7 +189,7 @@ def split_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     fsal = J > 1 and axes[0] == axes[J - 1]
     y = np.empty(d)
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         pending = 0.0
@@ -341,7 +342,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     mu, g, u, v, tmp = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     D, hm, A, F = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         for i in range(3):
@@ -408,7 +409,7 @@ def mv_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     u, tmp, X = np.empty(3), np.empty(3), np.empty(3)
     A, F, Iinv = np.empty((3, 3)), np.empty((3, 3)), np.linalg.inv(inertia)
     for b in range(B):
-        y[:] = Y0[b]
+        load(y, Y0, b)
         store(OUT, b, 0, y)
         isave = 1
         nnewton = 0
