@@ -37,6 +37,7 @@ def car():
     return kinematic_car(m=1.0, I=0.2, R=0.3, ell=1.0, J=0.1, K=0.1)
 
 
+@pytest.mark.slow  # a long run; the CLI's test checks the same closed form on a shorter one
 def test_drive_gait_momentum_gain_is_the_bessel_closed_form(board):
     # BKMM: p' = 2 J0 cos^2(phi) phi' psi' - tan(phi) p phi', so d/dt (p/cos phi) = 2 J0 cos(phi) phi' psi' and over
     # one period of psi = a sin(wt), phi = b sin(wt): Delta p = 2 J0 a b w^2 int cos(b sin wt) cos^2(wt) dt
@@ -59,6 +60,7 @@ def test_drive_gait_momentum_gain_is_the_bessel_closed_form(board):
     assert abs(a.p[i, 0] - np.cos(B_PHI * np.sin(w * ti)) * (0.7 + integral)) < 1e-9
 
 
+@pytest.mark.slow  # the reduced simulation is the fast suite's second route
 def test_reconstruction_agrees_with_full_simulation(board):
     from geomech import solve
     from geomech.integrators import LagrangeDAlembert

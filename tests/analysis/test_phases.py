@@ -195,6 +195,7 @@ def test_two_body_kepler_dynamic_phase_is_a_full_turn():
     assert abs(ph.total - 2 * np.pi) < 1e-8
 
 
+@pytest.mark.slow  # a long verification run against Newton's equations
 def test_reconstruction_vs_newtonian_three_body(bodies):
     # Free gravitational motion by Newton's law; the shape and momentum from it, g(t) reconstructed.
     m = np.array([1.0, 2.0, 1.5])
