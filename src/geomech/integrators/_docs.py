@@ -22,8 +22,14 @@ that does not converge, a non-finite state, an adaptive solver that gives up, an
 data in the `Solution`, raised by default with the step, the time and the residual, the partial solution
 attached.
 
-Fixed-step methods on Hamiltonian systems run in loops compiled with numba from the symbolic model (cached
-on disk); adaptive Adams wraps scipy's VODE/LSODA, the Lagrangian methods scipy's solve_ivp solvers; the
+Fixed-step methods on Hamiltonian systems and the Dormand-Prince pairs (`dop853`, `dopri5`: error control,
+dense output at any `saveat`, the same steps as scipy's solvers of those names) run in loops compiled with
+numba from the symbolic model (cached on disk), over a batch of initial states in threads. The high orders
+that keep the structure: Gauss-Legendre collocation up to s = 6 stages (order 12), the symmetric
+compositions `Composition(order, scheme, stages)` of the midpoint rule (`midpoint_s9_6`, `midpoint_s17_8`,
+`midpoint_s35_10`) or of Gauss-Legendre steps, and the Lie-Poisson splitting composed to order 10
+(`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Adaptive Adams wraps
+scipy's VODE/LSODA, the Lagrangian methods scipy's solve_ivp solvers; the
 Runge-Kutta-Munthe-Kaas methods step on the group in exponential coordinates about a moving centre. The
 exact propagators give the state of a one-degree-of-freedom system at any time from one period, at a cost
 that does not grow with t. Speed and accuracy beside scipy and heyoka: `benchmarks/README.md`.
