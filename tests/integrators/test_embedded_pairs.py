@@ -150,3 +150,30 @@ def test_a_users_ode_against_scipy_at_tight_tolerance():
     np.testing.assert_allclose(sol.states, ref.y.T, rtol=0, atol=1e-9)
     energy = sol.states[:, 1] ** 2 / 2 - np.cos(sol.states[:, 0])
     assert np.ptp(energy) < 1e-10
+
+
+@pytest.mark.parametrize("name", PAIRS)
+def test_leaving_the_chart_is_located_by_the_continuous_extension(name):
+    # H = -l - log cos L: L' = 1, l' = tan L. The chart |L| < 1.2 ends at t = 1.2, where l = -log cos 1.2
+    l, L = sp.symbols("l L", real=True)
+    system = gm.CanonicalSystem.from_expression(-l - sp.log(sp.cos(L)), (l,), (L,), chart=((1, -1.2, 1.2),))
+    sol = gm.solve(
+        system,
+        DormandPrince(name),
+        y0=[0.0, 0.0],
+        t_final=3.0,
+        saveat=31,
+        rtol=1e-12,
+        atol=1e-12,
+        raise_on_failure=False,
+    )
+    assert sol.status is Status.LEFT_CHART
+    failure = sol.failures[0]
+    assert abs(failure.time - 1.2) < 1e-12 and failure.step == 12  # the first output not reached: t = 1.2
+    inside = sol.t < 1.2 - 1e-9
+    np.testing.assert_allclose(sol.states[inside, 0], -np.log(np.cos(sol.t[inside])), rtol=0, atol=1e-9)
+    assert np.all(np.isnan(sol.states[~inside]))
+    # a start outside the chart is refused at once, and a run that stays inside is a success
+    outside = gm.solve(system, DormandPrince(name), y0=[0.0, 1.3], t_final=1.0, raise_on_failure=False)
+    assert outside.status is Status.LEFT_CHART and outside.failures[0].time == 0.0
+    assert gm.solve(system, DormandPrince(name), y0=[0.0, -1.0], t_final=2.1).status is Status.SUCCESS

@@ -215,6 +215,39 @@ def dense_value(y, F, theta, alternating, out):
 
 
 @kernel
+def chart_margin(y, CH):
+    """How far y is inside the chart CH (rows: component, lower, upper bound): the smallest distance to a
+    bound, negative outside (or NaN); +inf without a chart."""
+    m = np.inf
+    for r in range(CH.shape[0]):
+        v = y[int(CH[r, 0])]
+        m = min(m, v - CH[r, 1], CH[r, 2] - v)
+        if v != v:
+            return np.nan
+    return m
+
+
+@kernel
+def chart_exit(y, F, dop853, CH, out):
+    """The fraction theta in (0, 1] of a step at which its continuous extension leaves the chart CH (y is
+    inside, the end of the step is not): bisection to the resolution of doubles; ``out`` holds the state at
+    the last theta inside."""
+    lo = 0.0
+    hi = 1.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        dense_value(y, F, mid, dop853, out)
+        if chart_margin(out, CH) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    dense_value(y, F, lo, dop853, out)
+    return hi
+
+
+@kernel
 def section_value(f0, y, y0, shift, w):
     """g_w(y) = f(y0) . (y - y0 - w shift): the section through y0 (shifted by w angle periods) normal to
     the flow at y0; the orbit crosses it increasingly at its return."""
@@ -417,13 +450,16 @@ def orbit_states(YM, TM, idx, tau, A, B, OUT, prm):
 
 
 @kernel
-def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, prm):
+def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, CH, prm):
     """Integrate each row of Y0 from t0 by the embedded pair (A, B; error weights E, E2 on the stages and
     f(y1); continuous extension D, its extra stages the rows of A past ns), saving at the times TS (monotone,
     away from t0) by the continuous extension, or exactly where a step ends on one. ``q`` is the order of the
-    error estimate; ``dop853`` selects DOP853's blended error estimate and nested continuous extension.
+    error estimate; ``dop853`` selects DOP853's blended error estimate and nested continuous extension. A
+    state that leaves the chart CH (rows: component, lower, upper bound; none: shape (0, 3)) ends the run
+    where the continuous extension crosses the bound (status 6), the outputs before it kept.
 
-    INFO[b]: status (0, 2 non-finite, 4 step size underflow, 8 evaluation budget spent), the index of the
+    INFO[b]: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation budget spent), the
+    index of the
     first time of TS not reached, NaN, 0, evaluations of f, the time reached, accepted and rejected steps.
     """
     nb, d = Y0.shape
@@ -455,7 +491,9 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
         nfev = 0
         steps = 0
         rejected = 0
-        if k < n:
+        if k < n and not (chart_margin(y, CH) > 0.0):
+            status = 6
+        if k < n and status == 0:
             rhs(y, K[0], prm)
             nfev = 1
             span = abs(t_end - t0)
@@ -469,6 +507,7 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
             if not (finite(K[0]) and math.isfinite(h_abs)):
                 status = 2
         nonfinite = False
+        left = False
         retry = False
         while k < n and status == 0:
             if nfev + ns > max_evals:
@@ -476,7 +515,8 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
                 break
             min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
             if not (h_abs >= min_step):
-                status = 2 if nonfinite else 4
+                # steps that kept ending outside the chart, where f is not finite: the run reached its end
+                status = 6 if left else (2 if nonfinite else 4)
                 break
             tnew = t + direction * h_abs
             if direction * (tnew - t_end) > 0.0:
@@ -490,6 +530,7 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
             nfev += ns
             err = erk_error_norm(y, ynew, K, E, E2, ns + 1, h, rtol, atol, dop853)
             nonfinite = not (finite(ynew) and math.isfinite(err))
+            left = nonfinite and not (chart_margin(ynew, CH) > 0.0)
             if nonfinite or err >= 1.0:
                 h_abs = abs(h) * (0.2 if nonfinite else max(0.2, 0.9 * err**expo))
                 rejected += 1
@@ -499,7 +540,16 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
             if retry:
                 factor = min(1.0, factor)
             extended = False
-            while k < n and direction * (TS[k] - tnew) <= 0.0:
+            t_stop = tnew
+            if not (chart_margin(ynew, CH) > 0.0):
+                # the step leaves the chart: end the run where its continuous extension crosses the bound
+                erk_stages(y, h, A, K, tmp, ns + 1, n_total, prm)
+                nfev += n_total - ns - 1
+                dense_coefficients(h, D, K, F)
+                extended = True
+                t_stop = t + chart_exit(y, F, dop853, CH, out) * h
+                status = 6
+            while k < n and direction * (TS[k] - t_stop) <= 0.0 and not (status == 6 and TS[k] == t_stop):
                 if TS[k] == tnew:
                     store(OUT, b, k, ynew)
                 else:
@@ -511,6 +561,9 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
                     dense_value(y, F, (TS[k] - t) / h, dop853, out)
                     store(OUT, b, k, out)
                 k += 1
+            if status == 6:
+                t = t_stop
+                break
             for i in range(d):
                 comp[i] = (y[i] - ynew[i]) + dy[i]
                 y[i] = ynew[i]

@@ -184,6 +184,7 @@ def run_periodic(
 def run_embedded(
     module: Any,
     used: str,
+    problem_system: Any,
     prm: np.ndarray,
     method: DormandPrince,
     Y0: np.ndarray,
@@ -197,11 +198,14 @@ def run_embedded(
     reached: dict[int, float],
     threads: int,
 ) -> tuple[int, float]:
-    """Each row of ``Y0`` by the compiled Dormand-Prince loop; returns (accepted steps, compile time)."""
+    """Each row of ``Y0`` by the compiled Dormand-Prince loop, stopped where it leaves the chart of
+    ``problem_system`` (its ``chart``: component, lower and upper bound); returns (accepted steps, compile
+    time)."""
     pair = method.tableau()
     rtol, atol = tolerances
     budget = float(max_evaluations)
-    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, prm)
+    chart = np.array(getattr(problem_system, "chart", ()) or np.zeros((0, 3)), dtype=float).reshape(-1, 3)
+    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart, prm)
     compile_time = 0.0
     if used == "numba" and not module.erk_run.signatures:
         # the first call compiles (or loads numba's disk cache): timed apart on a one-step problem
@@ -239,6 +243,8 @@ def run_embedded(
                 f"the step size fell below the resolution of t at t = {INFO[b, 5]:.6g} to meet rtol = {rtol:g}, "
                 f"atol = {atol:g}: a singularity of the equations, or tolerances below round-off"
             )
+        elif code == 6:
+            reasons[b] = f"located by the continuous extension at t = {INFO[b, 5]:.12g}"
         else:
             reasons[b] = f"the state or its error estimate is not finite past t = {INFO[b, 5]:.6g} (a blow-up)"
     return int(INFO[:, 6].sum()), compile_time

@@ -409,6 +409,7 @@ def solve(
         internal, compile_time = run_embedded(
             module,
             used,
+            system,
             problem.prm,
             method,
             Y0,
