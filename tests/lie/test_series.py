@@ -54,3 +54,18 @@ def test_coefficient_accurate_on_both_sides_of_the_switch(name):
 @pytest.mark.parametrize("name", sorted(REFERENCE))
 def test_coefficient_at_zero_is_exact(name):
     assert getattr(c, name)(np.array(0.0)) == VALUE_AT_ZERO[name]
+
+
+@pytest.mark.parametrize("name", sorted(REFERENCE))
+def test_one_double_gives_the_array_value_bit_for_bit(name):
+    """A single double takes a scalar path (the group integrators call with one element at a time); it must
+    round exactly as the array path does, on both sides of the switch point."""
+    f = getattr(c, name)
+    tol = f.tol(np.dtype(np.float64))
+    ts = np.array([0.0, 1e-9, -3e-5, 0.5 * tol, -0.999 * tol, tol, 1.001 * tol, 0.3, -1.7, 2.9, 1e3])
+    batch = f(ts)
+    for t, want in zip(ts, batch):
+        got = f(np.float64(t))
+        assert got.shape == () and got.dtype == np.float64
+        assert got == want or (np.isnan(got) and np.isnan(want)), (t, got, want)
+    assert f(np.float32(0.3)).dtype == np.float32  # other precisions keep the array path and their dtype

@@ -37,6 +37,7 @@ class EvenSeries:
         self._next = abs(float(next_coeff))
         self._power = 2 * len(coeffs)
         self.closed = closed
+        self._tol64 = self.tol(np.dtype(np.float64))
 
     def tol(self, dtype: np.dtype) -> float:
         eps = float(np.finfo(dtype).eps)
@@ -44,6 +45,17 @@ class EvenSeries:
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t)
+        if t.ndim == 0 and t.dtype == np.float64:
+            # one double (a single element in a Python loop, e.g. a step of a group integrator): the same
+            # operations on a scalar, without the array machinery
+            x = float(t)
+            if abs(x) < self._tol64:
+                x2 = x * x
+                value = 0.0
+                for c in reversed(self.coeffs):
+                    value = value * x2 + c
+                return np.asarray(value)
+            return np.asarray(self.closed(t))
         tol = self.tol(t.dtype)
         small = np.abs(t) < tol
         # The closed form is evaluated at a harmless stand-in where the series is used, so that no

@@ -313,24 +313,22 @@ def random(rng: Any = None, size: Any = ()) -> np.ndarray:
     return _assemble(_rot2(w), t)
 
 
-def _jac_blocks(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _jac_column(xi: np.ndarray) -> np.ndarray:
     w = xi[..., 2]
     vx, vy = xi[..., 0], xi[..., 1]
     # Third column of J_l = sum ad^k/(k+1)!: (P vy + Q vx, -P vx + Q vy), with P = (1 - cos)/w^2 (even)
     # and Q = (w - sin w)/w^2 = w (w - sin w)/w^3 (odd, so built from the even series).
     P = c.ONE_MINUS_COS_T2(w)
     Q = w * c.T_MINUS_SIN_T3(w)
-    col = np.stack([P * vy + Q * vx, -P * vx + Q * vy], axis=-1)
-    return _V(w), col
+    return np.stack([P * vy + Q * vx, -P * vx + Q * vy], axis=-1)
 
 
 def _left_jacobian(xi: np.ndarray) -> np.ndarray:
-    V, col = _jac_blocks(xi)
-    return _assemble(V, col)
+    return _assemble(_V(xi[..., 2]), _jac_column(xi))
 
 
 def _left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
-    V, col = _jac_blocks(xi)
+    col = _jac_column(xi)
     w = xi[..., 2]
     alpha = c.HALF_COT_HALF(w)
     Vinv = np.stack([np.stack([alpha, 0.5 * w], -1), np.stack([-0.5 * w, alpha], -1)], -2)
