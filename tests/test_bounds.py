@@ -89,7 +89,7 @@ def test_an_overflowing_hessian_is_a_numerical_error_not_nan():
         find_equilibria(sys, 1.0)
 
 
-@pytest.mark.parametrize("method", ["rk4", "implicit_midpoint", "adams", "dop853"])
+@pytest.mark.parametrize("method", ["rk4", "implicit_midpoint", "adams"])  # dop853: test_embedded_pairs
 def test_a_trajectory_that_reaches_the_end_of_its_chart_is_a_failure_where_it_does(method):
     """H = -l drives L' = 1: from L = 0 the chart L in (-1, 1) ends at t = 1."""
     import sympy as sp

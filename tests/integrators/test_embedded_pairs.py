@@ -154,26 +154,20 @@ def test_a_users_ode_against_scipy_at_tight_tolerance():
 
 @pytest.mark.parametrize("name", PAIRS)
 def test_leaving_the_chart_is_located_by_the_continuous_extension(name):
-    # H = -l - log cos L: L' = 1, l' = tan L. The chart |L| < 1.2 ends at t = 1.2, where l = -log cos 1.2
-    l, L = sp.symbols("l L", real=True)
-    system = gm.CanonicalSystem.from_expression(-l - sp.log(sp.cos(L)), (l,), (L,), chart=((1, -1.2, 1.2),))
-    sol = gm.solve(
-        system,
-        DormandPrince(name),
-        y0=[0.0, 0.0],
-        t_final=3.0,
-        saveat=31,
-        rtol=1e-12,
-        atol=1e-12,
-        raise_on_failure=False,
-    )
+    # the blow-up system H = -q p^2 / 2, p = 2 / (2 - t) from p0 = 1, on the chart p < 1.5: it ends at
+    # t = 2 - 2/1.5 = 2/3, where q = (1 - t/2)^2 (q' = -q p); the chart is read at run time (one compiled module)
+    q, p = sp.symbols("q p", real=True)
+    system = gm.CanonicalSystem.from_expression(-q * p**2 / 2, (q,), (p,), name="blow-up", chart=((1, -10.0, 1.5),))
+    opts = dict(t_final=3.0, saveat=31, rtol=1e-12, atol=1e-12, raise_on_failure=False)
+    sol = gm.solve(system, DormandPrince(name), y0=[1.0, 1.0], **opts)
     assert sol.status is Status.LEFT_CHART
     failure = sol.failures[0]
-    assert abs(failure.time - 1.2) < 1e-12 and failure.step == 12  # the first output not reached: t = 1.2
-    inside = sol.t < 1.2 - 1e-9
-    np.testing.assert_allclose(sol.states[inside, 0], -np.log(np.cos(sol.t[inside])), rtol=0, atol=1e-9)
+    assert abs(failure.time - 2.0 / 3.0) < 1e-12 and failure.step == 7  # the first output not reached: t = 0.7
+    inside = sol.t < 2.0 / 3.0
+    np.testing.assert_allclose(sol.states[inside, 0], (1 - sol.t[inside] / 2) ** 2, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sol.states[inside, 1], 2 / (2 - sol.t[inside]), rtol=0, atol=1e-10)
     assert np.all(np.isnan(sol.states[~inside]))
     # a start outside the chart is refused at once, and a run that stays inside is a success
-    outside = gm.solve(system, DormandPrince(name), y0=[0.0, 1.3], t_final=1.0, raise_on_failure=False)
+    outside = gm.solve(system, DormandPrince(name), y0=[1.0, 1.6], t_final=1.0, raise_on_failure=False)
     assert outside.status is Status.LEFT_CHART and outside.failures[0].time == 0.0
-    assert gm.solve(system, DormandPrince(name), y0=[0.0, -1.0], t_final=2.1).status is Status.SUCCESS
+    assert gm.solve(system, DormandPrince(name), y0=[1.0, 0.5], t_final=1.5).status is Status.SUCCESS

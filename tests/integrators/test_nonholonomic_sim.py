@@ -253,7 +253,9 @@ def test_the_three_methods_agree_through_solve_at_given_output_times():
         discrete(s, 1.0, 0.005, shapes=GAIT, saveat=[0.0, 0.0123, 1.0])
 
 
-@pytest.mark.parametrize("method", [LagrangeDAlembert(), BKMM()])
+@pytest.mark.parametrize(
+    "method", [LagrangeDAlembert(), pytest.param(BKMM(), marks=pytest.mark.slow)], ids=["lagrange_dalembert", "bkmm"]
+)
 def test_an_exhausted_budget_is_data_with_the_states_reached(method):
     s = snakeboard(**SNAKE)
     t_final = 10.0
