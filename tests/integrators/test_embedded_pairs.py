@@ -171,3 +171,13 @@ def test_leaving_the_chart_is_located_by_the_continuous_extension(name):
     outside = gm.solve(system, DormandPrince(name), y0=[1.0, 1.6], t_final=1.0, raise_on_failure=False)
     assert outside.status is Status.LEFT_CHART and outside.failures[0].time == 0.0
     assert gm.solve(system, DormandPrince(name), y0=[1.0, 0.5], t_final=1.5).status is Status.SUCCESS
+
+
+def test_bad_pairs_and_budgets_are_refused_with_what_exists():
+    with pytest.raises(gm.errors.InputError, match="DOP853"):
+        DormandPrince("RK45")
+    body = gm.RigidBody([3.0, 2.0, 1.0])
+    with pytest.raises(gm.errors.InputError, match="max_evaluations"):
+        gm.solve(body, "dop853", m0=M0, t_final=1.0, max_evaluations=0)
+    with pytest.raises(gm.errors.InputError, match="h"):
+        gm.solve(body, "dop853", m0=M0, t_final=1.0, h=0.1)

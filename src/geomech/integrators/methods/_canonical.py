@@ -172,6 +172,13 @@ def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
         )
 
 
+def gauss_constants(stages: int, weights: tuple[float, ...]) -> np.ndarray:
+    """The ``P`` of the compiled Gauss-Legendre loop: (s, A, d, c, J, gamma_1..gamma_J), a step being the
+    composition of J steps of sizes gamma_j h."""
+    A, _, c, d = _gauss_tableau(stages)
+    return np.concatenate([[stages], A.ravel(), d, c, [len(weights)], weights])
+
+
 @dataclass(frozen=True)
 class GaussLegendre(Method):
     """Gauss-Legendre collocation with ``stages`` = s = 1 to 6 stages (s = 1 is the midpoint rule).
@@ -207,5 +214,4 @@ class GaussLegendre(Method):
         return _gauss_tableau(self.stages)[:3]
 
     def constants(self, problem: Any) -> np.ndarray:
-        A, _, c, d = _gauss_tableau(self.stages)
-        return np.concatenate([[self.stages], A.ravel(), d, c, [1.0, 1.0]])  # one step: the composition (1)
+        return gauss_constants(self.stages, (1.0,))  # one step: the composition (1)

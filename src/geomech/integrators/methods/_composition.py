@@ -11,7 +11,7 @@ import numpy as np
 
 from ...errors import InputError
 from ._base import Method, Structure
-from ._canonical import _gauss_tableau
+from ._canonical import gauss_constants
 
 __all__ = ["COMPOSITION_TABLES", "composition_weights", "Composition"]
 
@@ -178,6 +178,4 @@ class Composition(Method):
         return composition_weights(self.order, self.scheme, 2 * self.stages)
 
     def constants(self, problem: Any) -> np.ndarray:
-        A, _, c, d = _gauss_tableau(self.stages)
-        g = self.weights()
-        return np.concatenate([[self.stages], A.ravel(), d, c, [len(g)], g])
+        return gauss_constants(self.stages, self.weights())
