@@ -97,6 +97,11 @@ def test_from_lagrangian_rejects_what_is_not_invariant_or_not_simple():
         HolonomicSystem.from_lagrangian("theta_dot**2/2 + psi_dot**2/2 + psi*theta_dot", "S1", ["psi"])
     with pytest.raises(SymbolicError, match="quadratic"):
         HolonomicSystem.from_lagrangian("theta_dot**4/2 + psi_dot**2/2", "S1", ["psi"])
+    # a mixed cubic term, hidden in a product, and one that is not a polynomial in the velocities at all
+    with pytest.raises(SymbolicError, match="degree > 2"):
+        HolonomicSystem.from_lagrangian("(theta_dot + psi_dot)**2*(1 + psi_dot)/2 + psi_dot**2/2", "S1", ["psi"])
+    with pytest.raises(SymbolicError, match="not polynomial|quadratic"):
+        HolonomicSystem.from_lagrangian("theta_dot**2/2 + psi_dot**2/2 + cos(psi)*exp(psi_dot)", "S1", ["psi"])
     symbolic = HolonomicSystem.from_lagrangian("J*theta_dot**2/2 + psi_dot**2/2", "S1", ["psi"])
     with pytest.raises(InputError, match=r"no value for parameter\(s\) \['J'\]"):
         symbolic.reduced_mass_function  # noqa: B018 (compiling needs every value)

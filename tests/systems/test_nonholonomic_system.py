@@ -111,6 +111,12 @@ def test_dynamicsymbols_input_is_accepted():
     L = m / 2 * (x.diff(t) ** 2 + y.diff(t) ** 2) + I / 2 * th.diff(t) ** 2
     s = NonholonomicSystem.from_lagrangian(L, SE2(), (), [-sp.sin(th) * x.diff(t) + sp.cos(th) * y.diff(t)])
     assert s.c == 1 and {p.name for p in s.parameter_symbols} == {"m", "I"}
+    xd, yd, thd = s.qdot
+    P = {p.name: p for p in s.parameter_symbols}
+    assert sp.expand(s.lagrangian - (P["m"] / 2 * (xd**2 + yd**2) + P["I"] / 2 * thd**2)) == 0
+    # an acceleration is not a velocity: refused by name, not differentiated away
+    with pytest.raises(SymbolicError, match="first derivatives of the coordinates"):
+        NonholonomicSystem.from_lagrangian(L + x.diff(t, 2) * y.diff(t), SE2(), (), [])
 
 
 def test_invariance_report_names_the_breaking_term():

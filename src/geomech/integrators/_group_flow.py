@@ -80,12 +80,14 @@ def solve_group_flow(
     steps = 0
     limit = int(V.positive_scalar(max_evaluations, "max_evaluations"))
 
+    # Elements are matrices and the product is the group's (LieGroup.compose without re-checking what exp
+    # and the products of elements return: the check was twice the cost of the product in every evaluation).
     def chart_rhs(t: float, u: np.ndarray, gc: np.ndarray) -> np.ndarray:
         nonlocal nfev
         if nfev >= limit:
             raise _OverBudget(t, nfev)
         nfev += 1
-        return G.right_jacobian_inverse(u) @ system.velocity(t, G.compose(gc, G.exp(u)))
+        return G.right_jacobian_inverse(u) @ system.velocity(t, gc @ G.exp(u))
 
     failure: Failure | None = None
     start = time.perf_counter()
@@ -108,7 +110,7 @@ def solve_group_flow(
                 k3 = chart_rhs(t + h / 2, h * k2 / 2, gc)
                 k4 = chart_rhs(t + h, h * k3, gc)
                 theta = h * (k1 + 2 * k2 + 2 * k3 + k4) / 6
-                gc = G.compose(gc, G.exp(theta))
+                gc = gc @ G.exp(theta)
                 angle = angle + theta[ac]
                 steps += 1
                 tc = t0 + step * h
@@ -151,10 +153,10 @@ def solve_group_flow(
                     sign * (saved_t[i] - t_stop) < 0 or (last and sign * (saved_t[i] - t_stop) <= 0)
                 ):
                     u = sol.sol(saved_t[i])
-                    out_g[i], out_a[i] = G.compose(gc, G.exp(u)), angle + u[ac]
+                    out_g[i], out_a[i] = gc @ G.exp(u), angle + u[ac]
                     i += 1
                 u = sol.y[:, -1]
-                gc = G.compose(gc, G.exp(u))
+                gc = gc @ G.exp(u)
                 angle = angle + u[ac]
                 tc = t_stop
     except _OverBudget as stop:

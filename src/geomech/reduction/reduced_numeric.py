@@ -94,18 +94,16 @@ class _Point:
         batch = r.shape[:-1]
         with np.errstate(all="ignore"):
             vals = owner._kernel(r)[..., 0]
-        bad = ~np.isfinite(vals).all(axis=-1)
-        if np.any(bad):
+        if not np.isfinite(vals).all():
+            bad = ~np.isfinite(vals).all(axis=-1)
             i = np.unravel_index(int(np.argmax(bad)), bad.shape)
             raise SingularityError(
                 f"{owner.name}: the kinetic metric, the constraints or the potential are singular at r = "
                 f"{np.round(r[i], 6).tolist()} (not finite there); the reduction is undefined at such shapes."
             )
-        parts, start = {}, 0
-        for name, shape in owner._layout:
-            size = int(np.prod(shape))
-            parts[name] = vals[..., start : start + size].reshape(batch + shape)
-            start += size
+        parts = {}
+        for name, shape, start, stop in owner._layout:
+            parts[name] = vals[..., start:stop].reshape(batch + shape)
         self.parts = parts
         M, dM = parts["M"], parts["dM"]
         self.Il, self.G, self.mrr = M[..., :k, :k], M[..., :k, k:], M[..., k:, k:]
@@ -193,7 +191,11 @@ class ReducedNumeric:
         self.k, self.sigma, self.m, self.c = s.k, s.sigma, reduction.m, s.c
         exprs = _kernel_expressions(reduction)
         # one compiled function for all the data (their common subexpressions shared), split by _Point
-        self._layout = [(name, _LAYOUT[name](s.k, s.sigma, reduction.m, s.c)) for name in exprs]
+        self._layout, start = [], 0
+        for name in exprs:
+            shape = _LAYOUT[name](s.k, s.sigma, reduction.m, s.c)
+            self._layout.append((name, shape, start, start + int(np.prod(shape))))
+            start += int(np.prod(shape))
         flat = sp.Matrix([e for X in exprs.values() for e in X])
         self._kernel = reduction._compile(parameters, {"data": flat}, list(reduction.r))["data"]
         self._lam = reduction._compile(parameters, {"Lam": s.group.body_velocity_matrix}, list(s.group.coordinates))[
@@ -258,7 +260,8 @@ class ReducedNumeric:
         with np.errstate(all="ignore"):
             try:
                 Linv = np.linalg.inv(L)
-                cond = np.linalg.norm(L, 1, axis=(-2, -1)) * np.linalg.norm(Linv, 1, axis=(-2, -1))
+                # the condition number in the 1-norm (the largest column sum), without norm()'s overhead
+                cond = np.abs(L).sum(axis=-2).max(axis=-1) * np.abs(Linv).sum(axis=-2).max(axis=-1)
             except np.linalg.LinAlgError:
                 Linv, cond = None, np.linalg.cond(L)
         cond = np.where(np.isfinite(cond), cond, np.inf)

@@ -129,9 +129,9 @@ def compile_vector(exprs: Any, variables: Sequence[sp.Symbol], *, dtype: Any = f
     def vector(x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=dtype)
         batch = x.shape[:-1]
-        vals = f(*np.moveaxis(x, -1, 0))
         if not batch:  # one point: every entry is a scalar (the common case inside an integrator's step)
-            return np.array(vals, dtype=dtype).reshape(shape)
+            return np.array(f(*x), dtype=dtype).reshape(shape)
+        vals = f(*np.moveaxis(x, -1, 0))
         out = np.stack([np.broadcast_to(np.asarray(v, dtype=dtype), batch) for v in vals], -1)
         return out.reshape(batch + shape)
 

@@ -75,8 +75,16 @@ def _parse(
         parsed = sp.sympify(expr)
     else:
         raise SymbolicError(f"Expected `{argname}` to be a sympy expression or a string, got {type(expr).__name__}.")
-    if dyn:
-        parsed = parsed.subs(dyn["derivatives"]).subs(dyn["functions"])
+    if dyn and parsed.has(sp.Derivative, sp.core.function.AppliedUndef):
+        # written with dynamicsymbols: their first derivatives are the velocities (any other derivative is an
+        # error: replaced structurally, it would differentiate a symbol to zero)
+        other = parsed.atoms(sp.Derivative) - set(dyn["derivatives"])
+        if other:
+            raise SymbolicError(
+                f"`{argname}` holds derivatives other than the first derivatives of the coordinates: "
+                f"{sorted(map(str, other))}; a Lagrangian and its constraints take positions and velocities only."
+            )
+        parsed = parsed.xreplace({**dyn["derivatives"], **dyn["functions"]})
     if any(isinstance(f, sp.core.function.AppliedUndef) for f in parsed.atoms(sp.Function)):
         raise SymbolicError(
             f"`{argname}` contains undefined functions {sorted(map(str, parsed.atoms(sp.Function)))}; "
@@ -481,10 +489,27 @@ class NonholonomicSystem:
         vals.update({s: float(rng.uniform(-1.2, 1.2)) for s in symbols})
         return vals
 
+    def _quadratic_in_velocities(self) -> bool:
+        """Whether L is plainly T(q, qdot) - V(q) with T quadratic in qdot: its Hessian in the velocities (the
+        mass matrix) free of them, and no term linear in them (the gradient at qdot = 0 is zero as written).
+        Cheap, unlike a polynomial in qdot over the field of the coordinates' functions, which
+        :meth:`_check_mechanical` builds only when this cannot decide."""
+        qdot = set(self.qdot)
+        if any(e.free_symbols & qdot for e in self.mass_matrix):
+            return False
+        at_rest = {v: 0 for v in self.qdot}
+        return all(self.lagrangian.diff(v).subs(at_rest) == 0 for v in self.qdot)
+
     def _check_mechanical(self) -> None:
-        L = sp.expand(self.lagrangian)
-        poly = sp.Poly(L, *self.qdot) if L.free_symbols & set(self.qdot) else None
-        if poly is not None:
+        L = self.lagrangian
+        if L.free_symbols & set(self.qdot) and not self._quadratic_in_velocities():
+            try:
+                poly = sp.Poly(sp.expand(L), *self.qdot)
+            except sp.PolynomialError as exc:
+                raise SymbolicError(
+                    f"{self.name}: the Lagrangian is not polynomial in the velocities ({exc}); expected kinetic "
+                    "energy (quadratic in the velocities) minus a potential."
+                ) from exc
             bad = [m for m in poly.monoms() if sum(m) > 2]
             lin = [m for m in poly.monoms() if sum(m) == 1]
             if bad or lin:
