@@ -123,13 +123,16 @@ def test_nonholonomic_simulations_are_bounded_by_their_projected_cost():
     from geomech.systems.nonholonomic_examples import snakeboard
 
     s = snakeboard(**SNAKE)
-    for method in (LagrangeDAlembert(), BKMM()):
-        with pytest.raises(InputError, match=r"needs about .* evaluations .* above `max_evaluations` = 200000"):
-            gm.solve(s, method, t_final=1e6, shapes=GAIT)
+    # the default budgets: 2e5 evaluations of Python equations, 1e8 of compiled ones (BKMM's here)
+    for method, limit in ((LagrangeDAlembert(), 200_000), (BKMM(), 100_000_000), (BKMM(), 200_000)):
+        backend = "python" if limit == 200_000 else "auto"
+        with pytest.raises(InputError, match=rf"needs about .* evaluations .* above `max_evaluations` = {limit}"):
+            gm.solve(s, method, t_final=1e6 if limit == 200_000 else 1e9, shapes=GAIT, backend=backend)
     # a run just past its budget is stopped where it is, and says so
-    with pytest.raises(NumericalError, match=r"stopped after 3000 evaluations, of 10: .* raise `max_evaluations`"):
-        gm.solve(s, BKMM(), t_final=10.0, shapes=GAIT, max_evaluations=3000)
-    assert gm.solve(s, BKMM(), t_final=1.0, shapes=GAIT, max_evaluations=50_000).t[-1] == 1.0
+    for backend in ("python", "numba"):
+        with pytest.raises(NumericalError, match=r"stopped after \d+ evaluations, of 10: .* raise `max_evaluations`"):
+            gm.solve(s, BKMM(), t_final=10.0, shapes=GAIT, max_evaluations=3000, backend=backend)
+        assert gm.solve(s, BKMM(), t_final=1.0, shapes=GAIT, max_evaluations=50_000, backend=backend).t[-1] == 1.0
     with pytest.raises(InputError, match=r"above the limit `max_steps` = 1e\+06"):
         gm.solve(s, DiscreteLagrangeDAlembert(), t_final=1e9, h=1e-3, shapes=GAIT)
 

@@ -16,14 +16,16 @@ from .. import _validate as V
 from ..errors import InputError, NumericalError
 from .solution import Failure, Status
 
-__all__ = ["run_adaptive", "integrate_ivp", "MAX_EVALUATIONS"]
+__all__ = ["run_adaptive", "integrate_ivp", "MAX_EVALUATIONS", "MAX_EVALUATIONS_COMPILED"]
 
 
 #: Default ceiling on right-hand-side evaluations of the adaptive simulators (tens of seconds of work).
 MAX_EVALUATIONS = 200_000
+#: Default ceiling on evaluations of a compiled adaptive loop, per trajectory (seconds of compiled work).
+MAX_EVALUATIONS_COMPILED = 100_000_000
 
 #: Evaluations after which the pace of the integration is measured and the whole run's cost projected.
-_PILOT = 2_000
+PILOT = 2_000
 
 
 class _OverBudget(Exception):
@@ -33,7 +35,7 @@ class _OverBudget(Exception):
 
 def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) -> Callable:
     """``rhs`` that stops the integration (raising :class:`_OverBudget`) past ``max_evaluations`` calls, or
-    early, after a pilot of :data:`_PILOT` calls, when the pace so far projects a total far above it."""
+    early, after a pilot of :data:`PILOT` calls, when the pace so far projects a total far above it."""
     limit = int(V.positive_scalar(max_evaluations, "max_evaluations"))
     t_start, t_end = t_span
     count = 0
@@ -44,7 +46,7 @@ def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) 
         count += 1
         if abs(t - t_start) > abs(t_far - t_start):
             t_far = t
-        if count == _PILOT and limit > _PILOT and t_far != t_start:
+        if count == PILOT and limit > PILOT and t_far != t_start:
             projected = count * (t_end - t_start) / (t_far - t_start)
             if projected > 2.0 * limit:
                 raise _OverBudget(t, count, projected)
@@ -53,6 +55,24 @@ def _budgeted(rhs: Callable, max_evaluations: Any, t_span: tuple[float, float]) 
         return rhs(t, y)
 
     return counted
+
+
+def projected_cost_error(name: str, count: int, t: float, t_end: float, projected: float, limit: Any) -> InputError:
+    """The refusal of a run whose pace over its first ``count`` evaluations (to ``t``) projects more than twice
+    its budget ``limit`` to ``t_end``."""
+    return InputError(
+        f"{name}: at the pace of its first {count} evaluations (to t = {t:.6g}) the run to {t_end:.6g} needs about "
+        f"{min(projected, 1e300):.3g} evaluations of the equations, above `max_evaluations` = {int(limit)}; shorten "
+        "t_final or raise `max_evaluations`."
+    )
+
+
+def budget_spent(count: int, t_end: float) -> str:
+    """What a run that used up its evaluations says."""
+    return (
+        f"stopped after {count} evaluations, of {t_end:.6g}: the motion is faster, or the span longer, than the "
+        "budget allows; shorten t_final or raise `max_evaluations`"
+    )
 
 
 def _failure(kind: Status, k: int, when: Any, detail: str = "") -> Failure:
@@ -107,16 +127,10 @@ def integrate_ivp(
                 break
     except _OverBudget as stop:
         if stop.projected is not None:
-            raise InputError(
-                f"{name}: at the pace of its first {stop.count} evaluations (to t = {stop.t:.6g}) the run to "
-                f"{times[-1]:.6g} needs about {min(stop.projected, 1e300):.3g} evaluations of the equations, above "
-                f"`max_evaluations` = {int(max_evaluations)}; shorten t_final or raise `max_evaluations`."
+            raise projected_cost_error(
+                name, stop.count, stop.t, float(times[-1]), stop.projected, max_evaluations
             ) from None
-        detail = (
-            f"stopped after {stop.count} evaluations, of {times[-1]:.6g}: the motion is faster, or the span longer, "
-            "than the budget allows; shorten t_final or raise `max_evaluations`"
-        )
-        failure = _failure(Status.BUDGET_EXHAUSTED, k, step.t, detail)
+        failure = _failure(Status.BUDGET_EXHAUSTED, k, step.t, budget_spent(stop.count, float(times[-1])))
     except NumericalError as exc:
         failure = _failure(error_status, k, step.t, str(exc))
     return Y, failure, int(step.nfev), n_steps

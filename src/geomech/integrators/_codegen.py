@@ -37,7 +37,13 @@ from ..symbolic.compile import FunctionSpec, kernel_source
 
 __all__ = ["FunctionSpec", "kernel_source", "compiled_module", "python_module", "numba_available", "cache_dir"]
 
-_TEMPLATES = ("_k_common.py", "_k_explicit.py", "_k_implicit.py", "_k_canonical.py", "_k_liepoisson.py")
+_TEMPLATES = (
+    "_k_common.py",
+    "_k_explicit.py",
+    "_k_implicit.py",
+    "_k_canonical.py",
+    "_k_liepoisson.py",
+)
 _PREAMBLE_START = "# >>> template preamble"
 _PREAMBLE_END = "# <<< template preamble"
 _LOCK = threading.Lock()

@@ -10,6 +10,7 @@ import numpy as np
 
 # >>> template preamble (removed when compiled)
 from ._k_common import (
+    SAVE0,
     ST_NEWTON,
     fail,
     finish_step,
@@ -102,7 +103,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, p
     off = n if variant == 0 else 0  # the implicit unknown is p (variant 0) or q
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         counts[:] = 0.0
         grad(y, g, prm)
@@ -168,7 +169,7 @@ def verlet_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     y, g, gq = np.empty(d), np.empty(d), np.empty(n)
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         grad(y, g, prm)
         nrhs = 1

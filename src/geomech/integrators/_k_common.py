@@ -30,6 +30,10 @@ ST_NEWTON = 1
 ST_NONFINITE = 2
 ST_SINGULAR = 3
 EPS = 2.220446049250313e-16
+# Integers passed to the helpers as int64 values: numba compiles a function once more for each literal argument
+# (store(OUT, b, 0, y) and store(OUT, b, k, y) would be two compilations).
+SAVE0 = np.int64(0)
+STAGE1 = np.int64(1)
 
 
 @kernel

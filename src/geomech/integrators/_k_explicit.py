@@ -10,6 +10,8 @@ import numpy as np
 
 # >>> template preamble (removed when compiled)
 from ._k_common import (
+    SAVE0,
+    STAGE1,
     fail,
     finish_step,
     finite,
@@ -50,7 +52,7 @@ def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         done = 0
         for k in range(1, nsteps + 1):
@@ -76,7 +78,7 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     fp = np.empty(d)
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         nrhs = 1
         rhs(y, F[0], prm)
@@ -311,7 +313,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
         tmp[i] = y0[i] + h0 * f0[i]
     rhs(tmp, fz, prm)
     nfev += 1
-    h = first_step(y0, f0, fz, h0, d1, tol, tol, 7)
+    h = first_step(y0, f0, fz, h0, d1, tol, tol, np.int64(7))
     t = 0.0
     tcomp = 0.0
     errsum = 0.0
@@ -321,7 +323,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
         if k >= max_steps:
             INFO[0] = 1.0
             break
-        erk_stages(y, h, A, K, tmp, 1, ns, prm)
+        erk_stages(y, h, A, K, tmp, STAGE1, ns, prm)
         for i in range(d):
             dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
             ynew[i] = y[i] + dy[i]
@@ -364,7 +366,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
             if da <= 4.0 * chord and db <= 4.0 * chord:
                 tau = h * (-ga) / (gb - ga)
                 for _newton in range(8):
-                    erk_stages(y, tau, A, K, tmp, 1, ns, prm)
+                    erk_stages(y, tau, A, K, tmp, STAGE1, ns, prm)
                     for i in range(d):
                         z[i] = y[i] + (erk_increment(tau, B, K, ns, i) + comp[i])
                     rhs(z, fz, prm)
@@ -441,7 +443,7 @@ def orbit_states(YM, TM, idx, tau, A, B, OUT, prm):
             for i in range(d):
                 OUT[j, i] = y[i]
             continue
-        erk_stages(y, tau[j], A, K, tmp, 1, ns, prm)
+        erk_stages(y, tau[j], A, K, tmp, STAGE1, ns, prm)
         for i in range(d):
             OUT[j, i] = y[i] + erk_increment(tau[j], B, K, ns, i)
 
@@ -522,7 +524,7 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
             if direction * (tnew - t_end) > 0.0:
                 tnew = t_end
             h = tnew - t
-            erk_stages(y, h, A, K, tmp, 1, ns, prm)
+            erk_stages(y, h, A, K, tmp, STAGE1, ns, prm)
             for i in range(d):
                 dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
                 ynew[i] = y[i] + dy[i]

@@ -10,6 +10,7 @@ import numpy as np
 
 # >>> template preamble (removed when compiled)
 from ._k_common import (
+    SAVE0,
     ST_NEWTON,
     ST_SINGULAR,
     fail,
@@ -51,7 +52,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     J, A = np.empty((d, d)), np.empty((d, d))
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         rhs(y, f, prm)
         nrhs = 1
@@ -181,7 +182,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     M = np.empty((n, n))
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         rhs(y, f0, prm)
         nrhs = 1

@@ -15,6 +15,7 @@ import numpy as np
 
 # >>> template preamble (removed when compiled)
 from ._k_common import (
+    SAVE0,
     ST_NEWTON,
     ST_NONFINITE,
     fail,
@@ -190,7 +191,7 @@ def split_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     y = np.empty(d)
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         pending = 0.0
         for k in range(1, nsteps + 1):
@@ -343,7 +344,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     D, hm, A, F = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         for i in range(3):
             m[i] = y[i]
@@ -410,7 +411,7 @@ def mv_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     A, F, Iinv = np.empty((3, 3)), np.empty((3, 3)), np.linalg.inv(inertia)
     for b in range(B):
         load(y, Y0, b)
-        store(OUT, b, 0, y)
+        store(OUT, b, SAVE0, y)
         isave = 1
         nnewton = 0
         for i in range(3):

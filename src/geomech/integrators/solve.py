@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
-from ._adaptive import MAX_EVALUATIONS, run_adaptive
+from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
 from ._problem import Problem, make_problem
 from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic
 from ._times import DEFAULT_SAVEAT, time_grid
@@ -31,9 +31,6 @@ from .methods import (
 from .solution import STATUS, Failure, Solution, Status, run_stats
 
 __all__ = ["solve", "compatible_methods", "methods_for", "DEFAULT_SAVEAT"]
-
-#: Default ceiling on evaluations of a compiled adaptive loop, per trajectory (seconds of compiled work).
-MAX_EVALUATIONS_COMPILED = 100_000_000
 
 
 def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
@@ -348,10 +345,11 @@ def solve(
             parameters=parameters,
             tolerances=tolerances,
             max_steps=max_steps,
-            max_evaluations=MAX_EVALUATIONS if max_evaluations is None else max_evaluations,
+            max_evaluations=max_evaluations,
             memory_limit=memory_limit,
             newton_tol=tol,
             max_newton=int(max_newton),
+            backend=backend,
         )
         return _finish(solution, raise_on_failure)
     for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes), ("tau", tau)):

@@ -31,6 +31,7 @@ against each other and against the full Lagrange-d'Alembert equations.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping
 from functools import cached_property
 from typing import Any
@@ -42,7 +43,7 @@ from .. import _validate as V
 from ..errors import InputError, SingularityError
 from ..symbolic import column
 
-__all__ = ["ReducedNumeric"]
+__all__ = ["ReducedNumeric", "reduction_data"]
 
 _COND_MAX = 1e13
 
@@ -60,8 +61,21 @@ _LAYOUT = {
 }
 
 
-def _kernel_expressions(reduction: Any) -> dict[str, sp.Matrix]:
-    """The system's data to compile, each a matrix in the shape variables (derivatives stacked by rows)."""
+_DATA: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def reduction_data(reduction: Any) -> dict[str, sp.Matrix]:
+    """The system's data to compile, each a matrix in the shape variables (derivatives stacked by rows), in the
+    order of the flat layout every numeric twin reads (:data:`_LAYOUT`; the compiled BKMM loop too). Derived
+    once per system and basis."""
+    known = _DATA.setdefault(reduction.system, {})
+    key = sp.ImmutableMatrix(reduction.basis)
+    if key not in known:
+        known[key] = _derive_data(reduction)
+    return known[key]
+
+
+def _derive_data(reduction: Any) -> dict[str, sp.Matrix]:
     s = reduction.system
     r = list(reduction.r)
     Il, G, mrr = (sp.Matrix(x) for x in (reduction.locked_inertia_full, reduction.coupling, reduction.shape_metric))
@@ -189,7 +203,7 @@ class ReducedNumeric:
         self.parameters = dict(parameters or {})
         self.group = s.group
         self.k, self.sigma, self.m, self.c = s.k, s.sigma, reduction.m, s.c
-        exprs = _kernel_expressions(reduction)
+        exprs = reduction_data(reduction)
         # one compiled function for all the data (their common subexpressions shared), split by _Point
         self._layout, start = [], 0
         for name in exprs:

@@ -271,3 +271,73 @@ def kernel_source(specs: Sequence[FunctionSpec]) -> str:
     """
     printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
     return "\n\n".join(_function_source(s, printer) for s in specs)
+
+
+class StraightLine:
+    """The body of a numba function as straight-line code, built in stages: :meth:`value` queues an assignment
+    ``name = expr`` and returns the new name (or ``expr`` itself where it is a number, so that zeros and constants
+    propagate into what follows); :meth:`flush` prints the queued assignments with their common subexpressions
+    shared; :meth:`line` adds a statement of its own (a check, a store). Expressions read the names made so far
+    and the names the caller assigns in its own lines. Raises ``NotImplementedError`` where an expression uses a
+    function numba's ``math`` lacks.
+    """
+
+    def __init__(self, prefix: str = "_v"):
+        self.lines: list[str] = []
+        self._queue: list[tuple[sp.Symbol, sp.Expr]] = []
+        self._pending: set[sp.Symbol] = set()
+        self._prefix = prefix
+        self._count = 0
+        self._cse = 0
+        self._printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
+
+    def value(self, expr: Any) -> sp.Expr:
+        e = sp.sympify(expr)
+        if e.is_number:
+            if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+                raise SymbolicError(f"a formula is not finite at the given parameter values: {e}")
+            return e
+        if isinstance(e, sp.Symbol):
+            return e
+        if self._pending and not e.free_symbols.isdisjoint(self._pending):
+            self.flush()  # it reads a queued value: print those first
+        name = sp.Symbol(f"{self._prefix}{self._count}")
+        self._count += 1
+        self._queue.append((name, e))
+        self._pending.add(name)
+        return name
+
+    def values(self, exprs: Any) -> list[sp.Expr]:
+        return [self.value(e) for e in exprs]
+
+    def matrix(self, M: sp.Matrix) -> sp.Matrix:
+        """Each entry of ``M`` as a value (the matrix of the names)."""
+        return sp.Matrix(M.rows, M.cols, self.values(list(M)))
+
+    def flush(self) -> None:
+        if not self._queue:
+            return
+        names, exprs = zip(*self._queue)
+        self._queue = []
+        self._pending = set()
+        temps = sp.numbered_symbols(f"{self._prefix}c{self._cse}_")
+        self._cse += 1
+        replacements, reduced = sp.cse(list(exprs), symbols=temps, order="none")
+        for sym, e in replacements:
+            self.lines.append(f"{sym} = {self.code(e)}")
+        for sym, e in zip(names, reduced):
+            self.lines.append(f"{sym} = {self.code(e)}")
+
+    def code(self, expr: Any) -> str:
+        text = self._printer.doprint(sp.sympify(expr))
+        if self._printer._not_supported:
+            raise NotImplementedError(f"cannot print {sorted(map(str, self._printer._not_supported))} for numba")
+        return text
+
+    def line(self, text: str) -> None:
+        self.flush()
+        self.lines.extend(text.splitlines())
+
+    def body(self, indent: str = "    ") -> str:
+        self.flush()
+        return "\n".join(indent + line for line in self.lines) + "\n"

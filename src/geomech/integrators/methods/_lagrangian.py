@@ -54,7 +54,7 @@ class LagrangeDAlembert(ScipyStepped):
 
 @dataclass(frozen=True)
 class BKMM(ScipyStepped):
-    """The reduced equations of Bloch, Krishnaprasad, Marsden and Murray, solved by an adaptive scipy solver.
+    """The reduced equations of Bloch, Krishnaprasad, Marsden and Murray, solved by an embedded Runge-Kutta pair.
 
     The momentum equation (1.2) for the nonholonomic momentum p, the shape equations (1.3) and the
     reconstruction (1.1) :math:`g^{-1}\\dot g = -A(r)\\dot r + \\Omega(r) p` (in coordinates
@@ -62,7 +62,10 @@ class BKMM(ScipyStepped):
     adaptive (``rtol``, ``atol``; default 1e-10, 1e-12). Order: that of ``solver`` (DOP853: 8). The
     constraints hold by construction. Structure: a Lagrangian system on G x S with constraints. Cost per
     evaluation: the reduced formulas (connection, momentum equation, shape mass matrix) and one solve of the
-    size of the shape space; as many evaluations as the tolerances require (Python, not compiled).
+    size of the shape space; as many evaluations as the tolerances require. With ``solver`` "DOP853" or "RK45"
+    and the gait and torques given as formulas the equations are compiled (straight-line code for the system's
+    sizes, its parameters read at run time) and stepped by the compiled Dormand-Prince pairs of the same error
+    control; otherwise, or with ``backend="python"``, they are evaluated in Python and stepped by scipy.
     Reference: [KM] eqs. (1.1)-(1.3); [BKMM].
 
     Parameters

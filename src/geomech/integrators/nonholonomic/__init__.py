@@ -8,7 +8,8 @@ agree as the step shrinks.
   enforced; ``baumgarte=alpha`` adds :math:`2\alpha A\dot q` to damp the drift).
 * :class:`~geomech.integrators.BKMM`: the BKMM equations (1.1)-(1.3) of the nonholonomic seed: momentum and
   shape equations for :math:`(r, \dot r, p)` and the reconstruction :math:`\dot q_G = \Lambda(q_G)^{-1}\xi`;
-  the velocity satisfies the constraints exactly at every instant.
+  the velocity satisfies the constraints exactly at every instant. Compiled (``_compiled``: straight-line code
+  generated for the system, run by the compiled Dormand-Prince loops) where the gait and torques are formulas.
 * :class:`~geomech.integrators.DiscreteLagrangeDAlembert`: a discrete Lagrange-d'Alembert integrator with the
   midpoint discrete Lagrangian :math:`L_d(q_0, q_1) = hL\big(\tfrac{q_0+q_1}{2}, \tfrac{q_1-q_0}{h}\big)`,
 

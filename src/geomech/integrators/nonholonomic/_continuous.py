@@ -5,15 +5,26 @@ run and their failures returned as data with the states reached."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
-from ...errors import NumericalError
+from ... import _validate as V
+from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
-from .._adaptive import integrate_ivp
-from ..solution import Status
+from .._adaptive import (
+    MAX_EVALUATIONS,
+    MAX_EVALUATIONS_COMPILED,
+    PILOT,
+    budget_spent,
+    integrate_ivp,
+    projected_cost_error,
+)
+from .._runners import INFO_COLUMNS, run_embedded
+from ..solution import Failure, Status
+from ._compiled import COMPILED_SOLVERS, bkmm_module, compiled_pair
 from ._inputs import _group_rates, _Setup
 from ._trajectory import _accelerations, _Raw
 
@@ -86,9 +97,12 @@ def run_reduced(
     tolerances: tuple[float, float],
     max_evaluations: Any,
     parameters: Mapping[str, float] | None,
+    backend: str = "auto",
 ) -> _Raw:
     """The BKMM equations (1.1)-(1.3): momentum, shape and reconstruction; the state is
-    ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`."""
+    ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`.
+    Compiled (the Dormand-Prince loops) where the solver has a compiled twin and the gait and torques are
+    formulas, unless ``backend`` is "python"; otherwise stepped by scipy with the equations in Python."""
     system = setup.system
     red = bkmm_reduction(system)
     rn = red.numeric(parameters)
@@ -138,8 +152,82 @@ def run_reduced(
 
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
-    Y, failure, nfev, n_steps = integrate_ivp(
-        "BKMM", rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR
-    )
+    pair = compiled_pair(method.solver) if backend != "python" else None
+    compiled = bkmm_module(setup, red, parameters) if pair is not None else None
+    if compiled is None and backend == "numba":
+        raise InputError(
+            f"backend='numba' runs BKMM with the solvers {sorted(COMPILED_SOLVERS)} on a gait and torques given as "
+            f"formulas (and numba installed); got solver {method.solver!r}"
+            + ("" if pair is None else ", and a gait or torque given as a Python callable")
+            + "."
+        )
+    if compiled is not None:
+        assert pair is not None
+        budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
+        module, prm = compiled
+        Y, failure, nfev, n_steps, compile_time, loop_time = _run_compiled(
+            module, pair, prm, y0, t0, times, tolerances, budget
+        )
+        used = "numba"
+    else:
+        budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
+        Y, failure, nfev, n_steps = integrate_ivp(
+            "BKMM", rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR
+        )
+        used, compile_time, loop_time = "python", 0.0, None
     Q, QD, TAU = _rows(setup, times, Y, evaluate)
-    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
+    return _Raw(
+        Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps, backend=used, compile_time=compile_time, loop_time=loop_time
+    )
+
+
+def _run_compiled(
+    module: Any,
+    pair: Any,
+    prm: np.ndarray,
+    y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+) -> tuple[np.ndarray, Failure | None, int, int, float, float]:
+    """The BKMM state ``(g, r_F, rdot_F, p, W)`` at ``times`` by the compiled pair (the time appended to the
+    state, its rate 1), as :func:`~geomech.integrators._adaptive.integrate_ivp` returns it, the compile time and
+    the time of the compiled loop alone."""
+    Y0 = np.r_[y0, t0][None, :]
+    limit = float(V.positive_scalar(max_evaluations, "max_evaluations"))
+    t_end = float(times[-1])
+
+    def run(budget: float) -> tuple[np.ndarray, np.ndarray, dict[int, str], int, float, float]:
+        OUT = np.empty((1, len(times), Y0.shape[1]))
+        INFO = np.zeros((1, INFO_COLUMNS))
+        reasons: dict[int, str] = {}
+        start = time.perf_counter()
+        steps, compile_time = run_embedded(
+            module, "numba", None, prm, pair, Y0, t0, times, tolerances, budget, OUT, INFO, reasons, {}, 1
+        )
+        return OUT, INFO, reasons, steps, compile_time, time.perf_counter() - start - compile_time
+
+    # the work is bounded before it is done: a pilot run, and its pace projected to the end (as in Python)
+    OUT, INFO, reasons, steps, compile_time, loop_time = run(min(limit, PILOT))
+    if int(INFO[0, 0]) == 8 and limit > PILOT:
+        t_far = float(INFO[0, 5])
+        projected = PILOT * (t_end - t0) / (t_far - t0) if t_far != t0 else np.inf
+        if projected > 2.0 * limit:
+            raise projected_cost_error("BKMM", int(INFO[0, 4]), t_far, t_end, projected, limit)
+        OUT, INFO, reasons, steps, _, loop_time = run(limit)
+    failure = None
+    code = int(INFO[0, 0])
+    if code:
+        kind = {8: Status.BUDGET_EXHAUSTED, 4: Status.ADAPTIVE_FAILED}.get(code, SINGULAR)
+        if kind is Status.BUDGET_EXHAUSTED:
+            detail = budget_spent(int(INFO[0, 4]), t_end)
+        elif kind is SINGULAR:
+            detail = (
+                f"the BKMM equations are singular (the locked inertia or the constraints), or the state is not "
+                f"finite, past t = {INFO[0, 5]:.6g}"
+            )
+        else:
+            detail = reasons[0]
+        failure = Failure(kind, (), int(INFO[0, 1]), float(INFO[0, 5]), float("nan"), detail)
+    return OUT[0, :, :-1], failure, int(INFO[0, 4]), steps, compile_time, loop_time

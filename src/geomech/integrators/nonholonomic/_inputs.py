@@ -42,6 +42,8 @@ class _Torques:
         local = {s.name: s for s in system.q + system.qdot}
         local["t"] = T_SYMBOL
         self.fns: list[Callable | None] = [None] * len(self.free)
+        #: the torques as formulas in (t, q, qdot), zero where none is given; None where one is a callable
+        self.expressions: list[sp.Expr] | None = [sp.Integer(0)] * len(self.free)
         for name, spec in tau.items():
             if name not in shape_names:
                 raise InputError(
@@ -52,6 +54,7 @@ class _Torques:
                 raise InputError(f"`tau` drives `{name}`, which also has a prescribed gait; give one or the other.")
             if callable(spec):
                 fn = spec
+                self.expressions = None
             else:
                 e = to_expression(spec, f"tau[{name!r}]", local)
                 undefined = sorted(
@@ -69,6 +72,8 @@ class _Torques:
                         f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
                         f"coordinates and the velocities ({', '.join(local)})."
                     )
+                if self.expressions is not None:
+                    self.expressions[self.free.index(i)] = e
                 f = compile_scalar(e, [T_SYMBOL, *system.q, *system.qdot])
                 fn = (lambda f_: lambda t, q, qd: float(f_(np.concatenate([[t], q, qd]))))(f)
             self.fns[self.free.index(i)] = fn
@@ -77,14 +82,17 @@ class _Torques:
         return np.array([0.0 if f is None else float(f(t, q, qd)) for f in self.fns])
 
 
-def _gait_torques(gait: Gait, free_names: list[str], owner: str) -> dict[str, Callable]:
-    """A Gait of torques as one callable per named shape (all the free shapes, in order, when it has no names)."""
+def _gait_torques(gait: Gait, free_names: list[str], owner: str) -> dict[str, Any]:
+    """A Gait of torques as one formula in t (or, for a gait of callables, one callable) per named shape (all the
+    free shapes, in order, when it has no names)."""
     names = list(gait.names) if gait.names is not None else list(free_names)
     if len(names) != gait.dim:
         raise InputError(
             f"The torque gait has {gait.dim} component(s) without names; {owner} has {len(free_names)} free shape(s) "
             f"({free_names}): name them (a mapping, or `names=`)."
         )
+    if gait.expressions is not None:  # formulas in t: they stay formulas (and compile with the equations)
+        return dict(zip(names, gait.expressions))
 
     def component(i: int) -> Callable:
         return lambda t, q, qd: float(np.asarray(gait.r(t), dtype=float).reshape(-1)[i])

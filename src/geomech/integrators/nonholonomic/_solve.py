@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
+from ...errors import InputError
+from .._adaptive import MAX_EVALUATIONS
 from .._times import Times
 from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method
 from ..solution import Failure, Solution, Status, run_stats
@@ -42,9 +44,12 @@ def solve_lagrangian(
     memory_limit: float,
     newton_tol: float,
     max_newton: int,
+    backend: str = "auto",
 ) -> Solution:
     """Integrate a :class:`~geomech.systems.NonholonomicSystem` with one of the Lagrangian methods (internal:
     :func:`~geomech.solve` has checked the method and the times)."""
+    if backend not in ("auto", "numba", "python"):
+        raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
     setup = _setup(system, shapes, tau)
     q_init, qd_init = initial_state(
         system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
@@ -81,10 +86,16 @@ def solve_lagrangian(
         n_rhs, internal = 0, steps_done
     else:
         assert isinstance(method, (LagrangeDAlembert, BKMM)) and tolerances is not None
-        engine = run_full if isinstance(method, LagrangeDAlembert) else run_reduced
-        raw = engine(setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters)
+        if isinstance(method, LagrangeDAlembert):
+            budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
+            raw = run_full(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
+        else:
+            raw = run_reduced(
+                setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend
+            )
         n_rhs, internal = raw.nfev, raw.steps
     run_time = time.perf_counter() - start
+    extra: dict[str, Any] = {} if raw.loop_time is None else {"loop_time": raw.loop_time}
     failures: tuple[Failure, ...] = () if raw.failure is None else (raw.failure,)
     name = type(method).__name__
     if failures:
@@ -107,7 +118,15 @@ def solve_lagrangian(
         status=failures[0].kind if failures else Status.SUCCESS,
         message=message,
         failures=failures,
-        stats=run_stats(times.n_steps, internal, n_rhs, run_time),
+        stats=run_stats(
+            times.n_steps,
+            internal,
+            n_rhs,
+            run_time - raw.compile_time,
+            backend=raw.backend,
+            compile_time=raw.compile_time,
+            **extra,
+        ),
         parameters={k.name: float(v) for k, v in system.parameter_values(parameters).items()},
         group_dim=system.k,
     )

@@ -29,6 +29,9 @@ class _Raw:
     nfev: int
     residual: np.ndarray | None = None
     steps: int = 0
+    backend: str = "python"
+    compile_time: float = 0.0
+    loop_time: float | None = None  # the compiled loop alone, where there is one
 
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:

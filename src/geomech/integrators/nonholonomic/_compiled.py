@@ -1,0 +1,278 @@
+"""The BKMM equations (1.1)-(1.3) of a Lagrangian system on G x S as one compiled right-hand side ``rhs(y, out,
+prm)`` for the compiled Dormand-Prince loops, at the state ``y = (g, r_free, rdot_free, p, W, t)`` (the time
+appended, its rate 1: the gait and the torques depend on it).
+
+The function is straight-line code generated for the system's sizes: the reduction's data at the shapes (the
+reduced mass matrix, the basis ``e(r)`` of ``S_q``, the body constraints, the gradient of V, and their first
+derivatives: :func:`~geomech.reduction.reduced_numeric.reduction_data`), then the linear algebra of
+:class:`~geomech.reduction.reduced_numeric.ReducedNumeric` on named intermediate values, entry by entry, the
+structural zeros and the structure constants of the group folded in: the connection from :math:`L\\mathcal A =
+R` by the adjugate of L, its derivatives, the locked inertia, the momentum equation, the reduced shape metric
+and its derivatives, and the shape equations solved for the free shapes' accelerations and the forces that
+realise the gait. No matrix is inverted symbolically in the shape variables and nothing is simplified: the cost
+of generating is that of writing the formulas. Where L, the locked inertia or the shape equations are singular
+(a 1-norm condition number above 1e13) the derivative is NaN and the loop reports the time. The model's
+parameters are read from ``prm`` at run time (a sweep over them compiles once); the gait's and the torques'
+numbers are written in.
+"""
+
+from __future__ import annotations
+
+import weakref
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ...reduction.reduced_numeric import reduction_data
+from ...symbolic.compile import StraightLine
+from ...systems.gait import T_SYMBOL
+from .. import _codegen
+from ..methods import DormandPrince
+
+__all__ = ["COMPILED_SOLVERS", "bkmm_module", "bkmm_source", "compiled_pair"]
+
+#: scipy's solvers of the BKMM method that have a compiled twin: the same pairs, the same error control
+COMPILED_SOLVERS = {"DOP853": "DOP853", "RK45": "DOPRI5"}
+
+#: Above this 1-norm condition number a matrix of the equations is singular (as in ReducedNumeric).
+COND_MAX = 1e13
+
+
+def compiled_pair(solver: str) -> DormandPrince | None:
+    """The compiled embedded pair for a BKMM ``solver`` name, or None (Radau, BDF, LSODA, RK23 stay scipy's)."""
+    name = COMPILED_SOLVERS.get(solver)
+    return None if name is None else DormandPrince(name)
+
+
+def _inverse(code: StraightLine, M: sp.Matrix, what: str) -> sp.Matrix:
+    """The inverse of the matrix of values ``M`` by its adjugate, with the code that makes the derivative NaN where
+    ``M`` is singular."""
+    n = M.rows
+    if n == 0:
+        return sp.zeros(0, 0)
+    det = code.value(M.det(method="berkowitz"))
+    inv = code.matrix(M.adjugate() / det if n > 1 else sp.Matrix([[1 / det]]))
+    code.flush()
+
+    def norm1(X: sp.Matrix) -> str:
+        cols = [" + ".join(f"abs({code.code(X[i, j])})" for i in range(n)) for j in range(n)]
+        return cols[0] if n == 1 else "max(" + ", ".join(cols) + ")"
+
+    code.line(
+        f"if not ({norm1(M)} * {norm1(inv)} <= {COND_MAX!r}):  # {what} singular\n"
+        "    for _i in range(out.shape[0]):\n"
+        "        out[_i] = np.nan\n"
+        "    return"
+    )
+    return inv
+
+
+_SOURCES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_TIME = sp.Symbol("_t")
+
+
+def _hoist(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
+    """``e`` with its numeric coefficients and terms (not its exponents, not +-1) replaced by the parameters
+    ``_p{first}``, ``_p{first + 1}``, ... (their values into ``table``): gaits and torques that differ only in
+    their numbers (amplitudes, frequencies, phases, gains) then share one compiled function."""
+    if e.is_Atom:
+        return e
+    if isinstance(e, sp.Pow):
+        return sp.Pow(_hoist(e.base, table, first), e.exp)
+    if isinstance(e, (sp.Mul, sp.Add)):
+        args = []
+        for a in e.args:
+            if a.is_Number and a not in (sp.S.One, sp.S.NegativeOne):
+                name = sp.Symbol(f"_p{first + len(table)}")
+                table[name] = float(a)
+                args.append(name)
+            else:
+                args.append(_hoist(a, table, first))
+        return e.func(*args)
+    return e.func(*[_hoist(a, table, first) for a in e.args])
+
+
+def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
+    """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and the values of the
+    gait's and the torques' numbers (read after the system's parameters), or None where the gait or a torque is a
+    Python callable. Generated once per system, basis and form of the gait and torques."""
+    gait, torques = setup.gait, setup.torques
+    if torques.expressions is None or (setup.prescribed and gait.expressions is None):
+        return None
+    table: dict[sp.Symbol, float] = {}
+    first = len(setup.system.parameter_symbols)
+    gait_forms = tuple(_hoist(e.xreplace({T_SYMBOL: _TIME}), table, first) for e in gait.expressions or ())
+    torque_forms = tuple(_hoist(sp.sympify(e), table, first) for e in torques.expressions)
+    key = (
+        sp.ImmutableMatrix(reduction.basis),
+        gait_forms,
+        torque_forms,
+        tuple(setup.free_shapes),
+        tuple(setup.prescribed),
+    )
+    known = _SOURCES.setdefault(setup.system, {})
+    if key not in known:
+        known[key] = _generate(setup, reduction, gait_forms, torque_forms, first + len(table))
+    return known[key], np.array(list(table.values()), dtype=float)
+
+
+def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int) -> str:
+    system = setup.system
+    k, s, m, c = system.k, system.sigma, reduction.m, system.c
+    F, P = list(setup.free_shapes), list(setup.prescribed)
+    nF = len(F)
+    code = StraightLine()
+    # the state, the parameters (the system's, then the gait's and torques' numbers), and the time
+    t = _TIME
+    g = [sp.Symbol(f"_g{a}") for a in range(k)]
+    p = sp.Matrix(m, 1, [sp.Symbol(f"_m{i}") for i in range(m)])
+    r: list[Any] = [None] * s
+    rd: list[Any] = [None] * s
+    reads = [f"_t = y[{k + 2 * nF + m + 1}]"] + [f"_g{a} = y[{a}]" for a in range(k)]
+    for jj, j in enumerate(F):
+        r[j], rd[j] = sp.Symbol(f"_r{j}"), sp.Symbol(f"_rd{j}")
+        reads += [f"_r{j} = y[{k + jj}]", f"_rd{j} = y[{k + nF + jj}]"]
+    reads += [f"_m{i} = y[{k + 2 * nF + i}]" for i in range(m)]
+    params = {q: sp.Symbol(f"_p{i}") for i, q in enumerate(system.parameter_symbols)}
+    reads += [f"_p{i} = prm[{i}]" for i in range(n_prm)]
+    code.line("\n".join(reads))
+    # the gait: prescribed shapes, velocities, accelerations
+    rdd_p = []
+    for jj, j in enumerate(P):
+        e = gait_forms[jj]
+        r[j], rd[j] = code.value(e), code.value(e.diff(t))
+        rdd_p.append(code.value(e.diff(t, 2)))
+    shapes = dict(zip(reduction.r, r))
+    # the reduction's data at the shapes
+    data = {
+        name: code.matrix(sp.Matrix(X).xreplace(params).xreplace(shapes))
+        for name, X in reduction_data(reduction).items()
+    }
+    n = k + s
+    Mf, dMf = data["M"], data["dM"]
+    Il, G, mrr = Mf[:k, :k], Mf[:k, k:], Mf[k:, k:]
+    dIl = [dMf[al * n : al * n + k, :k] for al in range(s)]
+    dG = [dMf[al * n : al * n + k, k:] for al in range(s)]
+    dmrr = [dMf[al * n + k : (al + 1) * n, k:] for al in range(s)]
+    E = data["E"]
+    dE = [data["dE"][al * k : (al + 1) * k, :] for al in range(s)]
+    Axi, Ar = data["Axi"], data["Ar"]
+    dAxi = [data["dAxi"][al * c : (al + 1) * c, :] for al in range(s)]
+    dAr = [data["dAr"][al * c : (al + 1) * c, :] for al in range(s)]
+    dV = data["dV"]
+    rdv = sp.Matrix(s, 1, rd)
+    # the connection: L A = R, L = (A_xi; e^T I_loc), R = (A_r; e^T Gamma); d_al A = L^-1 (d_al R - d_al L A)
+    L = code.matrix(sp.Matrix.vstack(Axi, E.T * Il))
+    R = code.matrix(sp.Matrix.vstack(Ar, E.T * G))
+    Linv = _inverse(code, L, "the connection's L")
+    A = code.matrix(Linv * R)
+    dA = []
+    for al in range(s):
+        dL = sp.Matrix.vstack(dAxi[al], dE[al].T * Il + E.T * dIl[al])
+        dR = sp.Matrix.vstack(dAr[al], dE[al].T * G + E.T * dG[al])
+        dA.append(code.matrix(Linv * code.matrix(dR - dL * A)))
+    # Omega = I^-1 p, I = e^T I_loc e; xi = -A rd + e Omega (1.1); mu = I_loc xi + Gamma rd
+    Om = code.matrix(_inverse(code, code.matrix(E.T * Il * E), "the locked inertia") * p) if m else sp.zeros(0, 1)
+    xi = code.matrix(-A * rdv + E * Om)
+    mu = code.matrix(Il * xi + G * rdv)
+    C = system.group.structure_constants
+    # (1.2): pdot_i = <mu, [xi, e_i] + d_be e_i rd^be>
+    pdot = [
+        code.value(
+            sum(C[a][b][d] * mu[a] * xi[b] * E[d, i] for a in range(k) for b in range(k) for d in range(k))
+            + sum(mu[a] * dE[be][a, i] * rd[be] for a in range(k) for be in range(s))
+        )
+        for i in range(m)
+    ]
+    # the group coordinates' rates and the torques at (t, q, qdot)
+    rates = sp.Matrix(system.group.body_velocity_inverse).xreplace(dict(zip(system.group.coordinates, g)))
+    gdot = code.matrix(code.matrix(rates.xreplace(params)) * xi)
+    at = {T_SYMBOL: t, **dict(zip(system.q, list(g) + r)), **dict(zip(system.qdot, list(gdot) + rd))}
+    tau_f = [code.value(e.xreplace(at).xreplace(params)) for e in torque_forms]
+    # (1.3): M rdd = delta + tau, solved for the free accelerations and the forces that keep the gait
+    z: list[Any] = []
+    if s:
+        At, Gt = A.T, G.T
+        Ms = code.matrix(mrr - Gt * A - At * G + At * Il * A)
+        dM = [
+            code.matrix(
+                dmrr[be]
+                - dG[be].T * A
+                - Gt * dA[be]
+                - dA[be].T * G
+                - At * dG[be]
+                + dA[be].T * Il * A
+                + At * dIl[be] * A
+                + At * Il * dA[be]
+            )
+            for be in range(s)
+        ]
+        delta = []
+        for al in range(s):
+            chris = sum((dM[be][al, ga] - dM[al][be, ga] / 2) * rd[be] * rd[ga] for be in range(s) for ga in range(s))
+            curv = sum(
+                mu[a]
+                * (
+                    dA[al][a, be]
+                    - dA[be][a, al]
+                    - sum(C[a][b][d] * A[b, al] * A[d, be] for b in range(k) for d in range(k))
+                )
+                * rd[be]
+                for a in range(k)
+                for be in range(s)
+            )
+            inertia = (Om.T * (dE[al].T * Il * E + E.T * dIl[al] * E + E.T * Il * dE[al]) * Om)[0, 0] / 2 if m else 0
+            coupling = sum(
+                mu[a]
+                * (dE[al][a, j] + sum(C[a][b][d] * E[b, j] * A[d, al] for b in range(k) for d in range(k)))
+                * Om[j]
+                for a in range(k)
+                for j in range(m)
+            )
+            delta.append(code.value(-chris - dV[al] + curv + inertia - coupling))
+        K = sp.zeros(s, s)
+        for jj, j in enumerate(F):
+            K[:, jj] = Ms[:, j]
+        for jj, j in enumerate(P):
+            K[j, nF + jj] = -1
+        rhs_b = sp.Matrix(delta)
+        for jj, j in enumerate(F):
+            rhs_b[j] += tau_f[jj]
+        for jj, j in enumerate(P):
+            rhs_b -= Ms[:, j] * rdd_p[jj]
+        z = list(code.matrix(_inverse(code, code.matrix(K), "the shape equations' matrix") * rhs_b))
+    tau_v: list[Any] = [0] * s
+    for jj, j in enumerate(F):
+        tau_v[j] = tau_f[jj]
+    for jj, j in enumerate(P):
+        tau_v[j] = z[nF + jj]
+    outputs = (
+        list(gdot)
+        + [rd[j] for j in F]
+        + z[:nF]
+        + pdot
+        + [code.value(sum(tau_v[j] * rd[j] for j in range(s)))]
+        + [sp.Integer(1)]
+    )
+    values = code.values(outputs)
+    code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(values)))
+    return "@kernel\ndef rhs(y, out, prm):\n" + code.body()
+
+
+def bkmm_module(setup: Any, reduction: Any, parameters: Any) -> tuple[Any, np.ndarray] | None:
+    """The compiled module of ``setup``'s BKMM equations and the values ``prm`` it reads (the system's parameters,
+    then the gait's and the torques' numbers), or None where they cannot be compiled (numba missing, a callable
+    gait or torque, a function numba lacks)."""
+    if not _codegen.numba_available():
+        return None
+    try:
+        made = bkmm_source(setup, reduction)
+    except NotImplementedError:
+        return None
+    if made is None:
+        return None
+    source, constants = made
+    values = setup.system.parameter_values(parameters)
+    prm = np.r_[np.array([float(values[q]) for q in setup.system.parameter_symbols], dtype=float), constants]
+    return _codegen.compiled_module(source, "bk"), prm

@@ -1,0 +1,115 @@
+"""The BKMM equations compiled (straight-line code for the system's sizes, run by the compiled Dormand-Prince
+loops) against the same equations evaluated in Python by scipy's DOP853: two implementations of the linear
+algebra (loops over named values; numpy on arrays) and two drivers. The compiled path is also the default of
+the other nonholonomic tests, where it meets exact solutions and the Lagrange-d'Alembert equations."""
+
+import numpy as np
+import pytest
+
+from geomech import Gait, solve
+from geomech.errors import InputError
+from geomech.integrators import BKMM, Status
+from geomech.systems.nonholonomic_examples import (
+    chaplygin_sleigh,
+    kinematic_car,
+    roller_racer,
+    rolling_disk,
+    simplified_bicycle,
+    snakeboard,
+)
+
+SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+GAIT = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+
+CASES = {
+    # prescribed shapes only (a gait)
+    "snakeboard": (lambda: snakeboard(**SNAKE), dict(shapes=GAIT)),
+    # a free shape driven by a torque in t and the state
+    "roller_racer": (
+        lambda: roller_racer(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6),
+        dict(tau={"phi": "0.3*sin(3*t) - 0.05*phi_dot"}, q0={"phi": 0.2}),
+    ),
+    # one shape prescribed, one free (the lean), a potential, and a momentum
+    "bicycle": (
+        lambda: simplified_bicycle(m=1.0, h=0.8, c=0.3, b=1.0, g=9.81, J_s=0.05),
+        dict(shapes={"sigma": "0.05*sin(2*t)"}, q0={"phi": 0.02}, p0=[1.0]),
+    ),
+    # a free shape, no torque
+    "rolling_disk": (lambda: rolling_disk(m=1.2, R=0.4, I=0.7, J=0.3), dict(rdot0={"phi": 1.3}, p0=[0.6])),
+    # no shape at all: the momentum equation is the dynamics (two momenta)
+    "chaplygin_sleigh": (lambda: chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6), dict(p0=[0.3, 0.5])),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_compiled_and_python_equations_agree(name):
+    build, kw = CASES[name]
+    s = build()
+    a = solve(s, BKMM(), t_final=3.0, saveat=31, backend="python", rtol=1e-11, atol=1e-12, **kw)
+    b = solve(s, BKMM(), t_final=3.0, saveat=31, rtol=1e-11, atol=1e-12, **kw)
+    assert a.stats["backend"] == "python" and b.stats["backend"] == "numba"
+    scale = max(1.0, float(np.abs(a.q).max()))
+    # the two runs take different steps to the same tolerance: they agree to it, not to round-off
+    np.testing.assert_allclose(b.q, a.q, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(b.qdot, a.qdot, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.qdot).max())))
+    np.testing.assert_allclose(b.p, a.p, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.p).max())))
+    np.testing.assert_allclose(b.work, a.work, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.energy).max())))
+    assert abs(b.stats["n_internal_steps"] - a.stats["n_internal_steps"]) <= 0.05 * a.stats["n_internal_steps"] + 2
+
+
+def test_parameter_values_and_gait_numbers_share_one_compilation():
+    first = solve(snakeboard(**SNAKE), BKMM(), t_final=1.0, shapes=GAIT)
+    heavier = solve(snakeboard(**{**SNAKE, "m": 2.0, "J": 0.3}), BKMM(), t_final=1.0, shapes=GAIT)
+    assert first.stats["backend"] == heavier.stats["backend"] == "numba"
+    assert heavier.stats["compile_time"] == 0.0  # the same compiled module: nothing compiled or loaded
+    assert np.abs(first.q[-1] - heavier.q[-1]).max() > 1e-3  # and the values were read at run time
+    python = solve(snakeboard(**{**SNAKE, "m": 2.0, "J": 0.3}), BKMM(), t_final=1.0, shapes=GAIT, backend="python")
+    np.testing.assert_allclose(heavier.q, python.q, rtol=0, atol=1e-8)
+    # another amplitude, frequency and phase of the same form of gait: the same module, other numbers
+    other = {"psi": "1.3*sin(3*pi*t + 0.2)", "phi": "0.4*sin(3*pi*t)"}
+    base = {"psi": "0.9*sin(2*pi*t + 0.7)", "phi": "0.5*sin(2*pi*t)"}
+    solve(snakeboard(**SNAKE), BKMM(), t_final=0.5, shapes=base)
+    a = solve(snakeboard(**SNAKE), BKMM(), t_final=1.0, shapes=other)
+    b = solve(snakeboard(**SNAKE), BKMM(), t_final=1.0, shapes=other, backend="python")
+    assert a.stats["compile_time"] == 0.0
+    np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-8)
+
+
+def test_a_singular_shape_is_a_failure_where_it_is():
+    # the kinematic car's steering reaches pi/2 at t = pi/2: its constraints are singular there
+    car = kinematic_car(m=1.0, I=0.2, R=0.3, ell=1.0, J=0.1, K=0.1)
+    sol = solve(car, BKMM(), t_final=3.0, shapes={"psi": "t", "phi": "t"}, saveat=31, raise_on_failure=False)
+    assert sol.stats["backend"] == "numba" and sol.status is Status.ADAPTIVE_FAILED
+    assert abs(sol.failures[0].time - np.pi / 2) < 1e-6 and "singularity" in sol.message
+    reached = sol.t < np.pi / 2
+    assert np.all(np.isfinite(sol.q[reached])) and np.all(np.isnan(sol.q[~reached]))
+
+
+def test_what_cannot_be_compiled_runs_in_python_or_is_refused_by_name():
+    s = snakeboard(**SNAKE)
+    callable_gait = Gait.from_callable(
+        lambda t: [np.sin(2 * np.pi * t), 0.5 * np.sin(2 * np.pi * t)],
+        lambda t: [2 * np.pi * np.cos(2 * np.pi * t), np.pi * np.cos(2 * np.pi * t)],
+        rddot=lambda t: [-4 * np.pi**2 * np.sin(2 * np.pi * t), -2 * np.pi**2 * np.sin(2 * np.pi * t)],
+        names=["psi", "phi"],
+    )
+    by_formula = solve(s, BKMM(), t_final=1.0, shapes=GAIT)
+    by_callable = solve(s, BKMM(), t_final=1.0, shapes=callable_gait)
+    assert by_callable.stats["backend"] == "python"
+    np.testing.assert_allclose(by_callable.q, by_formula.q, rtol=0, atol=1e-8)
+    with pytest.raises(InputError, match="formulas .* Python callable"):
+        solve(s, BKMM(), t_final=1.0, shapes=callable_gait, backend="numba")
+    assert solve(s, BKMM(solver="Radau"), t_final=0.1, shapes=GAIT).stats["backend"] == "python"
+    with pytest.raises(InputError, match=r"solvers \['DOP853', 'RK45'\].*got solver 'Radau'"):
+        solve(s, BKMM(solver="Radau"), t_final=0.1, shapes=GAIT, backend="numba")
+    with pytest.raises(InputError, match="`backend`"):
+        solve(s, BKMM(), t_final=0.1, shapes=GAIT, backend="cuda")
+
+
+def test_torques_given_as_a_gait_of_formulas_compile():
+    s = roller_racer(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6)
+    as_gait = solve(s, BKMM(), t_final=2.0, tau=Gait.from_expressions({"phi": "0.3*sin(3*t)"}), saveat=5)
+    as_mapping = solve(s, BKMM(), t_final=2.0, tau={"phi": "0.3*sin(3*t)"}, saveat=5, backend="python")
+    assert as_gait.stats["backend"] == "numba"
+    np.testing.assert_allclose(as_gait.q, as_mapping.q, rtol=0, atol=1e-8)
+    assert abs(as_gait.work[-1]) > 1e-3
