@@ -45,6 +45,7 @@ The shape equations are the Lagrange-d'Alembert equations along the horizontal l
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -471,9 +472,23 @@ class NonholonomicReduction(Derived, _NumericMixin):
     def numeric(self, parameters: Mapping[str, float] | None = None) -> ReducedNumeric:
         """The compiled twin: connection, curvature, locked inertia and eqs. (1.1)-(1.3) as numeric functions of
         the shape (:class:`~geomech.reduction.reduced_numeric.ReducedNumeric`), from the system's data alone: no
-        symbolic attribute above is derived for it."""
-        self._check_basis_at(parameters)
-        return ReducedNumeric(self, parameters)
+        symbolic attribute above is derived for it. Built once per system, basis and parameter values."""
+        given = tuple(sorted({**self.system.parameters, **(parameters or {})}.items()))
+        key = (sp.ImmutableMatrix(self.basis), given)
+        try:
+            hash(key)
+        except TypeError:  # values that are not plain numbers: built each time (and checked there)
+            self._check_basis_at(parameters)
+            return ReducedNumeric(self, parameters)
+        known = _NUMERIC.setdefault(self.system, {})
+        if key not in known:
+            self._check_basis_at(parameters)
+            known[key] = ReducedNumeric(self, parameters)
+        return known[key]
+
+
+#: the numeric twins built so far, by system (weakly), basis and parameter values
+_NUMERIC: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _numeric_rank(M: sp.MatrixBase) -> int | None:

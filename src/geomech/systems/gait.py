@@ -94,7 +94,31 @@ class Gait:
     ) -> Gait:
         """Each prescribed shape as a formula in ``t`` (text or sympy), e.g. ``{"psi": "sin(2*pi*t)"}`` or
         ``["0.5*sin(2*pi*t/T)", "0.5*cos(2*pi*t/T)"]``; ``T`` stands for ``period`` when one is given, and
-        ``parameters`` give the values of other symbols. An empty mapping (or None) prescribes nothing."""
+        ``parameters`` give the values of other symbols. An empty mapping (or None) prescribes nothing. The same
+        formulas (text or sympy) give the same Gait, parsed and compiled once."""
+        try:
+            key = (
+                tuple(expressions.items()) if isinstance(expressions, Mapping) else expressions,
+                period,
+                None if names is None else tuple(names),
+                None if parameters is None else tuple(sorted(parameters.items())),
+            )
+            if isinstance(key[0], list):
+                key = (tuple(key[0]),) + key[1:]
+            hash(key)
+        except (TypeError, AttributeError):
+            return cls._from_expressions(expressions, period, names=names, parameters=parameters)
+        return _cached_gait(cls, key, expressions, period, names, parameters)
+
+    @classmethod
+    def _from_expressions(
+        cls,
+        expressions: Any,
+        period: float | None = None,
+        *,
+        names: Sequence[str] | None = None,
+        parameters: Mapping[str, float] | None = None,
+    ) -> Gait:
         T = None if period is None else V.positive_scalar(period, "period")
         if expressions is None:
             expressions = {}
@@ -240,3 +264,17 @@ def _time_function(exprs: list) -> Callable:
         return f(np.asarray(t, dtype=float)[..., None])
 
     return g
+
+
+_GAITS: dict[Any, Gait] = {}
+
+
+def _cached_gait(cls: type[Gait], key: Any, expressions: Any, period: Any, names: Any, parameters: Any) -> Gait:
+    """:meth:`Gait.from_expressions` once per key (at most 256 kept, the oldest dropped first)."""
+    gait = _GAITS.get((cls, key))
+    if gait is None:
+        gait = cls._from_expressions(expressions, period, names=names, parameters=parameters)
+        if len(_GAITS) >= 256:
+            _GAITS.pop(next(iter(_GAITS)))
+        _GAITS[(cls, key)] = gait
+    return gait

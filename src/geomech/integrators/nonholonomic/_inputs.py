@@ -4,6 +4,7 @@ free shapes, and the initial state consistent with the constraints."""
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -278,7 +279,18 @@ def _require_positive_kinetic_energy(
         )
 
 
+_RATES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarray]:
+    """:math:`\\Lambda(q_G)^{-1}`, the group coordinates' rates per body velocity (compiled once per system)."""
+    rates = _RATES.get(system)
+    if rates is None:
+        rates = _RATES.setdefault(system, _make_group_rates(system))
+    return rates
+
+
+def _make_group_rates(system: NonholonomicSystem) -> Callable[[np.ndarray], np.ndarray]:
     f = compile_vector(sp.Matrix(system.group.body_velocity_inverse).tolist(), list(system.group.coordinates))
 
     def rates(g: np.ndarray) -> np.ndarray:
