@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ...errors import SymbolicError
 from ...reduction.reduced_numeric import reduction_data
 from ...symbolic.compile import StraightLine
 from ...systems.gait import T_SYMBOL
@@ -53,6 +54,10 @@ def _inverse(code: StraightLine, M: sp.Matrix, what: str) -> sp.Matrix:
         return sp.zeros(0, 0)
     det = code.value(M.det(method="berkowitz"))
     inv = code.matrix(M.adjugate() / det if n > 1 else sp.Matrix([[1 / det]]))
+    if all(e.is_number for e in list(M) + list(inv)):
+        # a constant matrix (the identity, where the constraints are those of the chart): nothing to check at
+        # run time; singular, its adjugate over a zero determinant is not finite and was refused above
+        return inv
     code.flush()
 
     def norm1(X: sp.Matrix) -> str:
@@ -268,7 +273,8 @@ def bkmm_module(setup: Any, reduction: Any, parameters: Any) -> tuple[Any, np.nd
         return None
     try:
         made = bkmm_source(setup, reduction)
-    except NotImplementedError:
+    except (NotImplementedError, SymbolicError):
+        # a function numba lacks, or a matrix singular for every shape: the Python equations say where and why
         return None
     if made is None:
         return None
