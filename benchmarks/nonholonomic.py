@@ -1,26 +1,31 @@
-"""The snakeboard driven by a gait: geomech's BKMM equations (compiled, and in Python) beside heyoka's Taylor
-integrator on the same reduced equations.
+"""Nonholonomic systems driven by a gait or coasting: geomech's BKMM equations (compiled, and in Python) beside
+heyoka's Taylor integrator on the same reduced equations.
 
-    PYTHONPATH=src python benchmarks/nonholonomic.py          # about a minute
+    PYTHONPATH=src python benchmarks/nonholonomic.py          # about 30 seconds
     PYTHONPATH=src python benchmarks/nonholonomic.py --quick  # fewer tolerances
 
 Not part of the test suite; needs heyoka (``pip install "heyoka>=7,<8"``, the ``bench`` extra).
 
-Problem (issue 16's case): the snakeboard with m = 1, r = 0.5, J = 0.18, J0 = 0.05, J1 = 0.01, the gait
-psi = sin(2 pi t), phi = 0.5 sin(2 pi t), the board at rest at t = 0, five periods (t = 5). The state that is
-integrated is the board's position and heading (x, y, theta) and its nonholonomic momentum p.
+Problems (issue 16, item 4):
 
-heyoka integrates the reduced equations in closed form: the reconstruction xi(r, rdot, p) and the momentum
-equation pdot(r, rdot, p) of geomech's symbolic reduction (``bkmm_reduction(s).reconstruction`` and
-``.momentum_rhs``: the connection solved and simplified by sympy, a different route from the compiled
-numeric linear algebra of ``solve``), the gait substituted as functions of ``heyoka.time``. The reference is
-heyoka in quadruple precision (real128, tolerance 1e-32).
+- ``snakeboard``: m = 1, r = 0.5, J = 0.18, J0 = 0.05, J1 = 0.01, the gait psi = sin(2 pi t),
+  phi = 0.5 sin(2 pi t), the board at rest at t = 0, five periods (t = 5);
+- ``roller_racer``: m1 = 1, m2 = 0.8, I1 = 0.3, I2 = 0.2, d1 = 0.5, d2 = 0.6, the joint driven by the periodic
+  gait phi = 0.4 sin(2 pi t), from rest, five periods;
+- ``chaplygin_sleigh``: m = 1.5, I_c = 0.4, a = 0.6, no shape, from the momentum p = (0.3, 0.5), t = 10.
 
-Measured, in one run: the max-norm error of (x, y, theta, p) at t = 5 against the wall time, best of several
-repeats: ``solve(s, BKMM(), ...)`` from the Python call to the Solution (compiled and Python equations), the
-compiled loop alone (``stats["loop_time"]``), and heyoka's ``propagate_until`` from a reset state (its
-construction and JIT compilation apart, as geomech's compilation is). Writes
-``results/nonholonomic.json`` and ``results/nonholonomic.md``.
+The integrated state is the group coordinates (x, y, theta) and the nonholonomic momentum p. heyoka integrates
+the reduced equations in closed form: the reconstruction xi(r, rdot, p) and the momentum equation
+pdot(r, rdot, p) of geomech's symbolic reduction (``bkmm_reduction(s).reconstruction`` and ``.momentum_rhs``:
+the connection solved and simplified by sympy, a different route from the compiled numeric linear algebra of
+``solve``), the gait substituted as functions of ``heyoka.time``. The reference is heyoka in quadruple
+precision (real128, tolerance 1e-32), cross-checked against heyoka in long double.
+
+Measured, in one run: the max-norm error of (g, p) at the end against the wall time, best of several repeats:
+``solve(s, BKMM(), ...)`` from the Python call to the Solution (compiled and Python equations), the compiled loop
+alone (``stats["loop_time"]``), and heyoka's ``propagate_until`` from a reset state (its construction and JIT
+compilation apart, as geomech's compilation is). Writes ``results/nonholonomic.json`` and
+``results/nonholonomic.md``.
 """
 
 from __future__ import annotations
@@ -39,12 +44,36 @@ import sympy as sp
 import geomech as gm
 from geomech.integrators import BKMM, solve
 from geomech.reduction import bkmm_reduction
-from geomech.systems.nonholonomic_examples import snakeboard
+from geomech.systems.nonholonomic_examples import chaplygin_sleigh, roller_racer, snakeboard
 
 HERE = Path(__file__).resolve().parent
-SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
-GAIT = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
-T = 5.0
+T_SYMBOL = sp.Symbol("t", real=True)
+CASES = {
+    "snakeboard": dict(
+        build=snakeboard,
+        parameters=dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01),
+        gait={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"},
+        formulas={"psi": sp.sin(2 * sp.pi * T_SYMBOL), "phi": sp.sin(2 * sp.pi * T_SYMBOL) / 2},
+        start={},
+        T=5.0,
+    ),
+    "roller_racer": dict(
+        build=roller_racer,
+        parameters=dict(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6),
+        gait={"phi": "0.4*sin(2*pi*t)"},
+        formulas={"phi": sp.Rational(2, 5) * sp.sin(2 * sp.pi * T_SYMBOL)},
+        start={},
+        T=5.0,
+    ),
+    "chaplygin_sleigh": dict(
+        build=chaplygin_sleigh,
+        parameters=dict(m=1.5, I_c=0.4, a=0.6),
+        gait=None,
+        formulas={},
+        start=dict(p0=[0.3, 0.5]),
+        T=10.0,
+    ),
+}
 TOLS = [1e-6, 1e-8, 1e-10, 1e-12, 1e-13]
 TOLS_QUICK = [1e-8, 1e-12]
 PYTHON_TOLS = [1e-8, 1e-12]
@@ -64,40 +93,30 @@ def best_of(fn: Callable[[], Any], repeats: int, budget: float = 3.0) -> tuple[f
     return best, out
 
 
-def heyoka_equations(hy: Any, s: Any) -> tuple[list, list]:
-    """(x, y, theta, p)' from the symbolic reduction, the gait in heyoka.time; returns (system, variables)."""
+def heyoka_equations(hy: Any, s: Any, case: dict) -> list:
+    """(g, p)' from the symbolic reduction, the gait in heyoka.time."""
     red = bkmm_reduction(s)
-    t = sp.Symbol("t", real=True)
-    formulas = {"psi": sp.sin(2 * sp.pi * t), "phi": sp.sin(2 * sp.pi * t) / 2}  # GAIT, written in sympy
-    gait = {r: formulas[r.name] for r in red.r}
-    values = {p: SNAKE[p.name] for p in s.parameter_symbols}
-    subs = {**values, **gait, **{rd: gait[r].diff(t) for r, rd in zip(red.r, red.rdot)}}
+    gait = {r: case["formulas"][r.name] for r in red.r}
+    values = {p: case["parameters"][p.name] for p in s.parameter_symbols}
+    subs = {**values, **gait, **{rd: gait[r].diff(T_SYMBOL) for r, rd in zip(red.r, red.rdot)}}
     xi = sp.Matrix(red.reconstruction).xreplace(subs)
     pdot = sp.Matrix(red.momentum_rhs).xreplace(subs)
-    rates = sp.Matrix(s.group.body_velocity_inverse)
-    gdot = rates * xi
-    x, y, th, p = hy.make_vars("x", "y", "theta", "p")
-    g_syms = list(s.group.coordinates)
-    table = {g_syms[0]: x, g_syms[1]: y, g_syms[2]: th, red.p[0]: p, t: hy.time}
+    gdot = sp.Matrix(s.group.body_velocity_inverse) * xi
+    variables = hy.make_vars(*[c.name for c in s.group.coordinates], *[f"p{i}" for i in range(red.m)])
+    table = dict(zip(list(s.group.coordinates) + list(red.p), variables))
+    table[T_SYMBOL] = hy.time
     rhs = [hy.from_sympy(sp.sympify(e), table) for e in list(gdot) + list(pdot)]
-    return list(zip([x, y, th, p], rhs)), [x, y, th, p]
+    return list(zip(variables, rhs))
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer tolerances and repeats")
-    args = ap.parse_args(argv)
-    try:
-        import heyoka as hy
-    except ImportError:
-        print("nonholonomic.py: heyoka is not installed (pip install 'heyoka>=7,<8')", file=sys.stderr)
-        return 2
-    repeats = 3 if args.quick else 7
-    s = snakeboard(**SNAKE)
-    sys_hy, _ = heyoka_equations(hy, s)
-    start = solve(s, BKMM(), t_final=T, shapes=GAIT, saveat=2, rtol=1e-13, atol=1e-14)
-    y0 = np.r_[start.q[0, :3], start.p[0]]
-
+def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[str, Any]:
+    s = case["build"](**case["parameters"])
+    T = case["T"]
+    common = dict(t_final=T, shapes=case["gait"], saveat=2, **case["start"])
+    sys_hy = heyoka_equations(hy, s, case)
+    start = solve(s, BKMM(), rtol=1e-13, atol=1e-14, **common)
+    k = s.k
+    y0 = np.r_[start.q[0, :k], start.p[0]]
     q = hy.real128
     ta = hy.taylor_adaptive(sys_hy, np.array([q(float(v)) for v in y0]), fp_type=q, tol=q("1e-32"))
     ta.propagate_until(q(T))
@@ -106,15 +125,13 @@ def main(argv: list[str] | None = None) -> int:
     check = hy.taylor_adaptive(sys_hy, y0.astype(ld), fp_type=ld, tol=ld(1e-19))
     check.propagate_until(ld(T))
     cross = float(np.abs(np.array(check.state, dtype=float) - ref).max())
-    geomech_ref = float(np.abs(np.r_[start.q[-1, :3], start.p[-1]] - ref).max())
-
-    rows: list[dict[str, Any]] = []
 
     def error(sol: Any) -> float:
-        return float(np.abs(np.r_[sol.q[-1, :3], sol.p[-1]] - ref).max())
+        return float(np.abs(np.r_[sol.q[-1, :k], sol.p[-1]] - ref).max())
 
-    for tol in TOLS_QUICK if args.quick else TOLS:
-        kw = dict(t_final=T, shapes=GAIT, saveat=2, rtol=tol, atol=tol * 1e-2)
+    rows: list[dict[str, Any]] = []
+    for tol in TOLS_QUICK if quick else TOLS:
+        kw = dict(rtol=tol, atol=tol * 1e-2, **common)
         first = solve(s, BKMM(), **kw)  # compiles (or loads the disk cache)
         wall, sol = best_of(lambda kw=kw: solve(s, BKMM(), **kw), repeats)
         loop = min(solve(s, BKMM(), **kw).stats["loop_time"] for _ in range(repeats))
@@ -130,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
             )
         )
     for tol in PYTHON_TOLS:
-        kw = dict(t_final=T, shapes=GAIT, saveat=2, rtol=tol, atol=tol * 1e-2, backend="python")
+        kw = dict(rtol=tol, atol=tol * 1e-2, backend="python", **common)
         wall, sol = best_of(lambda kw=kw: solve(s, BKMM(), **kw), 2, budget=10.0)
         rows.append(
             dict(
@@ -141,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
                 n_rhs=sol.stats["n_rhs"],
             )
         )
-    for tol in HEYOKA_TOLS[1::2] if args.quick else HEYOKA_TOLS:
+    for tol in HEYOKA_TOLS[1::2] if quick else HEYOKA_TOLS:
         start_jit = time.perf_counter()
         ta = hy.taylor_adaptive(sys_hy, y0.copy(), tol=tol)
         jit = time.perf_counter() - start_jit
@@ -162,34 +179,56 @@ def main(argv: list[str] | None = None) -> int:
                 compile_s=jit,
             )
         )
-
-    out = dict(
-        problem="snakeboard, 5 periods of psi = sin(2 pi t), phi = 0.5 sin(2 pi t), from rest",
-        parameters=SNAKE,
+    return dict(
+        problem=name,
+        parameters=case["parameters"],
+        gait=case["gait"],
+        start=case["start"],
+        t_final=T,
         reference="heyoka real128, tol 1e-32",
         cross_check_long_double=cross,
-        geomech_at_1e13_vs_reference=geomech_ref,
+        rows=rows,
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer tolerances and repeats")
+    args = ap.parse_args(argv)
+    try:
+        import heyoka as hy
+    except ImportError:
+        print("nonholonomic.py: heyoka is not installed (pip install 'heyoka>=7,<8')", file=sys.stderr)
+        return 2
+    repeats = 3 if args.quick else 7
+    cases = [run_case(hy, name, case, args.quick, repeats) for name, case in CASES.items()]
+    out = dict(
         machine=f"{platform.machine()} {platform.processor()}, {platform.python_version()}",
         versions=dict(geomech=gm.__version__, heyoka=hy.__version__, numpy=np.__version__),
         command="PYTHONPATH=src python benchmarks/nonholonomic.py" + (" --quick" if args.quick else ""),
-        rows=rows,
+        cases=cases,
     )
     results = HERE / "results"
     results.mkdir(exist_ok=True)
     (results / "nonholonomic.json").write_text(json.dumps(out, indent=1) + "\n")
-    lines = [
-        "| integrator | tolerance | error at t = 5 | wall time (ms) | compiled loop (ms) | evaluations |",
-        "|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        loop = f"{r['loop_ms']:.3f}" if "loop_ms" in r else ""
-        lines.append(
-            f"| {r['who']} | {r['tol']:.0e} | {r['error']:.1e} | {r['wall_ms']:.3f} | {loop} | {r.get('n_rhs', '')} |"
-        )
+    lines = []
+    for case in cases:
+        lines += [
+            f"### {case['problem']}: t = {case['t_final']:g} "
+            f"(reference cross-check: {case['cross_check_long_double']:.1e})",
+            "",
+            "| integrator | tolerance | error | wall time from the Python call (ms) | compiled loop alone (ms) "
+            "| evaluations |",
+            "|---|---|---|---|---|---|",
+        ]
+        for r in case["rows"]:
+            loop = f"{r['loop_ms']:.3f}" if "loop_ms" in r else ""
+            evals = r.get("n_rhs", "")
+            lines.append(f"| {r['who']} | {r['tol']:.0e} | {r['error']:.1e} | {r['wall_ms']:.3f} | {loop} | {evals} |")
+        lines.append("")
     table = "\n".join(lines)
-    (results / "nonholonomic.md").write_text(table + "\n")
+    (results / "nonholonomic.md").write_text(table)
     print(table)
-    print(f"reference cross-check (long double vs real128): {cross:.1e}")
     return 0
 
 

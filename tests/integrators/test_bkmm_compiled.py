@@ -65,9 +65,9 @@ def test_parameter_values_and_gait_numbers_share_one_compilation():
     assert np.abs(first.q[-1] - heavier.q[-1]).max() > 1e-3  # and the values were read at run time
     python = solve(snakeboard(**{**SNAKE, "m": 2.0, "J": 0.3}), BKMM(), t_final=1.0, shapes=GAIT, backend="python")
     np.testing.assert_allclose(heavier.q, python.q, rtol=0, atol=1e-8)
-    # another amplitude, frequency and phase of the same form of gait: the same module, other numbers
+    # another amplitude (1 written or not), offset, frequency and phase of one form of gait: the same module
     other = {"psi": "1.3*sin(3*pi*t + 0.2)", "phi": "0.4*sin(3*pi*t)"}
-    base = {"psi": "0.9*sin(2*pi*t + 0.7)", "phi": "0.5*sin(2*pi*t)"}
+    base = {"psi": "sin(2*pi*t + 0.7)", "phi": "0.5*sin(2*pi*t) + 0.1"}
     solve(snakeboard(**SNAKE), BKMM(), t_final=0.5, shapes=base)
     a = solve(snakeboard(**SNAKE), BKMM(), t_final=1.0, shapes=other)
     b = solve(snakeboard(**SNAKE), BKMM(), t_final=1.0, shapes=other, backend="python")

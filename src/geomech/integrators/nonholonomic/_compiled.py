@@ -12,8 +12,9 @@ and its derivatives, and the shape equations solved for the free shapes' acceler
 realise the gait. No matrix is inverted symbolically in the shape variables and nothing is simplified: the cost
 of generating is that of writing the formulas. Where L, the locked inertia or the shape equations are singular
 (a 1-norm condition number above 1e13) the derivative is NaN and the loop reports the time. The model's
-parameters are read from ``prm`` at run time (a sweep over them compiles once); the gait's and the torques'
-numbers are written in.
+parameters are read from ``prm`` at run time (a sweep over them compiles once), and so are the gait's and the
+torques' numbers, each formula written ``c + s f`` (offset, scale, and the numbers inside f): the gaits of one
+form (``a sin(w t + phi)``, whatever a, w and phi) share one compilation.
 """
 
 from __future__ import annotations
@@ -98,6 +99,16 @@ def _hoist(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
     return e.func(*[_hoist(a, table, first) for a in e.args])
 
 
+def _affine_hoist(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
+    """``e`` written ``c + s f`` with its offset c and scale s (0 and 1 where it has none) and the numbers of f
+    run-time parameters: ``sin(2*pi*t)``, ``0.5*sin(3*pi*t)`` and ``0.1 + 2*sin(pi*t)`` are one form."""
+    c, rest = sp.sympify(e).as_coeff_Add()
+    scale, f = rest.as_coeff_Mul()
+    offset_name, scale_name = (sp.Symbol(f"_p{first + len(table) + i}") for i in range(2))
+    table[offset_name], table[scale_name] = float(c), float(scale)
+    return offset_name + scale_name * _hoist(f, table, first)
+
+
 def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
     """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and the values of the
     gait's and the torques' numbers (read after the system's parameters), or None where the gait or a torque is a
@@ -107,8 +118,8 @@ def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
         return None
     table: dict[sp.Symbol, float] = {}
     first = len(setup.system.parameter_symbols)
-    gait_forms = tuple(_hoist(e.xreplace({T_SYMBOL: _TIME}), table, first) for e in gait.expressions or ())
-    torque_forms = tuple(_hoist(sp.sympify(e), table, first) for e in torques.expressions)
+    gait_forms = tuple(_affine_hoist(e.xreplace({T_SYMBOL: _TIME}), table, first) for e in gait.expressions or ())
+    torque_forms = tuple(_affine_hoist(e, table, first) for e in torques.expressions)
     key = (
         sp.ImmutableMatrix(reduction.basis),
         gait_forms,
