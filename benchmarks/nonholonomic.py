@@ -105,6 +105,7 @@ def heyoka_equations(hy: Any, s: Any, case: dict) -> list:
     variables = hy.make_vars(*[c.name for c in s.group.coordinates], *[f"p{i}" for i in range(red.m)])
     table = dict(zip(list(s.group.coordinates) + list(red.p), variables))
     table[T_SYMBOL] = hy.time
+
     def floats(e: sp.Expr) -> sp.Expr:
         # heyoka reads rationals only with power-of-two denominators: the others as 34-digit floats
         return e.xreplace({r: sp.Float(r, 34) for r in e.atoms(sp.Rational) if r.q & (r.q - 1)})
