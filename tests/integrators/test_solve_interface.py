@@ -445,7 +445,7 @@ def test_compiled_model_is_cached_by_expression():
     assert "def rhs(y, out0, prm):" in open(mod_a.__file__).read()
 
 
-def test_helpers_that_never_call_the_model_are_compiled_once_for_all_models():
+def test_helpers_that_never_call_the_model_by_name_are_compiled_once_for_all_models():
     from geomech.integrators import _codegen
     from geomech.integrators._problem import make_problem
 
@@ -461,16 +461,21 @@ def test_helpers_that_never_call_the_model_are_compiled_once_for_all_models():
     for name in ("lu_solve", "newton_update", "finish_step", "fail", "ST_NEWTON"):
         assert name in names
         assert getattr(a, name) is getattr(b, name)
-    # every loop that reaches the model, directly or through a helper, is compiled per model
-    for loop in ("rk4_run", "midpoint_run", "gauss_run", "split_run", "orbit_return", "axis_flow"):
+    # every loop that reaches the model by name, directly or through a helper, is compiled per model
+    for loop in ("rk4_run", "midpoint_run", "gauss_run", "split_run", "axis_flow"):
         assert f"def {loop}(" in model_src and f"def {loop}(" not in shared_src
         assert getattr(a, loop) is not getattr(b, loop)
     for model_function in ("rhs(", "fjac(", "grad(", "dh0("):
         assert model_function not in shared_src
+    # the adaptive loops call the model through the address of its C twin: one loop for all models
+    for loop in ("erk_run", "erk_stages", "orbit_return", "orbit_states"):
+        assert loop in names and getattr(a, loop) is getattr(b, loop)
+    assert a.rhs_address() != b.rhs_address()
     # and the split changes no arithmetic: the compiled run agrees with the plain-Python one to round-off
-    for method in ("implicit_midpoint", "rk4"):
-        compiled = solve(systems[0], method, y0=[1.0, 0.0], h=0.1, t_final=2.0)
-        python = solve(systems[0], method, y0=[1.0, 0.0], h=0.1, t_final=2.0, backend="python")
+    for method in ("implicit_midpoint", "rk4", "dop853"):
+        times = {"rtol": 1e-10, "atol": 1e-10} if method == "dop853" else {"h": 0.1}
+        compiled = solve(systems[0], method, y0=[1.0, 0.0], t_final=2.0, **times)
+        python = solve(systems[0], method, y0=[1.0, 0.0], t_final=2.0, backend="python", **times)
         assert compiled.stats["backend"] == "numba"
         np.testing.assert_allclose(compiled.states, python.states, rtol=0, atol=1e-13)
 

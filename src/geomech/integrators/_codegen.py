@@ -10,7 +10,10 @@ functions to compiled loops as arguments would defeat numba's disk cache (the fu
 every process), hence one generated file per model. The loop helpers that never call the model (status
 codes, saving, Newton updates, small solves, rotations) are split off, by reading the templates' syntax
 trees, into one shared generated module that every model module imports: numba compiles them once for
-all models instead of once per model. The model's parameters (inertias, gains, the
+all models instead of once per model. The adaptive loops go further: they call the model's ``rhs`` through
+the address of its C twin (``rhs_address()`` of the model module, a ``cfunc`` compiled on first use; the
+address is a run-time integer, so the cache holds; :mod:`._fptr`), which makes them shared too: a new model
+then compiles only its right-hand side for them. The model's parameters (inertias, gains, the
 momentum G of a reduced system) are not written into it: the functions read them from an array ``prm``
 at run time, so a sweep over parameter values compiles once.
 
@@ -108,7 +111,7 @@ def _template_split() -> tuple[str, str, tuple[str, ...]]:
             elif isinstance(node, ast.Assign):
                 defined.update(t.id for t in node.targets if isinstance(t, ast.Name))
                 order.append(("", segment))
-    known = defined | set(dir(builtins)) | {"math", "np", "kernel"}
+    known = defined | set(dir(builtins)) | {"math", "np", "kernel", "call_model"}
     reads = {
         name: {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
         - {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
@@ -128,9 +131,31 @@ def _template_split() -> tuple[str, str, tuple[str, ...]]:
 
 
 _HEADER_NUMBA = (
-    "import math\nimport numpy as np\nimport numba\n\n"
+    "import math\nimport numpy as np\nimport numba\n"
+    "from geomech.integrators._fptr import RHS_SIGNATURE, call_model\n\n"
     "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n\n"
 )
+# The model's right-hand side as a C function for the loops shared by all models (geomech.integrators._fptr),
+# compiled (or loaded from numba's cache) on first use only.
+_RHS_C_DEFAULT = """
+
+def _rhs_c(y, out, prm, d, n_prm):
+    rhs(numba.carray(y, (d,)), numba.carray(out, (d,)), numba.carray(prm, (n_prm,)))
+"""
+_RHS_ADDRESS = """
+
+_RHS_C = []
+
+
+def rhs_ready():
+    return bool(_RHS_C)
+
+
+def rhs_address():
+    if not _RHS_C:
+        _RHS_C.append(numba.cfunc(RHS_SIGNATURE, cache=True)(_rhs_c))
+    return _RHS_C[0].address
+"""
 _HEADER_PYTHON = "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n"
 
 
@@ -165,7 +190,14 @@ def compiled_module(model_src: str, tag: str) -> Any:
         shared = _load(_HEADER_NUMBA + shared_src, "k")
         imports = "".join(f"{name} = _shared.{name}\n" for name in names)
         source = (
-            _HEADER_NUMBA + f"import {shared.__name__} as _shared\n\n{imports}\n\n" + model_src + "\n\n" + model_part
+            _HEADER_NUMBA
+            + f"import {shared.__name__} as _shared\n\n{imports}\n\n"
+            + model_src
+            + "\n\n"
+            + model_part
+            # a model may write its C twin itself (the body on the pointers: one compilation instead of two)
+            + ("" if "\ndef _rhs_c(" in "\n" + model_src else _RHS_C_DEFAULT)
+            + _RHS_ADDRESS
         )
         return _load(source, tag)
 
@@ -180,5 +212,12 @@ def python_module(functions: Mapping[str, Any]) -> Any:
     namespace: dict[str, Any] = {"__name__": "geomech_kernels_python"}
     exec(compile(_HEADER_PYTHON, "<geomech kernels>", "exec"), namespace)
     namespace.update(functions)
+
+    def call_model(fp: Any, y: Any, out: Any, prm: Any) -> None:  # the Python twin: fp is not an address here
+        namespace["rhs"](y, out, prm)
+
+    namespace["call_model"] = call_model
+    namespace["rhs_address"] = lambda: 0
+    namespace["rhs_ready"] = lambda: True
     exec(compile(_template_text(), "<geomech kernels>", "exec"), namespace)
     return _Namespace(namespace)

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
+from ._fptr import call_model
 from ._k_common import (
     SAVE0,
     STAGE1,
@@ -110,9 +111,9 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def erk_stages(y, h, A, K, tmp, first, stop, prm):
+def erk_stages(fp, y, h, A, K, tmp, first, stop, prm):
     """Stages first..stop-1 of an explicit Runge-Kutta step of size h from y (K[0] holds f(y), and every
-    stage before ``first`` is computed)."""
+    stage before ``first`` is computed); the model's right-hand side at the address ``fp``."""
     d = y.shape[0]
     for s in range(first, stop):
         for i in range(d):
@@ -120,7 +121,7 @@ def erk_stages(y, h, A, K, tmp, first, stop, prm):
             for j in range(s):
                 acc += A[s, j] * K[j, i]
             tmp[i] = y[i] + h * acc
-        rhs(tmp, K[s], prm)
+        call_model(fp, tmp, K[s], prm)
 
 
 @kernel
@@ -260,7 +261,7 @@ def section_value(f0, y, y0, shift, w):
 
 
 @kernel
-def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, prm):
+def orbit_return(fp, y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, prm):
     """Integrate y' = f(y) from y0 until the first return to y0 (to y0 + w shift, w = +-1, for a rotation
     of an angle coordinate), adaptive steps of the 8th-order solution, errors estimated as DOP853 does.
 
@@ -290,7 +291,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
         comp[i] = 0.0
         YM[0, i] = y0[i]
     TM[0] = 0.0
-    rhs(y, f0, prm)
+    call_model(fp, y, f0, prm)
     for i in range(d):
         K[0, i] = f0[i]
     nfev = 1
@@ -311,7 +312,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
     h0, d1 = first_step_guess(y0, f0, tol, tol)
     for i in range(d):
         tmp[i] = y0[i] + h0 * f0[i]
-    rhs(tmp, fz, prm)
+    call_model(fp, tmp, fz, prm)
     nfev += 1
     h = first_step(y0, f0, fz, h0, d1, tol, tol, np.int64(7))
     t = 0.0
@@ -323,11 +324,11 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
         if k >= max_steps:
             INFO[0] = 1.0
             break
-        erk_stages(y, h, A, K, tmp, STAGE1, ns, prm)
+        erk_stages(fp, y, h, A, K, tmp, STAGE1, ns, prm)
         for i in range(d):
             dy[i] = erk_increment(h, B, K, ns, i) + comp[i]
             ynew[i] = y[i] + dy[i]
-        rhs(ynew, K[ns], prm)
+        call_model(fp, ynew, K[ns], prm)
         nfev += ns
         ok = finite(ynew)
         if not ok:
@@ -366,10 +367,10 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
             if da <= 4.0 * chord and db <= 4.0 * chord:
                 tau = h * (-ga) / (gb - ga)
                 for _newton in range(8):
-                    erk_stages(y, tau, A, K, tmp, STAGE1, ns, prm)
+                    erk_stages(fp, y, tau, A, K, tmp, STAGE1, ns, prm)
                     for i in range(d):
                         z[i] = y[i] + (erk_increment(tau, B, K, ns, i) + comp[i])
-                    rhs(z, fz, prm)
+                    call_model(fp, z, fz, prm)
                     nfev += ns
                     gz = section_value(f0, z, y0, shift, w)
                     slope = 0.0
@@ -424,7 +425,7 @@ def orbit_return(y0, A, B, E5, E3, tol, shift, lo, hi, max_steps, TM, YM, INFO, 
 
 
 @kernel
-def orbit_states(YM, TM, idx, tau, A, B, OUT, prm):
+def orbit_states(fp, YM, TM, idx, tau, A, B, OUT, prm):
     """OUT[j] = one Runge-Kutta step of size tau[j] from the mesh point idx[j] (dense output)."""
     d = YM.shape[1]
     ns = 12
@@ -437,13 +438,13 @@ def orbit_states(YM, TM, idx, tau, A, B, OUT, prm):
         if m != last:
             for i in range(d):
                 y[i] = YM[m, i]
-            rhs(y, K[0], prm)
+            call_model(fp, y, K[0], prm)
             last = m
         if tau[j] == 0.0:
             for i in range(d):
                 OUT[j, i] = y[i]
             continue
-        erk_stages(y, tau[j], A, K, tmp, STAGE1, ns, prm)
+        erk_stages(fp, y, tau[j], A, K, tmp, STAGE1, ns, prm)
         for i in range(d):
             OUT[j, i] = y[i] + erk_increment(tau[j], B, K, ns, i)
 
@@ -650,7 +651,7 @@ def erk_after(action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns,
 
 
 @kernel
-def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, CH, prm):
+def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, CH, prm):
     """Integrate each row of Y0 from t0 by the embedded pair (A, B; error weights E, E2 on the stages and
     f(y1); continuous extension D, its extra stages the rows of A past ns), saving at the times TS (monotone,
     away from t0) by the continuous extension, or exactly where a step ends on one. ``q`` is the order of the
@@ -671,15 +672,15 @@ def erk_run(Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q,
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)
         while action != ERK_DONE:
             if action == ERK_F0:
-                rhs(W[EW_Y], K[0], prm)
+                call_model(fp, W[EW_Y], K[0], prm)
             elif action == ERK_F1:
-                rhs(W[EW_TMP], K[1], prm)
+                call_model(fp, W[EW_TMP], K[1], prm)
             elif action == ERK_STEP:
-                erk_stages(W[EW_Y], S[EK_H], A, K, W[EW_TMP], STAGE1, ns, prm)
+                erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], STAGE1, ns, prm)
                 erk_combine(W, K, B, ns, S[EK_H])
-                rhs(W[EW_YNEW], K[ns], prm)
+                call_model(fp, W[EW_YNEW], K[ns], prm)
             else:
-                erk_stages(W[EW_Y], S[EK_H], A, K, W[EW_TMP], ns + 1, A.shape[0], prm)
+                erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], ns + 1, A.shape[0], prm)
             action = erk_after(
                 action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns, q, dop853, CH, K, F, W, S
             )

@@ -207,11 +207,15 @@ def run_embedded(
     chart = np.array(getattr(problem_system, "chart", ()) or np.zeros((0, 3)), dtype=float).reshape(-1, 3)
     args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart, prm)
     compile_time = 0.0
-    if used == "numba" and not module.erk_run.signatures:
-        # the first call compiles (or loads numba's disk cache): timed apart on a one-step problem
+    fp = module.rhs_address() if module.rhs_ready() else 0
+    if used == "numba" and not (module.rhs_ready() and module.erk_run.signatures):
+        # the first call compiles (or loads numba's disk cache) the model's C right-hand side and, once for all
+        # models, the loop: timed apart on a one-step problem
         start = time.perf_counter()
+        fp = module.rhs_address()
         probe = np.array([t0, t0 + (times[-1] - t0) * 1e-9])
         module.erk_run(
+            fp,
             Y0[:1].copy(),
             t0,
             probe,
@@ -225,7 +229,7 @@ def run_embedded(
         compile_time = time.perf_counter() - start
 
     def call(a: int, b: int) -> None:
-        module.erk_run(Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args)
+        module.erk_run(fp, Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args)
 
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
         _threaded(call, Y0.shape[0], threads if used == "numba" else 1)

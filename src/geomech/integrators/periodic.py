@@ -151,19 +151,23 @@ class PeriodicOrbitPropagator:
         A, b, e5, e3 = pair.A, pair.b, pair.e, pair.e2
         shift = np.array([angle_period or 0.0, 0.0])
         compile_time = 0.0
-        if self.backend == "numba" and not module.orbit_return.signatures:
+        fp = module.rhs_address() if module.rhs_ready() else 0
+        if self.backend == "numba" and not (module.rhs_ready() and module.orbit_return.signatures):
+            # the model's C right-hand side and, once for all models, the loops: compiled (or loaded) apart
             start = time.perf_counter()
+            fp = module.rhs_address()
             module.orbit_return(
-                y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9), prm
+                fp, y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9), prm
             )
             module.orbit_states(
-                np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b, np.empty((1, 2)), prm
+                fp, np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b, np.empty((1, 2)), prm
             )
             compile_time = time.perf_counter() - start
+        self._fp = fp
         start = time.perf_counter()
         TM, YM, info = np.empty(max_steps + 1), np.empty((max_steps + 1, 2)), np.zeros(9)
         with np.errstate(all="ignore"):
-            module.orbit_return(y0, A, b, e5, e3, tol, shift, lo, hi, int(max_steps), TM, YM, info, prm)
+            module.orbit_return(fp, y0, A, b, e5, e3, tol, shift, lo, hi, int(max_steps), TM, YM, info, prm)
         self.stats = {"compile_time": compile_time, "run_time": time.perf_counter() - start}
         status, n_mesh = int(info[0]), int(info[1])
         self.nfev, self.n_mesh = int(info[5]), n_mesh
@@ -231,7 +235,7 @@ class PeriodicOrbitPropagator:
         out = np.empty((flat.size, 2))
         pair = embedded_pair("DOP853")
         A, b = pair.A, pair.b
-        self._module.orbit_states(self._YM, self._TM, idx, r - self._TM[idx], A, b, out, self._prm)
+        self._module.orbit_states(self._fp, self._YM, self._TM, idx, r - self._TM[idx], A, b, out, self._prm)
         if self.winding:
             out[:, 0] += n * (self.winding * self.angle_period)
         return out.reshape(t.shape + (2,))

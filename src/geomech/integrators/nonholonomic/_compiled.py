@@ -273,7 +273,16 @@ def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple
     )
     values = code.values(outputs)
     code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(values)))
-    return "@kernel\ndef rhs(y, out, prm):\n" + code.body()
+    body = code.body()
+    # the C twin the compiled loops call (geomech.integrators._fptr) is this body on the pointers, compiled once;
+    # rhs, the same body on arrays, compiles only if a loop calls it by name
+    c_twin = (
+        "def _rhs_c(y_, out_, prm_, d, n_prm):\n"
+        "    y = numba.carray(y_, (d,))\n"
+        "    out = numba.carray(out_, (d,))\n"
+        "    prm = numba.carray(prm_, (n_prm,))\n"
+    )
+    return "@kernel\ndef rhs(y, out, prm):\n" + body + "\n\n" + c_twin + body
 
 
 def bkmm_module(setup: Any, reduction: Any, parameters: Any) -> tuple[Any, np.ndarray] | None:
