@@ -36,10 +36,11 @@ import platform
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import sympy as sp
+from work_precision import best_of  # the timing of the work-precision harness (this script's directory)
 
 import geomech as gm
 from geomech.integrators import BKMM, solve
@@ -78,19 +79,6 @@ TOLS = [1e-6, 1e-8, 1e-10, 1e-12, 1e-13]
 TOLS_QUICK = [1e-8, 1e-12]
 PYTHON_TOLS = [1e-8, 1e-12]
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
-
-
-def best_of(fn: Callable[[], Any], repeats: int, budget: float = 3.0) -> tuple[float, Any]:
-    """Best wall time of up to ``repeats`` calls (fewer once ``budget`` seconds are spent), and the last result."""
-    best, out, spent = np.inf, None, 0.0
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        took = time.perf_counter() - start
-        best, spent = min(best, took), spent + took
-        if spent > budget:
-            break
-    return best, out
 
 
 def heyoka_equations(hy: Any, s: Any, case: dict) -> list:

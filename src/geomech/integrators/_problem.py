@@ -85,8 +85,6 @@ class Problem:
     # -- compiled model ---------------------------------------------------------------------------
     def module(self, features: frozenset[str], backend: str) -> tuple[Any, str]:
         """The loop module for ``features`` and the backend actually used."""
-        if backend not in ("auto", "numba", "python"):
-            raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
         if backend != "python" and self.expression is not None and _codegen.numba_available():
             if self.kind == "lie_poisson" and self.has(Structure.LIE_POISSON_SPLIT):
                 # cheap to add, and one module per model and layout keeps numba's compilations down

@@ -255,6 +255,8 @@ def solve(
     Solution
     """
     method = get_method(method)
+    if backend not in ("auto", "numba", "python"):
+        raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
     problem = make_problem(system, attitude=R0 is not None)
     _check_compatible(problem, method)
     times = time_grid(method, t0, t_final, h, saveat, rtol, atol)

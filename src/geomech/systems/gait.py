@@ -96,29 +96,19 @@ class Gait:
         ``["0.5*sin(2*pi*t/T)", "0.5*cos(2*pi*t/T)"]``; ``T`` stands for ``period`` when one is given, and
         ``parameters`` give the values of other symbols. An empty mapping (or None) prescribes nothing. The same
         formulas (text or sympy) give the same Gait, parsed and compiled once."""
-        try:
-            key = (
-                tuple(expressions.items()) if isinstance(expressions, Mapping) else expressions,
-                period,
-                None if names is None else tuple(names),
-                None if parameters is None else tuple(sorted(parameters.items())),
-            )
-            if isinstance(key[0], list):
-                key = (tuple(key[0]),) + key[1:]
-            hash(key)
-        except (TypeError, AttributeError):
-            return cls._from_expressions(expressions, period, names=names, parameters=parameters)
-        return _cached_gait(cls, key, expressions, period, names, parameters)
+        key = _formulas_key(expressions, period, names, parameters)
+        if key is None:  # something unhashable (a list of parameters, say): parsed each time
+            return cls._parse(expressions, period, names, parameters)
+        gait = _GAITS.get((cls, key))
+        if gait is None:
+            gait = cls._parse(expressions, period, names, parameters)
+            if len(_GAITS) >= 256:  # the oldest dropped first
+                _GAITS.pop(next(iter(_GAITS)))
+            _GAITS[(cls, key)] = gait
+        return gait
 
     @classmethod
-    def _from_expressions(
-        cls,
-        expressions: Any,
-        period: float | None = None,
-        *,
-        names: Sequence[str] | None = None,
-        parameters: Mapping[str, float] | None = None,
-    ) -> Gait:
+    def _parse(cls, expressions: Any, period: Any, names: Any, parameters: Any) -> Gait:
         T = None if period is None else V.positive_scalar(period, "period")
         if expressions is None:
             expressions = {}
@@ -269,12 +259,20 @@ def _time_function(exprs: list) -> Callable:
 _GAITS: dict[Any, Gait] = {}
 
 
-def _cached_gait(cls: type[Gait], key: Any, expressions: Any, period: Any, names: Any, parameters: Any) -> Gait:
-    """:meth:`Gait.from_expressions` once per key (at most 256 kept, the oldest dropped first)."""
-    gait = _GAITS.get((cls, key))
-    if gait is None:
-        gait = cls._from_expressions(expressions, period, names=names, parameters=parameters)
-        if len(_GAITS) >= 256:
-            _GAITS.pop(next(iter(_GAITS)))
-        _GAITS[(cls, key)] = gait
-    return gait
+def _formulas_key(expressions: Any, period: Any, names: Any, parameters: Any) -> tuple | None:
+    """What :meth:`Gait.from_expressions` is given, as a key of its cache (None where it is not hashable)."""
+    if isinstance(expressions, Mapping):
+        expressions = tuple(expressions.items())
+    elif isinstance(expressions, list):
+        expressions = tuple(expressions)
+    try:
+        key = (
+            expressions,
+            period,
+            None if names is None else tuple(names),
+            None if parameters is None else tuple(sorted(parameters.items())),
+        )
+        hash(key)
+    except (TypeError, AttributeError):
+        return None
+    return key

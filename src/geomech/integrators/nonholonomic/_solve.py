@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
-from ...errors import InputError
 from .._adaptive import MAX_EVALUATIONS
 from .._times import Times
 from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method
@@ -48,8 +47,6 @@ def solve_lagrangian(
 ) -> Solution:
     """Integrate a :class:`~geomech.systems.NonholonomicSystem` with one of the Lagrangian methods (internal:
     :func:`~geomech.solve` has checked the method and the times)."""
-    if backend not in ("auto", "numba", "python"):
-        raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
     setup = _setup(system, shapes, tau)
     q_init, qd_init = initial_state(
         system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
