@@ -461,16 +461,21 @@ def test_helpers_that_never_call_the_model_by_name_are_compiled_once_for_all_mod
     for name in ("lu_solve", "newton_update", "finish_step", "fail", "ST_NEWTON"):
         assert name in names
         assert getattr(a, name) is getattr(b, name)
-    # every loop that reaches the model by name, directly or through a helper, is compiled per model
-    for loop in ("rk4_run", "midpoint_run", "gauss_run", "split_run", "axis_flow"):
+    # the splitting's loops reach the model's scalar derivatives by name (inlined in the throughput loop), and
+    # symplectic Euler its gradient and Hessian (the compiler drops what a variant does not read): compiled per model
+    for loop in ("split_run", "axis_flow", "flow_block", "symplectic_run"):
         assert f"def {loop}(" in model_src and f"def {loop}(" not in shared_src
         assert getattr(a, loop) is not getattr(b, loop)
-    for model_function in ("rhs(", "fjac(", "grad(", "dh0("):
+    for model_function in ("rhs(", "fjac(", "grad(", "ghess(", "dh0("):
         assert model_function not in shared_src
-    # the adaptive loops call the model through the address of its C twin: one loop for all models
-    for loop in ("erk_run", "erk_stages", "orbit_return", "orbit_states"):
+    # every other loop calls the model's functions through the addresses of their C twins: one loop for all models
+    for loop in ("erk_run", "erk_stages", "orbit_return", "orbit_states", "rk4_run", "midpoint_run", "gauss_run"):
         assert loop in names and getattr(a, loop) is getattr(b, loop)
-    assert a.rhs_address() != b.rhs_address()
+    for loop in ("verlet_run", "lgvi_run", "abm4_run", "mv_run"):
+        assert loop in names
+    assert _codegen.rhs_address(a) != _codegen.rhs_address(b)
+    assert _codegen.model_functions("gauss_run") == ("rhs", "fjac")
+    assert _codegen.model_functions("lgvi_run") == ("ghess3",)
     # and the split changes no arithmetic: the compiled run agrees with the plain-Python one to round-off
     for method in ("implicit_midpoint", "rk4", "dop853"):
         times = {"rtol": 1e-10, "atol": 1e-10} if method == "dop853" else {"h": 0.1}

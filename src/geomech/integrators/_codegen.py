@@ -10,10 +10,12 @@ functions to compiled loops as arguments would defeat numba's disk cache (the fu
 every process), hence one generated file per model. The loop helpers that never call the model (status
 codes, saving, Newton updates, small solves, rotations) are split off, by reading the templates' syntax
 trees, into one shared generated module that every model module imports: numba compiles them once for
-all models instead of once per model. The adaptive loops go further: they call the model's ``rhs`` through
-the address of its C twin (``rhs_address()`` of the model module, a ``cfunc`` compiled on first use; the
-address is a run-time integer, so the cache holds; :mod:`._fptr`), which makes them shared too: a new model
-then compiles only its right-hand side for them. The model's parameters (inertias, gains, the
+all models instead of once per model. The loops go further: they call the model's functions through the
+addresses of their C twins (``addresses(names)`` of the model module, each a ``cfunc`` compiled on first use;
+an address is a run-time integer, so the cache holds; :mod:`._fptr`), which makes them shared too: a new model
+then compiles only its functions. Two loops keep calling the model by name, compiled per model, for speed: the
+Lie-Poisson splitting (its scalar derivatives inlined in the throughput loop) and symplectic Euler (the
+compiler drops the parts of the Hessian a variant does not read). The model's parameters (inertias, gains, the
 momentum G of a reduced system) are not written into it: the functions read them from an array ``prm``
 at run time, so a sweep over parameter values compiles once.
 
@@ -35,10 +37,23 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .._storage import cache_subdir, scratch_dir, write_atomic
 from ..symbolic.compile import FunctionSpec, kernel_source
+from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
 
-__all__ = ["FunctionSpec", "kernel_source", "compiled_module", "python_module", "numba_available", "cache_dir"]
+__all__ = [
+    "FunctionSpec",
+    "RHS",
+    "cache_dir",
+    "compiled_module",
+    "kernel_source",
+    "model_functions",
+    "numba_available",
+    "python_module",
+    "rhs_address",
+]
 
 _TEMPLATES = (
     "_k_common.py",
@@ -111,7 +126,7 @@ def _template_split() -> tuple[str, str, tuple[str, ...]]:
             elif isinstance(node, ast.Assign):
                 defined.update(t.id for t in node.targets if isinstance(t, ast.Name))
                 order.append(("", segment))
-    known = defined | set(dir(builtins)) | {"math", "np", "kernel", "call_model"}
+    known = defined | set(dir(builtins)) | {"math", "np", "kernel", "call_model", "call_model4", "call_model6"}
     reads = {
         name: {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
         - {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
@@ -132,29 +147,16 @@ def _template_split() -> tuple[str, str, tuple[str, ...]]:
 
 _HEADER_NUMBA = (
     "import math\nimport numpy as np\nimport numba\n"
-    "from geomech.integrators._fptr import RHS_SIGNATURE, call_model\n\n"
+    "from geomech.integrators._fptr import Addresses, call_model, call_model4, call_model6\n\n"
     "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n\n"
 )
-# The model's right-hand side as a C function for the loops shared by all models (geomech.integrators._fptr),
-# compiled (or loaded from numba's cache) on first use only.
-_RHS_C_DEFAULT = """
+# The model functions' addresses for the loops shared by all models (geomech.integrators._fptr): each C twin is
+# compiled (or loaded from numba's cache) on first request only.
+_ADDRESSES = """
 
-def _rhs_c(y, out, prm, d, n_prm):
-    rhs(numba.carray(y, (d,)), numba.carray(out, (d,)), numba.carray(prm, (n_prm,)))
-"""
-_RHS_ADDRESS = """
-
-_RHS_C = []
-
-
-def rhs_ready():
-    return bool(_RHS_C)
-
-
-def rhs_address():
-    if not _RHS_C:
-        _RHS_C.append(numba.cfunc(RHS_SIGNATURE, cache=True)(_rhs_c))
-    return _RHS_C[0].address
+_ADDRESSES = Addresses(globals())
+addresses = _ADDRESSES
+ready = _ADDRESSES.ready
 """
 _HEADER_PYTHON = "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n"
 
@@ -195,11 +197,80 @@ def compiled_module(model_src: str, tag: str) -> Any:
             + model_src
             + "\n\n"
             + model_part
-            # a model may write its C twin itself (the body on the pointers: one compilation instead of two)
-            + ("" if "\ndef _rhs_c(" in "\n" + model_src else _RHS_C_DEFAULT)
-            + _RHS_ADDRESS
+            + _twins(model_src)
+            + _ADDRESSES
         )
         return _load(source, tag)
+
+
+def _twin_source(name: str) -> str:
+    """Source of ``_{name}_c``: the model function ``name`` on the pointers of its C signature (:mod:`._fptr`)."""
+    ndims = MODEL_ARRAYS[name]
+    args = [f"a{i}" for i in range(len(ndims))]
+    views = [f"numba.carray({a}, (d,{' d' if k == 2 else ''}))" for a, k in zip(args, ndims)]
+    return (
+        f"def _{name}_c({', '.join(args)}, prm, d, n_prm):\n"
+        f"    {name}({', '.join(views)}, numba.carray(prm, (n_prm,)))\n"
+    )
+
+
+def _missing_source(name: str) -> str:
+    """Source of ``_{name}_c`` for a model without ``name``: its outputs (every array but the first) set to NaN, so
+    that a loop that called it would report a non-finite state instead of reading garbage."""
+    ndims = MODEL_ARRAYS[name]
+    args = [f"a{i}" for i in range(len(ndims))]
+    fills = [f"    numba.carray({a}, ({'d * d' if k == 2 else 'd'},))[:] = math.nan\n" for a, k in zip(args, ndims)]
+    return f"def _{name}_c({', '.join(args)}, prm, d, n_prm):\n" + "".join(fills[1:])
+
+
+def _twins(model_src: str) -> str:
+    """The C twins of the model functions (:mod:`._fptr`): of those ``model_src`` defines, except those it writes
+    itself (BKMM writes its right-hand side's body on the pointers: one compilation instead of two), and a NaN
+    filler for the others."""
+    text = "\n" + model_src
+    return "".join(
+        "\n\n" + (_twin_source(name) if f"\ndef {name}(" in text else _missing_source(name))
+        for name in MODEL_FUNCTIONS
+        if f"\ndef _{name}_c(" not in text
+    )
+
+
+#: The model functions of a loop that calls only the right-hand side.
+RHS = ("rhs",)
+
+
+def rhs_address(module: Any) -> int:
+    """The address of ``module``'s right-hand side for :func:`._fptr.call_model` (its C twin compiled, or loaded
+    from numba's cache, on first request; for the Python backend, its index)."""
+    return int(module.addresses(RHS)[MODEL_FUNCTIONS.index("rhs")])
+
+
+@functools.cache
+def model_functions(loop: str) -> tuple[str, ...]:
+    """The model functions the template function ``loop`` calls through its addresses (``FP[F_...]``), directly
+    or through the functions it calls."""
+    functions = {
+        node.name: node
+        for _, text in _template_sources()
+        for node in ast.parse(text).body
+        if isinstance(node, ast.FunctionDef)
+    }
+    index = {f"F_{name.upper()}": name for name in MODEL_FUNCTIONS}
+    seen: set[str] = set()
+    found: set[str] = set()
+    todo = [loop]
+    while todo:
+        name = todo.pop()
+        if name in seen or name not in functions:
+            continue
+        seen.add(name)
+        for node in ast.walk(functions[name]):
+            if isinstance(node, ast.Name):
+                if node.id in index:
+                    found.add(index[node.id])
+                elif node.id in functions:
+                    todo.append(node.id)
+    return tuple(name for name in MODEL_FUNCTIONS if name in found)
 
 
 class _Namespace:
@@ -213,11 +284,13 @@ def python_module(functions: Mapping[str, Any]) -> Any:
     exec(compile(_HEADER_PYTHON, "<geomech kernels>", "exec"), namespace)
     namespace.update(functions)
 
-    def call_model(fp: Any, y: Any, out: Any, prm: Any) -> None:  # the Python twin: fp is not an address here
-        namespace["rhs"](y, out, prm)
+    def call_model(fp: Any, *args: Any) -> None:  # the Python twin: fp is the function's index, not an address
+        namespace[MODEL_FUNCTIONS[int(fp)]](*args)
 
-    namespace["call_model"] = call_model
-    namespace["rhs_address"] = lambda: 0
-    namespace["rhs_ready"] = lambda: True
+    def addresses(names: tuple[str, ...]) -> np.ndarray:
+        return np.arange(len(MODEL_FUNCTIONS), dtype=np.int64)
+
+    namespace.update(call_model=call_model, call_model4=call_model, call_model6=call_model)
+    namespace.update(addresses=addresses, ready=lambda names: True)
     exec(compile(_template_text(), "<geomech kernels>", "exec"), namespace)
     return _Namespace(namespace)

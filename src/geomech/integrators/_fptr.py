@@ -1,42 +1,110 @@
-"""Calling a model's compiled right-hand side through its address, so that one compiled loop serves every model.
+"""Calling a model's compiled functions through their addresses, so that one compiled loop serves every model.
 
 A loop that calls ``rhs`` by name must be compiled once per model (numba links the callee into it, and
-re-optimises the linked code in every caller): for the adaptive loops that is most of a new model's compile
-time. The loops shared by all models instead take the address of the model's ``rhs`` as a C function
-``void(double *y, double *out, double *prm, int64 d, int64 n_prm)`` (a numba ``cfunc`` defined lazily by the
-generated model module, cached on disk like the rest) and call it with :func:`call_model`. The address is a
-run-time integer, so the loop is compiled and cached once. Arrays passed must be contiguous.
+re-optimises the linked code in every caller): for a new model that is most of its compile time. The loops
+shared by all models instead take the addresses of the model's functions (``MODEL_FUNCTIONS`` of the loop
+templates: ``rhs``, ``fjac``, ``grad``, ...) as C functions and call them with :func:`call_model`,
+:func:`call_model4` or :func:`call_model6` (by the number of array arguments, ``prm`` included). The C twin of
+a model function ``f(a_1, ..., a_k, prm)`` is ``void f_c(double *a_1, ..., double *a_k, double *prm, int64 d,
+int64 n_prm)``, with ``d`` the length of ``a_1``: each array is a vector of length ``d`` or a ``d x d`` matrix
+(``MODEL_ARRAYS``). The twins are numba ``cfunc``\\ s defined lazily by the generated model module
+(:class:`Addresses`), cached on disk like the rest. An address is a run-time integer, so a loop is compiled and
+cached once. Arrays passed must be C-contiguous (checked when the loop is compiled).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 from llvmlite import ir
 from numba import types
+from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-__all__ = ["call_model", "RHS_SIGNATURE"]
+from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
 
-#: The C signature of a model's right-hand side for :func:`call_model`.
-RHS_SIGNATURE = "void(CPointer(float64), CPointer(float64), CPointer(float64), int64, int64)"
+__all__ = [
+    "Addresses",
+    "c_signature",
+    "call_model",
+    "call_model4",
+    "call_model6",
+]
 
 
-@intrinsic
-def call_model(typingctx: Any, fp: Any, y: Any, out: Any, prm: Any) -> Any:
-    """``rhs(y, out, prm)`` of the model whose C right-hand side is at address ``fp`` (contiguous float64 arrays;
-    ``out`` as long as ``y``)."""
-    sig = types.void(fp, y, out, prm)
+def c_signature(name: str) -> str:
+    """The C signature of the twin of model function ``name``."""
+    return "void(" + "CPointer(float64), " * (len(MODEL_ARRAYS[name]) + 1) + "int64, int64)"
+
+
+#: The C signature of a model's right-hand side.
+RHS_SIGNATURE = c_signature("rhs")
+
+
+class Addresses:
+    """The addresses of a generated module's model functions (``namespace`` is the module's globals), each C twin
+    compiled (or loaded from numba's cache) on first request."""
+
+    def __init__(self, namespace: dict[str, Any]):
+        self._namespace = namespace
+        self._cfuncs: dict[str, Any] = {}
+
+    def ready(self, names: tuple[str, ...]) -> bool:
+        """Whether every twin of ``names`` is compiled in this process."""
+        return all(name in self._cfuncs for name in names)
+
+    def __call__(self, names: tuple[str, ...]) -> np.ndarray:
+        """The address array ``FP`` for a loop that calls ``names`` (zero for the functions it does not call)."""
+        import numba
+
+        out = np.zeros(len(MODEL_FUNCTIONS), dtype=np.int64)
+        for name in names:
+            if name not in self._cfuncs:
+                twin = self._namespace[f"_{name}_c"]
+                self._cfuncs[name] = numba.cfunc(c_signature(name), cache=True)(twin)
+            out[MODEL_FUNCTIONS.index(name)] = self._cfuncs[name].address
+        return out
+
+
+def _codegen_for(n_arrays: int) -> Any:
+    """The call of a C twin with ``n_arrays`` array arguments (an intrinsic has a fixed argument list, hence one
+    intrinsic per count)."""
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
         dbl = ir.DoubleType().as_pointer()
         i64 = ir.IntType(64)
-        fnty = ir.FunctionType(ir.VoidType(), [dbl, dbl, dbl, i64, i64])
+        fnty = ir.FunctionType(ir.VoidType(), [dbl] * n_arrays + [i64, i64])
         target = builder.inttoptr(args[0], fnty.as_pointer())
         arrays = [context.make_array(t)(context, builder, v) for t, v in zip(signature.args[1:], args[1:])]
         d = builder.extract_value(arrays[0].shape, 0)
-        n_prm = builder.extract_value(arrays[2].shape, 0)
-        builder.call(target, [arrays[0].data, arrays[1].data, arrays[2].data, d, n_prm])
+        n_prm = builder.extract_value(arrays[-1].shape, 0)
+        builder.call(target, [a.data for a in arrays] + [d, n_prm])
         return context.get_dummy_value()
 
-    return sig, codegen
+    return codegen
+
+
+def _typed(fp: Any, arrays: tuple[Any, ...]) -> Any:
+    for a in arrays:
+        if not (isinstance(a, types.Array) and a.dtype == types.float64 and a.layout == "C"):
+            raise TypingError(f"call_model takes C-contiguous float64 arrays, got {a}")
+    return types.void(fp, *arrays)
+
+
+@intrinsic
+def call_model(typingctx: Any, fp: Any, y: Any, out: Any, prm: Any) -> Any:
+    """``f(y, out, prm)`` of the model function (``rhs``, ``grad``) whose C twin is at address ``fp``."""
+    return _typed(fp, (y, out, prm)), _codegen_for(3)
+
+
+@intrinsic
+def call_model4(typingctx: Any, fp: Any, a: Any, b: Any, c: Any, prm: Any) -> Any:
+    """``f(a, b, c, prm)`` of the model function (``fjac``, ``ghess``, ``gf_grads``, ``ghess3``) at ``fp``."""
+    return _typed(fp, (a, b, c, prm)), _codegen_for(4)
+
+
+@intrinsic
+def call_model6(typingctx: Any, fp: Any, a: Any, b: Any, c: Any, e: Any, f: Any, prm: Any) -> Any:
+    """``f(a, b, c, e, f, prm)`` of the model function (``gf_all``) at ``fp``."""
+    return _typed(fp, (a, b, c, e, f, prm)), _codegen_for(6)

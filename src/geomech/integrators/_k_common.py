@@ -4,11 +4,13 @@ Template modules (``_k_*.py``) are not imported as such by the solver: :mod:`._c
 them, minus their preamble, after the generated model functions and compiles the result with numba
 (or runs it as Python). Every loop has the signature
 
-``run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm)``
+``run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm)``
 
-with ``Y0`` the initial states ``(B, d)``, ``OUT`` the saved states ``(B, n_save, d)`` (state 0, every
-``save_every`` steps, and the last), ``INFO`` ``(B, 5)``: status, failing step, residual, Newton
-iterations, right-hand-side evaluations, ``P`` the method's constants and ``prm`` the model's parameter
+with ``FP`` the addresses of the model's functions (``MODEL_FUNCTIONS`` below; the loops call them through
+:mod:`._fptr`, so that a loop compiles once for every model), ``Y0`` the initial states ``(B, d)``, ``OUT`` the
+saved states ``(B, n_save, d)`` (state 0, every ``save_every`` steps, and the last), ``INFO`` ``(B, 5)``:
+status, failing step, residual, Newton iterations, right-hand-side evaluations, ``P`` the method's constants
+and ``prm`` the model's parameter
 values, which every model function takes last (one compiled module serves every value of them).
 """
 
@@ -34,6 +36,27 @@ EPS = 2.220446049250313e-16
 # (store(OUT, b, 0, y) and store(OUT, b, k, y) would be two compilations).
 SAVE0 = np.int64(0)
 STAGE1 = np.int64(1)
+# The model functions a loop may call, in the order of the address array ``FP`` the loops shared by all models
+# take (geomech.integrators._fptr): ``call_model(FP[F_RHS], y, out, prm)`` is ``rhs(y, out, prm)``.
+# Each takes its arrays, then ``prm``; MODEL_ARRAYS gives the arrays' number of dimensions: a vector as long as the
+# first, or a square matrix of that size.
+MODEL_ARRAYS = {
+    "rhs": (1, 1),
+    "fjac": (1, 1, 2),
+    "grad": (1, 1),
+    "ghess": (1, 1, 2),
+    "gf_all": (1, 1, 2, 1, 2),
+    "gf_grads": (1, 1, 1),
+    "ghess3": (1, 1, 2),
+}
+MODEL_FUNCTIONS = tuple(MODEL_ARRAYS)
+F_RHS = 0
+F_FJAC = 1
+F_GRAD = 2
+F_GHESS = 3
+F_GF_ALL = 4
+F_GF_GRADS = 5
+F_GHESS3 = 6
 
 
 @kernel

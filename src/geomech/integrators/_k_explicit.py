@@ -11,6 +11,7 @@ import numpy as np
 # >>> template preamble (removed when compiled)
 from ._fptr import call_model
 from ._k_common import (
+    F_RHS,
     SAVE0,
     STAGE1,
     fail,
@@ -21,34 +22,30 @@ from ._k_common import (
     store,
 )
 
-
-def rhs(y, out, prm):
-    raise NotImplementedError
-
-
 # <<< template preamble
 
 
 @kernel
-def rk4_step(y, h, k1, k2, k3, k4, tmp, prm):
+def rk4_step(fp, y, h, k1, k2, k3, k4, tmp, prm):
     d = y.shape[0]
-    rhs(y, k1, prm)
+    call_model(fp, y, k1, prm)
     for i in range(d):
         tmp[i] = y[i] + 0.5 * h * k1[i]
-    rhs(tmp, k2, prm)
+    call_model(fp, tmp, k2, prm)
     for i in range(d):
         tmp[i] = y[i] + 0.5 * h * k2[i]
-    rhs(tmp, k3, prm)
+    call_model(fp, tmp, k3, prm)
     for i in range(d):
         tmp[i] = y[i] + h * k3[i]
-    rhs(tmp, k4, prm)
+    call_model(fp, tmp, k4, prm)
     for i in range(d):
         y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @kernel
-def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     B, d = Y0.shape
+    fp = FP[F_RHS]
     y = np.empty(d)
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     for b in range(B):
@@ -57,7 +54,7 @@ def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
         isave = 1
         done = 0
         for k in range(1, nsteps + 1):
-            rk4_step(y, h, k1, k2, k3, k4, tmp, prm)
+            rk4_step(fp, y, h, k1, k2, k3, k4, tmp, prm)
             done = k
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
             if isave < 0:
@@ -66,7 +63,7 @@ def rk4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Adams-Bashforth-Moulton PECE of order 4, started by three RK4 steps.
 
     P: y* = y_n + h/24 (55 f_n - 59 f_{n-1} + 37 f_{n-2} - 9 f_{n-3});  E: f* = f(y*);
@@ -76,28 +73,29 @@ def abm4_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     y = np.empty(d)
     F = np.empty((4, d))  # F[j] = f_{n-j}
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
-    fp = np.empty(d)
+    fstar = np.empty(d)
+    fp = FP[F_RHS]
     for b in range(B):
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
         nrhs = 1
-        rhs(y, F[0], prm)
+        call_model(fp, y, F[0], prm)
         for k in range(1, nsteps + 1):
             if k <= 3:
-                rk4_step(y, h, k1, k2, k3, k4, tmp, prm)
+                rk4_step(fp, y, h, k1, k2, k3, k4, tmp, prm)
                 nrhs += 4
             else:
                 for i in range(d):
                     tmp[i] = y[i] + h / 24.0 * (55.0 * F[0, i] - 59.0 * F[1, i] + 37.0 * F[2, i] - 9.0 * F[3, i])
-                rhs(tmp, fp, prm)
+                call_model(fp, tmp, fstar, prm)
                 for i in range(d):
-                    y[i] += h / 24.0 * (9.0 * fp[i] + 19.0 * F[0, i] - 5.0 * F[1, i] + F[2, i])
+                    y[i] += h / 24.0 * (9.0 * fstar[i] + 19.0 * F[0, i] - 5.0 * F[1, i] + F[2, i])
                 nrhs += 1
             for j in range(3, 0, -1):
                 for i in range(d):
                     F[j, i] = F[j - 1, i]
-            rhs(y, F[0], prm)
+            call_model(fp, y, F[0], prm)
             nrhs += 1
             isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
             if isave < 0:

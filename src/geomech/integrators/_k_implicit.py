@@ -9,7 +9,10 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
+from ._fptr import call_model, call_model4
 from ._k_common import (
+    F_FJAC,
+    F_RHS,
     SAVE0,
     ST_NEWTON,
     ST_SINGULAR,
@@ -23,20 +26,11 @@ from ._k_common import (
     store,
 )
 
-
-def rhs(y, out, prm):
-    raise NotImplementedError
-
-
-def fjac(y, out, jac, prm):
-    raise NotImplementedError
-
-
 # <<< template preamble
 
 
 @kernel
-def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """y_{n+1} = y_n + h f((y_n + y_{n+1})/2), as Z = (y_{n+1} - y_n)/2 solving Z = (h/2) f(y_n + Z).
 
     The predictor extrapolates the last two increments (error O(h^3)), so Newton usually stops after two
@@ -44,8 +38,9 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """
     B, d = Y0.shape
     if d == 2:
-        midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm)
+        midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm)
         return
+    f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     hh = 0.5 * h
     y, Z, Z1, Z2 = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     f, r, tmp = np.empty(d), np.empty(d), np.empty(d)
@@ -54,7 +49,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
-        rhs(y, f, prm)
+        call_model(f_rhs, y, f, prm)
         nrhs = 1
         nnewton = 0
         for i in range(d):
@@ -70,7 +65,7 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
             for it in range(maxit):
                 for i in range(d):
                     tmp[i] = y[i] + Z[i]
-                fjac(tmp, f, J, prm)
+                call_model4(f_jac, tmp, f, J, prm)
                 nrhs += 1
                 nnewton += 1
                 for i in range(d):
@@ -98,8 +93,9 @@ def midpoint_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
+def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
     """midpoint_run for d = 2 (one degree of freedom, the reduced Serret-Andoyer systems) on scalars."""
+    f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     B = Y0.shape[0]
     hh = 0.5 * h
     f, J, y = np.empty(2), np.empty((2, 2)), np.empty(2)
@@ -108,7 +104,7 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
         OUT[b, 0, 0], OUT[b, 0, 1] = y0, y1
         isave = 1
         y[0], y[1] = y0, y1
-        rhs(y, f, prm)
+        call_model(f_rhs, y, f, prm)
         nrhs = 1
         nnewton = 0
         p0, p1 = hh * f[0], hh * f[1]  # the last two increments, for the predictor
@@ -121,7 +117,7 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
             resid = np.inf
             for it in range(maxit):
                 y[0], y[1] = y0 + z0, y1 + z1
-                fjac(y, f, J, prm)
+                call_model4(f_jac, y, f, J, prm)
                 nrhs += 1
                 nnewton += 1
                 r0, r1 = hh * f[0] - z0, hh * f[1] - z1
@@ -158,7 +154,7 @@ def midpoint_run_2(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
 
 
 @kernel
-def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """s-stage Gauss-Legendre collocation in the stage increments Z_i = Y_i - y_n:
     Z_i = h sum_j a_ij f(y_n + Z_j), y_{n+1} = y_n + sum_i d_i Z_i with d = b^T A^{-1} (Hairer & Wanner
     II, IV.8: no extra evaluations of f, and no amplification of the Newton error by h f'). A step is the
@@ -168,6 +164,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     P = (s, A (row-major), d, c, J, gamma_1..gamma_J).
     """
     B, d = Y0.shape
+    f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     s = int(P[0])
     a = P[1 : 1 + s * s]
     dc = P[1 + s * s : 1 + s * s + s]
@@ -184,7 +181,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
-        rhs(y, f0, prm)
+        call_model(f_rhs, y, f0, prm)
         nrhs = 1
         nnewton = 0
         hprev = h * gam[0]
@@ -209,7 +206,7 @@ def gauss_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
                     for i in range(s):
                         for u in range(d):
                             tmp[u] = y[u] + Z[i * d + u]
-                        fjac(tmp, F[i], Js[i], prm)
+                        call_model4(f_jac, tmp, F[i], Js[i], prm)
                     nrhs += s
                     nnewton += 1
                     for i in range(s):

@@ -14,7 +14,9 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
+from ._fptr import call_model4
 from ._k_common import (
+    F_GHESS3,
     SAVE0,
     ST_NEWTON,
     ST_NONFINITE,
@@ -38,10 +40,6 @@ def dh1(x, prm):
 
 
 def dh2(x, prm):
-    raise NotImplementedError
-
-
-def ghess3(m, g, hm, prm):
     raise NotImplementedError
 
 
@@ -175,7 +173,7 @@ def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm):
 
 
 @kernel
-def split_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """One step is the composition P = (J, axes[J], coefficients[J]); when the first and last sub-flows
     are about the same axis, the last one of a step is merged with the first one of the next (the flows
     of one f_i commute) except where a state is saved."""
@@ -333,7 +331,7 @@ def lgvi_mu(X, m, param, mu, D, u, v):
 
 
 @kernel
-def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Discrete Euler-Lagrange equations of L_d = h l(tau^{-1}(R_k^T R_{k+1}) / h) in momentum form:
     find X with X = h grad H(J_r(X) m_k); then F = tau(X), R_{k+1} = R_k F, m_{k+1} = F^T m_k."""
     B, d = Y0.shape
@@ -348,7 +346,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
         isave = 1
         for i in range(3):
             m[i] = y[i]
-        ghess3(m, g, hm, prm)
+        call_model4(FP[F_GHESS3], m, g, hm, prm)
         nrhs = 1
         nnewton = 0
         for i in range(3):
@@ -364,7 +362,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
             resid = np.inf
             for it in range(maxit):
                 lgvi_mu(X, m, param, mu, D, u, v)
-                ghess3(mu, g, hm, prm)
+                call_model4(FP[F_GHESS3], mu, g, hm, prm)
                 nrhs += 1
                 nnewton += 1
                 for i in range(3):
@@ -396,7 +394,7 @@ def lgvi_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def mv_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """Moser-Veselov: h m_k^ = F J_d - J_d F^T with J_d = tr(I)/2 - I; with F = cay(2 f) this reads
     h m + h m x f + f (f . h m) - 2 I f = 0 (Lee, Leok & McClamroch 2007), solved for f by Newton;
     then m_{k+1} = F^T m_k, R_{k+1} = R_k F."""

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ._adaptive import integrate_ivp
+from ._codegen import RHS, rhs_address
 from ._problem import Problem
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP
 from .solution import STATUS
@@ -41,6 +42,7 @@ def _threaded(call: Any, B: int, threads: int) -> None:
 
 def run_compiled(
     kern: Any,
+    FP: np.ndarray,
     Y0: np.ndarray,
     h: float,
     nsteps: int,
@@ -53,10 +55,10 @@ def run_compiled(
     prm: np.ndarray,
     threads: int,
 ) -> None:
-    """A fixed-step loop over the batch ``Y0``."""
+    """A fixed-step loop over the batch ``Y0``; ``FP`` the addresses of the model functions it calls."""
 
     def call(a: int, b: int) -> None:
-        kern(Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, prm)
+        kern(FP, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, prm)
 
     _threaded(call, Y0.shape[0], threads)
 
@@ -207,12 +209,12 @@ def run_embedded(
     chart = np.array(getattr(problem_system, "chart", ()) or np.zeros((0, 3)), dtype=float).reshape(-1, 3)
     args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart, prm)
     compile_time = 0.0
-    fp = module.rhs_address() if module.rhs_ready() else 0
-    if used == "numba" and not (module.rhs_ready() and module.erk_run.signatures):
+    fp = rhs_address(module) if module.ready(RHS) else 0
+    if used == "numba" and not (module.ready(RHS) and module.erk_run.signatures):
         # the first call compiles (or loads numba's disk cache) the model's C right-hand side and, once for all
         # models, the loop: timed apart on a one-step problem
         start = time.perf_counter()
-        fp = module.rhs_address()
+        fp = rhs_address(module)
         probe = np.array([t0, t0 + (times[-1] - t0) * 1e-9])
         module.erk_run(
             fp,

@@ -37,6 +37,7 @@ import numpy as np
 from .. import _validate as V
 from ..errors import InputError, SingularityError
 from ..systems.canonical import CanonicalSystem
+from . import _codegen
 from ._one_dof import one_dof_arguments
 from ._problem import make_problem
 from .methods import embedded_pair
@@ -151,11 +152,11 @@ class PeriodicOrbitPropagator:
         A, b, e5, e3 = pair.A, pair.b, pair.e, pair.e2
         shift = np.array([angle_period or 0.0, 0.0])
         compile_time = 0.0
-        fp = module.rhs_address() if module.rhs_ready() else 0
-        if self.backend == "numba" and not (module.rhs_ready() and module.orbit_return.signatures):
+        fp = _codegen.rhs_address(module) if module.ready(_codegen.RHS) else 0
+        if self.backend == "numba" and not (module.ready(_codegen.RHS) and module.orbit_return.signatures):
             # the model's C right-hand side and, once for all models, the loops: compiled (or loaded) apart
             start = time.perf_counter()
-            fp = module.rhs_address()
+            fp = _codegen.rhs_address(module)
             module.orbit_return(
                 fp, y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9), prm
             )

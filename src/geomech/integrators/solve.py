@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, NumericalError
+from . import _codegen
 from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
 from ._problem import Problem, make_problem
 from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic
@@ -433,14 +434,19 @@ def solve(
         t_start += compile_time
     else:
         kern = getattr(module, method.kernel)
+        calls = _codegen.model_functions(method.kernel)
         P = np.ascontiguousarray(method.constants(problem), dtype=float)
         h_step, nsteps, every = float(times.h), times.n_steps, times.save_every  # type: ignore[arg-type]
-        if used == "numba" and not kern.signatures:
-            # the first call compiles (or loads numba's disk cache): timed apart on a one-step problem
+        FP = module.addresses(calls) if module.ready(calls) else None
+        if used == "numba" and not (FP is not None and kern.signatures):
+            # the first call compiles (or loads numba's disk cache) the model's C functions and, once for all
+            # models, the loop: timed apart on a one-step problem
             from numba.core.errors import NumbaError
 
             try:
+                FP = module.addresses(calls)
                 kern(
+                    FP,
                     Y0[:1].copy(),
                     h_step,
                     1,
@@ -458,6 +464,7 @@ def solve(
                     raise
                 module, used = problem.module(frozenset(method.features & {"gf", "split"}), "python")
                 kern = getattr(module, method.kernel)
+                FP = module.addresses(calls)
             compile_time = time.perf_counter() - t_start
             t_start = time.perf_counter()
         n_threads = threads if threads is not None else (os.cpu_count() or 1)
@@ -465,7 +472,19 @@ def solve(
             n_threads = 1
         with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
             run_compiled(
-                kern, Y0, h_step, nsteps, every, OUT, INFO, tol, int(max_newton), P, problem.prm, int(n_threads)
+                kern,
+                module.addresses(calls) if FP is None else FP,
+                Y0,
+                h_step,
+                nsteps,
+                every,
+                OUT,
+                INFO,
+                tol,
+                int(max_newton),
+                P,
+                problem.prm,
+                int(n_threads),
             )
         internal = B * nsteps
     run_time = time.perf_counter() - t_start
