@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import weakref
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,7 +18,7 @@ import sympy as sp
 
 from ..errors import InputError
 from ..lie.so3 import hat
-from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
+from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector, runtime_parameters
 from ..symbolic.simplify import vanishes
 from ..systems.canonical import CanonicalSystem
 from ..systems.group_flow import GroupFlow
@@ -54,6 +53,11 @@ class Problem:
     model_expression: sp.Expr | None = None
     parameter_symbols: tuple[sp.Symbol, ...] = ()
     prm: np.ndarray = field(default_factory=lambda: np.empty(0))
+    # A body with rotors, bound to its torque law by ._rotor.bind_torque: the law, the torque as a function
+    # u(t, R, m, gamma, Gamma), and whether it depends on time (the time is then the state's last component)
+    law: Any = None
+    torque: Any = None
+    timed: bool = False
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -113,14 +117,32 @@ class Problem:
         return _codegen.python_module(self._python_functions(features)), "python"
 
     def _python_functions(self, features: frozenset[str]) -> dict[str, Any]:
+        if self.kind == "rotor":
+            from ._rotor import rotor_python
+
+            return rotor_python(self)
         if self.kind == "canonical":
             return _canonical_python(self.core, features)
         return _lie_poisson_python(self.core, self.expression, features)
 
     # -- invariants -------------------------------------------------------------------------------
-    def invariants(self, states: np.ndarray) -> dict[str, np.ndarray | None]:
+    def invariants(self, states: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray | None]:
+        """The quantities along saved ``states`` (``(..., n_save, d)`` at times ``t``): energy, Casimir, spatial
+        momentum, and the torques of a body with rotors; NaN where a state is not finite."""
         ok = np.all(np.isfinite(states), axis=-1)
         out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
+        if self.kind == "rotor":
+            from ._rotor import torques_along
+
+            n = self.core.n_rotors
+            m, Gam = states[..., :3], states[..., 12 : 12 + n]
+            R = states[..., 3:12].reshape(states.shape[:-1] + (3, 3))
+            energy = np.full(states.shape[:-1], np.nan)
+            energy[ok] = self.core.hamiltonian(m[ok], Gam[ok])
+            out["energy"] = energy
+            out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
+            out["tau"] = torques_along(self, t, states)
+            return out
         if self.kind == "canonical":
             energy = np.full(states.shape[:-1], np.nan)
             energy[ok] = self.core.hamiltonian(states[ok])
@@ -146,8 +168,8 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
     core: CanonicalSystem | LeftInvariantSystem
     if isinstance(system, RotorBody):
         why = (
-            f"{system.name} is a body with rotors whose equations are evaluated in Python with the torque law, "
-            "integrated by an adaptive solver (solve_ivp)"
+            f"{system.name} is a body with rotors driven by a torque law: its open-loop equations in (m, R, Gamma, "
+            "gamma) are an ODE without further structure"
         )
         return Problem(
             kind="rotor",
@@ -217,28 +239,6 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
     return Problem(kind="lie_poisson", layout=layout, dim=12 if attitude else 3, system=system, core=core, **analysis)
 
 
-def _runtime_parameters(expr: sp.Expr, variables: tuple, values: Mapping[str, float]) -> dict[str, Any]:
-    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array.
-
-    A parameter in a denominator (``m1**2 / (2 I1)``) is read as its reciprocal, a parameter of its own whose
-    value is computed here once: the compiled functions multiply where a formula with the values written in
-    would have. The parameters are constants of the motion, so the derivatives the loops need are unchanged.
-    """
-    symbols = sorted(expr.free_symbols - set(variables), key=lambda s: s.name)
-    missing = [s.name for s in symbols if s.name not in values]
-    if missing:  # pragma: no cover - the systems substitute or validate every parameter they hold
-        raise InputError(f"The formula has symbols {missing} without values.")
-    inverse = {s: sp.Symbol(f"{s.name}__inverse", real=True) for s in symbols}
-    expr = expr.replace(
-        lambda e: e.is_Pow and e.base in inverse and e.exp.is_number and e.exp.is_negative,
-        lambda e: inverse[e.base] ** (-e.exp),
-    )
-    used = [inverse[s] for s in symbols if inverse[s] in expr.free_symbols]
-    names = {v: k.name for k, v in inverse.items()}
-    prm = [float(values[s.name]) for s in symbols] + [1.0 / float(values[names[r]]) for r in used]
-    return {"model_expression": expr, "parameter_symbols": (*symbols, *used), "prm": np.array(prm, dtype=float)}
-
-
 def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
     variables = tuple(core.q_symbols) + tuple(core.p_symbols)
     missing: dict[Structure, str] = {}
@@ -246,7 +246,7 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
     runtime: dict[str, Any] = {}
     if core.template is not None:
         template, values = core.template
-        runtime = _runtime_parameters(template, variables, values)
+        runtime = runtime_parameters(template, variables, values)
     if expr is None:
         missing[Structure.SEPARABLE_CANONICAL] = (
             f"{core.name} was built from Python callables, so its separability cannot be checked; build it "
@@ -303,7 +303,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
     subs = {sp.Symbol(k, real=True): v for k, v in core.parameters.items()}
     H = core.expression.subs(subs)
     result["expression"] = H
-    result.update(_runtime_parameters(core.expression, tuple(M_SYMBOLS), dict(core.parameters)))
+    result.update(runtime_parameters(core.expression, tuple(M_SYMBOLS), dict(core.parameters)))
     grad = [sp.diff(H, s) for s in M_SYMBOLS]
     for i in range(3):
         for j in range(i + 1, 3):
@@ -370,6 +370,11 @@ def _model_source(
     def emit(specs: list, suffix: str = "") -> tuple[str, Any]:
         return _emit(specs, parameters, suffix)
 
+    if kind == "rotor":  # the equations of a body with rotors and its torque law, a vector field
+        f = list(expr)
+        return emit(
+            [FS("rhs", (f,), variables), FS("fjac", (f, [[sp.diff(fi, v) for v in variables] for fi in f]), variables)]
+        )
     if kind == "canonical":
         n = len(variables) // 2
         g = [sp.diff(expr, v) for v in variables]

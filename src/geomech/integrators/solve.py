@@ -55,11 +55,6 @@ def methods_for(system: Any, *, attitude: bool = False) -> list[dict[str, Any]]:
 def _why_not(problem: Problem, method: Method) -> str | None:
     if not problem.has(method.structure):
         return problem.missing[method.structure]
-    if problem.kind == "rotor" and not isinstance(method, SolveIVP):
-        return (
-            f"{problem.name}'s equations are evaluated in Python with its torque law, which {type(method).__name__} "
-            "cannot compile"
-        )
     if method.needs_expression and problem.expression is None:
         return f"{type(method).__name__} differentiates H symbolically, and {problem.name} has no formula"
     return None
@@ -212,8 +207,12 @@ def solve(
         The initial state of a Lagrangian system: coordinates, and velocities given as all of them
         (``qdot0``), or as the shape rates with the nonholonomic momentum (``rdot0``, ``p0``); see
         :func:`~geomech.integrators.initial_state`.
-    Gamma0, gamma0 : array_like, shape (N,)
-        A body with rotors: the rotors' axial momenta and angles (default 0).
+    Gamma0, gamma0 : array_like, shape (..., N)
+        A body with rotors: the rotors' axial momenta and angles (default 0); broadcast against ``m0`` and
+        ``R0`` (default the identity). Every method for an ODE applies; with a torque law given by formulas (none,
+        a :class:`~geomech.Gait` of formulas, a :class:`~geomech.StructurePreservingControl` with a formula for
+        phi) the equations compile, their Jacobian too for the implicit methods; a law of Python code runs the
+        explicit methods in Python.
     g0 : array_like
         A body velocity on a group (:class:`~geomech.systems.GroupFlow`): the initial element, an ``(N, N)``
         matrix, or its chart coordinates ``(k,)`` (angles then unwrapped from their given values).
@@ -298,33 +297,6 @@ def solve(
             memory_limit=memory_limit,
         )
         return _finish(solution, raise_on_failure)
-    if problem.kind == "rotor":
-        for name, value in (("y0", y0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
-            if value is not None:
-                raise InputError(
-                    f"{problem.name} is a body with rotors: give its initial state as `m0` and `Gamma0` (with `R0` "
-                    f"and `gamma0`), not `{name}`."
-                )
-        if parameters is not None:
-            raise InputError(f"`parameters` applies to Lagrangian systems; {problem.name} holds its values.")
-        from ._rotor import solve_rotor
-
-        assert tolerances is not None
-        solution = solve_rotor(
-            system,
-            method,
-            times,
-            t0=t0,
-            m0=m0,
-            R0=R0,
-            Gamma0=Gamma0,
-            gamma0=gamma0,
-            tau=tau,
-            tolerances=tolerances,
-            max_evaluations=MAX_EVALUATIONS if max_evaluations is None else max_evaluations,
-            memory_limit=memory_limit,
-        )
-        return _finish(solution, raise_on_failure)
     if problem.kind == "lagrangian":
         for name, value in (("y0", y0), ("m0", m0)):
             if value is not None:
@@ -355,12 +327,34 @@ def solve(
             backend=backend,
         )
         return _finish(solution, raise_on_failure)
-    for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes), ("tau", tau)):
+    for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
         if value is not None:
             raise InputError(f"`{name}` applies to Lagrangian systems on G x S; {problem.name} is not one.")
     if parameters is not None:
         raise InputError(f"`parameters` applies to Lagrangian systems; {problem.name} holds its parameter values.")
-    Y0, batch_shape = _initial_states(problem, y0, m0, R0)
+    if problem.kind == "rotor":
+        if y0 is not None:
+            raise InputError(
+                f"{problem.name} is a body with rotors: give its initial state as `m0` and `Gamma0` (with `R0` and "
+                "`gamma0`), not `y0`."
+            )
+        from ._rotor import bind_torque, rotor_initial_states
+
+        problem = bind_torque(problem, tau)
+        if problem.model_expression is None and "fjac" in _codegen.model_functions(method.kernel or ""):
+            raise IncompatibleMethodError(
+                f"{method!r} solves implicit equations with their Jacobian, and the torque law of {problem.name} is "
+                "Python code without one: give the torques as formulas (a Gait from expressions, a "
+                "StructurePreservingControl with a formula for phi), or take an explicit method (rk4, dop853, "
+                "solve_ivp)."
+            )
+        Y0, batch_shape = rotor_initial_states(problem, m0, R0, Gamma0, gamma0, t0)
+    elif tau is not None:
+        raise InputError(
+            f"`tau` applies to Lagrangian systems on G x S and bodies with rotors; {problem.name} is neither."
+        )
+    else:
+        Y0, batch_shape = _initial_states(problem, y0, m0, R0)
     B, d = Y0.shape
     if method.kind is Kind.FIXED_STEP:
         V.work_budget(
@@ -512,8 +506,10 @@ def solve(
     pick = times.pick
     if pick is not None:
         OUT = OUT[:, pick]
+    if problem.timed:
+        OUT = OUT[..., :-1]  # the time, appended to the state for a torque law that reads it
     states = OUT.reshape(batch_shape + OUT.shape[1:])
-    inv = problem.invariants(states)
+    inv = problem.invariants(states, times.t)
     inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
     status = failures[0].kind if failures else Status.SUCCESS
     name = type(method).__name__

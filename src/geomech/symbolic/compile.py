@@ -13,7 +13,7 @@ import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from ..errors import SymbolicError
+from ..errors import InputError, SymbolicError
 from .formula import parse_formula
 
 #: Body angular momentum components, the variables of a left-invariant Hamiltonian H(m).
@@ -341,3 +341,61 @@ class StraightLine:
     def body(self, indent: str = "    ") -> str:
         self.flush()
         return "\n".join(indent + line for line in self.lines) + "\n"
+
+
+def _hoist_numbers(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
+    """``e`` with its numeric coefficients and terms (not its exponents, not +-1) replaced by the parameters
+    ``_p{first}``, ``_p{first + 1}``, ... (their values into ``table``): gaits and torques that differ only in
+    their numbers (amplitudes, frequencies, phases, gains) then share one compiled function."""
+    if e.is_Atom:
+        return e
+    if isinstance(e, sp.Pow):
+        return sp.Pow(_hoist_numbers(e.base, table, first), e.exp)
+    if isinstance(e, (sp.Mul, sp.Add)):
+        args = []
+        for a in e.args:
+            if a.is_Number and a not in (sp.S.One, sp.S.NegativeOne):
+                name = sp.Symbol(f"_p{first + len(table)}")
+                table[name] = float(a)
+                args.append(name)
+            else:
+                args.append(_hoist_numbers(a, table, first))
+        return e.func(*args)
+    return e.func(*[_hoist_numbers(a, table, first) for a in e.args])
+
+
+def number_form(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
+    """``e`` written ``c + s f`` with its offset c and scale s (0 and 1 where it has none) and the numbers of f
+    as the run-time parameters ``_p{first}``, ``_p{first + 1}``, ... (their values into ``table``, in order):
+    ``sin(2*pi*t)``, ``0.5*sin(3*pi*t)`` and ``0.1 + 2*sin(pi*t)`` are one form. Formulas that differ only in
+    their numbers (amplitudes, frequencies, phases, gains of gaits and torques) then share one compiled
+    function."""
+    c, rest = sp.sympify(e).as_coeff_Add()
+    scale, f = rest.as_coeff_Mul()
+    offset_name, scale_name = (sp.Symbol(f"_p{first + len(table) + i}") for i in range(2))
+    table[offset_name], table[scale_name] = float(c), float(scale)
+    return offset_name + scale_name * _hoist_numbers(f, table, first)
+
+
+def runtime_parameters(expr: Any, variables: tuple, values: Mapping[str, float]) -> dict[str, Any]:
+    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array.
+
+    A parameter in a denominator (``m1**2 / (2 I1)``) is read as its reciprocal, a parameter of its own whose
+    value is computed here once: the compiled functions multiply where a formula with the values written in
+    would have. The parameters are constants of the motion, so the derivatives the loops need are unchanged.
+    """
+    symbols = sorted(expr.free_symbols - set(variables), key=lambda s: s.name)
+    missing = [s.name for s in symbols if s.name not in values]
+    if missing:  # pragma: no cover - the systems substitute or validate every parameter they hold
+        raise InputError(f"The formula has symbols {missing} without values.")
+    inverse = {s: sp.Symbol(f"{s.name}__inverse", real=True) for s in symbols}
+    expr = expr.replace(
+        lambda e: e.is_Pow and e.base in inverse and e.exp.is_number and e.exp.is_negative,
+        lambda e: inverse[e.base] ** (-e.exp),
+    )
+    used = [inverse[s] for s in symbols if inverse[s] in expr.free_symbols]
+    names = {v: k.name for k, v in inverse.items()}
+    prm = [float(values[s.name]) for s in symbols] + [1.0 / float(values[names[r]]) for r in used]
+    if isinstance(expr, sp.MatrixBase):
+        expr = sp.ImmutableMatrix(expr)  # hashable: the generated source is cached by it
+    return {"model_expression": expr, "parameter_symbols": (*symbols, *used), "prm": np.array(prm, dtype=float)}

@@ -135,9 +135,9 @@ class SolveIVP(ScipyStepped):
     pairs), ``"Radau"``, ``"BDF"`` (implicit, for stiff problems) or ``"LSODA"`` (Adams/BDF switching), stepped
     one step at a time with dense output at ``saveat``; the number of evaluations is bounded by
     ``max_evaluations``, and a failure is data with the states reached. Kind: adaptive (``rtol``, ``atol``;
-    default 1e-10, 1e-12). Order: that of the solver. Not structure-preserving. Structure: any ODE,
-    including those evaluated in Python with time-dependent inputs (a body with rotors and a torque law).
-    Cost: as many evaluations as the tolerances require; runs through Python (not compiled).
+    default 1e-10, 1e-12). Order: that of the solver. Not structure-preserving. Structure: any ODE.
+    Cost: as many evaluations as the tolerances require; the stepping runs in Python (the right-hand side is
+    compiled where the system is a formula).
     Reference: [HNW] II.4-II.5 (DOP853); Hairer & Wanner, Solving ODEs II, IV.8 (Radau).
 
     Parameters

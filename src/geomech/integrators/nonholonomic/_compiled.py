@@ -27,7 +27,7 @@ import sympy as sp
 
 from ...errors import SymbolicError
 from ...reduction.reduced_numeric import reduction_data
-from ...symbolic.compile import StraightLine
+from ...symbolic.compile import StraightLine, number_form
 from ...systems.gait import T_SYMBOL
 from .. import _codegen
 from ..methods import DormandPrince
@@ -78,37 +78,6 @@ _SOURCES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _TIME = sp.Symbol("_t")
 
 
-def _hoist(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
-    """``e`` with its numeric coefficients and terms (not its exponents, not +-1) replaced by the parameters
-    ``_p{first}``, ``_p{first + 1}``, ... (their values into ``table``): gaits and torques that differ only in
-    their numbers (amplitudes, frequencies, phases, gains) then share one compiled function."""
-    if e.is_Atom:
-        return e
-    if isinstance(e, sp.Pow):
-        return sp.Pow(_hoist(e.base, table, first), e.exp)
-    if isinstance(e, (sp.Mul, sp.Add)):
-        args = []
-        for a in e.args:
-            if a.is_Number and a not in (sp.S.One, sp.S.NegativeOne):
-                name = sp.Symbol(f"_p{first + len(table)}")
-                table[name] = float(a)
-                args.append(name)
-            else:
-                args.append(_hoist(a, table, first))
-        return e.func(*args)
-    return e.func(*[_hoist(a, table, first) for a in e.args])
-
-
-def _affine_hoist(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
-    """``e`` written ``c + s f`` with its offset c and scale s (0 and 1 where it has none) and the numbers of f
-    run-time parameters: ``sin(2*pi*t)``, ``0.5*sin(3*pi*t)`` and ``0.1 + 2*sin(pi*t)`` are one form."""
-    c, rest = sp.sympify(e).as_coeff_Add()
-    scale, f = rest.as_coeff_Mul()
-    offset_name, scale_name = (sp.Symbol(f"_p{first + len(table) + i}") for i in range(2))
-    table[offset_name], table[scale_name] = float(c), float(scale)
-    return offset_name + scale_name * _hoist(f, table, first)
-
-
 def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
     """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and the values of the
     gait's and the torques' numbers (read after the system's parameters), or None where the gait or a torque is a
@@ -118,8 +87,8 @@ def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
         return None
     table: dict[sp.Symbol, float] = {}
     first = len(setup.system.parameter_symbols)
-    gait_forms = tuple(_affine_hoist(e.xreplace({T_SYMBOL: _TIME}), table, first) for e in gait.expressions or ())
-    torque_forms = tuple(_affine_hoist(e, table, first) for e in torques.expressions)
+    gait_forms = tuple(number_form(e.xreplace({T_SYMBOL: _TIME}), table, first) for e in gait.expressions or ())
+    torque_forms = tuple(number_form(e, table, first) for e in torques.expressions)
     key = (
         sp.ImmutableMatrix(reduction.basis),
         gait_forms,
