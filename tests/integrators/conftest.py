@@ -32,6 +32,23 @@ def closed_loop_reduced():
 
 
 @pytest.fixture(scope="session")
+def closed_loop_family():
+    """``build(G, k)``: the reduced closed loop with the gain of its log term, k (2G/I3 above), and G as named
+    parameters (substituted numbers, which the compiled model reads at run time)."""
+    l, L, G_, k_ = sp.symbols("l L G k", real=True)
+    hp = (
+        sp.Rational(1, 2) * (G_**2 - L**2) * (sp.sin(l) ** 2 / LAM1 + sp.cos(l) ** 2 / LAM2)
+        + L**2 / (2 * I3)
+        + k_ * sp.log(sp.cos(L / G_))
+    )
+
+    def build(G: float = 1.0, k: float = 2.0):
+        return gm.CanonicalSystem.from_expression(hp, (l,), (L,), substitutions={G_: G, k_: k})
+
+    return build
+
+
+@pytest.fixture(scope="session")
 def closed_loop():
     """The closed loop H_c(m) on so(3)* whose reduction is ``closed_loop_reduced``."""
     m1, m2, m3 = gm.M_SYMBOLS

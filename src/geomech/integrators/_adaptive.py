@@ -138,7 +138,7 @@ def integrate_ivp(
 
 def run_adaptive(
     module: Any,
-    prm: np.ndarray,
+    PRM: np.ndarray,
     method: Any,
     Y0: np.ndarray,
     t0: float,
@@ -147,7 +147,8 @@ def run_adaptive(
     OUT: np.ndarray,
     INFO: np.ndarray,
 ) -> int:
-    """Integrate each row of ``Y0`` from ``t0`` with ``method`` (an AdaptiveAdams), saving at ``times`` and
+    """Integrate each row of ``Y0`` from ``t0`` with ``method`` (an AdaptiveAdams; ``PRM`` the parameter values, one
+    row for all or one per row of ``Y0``), saving at ``times`` and
     filling ``OUT`` and ``INFO`` as the compiled loops do (``INFO[b, 1]`` is the index of the first output
     time not reached); returns the number of internal steps taken (summed over the batch)."""
     rhs = module.rhs
@@ -157,8 +158,11 @@ def run_adaptive(
     for b in range(Y0.shape[0]):
         count = [0]
         buf = np.empty(d)
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
 
-        def f(_t: float, y: np.ndarray, count: list = count, buf: np.ndarray = buf) -> np.ndarray:
+        def f(
+            _t: float, y: np.ndarray, count: list = count, buf: np.ndarray = buf, prm: np.ndarray = prm
+        ) -> np.ndarray:
             count[0] += 1
             rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
             return buf.copy()

@@ -94,7 +94,7 @@ def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, sc
 
 
 @kernel
-def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, prm):
+def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, PRM):
     B, d = Y0.shape
     n = d // 2
     y, tmp, g, gw = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
@@ -104,6 +104,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, p
     counts = np.zeros(2)  # rhs evaluations, Newton iterations
     off = n if variant == 0 else 0  # the implicit unknown is p (variant 0) or q
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -156,22 +157,23 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, p
 
 
 @kernel
-def symplectic_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def symplectic_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """P[0]: 0 symplectic Euler A, 1 symplectic Euler B, 2 the generating-function method (a runtime value,
     so that numba compiles one loop for the three). The loop calls the model by name, so that the compiler
     drops what the variant does not read (e.g. H_pp for Euler A): through the addresses the method was 1.6
     times slower on the reduced closed loop."""
-    _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, int(P[0]), prm)
+    _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, int(P[0]), PRM)
 
 
 @kernel
-def verlet_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def verlet_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Stormer-Verlet for H = T(p) + V(q): p_{1/2} = p - h/2 V'(q), q' = q + h T'(p_{1/2}),
     p' = p_{1/2} - h/2 V'(q'); H_q at the new q is reused by the next step."""
     B, d = Y0.shape
     n = d // 2
     y, g, gq = np.empty(d), np.empty(d), np.empty(n)
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1

@@ -43,12 +43,13 @@ def rk4_step(fp, y, h, k1, k2, k3, k4, tmp, prm):
 
 
 @kernel
-def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     B, d = Y0.shape
     fp = FP[F_RHS]
     y = np.empty(d)
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -63,7 +64,7 @@ def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Adams-Bashforth-Moulton PECE of order 4, started by three RK4 steps.
 
     P: y* = y_n + h/24 (55 f_n - 59 f_{n-1} + 37 f_{n-2} - 9 f_{n-3});  E: f* = f(y*);
@@ -76,6 +77,7 @@ def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     fstar = np.empty(d)
     fp = FP[F_RHS]
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -649,7 +651,7 @@ def erk_after(action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns,
 
 
 @kernel
-def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, CH, prm):
+def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, CH, PRM):
     """Integrate each row of Y0 from t0 by the embedded pair (A, B; error weights E, E2 on the stages and
     f(y1); continuous extension D, its extra stages the rows of A past ns), saving at the times TS (monotone,
     away from t0) by the continuous extension, or exactly where a step ends on one. ``q`` is the order of the
@@ -667,6 +669,7 @@ def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns
     W = np.empty((6, d))
     S = np.empty(EK_SIZE)
     for b in range(nb):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)
         while action != ERK_DONE:
             if action == ERK_F0:

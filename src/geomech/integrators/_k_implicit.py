@@ -30,7 +30,7 @@ from ._k_common import (
 
 
 @kernel
-def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """y_{n+1} = y_n + h f((y_n + y_{n+1})/2), as Z = (y_{n+1} - y_n)/2 solving Z = (h/2) f(y_n + Z).
 
     The predictor extrapolates the last two increments (error O(h^3)), so Newton usually stops after two
@@ -38,7 +38,7 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     """
     B, d = Y0.shape
     if d == 2:
-        midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm)
+        midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM)
         return
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     hh = 0.5 * h
@@ -46,6 +46,7 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     f, r, tmp = np.empty(d), np.empty(d), np.empty(d)
     J, A = np.empty((d, d)), np.empty((d, d))
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -93,13 +94,14 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
+def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
     """midpoint_run for d = 2 (one degree of freedom, the reduced Serret-Andoyer systems) on scalars."""
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     B = Y0.shape[0]
     hh = 0.5 * h
     f, J, y = np.empty(2), np.empty((2, 2)), np.empty(2)
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         y0, y1 = Y0[b, 0], Y0[b, 1]
         OUT[b, 0, 0], OUT[b, 0, 1] = y0, y1
         isave = 1
@@ -154,7 +156,7 @@ def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, prm):
 
 
 @kernel
-def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """s-stage Gauss-Legendre collocation in the stage increments Z_i = Y_i - y_n:
     Z_i = h sum_j a_ij f(y_n + Z_j), y_{n+1} = y_n + sum_i d_i Z_i with d = b^T A^{-1} (Hairer & Wanner
     II, IV.8: no extra evaluations of f, and no amplification of the Newton error by h f'). A step is the
@@ -178,6 +180,7 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     Js = np.empty((s, d, d))
     M = np.empty((n, n))
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1

@@ -173,13 +173,13 @@ def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm):
 
 
 @kernel
-def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """One step is the composition P = (J, axes[J], coefficients[J]); when the first and last sub-flows
     are about the same axis, the last one of a step is merged with the first one of the next (the flows
     of one f_i commute) except where a state is saved."""
     B, d = Y0.shape
-    if d == 3:
-        split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm)
+    if d == 3 and PRM.shape[0] == 1:
+        split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, PRM[0])
         return
     attitude = d == 12
     J = int(P[0])
@@ -188,6 +188,7 @@ def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     fsal = J > 1 and axes[0] == axes[J - 1]
     y = np.empty(d)
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -331,7 +332,7 @@ def lgvi_mu(X, m, param, mu, D, u, v):
 
 
 @kernel
-def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Discrete Euler-Lagrange equations of L_d = h l(tau^{-1}(R_k^T R_{k+1}) / h) in momentum form:
     find X with X = h grad H(J_r(X) m_k); then F = tau(X), R_{k+1} = R_k F, m_{k+1} = F^T m_k."""
     B, d = Y0.shape
@@ -341,6 +342,7 @@ def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
     mu, g, u, v, tmp = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     D, hm, A, F = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -394,7 +396,7 @@ def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
 
 
 @kernel
-def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, prm):
+def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Moser-Veselov: h m_k^ = F J_d - J_d F^T with J_d = tr(I)/2 - I; with F = cay(2 f) this reads
     h m + h m x f + f (f . h m) - 2 I f = 0 (Lee, Leok & McClamroch 2007), solved for f by Newton;
     then m_{k+1} = F^T m_k, R_{k+1} = R_k F."""

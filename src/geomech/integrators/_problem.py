@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import weakref
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,11 +27,10 @@ from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 from ..systems.nonholonomic import NonholonomicSystem
 from ..systems.rotors import RotorBody
 from . import _codegen
+from ._model_source import model_source
 from .methods import Structure
 
 __all__ = ["Problem", "make_problem"]
-
-_R_SYMBOLS = sp.symbols("r0:9", real=True)
 
 
 @dataclass(eq=False)
@@ -53,6 +53,9 @@ class Problem:
     model_expression: sp.Expr | None = None
     parameter_symbols: tuple[sp.Symbol, ...] = ()
     prm: np.ndarray = field(default_factory=lambda: np.empty(0))
+    # for each entry of prm before the derived ones: (parameter name, whether it is its reciprocal)
+    parameter_recipe: tuple[tuple[str, bool], ...] = ()
+    derived: Any = None  # the derived parameters (coefficients hoisted by the code generator) from the given ones
     # A body with rotors, bound to its torque law by ._rotor.bind_torque: the law, the torque as a function
     # u(t, R, m, gamma, Gamma), and whether it depends on time (the time is then the state's last component)
     law: Any = None
@@ -99,14 +102,13 @@ class Problem:
                 features = features | {"gf"}
             try:
                 model = self.expression if self.model_expression is None else self.model_expression
-                src, derived = _model_source(
+                src, derived = model_source(
                     self.kind, self.layout, model, self.variables, self.parameter_symbols, features
                 )
                 tag = "c" if self.kind == "canonical" else self.layout
                 module = _codegen.compiled_module(src, tag)
-                base = self.prm[: len(self.parameter_symbols)]
-                extra = np.atleast_1d(np.asarray(derived(base), dtype=float)) if derived is not None else np.empty(0)
-                self.prm = np.concatenate([base, extra]).astype(float)
+                self.derived = derived
+                self.prm = self.parameter_rows({})[0]
                 return module, "numba"
             except NotImplementedError:
                 if backend == "numba":
@@ -115,6 +117,30 @@ class Problem:
             why = "numba is not available" if self.expression is not None else "the system has no formula"
             raise InputError(f"backend='numba' needs a system built from a formula and numba; {why}.")
         return _codegen.python_module(self._python_functions(features)), "python"
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """The names of the parameters the compiled model reads at run time (a batch of values may be given)."""
+        return tuple(dict.fromkeys(name for name, _ in self.parameter_recipe))
+
+    def parameter_rows(self, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        """The compiled model's parameter rows ``(N, n_prm)`` for ``values`` (name -> ``(N,)`` array; the others
+        keep the system's values), the derived parameters included (after :meth:`module`)."""
+        n = len(next(iter(values.values()))) if values else 1
+        base = self.prm[: len(self.parameter_symbols)]
+        own = {
+            name: base[i] if not inverse else 1.0 / base[i] for i, (name, inverse) in enumerate(self.parameter_recipe)
+        }
+        columns = [
+            np.broadcast_to(np.asarray(values.get(name, own[name]), dtype=float), (n,))
+            for name, _ in self.parameter_recipe
+        ]
+        given = [1.0 / c if inverse else c for c, (_, inverse) in zip(columns, self.parameter_recipe)]
+        rows = np.stack(given, -1) if given else np.empty((n, 0))
+        if self.derived is not None:
+            extra = np.asarray(self.derived(rows), dtype=float).reshape(n, -1)
+            rows = np.concatenate([rows, extra], axis=1)
+        return np.ascontiguousarray(rows)
 
     def _python_functions(self, features: frozenset[str]) -> dict[str, Any]:
         if self.kind == "rotor":
@@ -126,11 +152,17 @@ class Problem:
         return _lie_poisson_python(self.core, self.expression, features)
 
     # -- invariants -------------------------------------------------------------------------------
-    def invariants(self, states: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray | None]:
+    def invariants(self, states: np.ndarray, t: np.ndarray, rows: np.ndarray | None = None) -> dict[str, Any]:
         """The quantities along saved ``states`` (``(..., n_save, d)`` at times ``t``): energy, Casimir, spatial
-        momentum, and the torques of a body with rotors; NaN where a state is not finite."""
+        momentum, and the torques of a body with rotors; NaN where a state is not finite. ``rows``: the parameter
+        rows of a batch of parameter values (``(..., n_prm)``, the batch's shape), the energy then evaluated with
+        each trajectory's own."""
         ok = np.all(np.isfinite(states), axis=-1)
         out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
+        if rows is not None:
+            out.update(self._lie_poisson_views(states) if self.kind == "lie_poisson" else {})
+            out["energy"] = self._energy_with(states, rows, ok)
+            return out
         if self.kind == "rotor":
             from ._rotor import torques_along
 
@@ -152,11 +184,34 @@ class Problem:
         energy = np.full(states.shape[:-1], np.nan)
         energy[ok] = self.core.hamiltonian(m[ok])
         out["energy"] = energy
-        out["casimir"] = np.linalg.norm(m, axis=-1)
+        out.update(self._lie_poisson_views(states))
+        return out
+
+    def _lie_poisson_views(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        m = states[..., :3]
+        out = {"casimir": np.linalg.norm(m, axis=-1)}
         if self.layout == "mR":
             R = states[..., 3:].reshape(states.shape[:-1] + (3, 3))
             out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
         return out
+
+    def _energy_with(self, states: np.ndarray, rows: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        """H at ``states`` with each trajectory's parameter row (the model's formula, its parameters read from the
+        rows as the compiled loops read them)."""
+        variables = tuple(M_SYMBOLS) if self.kind == "lie_poisson" else self.variables
+        H = _energy_function(self.model_expression, variables, self.parameter_symbols)
+        k = len(variables)
+        given = np.broadcast_to(
+            rows[..., None, : len(self.parameter_symbols)], states.shape[:-1] + (len(self.parameter_symbols),)
+        )
+        energy = np.full(states.shape[:-1], np.nan)
+        energy[ok] = H(np.concatenate([states[..., :k], given], axis=-1)[ok])
+        return energy
+
+
+@functools.lru_cache(maxsize=32)
+def _energy_function(expr: sp.Expr, variables: tuple, parameters: tuple) -> Any:
+    return compile_scalar(expr, [*variables, *parameters])
 
 
 # -- problems from systems ----------------------------------------------------------------------------
@@ -343,146 +398,6 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
     return result
 
 
-_GF_STUBS = """
-
-@kernel
-def gf_all(y, out0, out1, out2, out3, prm):
-    return
-
-
-@kernel
-def gf_grads(y, out0, out1, prm):
-    return
-"""
-
-
-# -- generated model source ---------------------------------------------------------------------------
-@functools.lru_cache(maxsize=64)
-def _model_source(
-    kind: str, layout: str, expr: sp.Expr, variables: tuple, parameters: tuple, features: frozenset[str]
-) -> tuple[str, Any]:
-    """The model functions' source, and the function that computes the derived parameters they read after the
-    given ones (None without any)."""
-
-    def FS(name: str, outputs: tuple, args: tuple, scalar_args: bool = False) -> Any:
-        return (name, outputs, args, scalar_args)
-
-    def emit(specs: list, suffix: str = "") -> tuple[str, Any]:
-        return _emit(specs, parameters, suffix)
-
-    if kind == "rotor":  # the equations of a body with rotors and its torque law, a vector field
-        f = list(expr)
-        return emit(
-            [FS("rhs", (f,), variables), FS("fjac", (f, [[sp.diff(fi, v) for v in variables] for fi in f]), variables)]
-        )
-    if kind == "canonical":
-        n = len(variables) // 2
-        g = [sp.diff(expr, v) for v in variables]
-        hm = [[sp.diff(gi, v) for v in variables] for gi in g]
-        f = g[n:] + [-gi for gi in g[:n]]
-        jf = [row for row in hm[n:]] + [[-e for e in row] for row in hm[:n]]
-        specs = [
-            FS("ham", (expr,), variables),
-            FS("grad", (g,), variables),
-            FS("ghess", (g, hm), variables),
-            FS("rhs", (f,), variables),
-            FS("fjac", (f, jf), variables),
-        ]
-        if "gf" in features:
-            w = sum(g[i] * g[n + i] for i in range(n))
-            gw = [sp.diff(w, v) for v in variables]
-            hw = [[sp.diff(e, v) for v in variables] for e in gw]
-            specs += [FS("gf_all", (g, hm, gw, hw), variables), FS("gf_grads", (g, gw), variables)]
-            return emit(specs)
-        # the symplectic-Euler loop shares code with the generating-function one and numba types every
-        # name it calls, taken branch or not: without "gf", inert stand-ins
-        return emit(specs, _GF_STUBS)
-    # One module per layout, m (d = 3) or (m, R) (d = 12): a module for both, rhs dispatching on the state's
-    # length, compiled each loop once for both but cost 40 % of a rigid body's run time in that call.
-    m = list(M_SYMBOLS)
-    g = [sp.diff(expr, s) for s in m]
-    hm = [[sp.diff(gi, s) for s in m] for gi in g]
-    fm = [m[1] * g[2] - m[2] * g[1], m[2] * g[0] - m[0] * g[2], m[0] * g[1] - m[1] * g[0]]
-    state, f = m, fm
-    if layout == "mR":
-        R = sp.Matrix(3, 3, _R_SYMBOLS)
-        w = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
-        state, f = m + list(_R_SYMBOLS), fm + list(R * w)
-    specs = [
-        FS("ham", (expr,), tuple(m)),
-        FS("ghess3", (g, hm), tuple(m)),
-        FS("rhs", (f,), tuple(state)),
-        FS("fjac", (f, [[sp.diff(fi, s) for s in state] for fi in f]), tuple(state)),
-    ]
-    if "split" in features:
-        for i in range(3):
-            part = g[i].subs({m[j]: 0 for j in range(3) if j != i})
-            specs.append(FS(f"dh{i}", (part,), (m[i],), scalar_args=True))
-    return emit(specs)
-
-
-def _emit(entries: list, parameters: tuple, suffix: str) -> tuple[str, Any]:
-    """Source of the model functions ``entries`` (name, outputs, variables, scalar_args) with the parameter-only
-    coefficients hoisted (:func:`_hoist`), and the compiled function of the derived parameters."""
-    table: dict[sp.Expr, sp.Symbol] = {}
-    pset = frozenset(parameters)
-
-    def hoisted(out: Any) -> Any:
-        if isinstance(out, (list, tuple)):
-            return [hoisted(o) for o in out]
-        return _hoist(sp.sympify(out), pset, table) if pset else out
-
-    entries = [(n, tuple(hoisted(o) for o in outs), v, sc) for n, outs, v, sc in entries]
-    derived = list(table.items())
-    names = tuple(parameters) + tuple(sym for _, sym in derived)
-    specs = [_codegen.FunctionSpec(n, outs, v, scalar_args=sc, parameters=names) for n, outs, v, sc in entries]
-    fn = compile_vector([c for c, _ in derived], list(parameters)) if derived else None
-    return _codegen.kernel_source(specs) + suffix, fn
-
-
-def _hoist(e: sp.Expr, pset: frozenset, table: dict) -> sp.Expr:
-    """``e`` with every sum's terms grouped by their state-dependent factor and each group's coefficient, an
-    expression in the parameters alone, replaced by a derived parameter computed once per run (in ``table``):
-    ``m2 m3 / I3 - m3 m2 / I2`` becomes ``m2 m3 d`` with ``d = 1/I3 - 1/I2``, the arithmetic a formula with the
-    values written in would have after constant folding. No expansion: each sum is grouped as it stands."""
-    if e.is_Atom or not (e.free_symbols & pset):
-        return e
-    if e.free_symbols <= pset:
-        return _derived(e, pset, table)
-    args = [_hoist(a, pset, table) for a in e.args]
-    if e.is_Add:
-        groups: dict[sp.Expr, list[sp.Expr]] = {}
-        for t in args:
-            c, rest = _coefficient(t, pset)
-            groups.setdefault(rest, []).append(c)
-        return sp.Add(*(_derived(sp.Add(*cs), pset, table) * rest for rest, cs in groups.items()))
-    if e.is_Mul:
-        c, rest = _coefficient(sp.Mul(*args), pset)
-        return _derived(c, pset, table) * rest
-    return e.func(*args)
-
-
-def _coefficient(t: sp.Expr, pset: frozenset) -> tuple[sp.Expr, sp.Expr]:
-    """``t = c * rest`` with ``c`` the factors of ``t`` in the parameters alone (numbers included)."""
-    factors = sp.Mul.make_args(t)
-    c = [f for f in factors if f.free_symbols <= pset]
-    rest = [f for f in factors if not f.free_symbols <= pset]
-    return sp.Mul(*c), sp.Mul(*rest)
-
-
-def _derived(c: sp.Expr, pset: frozenset, table: dict) -> sp.Expr:
-    """``c`` itself when it costs nothing (a number, a parameter, a number times a parameter), else its
-    derived parameter."""
-    if c.is_Number or c in pset:
-        return c
-    if c.is_Mul and len(c.args) == 2 and c.args[0].is_Number and c.args[1] in pset:
-        return c
-    if c not in table:
-        table[c] = sp.Symbol(f"geomech_derived_{len(table)}", real=True)
-    return table[c]
-
-
-# -- Python model functions (systems from callables, or formulas numba cannot compile) -------------
 def _fd_hessian(gradient: Any, y: np.ndarray) -> np.ndarray:
     step = np.cbrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(y))
     cols = []

@@ -40,6 +40,11 @@ def _threaded(call: Any, B: int, threads: int) -> None:
             fut.result()
 
 
+def rows(PRM: np.ndarray, a: int, b: int) -> np.ndarray:
+    """The parameter rows of trajectories a:b: all of ``PRM`` when it has one row (shared), else its rows a:b."""
+    return PRM if PRM.shape[0] == 1 else PRM[a:b]
+
+
 def run_compiled(
     kern: Any,
     FP: np.ndarray,
@@ -52,13 +57,14 @@ def run_compiled(
     tol: float,
     maxit: int,
     P: np.ndarray,
-    prm: np.ndarray,
+    PRM: np.ndarray,
     threads: int,
 ) -> None:
-    """A fixed-step loop over the batch ``Y0``; ``FP`` the addresses of the model functions it calls."""
+    """A fixed-step loop over the batch ``Y0``; ``FP`` the addresses of the model functions it calls, ``PRM`` the
+    parameter values (one row for all, or one per trajectory)."""
 
     def call(a: int, b: int) -> None:
-        kern(FP, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, prm)
+        kern(FP, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, rows(PRM, a, b))
 
     _threaded(call, Y0.shape[0], threads)
 
@@ -68,7 +74,7 @@ CODES = {status: code for code, status in STATUS.items()}
 
 def run_ivp(
     module: Any,
-    prm: np.ndarray,
+    PRM: np.ndarray,
     method: SolveIVP,
     Y0: np.ndarray,
     t0: float,
@@ -86,8 +92,9 @@ def run_ivp(
     steps = 0
     for b in range(Y0.shape[0]):
         buf = np.empty(d)
+        prm = rows(PRM, b, b + 1)[0]
 
-        def f(_t: float, y: np.ndarray, buf: np.ndarray = buf) -> np.ndarray:
+        def f(_t: float, y: np.ndarray, buf: np.ndarray = buf, prm: np.ndarray = prm) -> np.ndarray:
             module.rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
             return buf.copy()
 
@@ -187,7 +194,7 @@ def run_embedded(
     module: Any,
     used: str,
     problem_system: Any,
-    prm: np.ndarray,
+    PRM: np.ndarray,
     method: DormandPrince,
     Y0: np.ndarray,
     t0: float,
@@ -207,7 +214,7 @@ def run_embedded(
     rtol, atol = tolerances
     budget = float(max_evaluations)
     chart = np.array(getattr(problem_system, "chart", ()) or np.zeros((0, 3)), dtype=float).reshape(-1, 3)
-    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart, prm)
+    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart)
     compile_time = 0.0
     fp = rhs_address(module) if module.ready(RHS) else 0
     if used == "numba" and not (module.ready(RHS) and module.erk_run.signatures):
@@ -227,11 +234,12 @@ def run_embedded(
             atol,
             1.0,
             *args,
+            PRM[:1],
         )
         compile_time = time.perf_counter() - start
 
     def call(a: int, b: int) -> None:
-        module.erk_run(fp, Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args)
+        module.erk_run(fp, Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args, rows(PRM, a, b))
 
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
         _threaded(call, Y0.shape[0], threads if used == "numba" else 1)

@@ -76,6 +76,8 @@ QUANTITIES: dict[str, tuple[str, str | None]] = {
     "constraint_residual": ("constraint residual A(q) qdot", "constraint"),
     "serret_andoyer": ("Serret-Andoyer (l, L) and reconstruction angle phi in the chart in use", "lLphi"),
     "chart_axis": ("body axis (1 to 3) of the Serret-Andoyer chart in use", None),
+    "stm": ("state transition matrix dy(t)/dy(t0): row a component of y(t), column one of y(t0)", None),
+    "parameter_sensitivity": ("sensitivity dy(t)/dp: row a component of y(t), column a parameter", None),
 }
 
 
@@ -175,7 +177,8 @@ class Solution:
         ``compile_time`` and ``run_time`` in seconds; a compiled BKMM run adds ``loop_time``, the compiled loop
         alone (the rest of ``run_time`` is the set-up and the quantities at the saved times).
     parameters : mapping
-        The parameter values the system was evaluated with.
+        The parameter values the system was evaluated with: numbers, and arrays of the batch's shape for the
+        parameters a batch sweeps (``solve(..., parameters={name: array})``).
     group_dim : int or None
         For the ``"qv"`` and ``"group"`` layouts: how many of the coordinates are the group's (the rest are
         shapes, or the element).
@@ -192,7 +195,7 @@ class Solution:
     message: str = ""
     failures: tuple[Failure, ...] = ()
     stats: dict[str, Any] = field(default_factory=dict)
-    parameters: Mapping[str, float] = field(default_factory=dict)
+    parameters: Mapping[str, Any] = field(default_factory=dict)
     group_dim: int | None = None
 
     def __post_init__(self) -> None:
@@ -468,6 +471,10 @@ class Solution:
                 if dim not in coords:
                     coords[dim] = np.arange(size) + 1
         stats = {k: v for k, v in self.stats.items() if isinstance(v, (int, float, str))}
+        fixed = {str(k): float(v) for k, v in self.parameters.items() if np.ndim(v) == 0}
+        for k, v in self.parameters.items():  # a batch of parameter values: a coordinate over the batch
+            if np.ndim(v) > 0:
+                coords[str(k)] = (batch_dims, np.asarray(v, dtype=float), {"long_name": f"parameter {k}"})
         return xr.Dataset(
             data,
             coords=coords,
@@ -477,7 +484,7 @@ class Solution:
                 "layout": self.layout,
                 "status": self.status.value,
                 "message": self.message,
-                "parameters": json.dumps({str(k): float(v) for k, v in self.parameters.items()}),
+                "parameters": json.dumps(fixed),
                 "stats": json.dumps(stats),
                 "units": "those of the parameters (geomech is unit-free)",
                 "geomech_version": __version__,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -16,13 +17,17 @@ from ._problem import Problem, make_problem
 from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic
 from ._times import DEFAULT_SAVEAT, time_grid
 from ._times import tolerances as method_tolerances
+from ._variational import augment, sensitivity_names, split, variational_module
 from .methods import (
     REGISTRY,
+    RK4,
+    AdamsBashforthMoulton4,
     AdaptiveAdams,
     DormandPrince,
     IncompatibleMethodError,
     Kind,
     Method,
+    MoserVeselov,
     PeriodicOrbit,
     Quadrature,
     SerretAndoyerAtlas,
@@ -105,6 +110,48 @@ def _initial_states(problem: Problem, y0: Any, m0: Any, R0: Any) -> tuple[np.nda
     return Y.reshape(-1, 12).copy(), shape
 
 
+def _parameter_batch(
+    problem: Problem, method: Method, parameters: Any
+) -> tuple[dict[str, np.ndarray], tuple[int, ...]]:
+    """Values of a system's own parameters for this run (name -> array; their broadcast shape a batch of
+    trajectories), checked against the names the compiled model reads at run time."""
+    if parameters is None:
+        return {}, ()
+    names = [n for n in problem.parameter_names if not n.startswith(("u_", "_p"))]
+    if problem.kind not in ("canonical", "lie_poisson") or not names:
+        raise InputError(
+            f"`parameters` sets the parameters of a canonical or left-invariant system built from a formula with "
+            f"named parameters, or of a Lagrangian system; {problem.name} has none to set"
+            + (" (build a body with other inertias with `with_parameters`)." if problem.kind == "rotor" else ".")
+        )
+    if not isinstance(parameters, Mapping):
+        raise InputError(f"Expected `parameters` to be a mapping name -> value(s), got {type(parameters).__name__}.")
+    unknown = sorted(set(parameters) - set(names))
+    if unknown:
+        raise InputError(f"`parameters` names {unknown}, not parameters of {problem.name}; its parameters: {names}.")
+    values = {str(k): V.finite(np.asarray(v, dtype=float), f"parameters[{k!r}]") for k, v in parameters.items()}
+    # each member as the system would check one value: the symbols' signs, and the system's own rules
+    signs = {s.name: s for s in problem.parameter_symbols}
+    for k, v in values.items():
+        if k in signs and signs[k].is_positive and not np.all(v > 0):
+            raise InputError(f"Expected `parameters[{k!r}]` of {problem.name} to be positive, got {v.min():g}.")
+    check = getattr(problem.system, "check_parameters", None)
+    if check is not None:
+        check(values)
+    if isinstance(method, (MoserVeselov, SerretAndoyerAtlas, PeriodicOrbit, Quadrature)):
+        raise InputError(
+            f"{type(method).__name__} takes the system's own parameter values (they shape its constants or its "
+            "propagator): build the system with other values instead of passing `parameters`."
+        )
+    try:
+        shape = np.broadcast_shapes(*(v.shape for v in values.values()))
+    except ValueError:
+        raise InputError(
+            f"Expected the values in `parameters` to broadcast, got shapes { {k: v.shape for k, v in values.items()} }."
+        ) from None
+    return {k: np.broadcast_to(v, shape) for k, v in values.items()}, shape
+
+
 def _left_chart(
     system: Any,
     OUT: np.ndarray,
@@ -168,6 +215,7 @@ def solve(
     raise_on_failure: bool = True,
     backend: str = "auto",
     threads: int | None = None,
+    sensitivities: Any = None,
 ) -> Solution:
     """Integrate ``system`` with ``method`` from ``t0`` to ``t_final``.
 
@@ -223,7 +271,10 @@ def solve(
         the rotor torques of a body with rotors (a :class:`~geomech.Gait` in time, a callable
         ``u(t, R, m, gamma, Gamma)`` or a feedback law such as a :class:`~geomech.StructurePreservingControl`).
     parameters : mapping, optional
-        Values of a Lagrangian system's parameters not stored in it.
+        Values of a Lagrangian system's parameters not stored in it; for a canonical or left-invariant system
+        built from a formula with named parameters, values for this run, a number or an array for each: the
+        arrays' broadcast shape is a batch of trajectories (broadcast with the initial states' batch), all of
+        them in one compiled call (``Solution.parameters`` then holds the arrays, batch-shaped).
     max_steps : int
         Ceiling on steps times trajectories of a fixed-step method (default 1e9, tens of seconds to minutes
         of compiled work): a larger run is refused before it starts, with its estimated cost.
@@ -249,6 +300,13 @@ def solve(
         otherwise.
     threads : int, optional
         Threads over the batch (compiled loops release the GIL); default: the number of CPUs.
+    sensitivities : True or sequence of str, optional
+        Integrate the variational equations with the state (a canonical or left-invariant system, or a body
+        with rotors, given by formulas; an explicit method: ``rk4``, ``abm4``, ``dop853``, ``dopri5``, ``adams``,
+        ``solve_ivp``): True gives the state transition matrix ``dy(t)/dy(t0)`` as the quantity ``stm``
+        (``(..., n_save, d, d)``), names of parameters add ``parameter_sensitivity``, ``dy(t)/dp``
+        (``(..., n_save, d, k)``, a column per name in the given order). The error control of an adaptive method
+        covers them too.
 
     Returns
     -------
@@ -330,8 +388,7 @@ def solve(
     for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
         if value is not None:
             raise InputError(f"`{name}` applies to Lagrangian systems on G x S; {problem.name} is not one.")
-    if parameters is not None:
-        raise InputError(f"`parameters` applies to Lagrangian systems; {problem.name} holds its parameter values.")
+    swept, swept_shape = _parameter_batch(problem, method, parameters)
     if problem.kind == "rotor":
         if y0 is not None:
             raise InputError(
@@ -355,6 +412,25 @@ def solve(
         )
     else:
         Y0, batch_shape = _initial_states(problem, y0, m0, R0)
+    if swept:
+        try:
+            full = np.broadcast_shapes(batch_shape, swept_shape)
+        except ValueError:
+            raise InputError(
+                f"Expected the batch of initial states {batch_shape} and of `parameters` {swept_shape} to broadcast."
+            ) from None
+        Y0 = np.broadcast_to(Y0.reshape(batch_shape + Y0.shape[1:]), full + Y0.shape[1:]).reshape(-1, Y0.shape[1])
+        Y0, batch_shape = Y0.copy(), full
+        swept = {k: np.broadcast_to(v, full).reshape(-1) for k, v in swept.items()}
+    wrt = sensitivity_names(problem, sensitivities)
+    d_state = Y0.shape[1]
+    if wrt is not None:
+        if not isinstance(method, (RK4, AdamsBashforthMoulton4, DormandPrince, SolveIVP, AdaptiveAdams)):
+            raise IncompatibleMethodError(
+                f"`sensitivities` integrates the variational equations with an explicit method (rk4, abm4, dop853, "
+                f"dopri5, adams, solve_ivp); {method!r} is not one."
+            )
+        Y0 = augment(Y0, len(wrt))
     B, d = Y0.shape
     if method.kind is Kind.FIXED_STEP:
         V.work_budget(
@@ -380,7 +456,17 @@ def solve(
         saved_steps = np.arange(len(saved_t))
     OUT = np.empty((B, len(saved_steps), d))
     INFO = np.zeros((B, INFO_COLUMNS))
-    module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)
+    if wrt is not None:
+        module, used = variational_module(problem, wrt, backend)
+    else:
+        module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)
+    if swept and used != "numba":
+        raise InputError(
+            f"A batch of `parameters` runs in the compiled loops, which {problem.name} cannot use here (backend "
+            f"{backend!r}, or numba missing): give one value per parameter."
+        )
+    # the parameter values: one row for all trajectories, or one per trajectory for a batch of them
+    PRM = problem.parameter_rows(swept) if swept else np.ascontiguousarray(problem.prm[None, :])
     compile_time = 0.0
     t_start = time.perf_counter()
     reasons: dict[int, str] = {}
@@ -394,9 +480,7 @@ def solve(
     elif isinstance(method, SolveIVP):
         assert tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-        internal = run_ivp(
-            module, problem.prm, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached
-        )
+        internal = run_ivp(module, PRM, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached)
     elif isinstance(method, DormandPrince):
         assert tolerances is not None
         budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
@@ -405,7 +489,7 @@ def solve(
             module,
             used,
             system,
-            problem.prm,
+            PRM,
             method,
             Y0,
             t0,
@@ -422,7 +506,7 @@ def solve(
     elif isinstance(method, AdaptiveAdams):
         assert tolerances is not None
         with np.errstate(all="ignore"):
-            internal = run_adaptive(module, problem.prm, method, Y0, t0, saved_t, tolerances, OUT, INFO)
+            internal = run_adaptive(module, PRM, method, Y0, t0, saved_t, tolerances, OUT, INFO)
     elif isinstance(method, (PeriodicOrbit, Quadrature)):
         internal, compile_time = run_periodic(problem.core, method, Y0, saved_t - t0, OUT, INFO, reasons)
         t_start += compile_time
@@ -450,7 +534,7 @@ def solve(
                     tol,
                     int(max_newton),
                     P,
-                    problem.prm,
+                    PRM[:1],
                 )
             except NumbaError:
                 # a function sympy prints but numba cannot compile: the same loop in Python
@@ -477,7 +561,7 @@ def solve(
                 tol,
                 int(max_newton),
                 P,
-                problem.prm,
+                PRM,
                 int(n_threads),
             )
         internal = B * nsteps
@@ -509,8 +593,14 @@ def solve(
     if problem.timed:
         OUT = OUT[..., :-1]  # the time, appended to the state for a torque law that reads it
     states = OUT.reshape(batch_shape + OUT.shape[1:])
-    inv = problem.invariants(states, times.t)
+    variational: dict[str, np.ndarray] = {}
+    if wrt is not None:
+        states, variational["stm"], sensitivity = split(states, d_state, len(wrt))
+        if wrt:
+            variational["parameter_sensitivity"] = sensitivity
+    inv = problem.invariants(states, times.t, PRM.reshape(batch_shape + PRM.shape[1:]) if swept else None)
     inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
+    inv.update(variational)
     status = failures[0].kind if failures else Status.SUCCESS
     name = type(method).__name__
     if failures:
@@ -558,7 +648,10 @@ def solve(
             compile_time=compile_time,
             **({"chart_switches": switches} if isinstance(method, SerretAndoyerAtlas) else {}),
         ),
-        parameters=dict(getattr(problem.core, "parameters", {}) or {}),
+        parameters={
+            **dict(getattr(problem.core, "parameters", {}) or {}),
+            **{k: v.reshape(batch_shape) for k, v in swept.items()},
+        },
     )
     return _finish(solution, raise_on_failure)
 

@@ -378,7 +378,9 @@ def number_form(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Exp
 
 
 def runtime_parameters(expr: Any, variables: tuple, values: Mapping[str, float]) -> dict[str, Any]:
-    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array.
+    """``expr``'s symbols other than ``variables``, sorted by name, and their ``values`` as an array: the fields
+    ``model_expression``, ``parameter_symbols``, ``prm`` and ``parameter_recipe`` (for each entry of ``prm``, the
+    name of the parameter it is the value of, and whether it is its reciprocal) of the solver's problem.
 
     A parameter in a denominator (``m1**2 / (2 I1)``) is read as its reciprocal, a parameter of its own whose
     value is computed here once: the compiled functions multiply where a formula with the values written in
@@ -398,4 +400,10 @@ def runtime_parameters(expr: Any, variables: tuple, values: Mapping[str, float])
     prm = [float(values[s.name]) for s in symbols] + [1.0 / float(values[names[r]]) for r in used]
     if isinstance(expr, sp.MatrixBase):
         expr = sp.ImmutableMatrix(expr)  # hashable: the generated source is cached by it
-    return {"model_expression": expr, "parameter_symbols": (*symbols, *used), "prm": np.array(prm, dtype=float)}
+    recipe = tuple((s.name, False) for s in symbols) + tuple((names[r], True) for r in used)
+    return {
+        "model_expression": expr,
+        "parameter_symbols": (*symbols, *used),
+        "prm": np.array(prm, dtype=float),
+        "parameter_recipe": recipe,
+    }

@@ -118,6 +118,22 @@ class RigidBody:
         }
         return RigidBody([merged["I1"], merged["I2"], merged["I3"]])
 
+    def check_parameters(self, values: Any) -> None:
+        """Check a batch of principal moments (``{"I1": array, ...}``, the others this body's; arrays
+        broadcast) as :meth:`with_parameters` checks one: positive, and the triangle inequality of a real body.
+        Raises :class:`~geomech.errors.InputError` naming the first offending member."""
+        given = {k: np.asarray(v, dtype=float) for k, v in dict(values).items()}
+        shape = np.broadcast_shapes(*(v.shape for v in given.values())) if given else ()
+        moments = np.stack(
+            [np.broadcast_to(given.get(k, self.parameters.get(k, np.nan)), shape) for k in ("I1", "I2", "I3")], -1
+        ).reshape(-1, 3)
+        bad = np.flatnonzero(~np.all(moments > 0, axis=1))
+        if bad.size:
+            raise InputError(f"Expected positive principal moments, got {moments[bad[0]].tolist()} (member {bad[0]}).")
+        for member in moments:
+            if np.max(2 * member - member.sum()) > 1e-12 * member.sum():
+                _check_triangle(member, member)
+
     def _build_system(self) -> LeftInvariantSystem:
         m = sp.Matrix(M_SYMBOLS)
         if self._diagonal:

@@ -204,7 +204,7 @@ def _run_compiled(
         reasons: dict[int, str] = {}
         start = time.perf_counter()
         steps, compile_time = run_embedded(
-            module, "numba", None, prm, pair, Y0, t0, times, tolerances, budget, OUT, INFO, reasons, {}, 1
+            module, "numba", None, prm[None, :], pair, Y0, t0, times, tolerances, budget, OUT, INFO, reasons, {}, 1
         )
         return OUT, INFO, reasons, steps, compile_time, time.perf_counter() - start - compile_time
 
