@@ -5,6 +5,7 @@
   body axis. Model: ``dh0, dh1, dh2`` (the scalar derivatives f_i').
 - ``mv_run``: the discrete Moser-Veselov rigid body (free body, P = inertia tensor, row-major).
 - ``lgvi_run``: the Lie-group variational integrator for a hyperregular H. Model: ``ghess3(m, g, Hm, prm)``.
+- ``cg_run``: explicit Crouch-Grossman methods (products of rotations). Model: ``ghess3``.
 
 See ``_k_common.py`` for the common loop signature.
 """
@@ -392,6 +393,48 @@ def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 3] = nnewton
+        INFO[b, 4] = nrhs
+
+
+@kernel
+def cg_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
+    """An explicit Crouch-Grossman method for m' = m x w, R' = R w^, w = grad H(m): every stage and the step
+    are products of the rotations exp(h a_ij w_j^) (m <- F^T m, R <- R F), so |m|, R in SO(3) and R m are kept
+    to round-off. P = (s, A (row-major, strictly lower), b)."""
+    B, d = Y0.shape
+    attitude = d == 12
+    s = int(P[0])
+    a = P[1 : 1 + s * s]
+    bw = P[1 + s * s : 1 + s * s + s]
+    y, m, X, tmp = np.empty(d), np.empty(3), np.empty(3), np.empty(3)
+    W = np.empty((s, 3))
+    E, hm = np.empty((3, 3)), np.empty((3, 3))
+    for b in range(B):
+        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        load(y, Y0, b)
+        store(OUT, b, SAVE0, y)
+        isave = 1
+        nrhs = 0
+        for k in range(1, nsteps + 1):
+            for i in range(s):
+                for u in range(3):
+                    m[u] = y[u]
+                for j in range(i):
+                    if a[i * s + j] != 0.0:
+                        for u in range(3):
+                            X[u] = h * a[i * s + j] * W[j, u]
+                        exp_so3_e(X, E)
+                        rotate_by(m, E, False, tmp)
+                call_model4(FP[F_GHESS3], m, W[i], hm, prm)
+            nrhs += s
+            for j in range(s):
+                for u in range(3):
+                    X[u] = h * bw[j] * W[j, u]
+                exp_so3_e(X, E)
+                rotate_by(y, E, attitude, tmp)
+            isave = finish_step(OUT, INFO, b, isave, k, nsteps, save_every, y)
+            if isave < 0:
+                break
         INFO[b, 4] = nrhs
 
 

@@ -20,6 +20,9 @@ References (short keys as in the docstrings):
 - [CM] Cortes & Martinez, Non-holonomic integrators, Nonlinearity 14 (2001).
 - [DP] Dormand & Prince, A family of embedded Runge-Kutta formulae, J. Comput. Appl. Math. 6 (1980).
 - [MK] Munthe-Kaas, High order Runge-Kutta methods on manifolds, Appl. Numer. Math. 29 (1999).
+- [CG] Crouch & Grossman, Numerical integration of ordinary differential equations on manifolds, J. Nonlinear
+  Sci. 3 (1993); [OM] Owren & Marthinsen, Runge-Kutta methods adapted to manifolds and based on rigid frames,
+  BIT 39 (1999).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._group import RKMK, RKMK4
 from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
 from ._lie_poisson import (
+    CrouchGrossman,
     LieGroupVariational,
     LiePoissonSplitting,
     MoserVeselov,
@@ -66,6 +70,7 @@ __all__ = [
     "LiePoissonSplitting",
     "MoserVeselov",
     "LieGroupVariational",
+    "CrouchGrossman",
     "PeriodicOrbit",
     "Quadrature",
     "SerretAndoyerAtlas",
@@ -111,6 +116,7 @@ REGISTRY: dict[str, Method] = {
         MoserVeselov(),
         LieGroupVariational("cayley"),
         LieGroupVariational("exp"),
+        CrouchGrossman(),
         SerretAndoyerAtlas(),
         PeriodicOrbit(),
         Quadrature(),

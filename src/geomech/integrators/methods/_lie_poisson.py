@@ -162,6 +162,51 @@ class LieGroupVariational(Method):
 
 
 @dataclass(frozen=True)
+class CrouchGrossman(Method):
+    """Crouch-Grossman method of order 3 on the coadjoint orbit and SO(3): explicit, in products of rotations.
+
+    The Lie-Poisson equations read :math:`\\dot m = -\\hat w\\, m`, :math:`\\dot R = R\\,\\hat w` with
+    :math:`w = \nabla H(m)`: the group SO(3) acts on the sphere :math:`|m| = \text{const}` (the coadjoint orbit)
+    and on the attitude. A Crouch-Grossman method ([CG]; [OM]) replaces the sums of a Runge-Kutta method by
+    products of exponentials of the frozen velocities: the stages
+    :math:`Y_i = \\exp(h a_{i,i-1}\\hat w_{i-1})^T\\cdots\\exp(h a_{i1}\\hat w_1)^T m_n`, :math:`w_i =
+    \nabla H(Y_i)`, and the step :math:`F = \\exp(h b_1 \\hat w_1)\\cdots\\exp(h b_s\\hat w_s)`,
+    :math:`m_{n+1} = F^T m_n`, :math:`R_{n+1} = R_n F`. It stays on the level set of the Casimir |m| and in SO(3)
+    to round-off, and keeps the spatial momentum :math:`R m` (each factor does), where a Runge-Kutta method
+    drifts off them: the embedding of the momentum's level set that section 8 of [SA] names as an alternative.
+    The coefficients are Crouch and Grossman's three-stage method (c = (0, 3/4, 17/24), b = (13/51, -2/3,
+    24/17)), which meets the four classical conditions of order 3 and the one more that non-commuting
+    exponentials impose (:math:`\\sum_i b_i^2 c_i + 2\\sum_{i<j} b_i c_i b_j = 1/3`).
+
+    Order 3; explicit; neither symplectic nor symmetric (the energy drifts). Structure: Lie-Poisson on so(3)*,
+    any H. Cost per step: 3 gradients of H and 6 rotations. Reference: [CG] Crouch & Grossman, Numerical
+    integration of ordinary differential equations on manifolds, J. Nonlinear Sci. 3 (1993); [OM] Owren &
+    Marthinsen, Runge-Kutta methods adapted to manifolds and based on rigid frames, BIT 39 (1999).
+    """
+
+    structure: ClassVar[Structure] = Structure.LIE_POISSON
+    explicit: ClassVar[bool] = True
+    preserves_casimirs: ClassVar[bool] = True
+    kernel: ClassVar[str] = "cg_run"
+    features: ClassVar[frozenset[str]] = frozenset({"ghess3"})
+
+    @property
+    def order(self) -> int:
+        return 3
+
+    @property
+    def key(self) -> str:
+        return "crouch_grossman"
+
+    def constants(self, problem: Any) -> np.ndarray:
+        A = np.zeros((3, 3))
+        A[1, 0] = 3.0 / 4.0
+        A[2, 0], A[2, 1] = 119.0 / 216.0, 17.0 / 108.0
+        b = np.array([13.0 / 51.0, -2.0 / 3.0, 24.0 / 17.0])
+        return np.concatenate([[3.0], A.ravel(), b])
+
+
+@dataclass(frozen=True)
 class SerretAndoyerAtlas(Method):
     """The reduced Serret-Andoyer flow on an atlas of three charts, with the reconstruction of the attitude.
 
