@@ -35,7 +35,9 @@ from .quaternion import _from_matrix as _quat_from_matrix
 __all__ = [
     "INTRINSIC_SEQUENCES",
     "EXTRINSIC_SEQUENCES",
+    "angular_velocity",
     "as_matrix",
+    "euler_rates",
     "from_matrix",
     "gimbal_margin",
     "gimbal_margin_angles",
@@ -304,3 +306,76 @@ def gimbal_margin_angles(angles: Any, seq: str = "ZXZ") -> np.ndarray:
     b = trailing_shape(angles, "angles", (3,))[..., 1]
     sb, cb = np.abs(np.sin(b)), np.abs(np.cos(b))
     return np.arctan2(sb, cb) if proper else np.arctan2(cb, sb)
+
+
+def angular_velocity(angles: Any, rates: Any, seq: str = "ZXZ", *, frame: str = "space") -> np.ndarray:
+    r"""The angular velocity of a rotation given by Euler angles and their rates.
+
+    With :math:`R` of :func:`as_matrix`, the spatial angular velocity is :math:`\hat\omega = \dot R R^T` and
+    the body one :math:`\hat\Omega = R^T\dot R = R^T \hat\omega R`. For an intrinsic ``"IJK"`` (angles
+    :math:`a, b, c`), :math:`\omega = \dot a\, e_I + \dot b\, R_I(a) e_J + \dot c\, R_I(a) R_J(b) e_K`; for an
+    extrinsic ``"ijk"``, :math:`\omega = \dot c\, e_k + \dot b\, R_k(c) e_j + \dot a\, R_k(c) R_j(b) e_i`.
+    For ``"ZXZ"`` and ``(phi, theta, psi)`` this is eq. (3) of the Serret-Andoyer paper with its second
+    component corrected (docs/conventions.md): :math:`\omega = (\dot\theta\cos\phi + \dot\psi\sin\phi\sin\theta,
+    \;\dot\theta\sin\phi - \dot\psi\cos\phi\sin\theta,\; \dot\phi + \dot\psi\cos\theta)`.
+
+    Parameters
+    ----------
+    angles, rates : array_like, shape (..., 3)
+        The angles and their time derivatives, in the order of the letters of ``seq``; broadcast together.
+    seq : str
+        One of the 24 sequences of :func:`as_matrix`.
+    frame : ``"space"`` or ``"body"``
+        The frame of the components of the result.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    E = _rate_matrix(angles, seq, frame)
+    rates = trailing_shape(rates, "rates", (3,))
+    return np.einsum("...ij,...j->...i", E, rates)
+
+
+def euler_rates(angles: Any, omega: Any, seq: str = "ZXZ", *, frame: str = "space") -> np.ndarray:
+    """The rates of Euler angles that give the angular velocity ``omega`` (inverse of :func:`angular_velocity`).
+
+    Raises
+    ------
+    SingularityError
+        At the gimbal singularity of ``seq`` (the middle angle 0 or pi for a proper sequence, +-pi/2 for a
+        Tait-Bryan one), where the rates are not determined; the message names where.
+    """
+    E = _rate_matrix(angles, seq, frame)
+    omega = trailing_shape(omega, "omega", (3,))
+    det = np.linalg.det(E)
+    bad = ~(np.abs(det) > 1e-12)
+    if np.any(bad):
+        where = np.argwhere(np.atleast_1d(bad))[0].tolist()
+        smallest = float(np.min(np.abs(det)))
+        raise SingularityError(
+            f"The Euler angles ({seq}) are at their gimbal singularity (rate matrix determinant {smallest:.2e} at "
+            f"batch index {where}): the rates are not determined there; use a rotation matrix or quaternion, or "
+            "another sequence."
+        )
+    return np.linalg.solve(E, np.broadcast_to(omega, E.shape[:-1])[..., None])[..., 0]
+
+
+def _rate_matrix(angles: Any, seq: str, frame: str) -> np.ndarray:
+    """The matrix E(angles) with omega = E (a', b', c'), in the frame asked, shape (..., 3, 3)."""
+    if frame not in ("space", "body"):
+        raise InputError(f"Expected `frame` to be 'space' or 'body', got {frame!r}.")
+    (i, j, k), intrinsic = _parse(seq)
+    angles = trailing_shape(angles, "angles", (3,))
+    Ra = _ELEMENTARY[i](angles[..., 0])
+    Rb = _ELEMENTARY[j](angles[..., 1])
+    Rc = _ELEMENTARY[k](angles[..., 2])
+    e = np.eye(3)
+    if intrinsic:
+        cols = [np.broadcast_to(e[i], Ra.shape[:-1]), Ra[..., :, j], (Ra @ Rb)[..., :, k]]
+        R = Ra @ Rb @ Rc
+    else:
+        cols = [(Rc @ Rb)[..., :, i], Rc[..., :, j], np.broadcast_to(e[k], Rc.shape[:-1])]
+        R = Rc @ Rb @ Ra
+    E = np.stack(cols, axis=-1)
+    return E if frame == "space" else np.swapaxes(R, -1, -2) @ E
