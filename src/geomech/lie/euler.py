@@ -315,9 +315,10 @@ def angular_velocity(angles: Any, rates: Any, seq: str = "ZXZ", *, frame: str = 
     the body one :math:`\hat\Omega = R^T\dot R = R^T \hat\omega R`. For an intrinsic ``"IJK"`` (angles
     :math:`a, b, c`), :math:`\omega = \dot a\, e_I + \dot b\, R_I(a) e_J + \dot c\, R_I(a) R_J(b) e_K`; for an
     extrinsic ``"ijk"``, :math:`\omega = \dot c\, e_k + \dot b\, R_k(c) e_j + \dot a\, R_k(c) R_j(b) e_i`.
-    For ``"ZXZ"`` and ``(phi, theta, psi)`` this is eq. (3) of the Serret-Andoyer paper with its second
-    component corrected (docs/conventions.md): :math:`\omega = (\dot\theta\cos\phi + \dot\psi\sin\phi\sin\theta,
-    \;\dot\theta\sin\phi - \dot\psi\cos\phi\sin\theta,\; \dot\phi + \dot\psi\cos\theta)`.
+    For ``"ZXZ"`` and ``(phi, theta, psi)`` the body one is eq. (2) of the Serret-Andoyer paper, and the
+    spatial one its eq. (3) with its second component corrected (docs/conventions.md):
+    :math:`\omega = (\dot\theta\cos\phi + \dot\psi\sin\phi\sin\theta,\;
+    \dot\theta\sin\phi - \dot\psi\cos\phi\sin\theta,\; \dot\phi + \dot\psi\cos\theta)`.
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ from .classical import (
     reduced_hamiltonian,
     reduced_vector_field,
 )
-from .euler_coordinates import EulerCoordinates, body_angular_velocity
+from .euler_coordinates import EulerCoordinates
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, reduced_numeric
 from .reduced_numeric import ReducedNumeric
@@ -35,7 +35,6 @@ __all__ = [
     "GeneralizedSerretAndoyer",
     "LPeriod",
     "SerretAndoyerChart",
-    "body_angular_velocity",
     "momentum_l",
     "period_of_l",
     "period_of_l_from_momentum",

@@ -32,7 +32,7 @@ from ..lie import euler
 from ..symbolic.compile import M_SYMBOLS, compile_vector
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 
-__all__ = ["EulerCoordinates", "body_angular_velocity"]
+__all__ = ["EulerCoordinates"]
 
 #: :math:`|\sin\theta|` at or below which the momenta of eq. (6) are not defined. ``sin(np.pi)`` is
 #: about 1.2e-16, so this catches theta = pi given in floating point, and nothing representable and
@@ -128,43 +128,6 @@ def _rates_from_omega(q: np.ndarray, omega: np.ndarray) -> np.ndarray:
     thetadot = omega[..., 0] * cp - omega[..., 1] * sp_
     psidot = omega[..., 2] - phidot * np.cos(theta)
     return np.stack([phidot, thetadot, psidot], -1)
-
-
-def body_angular_velocity(angles: Any, rates: Any) -> np.ndarray:
-    """Body angular velocity from 3-1-3 Euler angles and their rates (eq. 2).
-
-    .. math::
-
-        \\omega = \\begin{pmatrix} \\dot\\theta\\cos\\psi + \\dot\\phi\\sin\\psi\\sin\\theta \\\\
-        -\\dot\\theta\\sin\\psi + \\dot\\phi\\cos\\psi\\sin\\theta \\\\
-        \\dot\\phi\\cos\\theta + \\dot\\psi \\end{pmatrix},
-
-    derived from :math:`R^T\\dot R = \\hat\\omega` with :math:`R = R_z(\\phi)R_x(\\theta)R_z(\\psi)`;
-    eq. (2) of the Serret-Andoyer paper is printed correctly.
-
-    Parameters
-    ----------
-    angles, rates : array_like, shape (..., 3)
-        :math:`(\\phi, \\theta, \\psi)` and :math:`(\\dot\\phi, \\dot\\theta, \\dot\\psi)`.
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-    """
-    a = V.trailing_shape(angles, "angles", (3,))
-    r = V.trailing_shape(rates, "rates", (3,))
-    a, r = np.broadcast_arrays(a, r)
-    theta, psi = a[..., 1], a[..., 2]
-    fd, td, pd = r[..., 0], r[..., 1], r[..., 2]
-    st = np.sin(theta)
-    return np.stack(
-        [
-            td * np.cos(psi) + fd * np.sin(psi) * st,
-            -td * np.sin(psi) + fd * np.cos(psi) * st,
-            fd * np.cos(theta) + pd,
-        ],
-        -1,
-    )
 
 
 def _body_momentum_expressions() -> list[sp.Expr]:
@@ -453,7 +416,7 @@ class EulerCoordinates:
             From :meth:`LeftInvariantSystem.inverse_legendre` where :math:`\\nabla H` is not invertible.
         """
         a = V.trailing_shape(angles, "angles", (3,))
-        omega = body_angular_velocity(a, rates)
+        omega = euler.angular_velocity(a, rates, "ZXZ", frame="body")
         a = np.broadcast_to(a, omega.shape)
         m = self.system.inverse_legendre(omega, m_guess)
         return _momenta(a, m)
