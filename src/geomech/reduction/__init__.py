@@ -12,6 +12,7 @@ from .classical import (
     reduced_hamiltonian,
     reduced_vector_field,
 )
+from .coadjoint import CoadjointOrbit, StationarySubgroup
 from .euler_coordinates import EulerCoordinates
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, reduced_numeric
@@ -19,6 +20,8 @@ from .reduced_numeric import ReducedNumeric
 from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
 
 __all__ = [
+    "CoadjointOrbit",
+    "StationarySubgroup",
     "rotor_closed_forms",
     "AlmostPoissonStructure",
     "LagrangeDAlembert",
