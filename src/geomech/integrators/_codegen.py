@@ -66,6 +66,7 @@ _PREAMBLE_START = "# >>> template preamble"
 _PREAMBLE_END = "# <<< template preamble"
 _LOCK = threading.Lock()
 _MODULES: dict[str, Any] = {}
+_BY_MODEL: dict[tuple[str, str], Any] = {}
 
 
 def numba_available() -> bool:
@@ -187,6 +188,9 @@ def compiled_module(model_src: str, tag: str) -> Any:
     The model-independent helpers live in one shared module (``gm_k_*``) that the model module imports.
     Kept in memory for the process; the generated files and numba's cache persist across runs.
     """
+    known = _BY_MODEL.get((tag, model_src))
+    if known is not None:  # the source built, hashed and imported once per model and process
+        return known
     shared_src, model_part, names = _template_split()
     with _LOCK:
         shared = _load(_HEADER_NUMBA + shared_src, "k")
@@ -200,7 +204,9 @@ def compiled_module(model_src: str, tag: str) -> Any:
             + _twins(model_src)
             + _ADDRESSES
         )
-        return _load(source, tag)
+        module = _load(source, tag)
+        _BY_MODEL[(tag, model_src)] = module
+        return module
 
 
 def _twin_source(name: str) -> str:

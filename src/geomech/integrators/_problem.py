@@ -126,8 +126,10 @@ class Problem:
     def parameter_rows(self, values: Mapping[str, np.ndarray]) -> np.ndarray:
         """The compiled model's parameter rows ``(N, n_prm)`` for ``values`` (name -> ``(N,)`` array; the others
         keep the system's values), the derived parameters included (after :meth:`module`)."""
-        n = len(next(iter(values.values()))) if values else 1
         base = self.prm[: len(self.parameter_symbols)]
+        if not values and self.derived is None:  # the system's own values: one row
+            return np.ascontiguousarray(base[None, :], dtype=float)
+        n = len(next(iter(values.values()))) if values else 1
         own = {
             name: base[i] if not inverse else 1.0 / base[i] for i, (name, inverse) in enumerate(self.parameter_recipe)
         }

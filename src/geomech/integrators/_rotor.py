@@ -97,8 +97,16 @@ def _law_key(tau: Any) -> Any:
         return ("gait", tuple(tau.expressions))
     phi = getattr(tau, "phi_expression", None)
     if hasattr(tau, "feedback") and phi is not None:
-        return ("feedback", sp.ImmutableMatrix(phi), tuple(sorted(tau.parameters.items())))
+        key = _CONTROL_KEYS.get(tau)
+        if key is None:
+            key = _CONTROL_KEYS.setdefault(
+                tau, ("feedback", sp.ImmutableMatrix(phi), tuple(sorted(tau.parameters.items())))
+            )
+        return key
     return None
+
+
+_CONTROL_KEYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _formulas(body: RotorBody, tau: Any, timed: bool) -> dict[str, Any] | None:
