@@ -82,5 +82,14 @@ def test_bad_parameter_batches_are_refused_with_the_reason():
     with pytest.raises(InputError, match="compiled loops"):
         gm.solve(BODY, "rk4", m0=M0, h=0.1, t_final=1.0, parameters={"I1": [2.5]}, backend="python")
     rotors = gm.RotorBody.three_rotors([3.0, 2.0, 1.2], [0.1, 0.2, 0.3])
-    with pytest.raises(InputError, match="with_parameters"):
-        gm.solve(rotors, "rk4", m0=M0, Gamma0=[0, 0, 0], h=0.1, t_final=1.0, parameters={"J1": [0.1]})
+    with pytest.raises(InputError, match="with_parameters"):  # a torque law of Python code: not a formula
+        gm.solve(
+            rotors,
+            "rk4",
+            m0=M0,
+            Gamma0=[0, 0, 0],
+            h=0.1,
+            t_final=1.0,
+            tau=lambda *a: [0, 0, 0],
+            parameters={"J1": [0.1]},
+        )

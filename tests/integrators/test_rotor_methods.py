@@ -141,3 +141,22 @@ def test_a_law_of_python_code_runs_explicit_methods_and_refuses_implicit_ones():
     np.testing.assert_allclose(python.states, compiled.states, rtol=0, atol=1e-13)
     with pytest.raises(IncompatibleMethodError, match="Jacobian"):
         gm.solve(BODY, "gauss_legendre_2", h=0.01, **kw)
+
+
+def test_a_batch_of_inertias_is_the_bodies_built_with_them():
+    # Monte Carlo over the body's inertias under the same control law: one compiled call, each member the body
+    # built with its values (its own control law, whose feedback reads them), torques and energy included
+    lam, J1 = np.array([2.6, 3.0, 3.4]), np.array([0.1, 0.15, 0.2])
+    kw = dict(m0=M0, Gamma0=CONTROL.rotor_momentum(M0), t_final=10.0, saveat=3, rtol=1e-12, atol=1e-12)
+    batch = gm.solve(BODY, "dop853", tau=CONTROL, parameters={"lambda1": lam, "J1": J1}, **kw)
+    assert batch.states.shape == (3, 3, 18)
+    for i in range(3):
+        body = BODY.with_parameters(lambda1=lam[i], J1=J1[i])
+        control = StructurePreservingControl.diagonal(
+            body, ["2*tan(v/G)"] * 3, parameters={"G": 2.0}, p=[0.01, 0.02, -0.01]
+        )
+        one = gm.solve(body, "dop853", tau=control, **kw)
+        np.testing.assert_allclose(batch.states[i], one.states, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(batch.energy[i], one.energy, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(batch.tau[i], one.tau, rtol=0, atol=1e-14)
+    assert np.ptp(batch.tau[:, -1, 0]) > 1e-4  # the members' torques differ

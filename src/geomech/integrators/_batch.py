@@ -56,10 +56,11 @@ def parameter_batch(problem: Problem, method: Method, parameters: Any) -> tuple[
     if parameters is None:
         return {}, ()
     names = [n for n in problem.parameter_names if not n.startswith(("u_", "_p"))]
-    if problem.kind not in ("canonical", "lie_poisson") or not names:
+    if problem.kind not in ("canonical", "lie_poisson", "rotor") or not names or problem.model_expression is None:
         raise InputError(
-            f"`parameters` sets the parameters of a canonical or left-invariant system built from a formula with "
-            f"named parameters, or of a Lagrangian system; {problem.name} has none to set"
+            f"`parameters` sets the named parameters of a system built from a formula (canonical, left-invariant, a "
+            f"body with rotors of a named layout under a torque law of formulas) or of a Lagrangian system; "
+            f"{problem.name} has none to set here"
             + (" (build a body with other inertias with `with_parameters`)." if problem.kind == "rotor" else ".")
         )
     if not isinstance(parameters, Mapping):

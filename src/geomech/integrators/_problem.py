@@ -61,6 +61,8 @@ class Problem:
     law: Any = None
     torque: Any = None
     timed: bool = False
+    energy_expression: Any = None  # its H_f in (m, Gamma) and the parameters, for a batch of parameter values
+    torque_expressions: Any = None  # and its torques in the state and the parameters
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -161,7 +163,7 @@ class Problem:
         each trajectory's own."""
         ok = np.all(np.isfinite(states), axis=-1)
         out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
-        if rows is not None:
+        if rows is not None and self.kind != "rotor":
             out.update(self._lie_poisson_views(states) if self.kind == "lie_poisson" else {})
             out["energy"] = self._energy_with(states, rows, ok)
             return out
@@ -171,11 +173,23 @@ class Problem:
             n = self.core.n_rotors
             m, Gam = states[..., :3], states[..., 12 : 12 + n]
             R = states[..., 3:12].reshape(states.shape[:-1] + (3, 3))
-            energy = np.full(states.shape[:-1], np.nan)
-            energy[ok] = self.core.hamiltonian(m[ok], Gam[ok])
+            if rows is None:
+                energy = np.full(states.shape[:-1], np.nan)
+                energy[ok] = self.core.hamiltonian(m[ok], Gam[ok])
+            else:
+                energy = self._energy_with(states, rows, ok)
             out["energy"] = energy
             out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
-            out["tau"] = torques_along(self, t, states)
+            if rows is None or self.timed:  # (a law in time does not read the body's parameters)
+                out["tau"] = torques_along(self, t, states)
+            else:
+                u = _vector_function(self.torque_expressions, self.variables, self.parameter_symbols)
+                given = np.broadcast_to(
+                    rows[..., None, : len(self.parameter_symbols)], states.shape[:-1] + (len(self.parameter_symbols),)
+                )
+                tau = np.full(states.shape[:-1] + (n,), np.nan)
+                tau[ok] = u(np.concatenate([states, given], axis=-1)[ok])
+                out["tau"] = tau
             return out
         if self.kind == "canonical":
             energy = np.full(states.shape[:-1], np.nan)
@@ -200,20 +214,31 @@ class Problem:
     def _energy_with(self, states: np.ndarray, rows: np.ndarray, ok: np.ndarray) -> np.ndarray:
         """H at ``states`` with each trajectory's parameter row (the model's formula, its parameters read from the
         rows as the compiled loops read them)."""
-        variables = tuple(M_SYMBOLS) if self.kind == "lie_poisson" else self.variables
-        H = _energy_function(self.model_expression, variables, self.parameter_symbols)
-        k = len(variables)
+        if self.kind == "rotor":  # H_f(m, Gamma)
+            n = self.core.n_rotors
+            variables = tuple(self.variables[:3]) + tuple(self.variables[12 : 12 + n])
+            H = _energy_function(self.energy_expression, variables, self.parameter_symbols)
+            point = np.concatenate([states[..., :3], states[..., 12 : 12 + n]], axis=-1)
+        else:
+            variables = tuple(M_SYMBOLS) if self.kind == "lie_poisson" else self.variables
+            H = _energy_function(self.model_expression, variables, self.parameter_symbols)
+            point = states[..., : len(variables)]
         given = np.broadcast_to(
             rows[..., None, : len(self.parameter_symbols)], states.shape[:-1] + (len(self.parameter_symbols),)
         )
         energy = np.full(states.shape[:-1], np.nan)
-        energy[ok] = H(np.concatenate([states[..., :k], given], axis=-1)[ok])
+        energy[ok] = H(np.concatenate([point, given], axis=-1)[ok])
         return energy
 
 
 @functools.lru_cache(maxsize=32)
 def _energy_function(expr: sp.Expr, variables: tuple, parameters: tuple) -> Any:
     return compile_scalar(expr, [*variables, *parameters])
+
+
+@functools.lru_cache(maxsize=32)
+def _vector_function(exprs: tuple, variables: tuple, parameters: tuple) -> Any:
+    return compile_vector(list(exprs), [*variables, *parameters])
 
 
 # -- problems from systems ----------------------------------------------------------------------------

@@ -127,7 +127,15 @@ def _formulas(body: RotorBody, tau: Any, timed: bool) -> dict[str, Any] | None:
     rates = [sp.diff(H, g) for g in Gam]
     field = sp.ImmutableMatrix(list(m.cross(w)) + list(R * W) + list(u) + rates + ([sp.Integer(1)] if timed else []))
     runtime = runtime_parameters(field, variables, {**body.parameter_values(), **law_values})
-    return {"expression": field, "variables": variables, **runtime}
+    # H_f in (m, Gamma) and the body's parameters: the energy of each member of a batch of parameter values
+    # and the torques, for the same (a feedback reads the body's parameters through w)
+    return {
+        "expression": field,
+        "variables": variables,
+        "energy_expression": H,
+        "torque_expressions": tuple(u),
+        **runtime,
+    }
 
 
 def rotor_initial_states(

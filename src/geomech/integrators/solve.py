@@ -164,7 +164,8 @@ def solve(
         ``u(t, R, m, gamma, Gamma)`` or a feedback law such as a :class:`~geomech.StructurePreservingControl`).
     parameters : mapping, optional
         Values of a Lagrangian system's parameters not stored in it; for a canonical or left-invariant system
-        built from a formula with named parameters, values for this run, a number or an array for each: the
+        built from a formula with named parameters, or a body with rotors of a named layout (``lambda1``,
+        ``J1``, ...) under a torque law of formulas, values for this run, a number or an array for each: the
         arrays' broadcast shape is a batch of trajectories (broadcast with the initial states' batch), all of
         them in one compiled call (``Solution.parameters`` then holds the arrays, batch-shaped).
     max_steps : int
@@ -280,7 +281,6 @@ def solve(
     for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
         if value is not None:
             raise InputError(f"`{name}` applies to Lagrangian systems on G x S; {problem.name} is not one.")
-    swept, swept_shape = parameter_batch(problem, method, parameters)
     if problem.kind == "rotor":
         if y0 is not None:
             raise InputError(
@@ -304,6 +304,7 @@ def solve(
         )
     else:
         Y0, batch_shape = initial_states(problem, y0, m0, R0)
+    swept, swept_shape = parameter_batch(problem, method, parameters)
     if swept:
         try:
             full = np.broadcast_shapes(batch_shape, swept_shape)
