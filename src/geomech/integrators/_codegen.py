@@ -58,6 +58,7 @@ __all__ = [
 _TEMPLATES = (
     "_k_common.py",
     "_k_explicit.py",
+    "_k_embedded.py",
     "_k_implicit.py",
     "_k_canonical.py",
     "_k_liepoisson.py",
