@@ -34,13 +34,16 @@ import argparse
 import json
 import platform
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import sympy as sp
-from work_precision import best_of  # the timing of the work-precision harness (this script's directory)
+from work_precision import (  # the harness of the work-precision benchmark (this script's directory)
+    best_of,
+    heyoka_rows,
+    quadruple_reference,
+)
 
 import geomech as gm
 from geomech.integrators import BKMM, solve
@@ -110,14 +113,7 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
     start = solve(s, BKMM(), rtol=1e-13, atol=1e-14, **common)
     k = s.k
     y0 = np.r_[start.q[0, :k], start.p[0]]
-    q = hy.real128
-    ta = hy.taylor_adaptive(sys_hy, np.array([q(float(v)) for v in y0]), fp_type=q, tol=q("1e-32"))
-    ta.propagate_until(q(T))
-    ref = np.array([float(v) for v in ta.state])
-    ld = np.longdouble
-    check = hy.taylor_adaptive(sys_hy, y0.astype(ld), fp_type=ld, tol=ld(1e-19))
-    check.propagate_until(ld(T))
-    cross = float(np.abs(np.array(check.state, dtype=float) - ref).max())
+    ref, cross = quadruple_reference(hy, sys_hy, y0, T)
 
     def error(sol: Any) -> float:
         return float(np.abs(np.r_[sol.q[-1, :k], sol.p[-1]] - ref).max())
@@ -151,27 +147,7 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
                 n_rhs=sol.stats["n_rhs"],
             )
         )
-    for tol in HEYOKA_TOLS[1::2] if quick else HEYOKA_TOLS:
-        start_jit = time.perf_counter()
-        ta = hy.taylor_adaptive(sys_hy, y0.copy(), tol=tol)
-        jit = time.perf_counter() - start_jit
-
-        def run(ta: Any = ta) -> np.ndarray:
-            ta.time = 0.0
-            ta.state[:] = y0
-            ta.propagate_until(T)
-            return ta.state.copy()
-
-        wall, state = best_of(run, repeats)
-        rows.append(
-            dict(
-                who="heyoka taylor_adaptive",
-                tol=tol,
-                error=float(np.abs(state - ref).max()),
-                wall_ms=wall * 1e3,
-                compile_s=jit,
-            )
-        )
+    rows += heyoka_rows(hy, sys_hy, y0, T, ref, HEYOKA_TOLS[1::2] if quick else HEYOKA_TOLS, repeats)
     return dict(
         problem=name,
         parameters=case["parameters"],

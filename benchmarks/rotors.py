@@ -29,12 +29,15 @@ import argparse
 import json
 import platform
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from work_precision import best_of  # the timing of the work-precision harness (this script's directory)
+from work_precision import (  # the harness of the work-precision benchmark (this script's directory)
+    best_of,
+    heyoka_rows,
+    quadruple_reference,
+)
 
 import geomech as gm
 from geomech.lie import so3
@@ -89,14 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     y0 = np.r_[M0, R0.ravel(), Gamma0, np.zeros(3)]
 
     sys_hy = heyoka_system(hy)
-    q = hy.real128
-    ta = hy.taylor_adaptive(sys_hy, np.array([q(float(v)) for v in y0]), fp_type=q, tol=q("1e-32"))
-    ta.propagate_until(q(T))
-    ref = np.array([float(v) for v in ta.state])
-    ld = np.longdouble
-    check = hy.taylor_adaptive(sys_hy, y0.astype(ld), fp_type=ld, tol=ld(1e-19))
-    check.propagate_until(ld(T))
-    cross = float(np.abs(np.array(check.state, dtype=float) - ref).max())
+    ref, cross = quadruple_reference(hy, sys_hy, y0, T)
 
     def error(sol: Any) -> float:
         return float(np.abs(sol.states[-1] - ref).max())
@@ -130,27 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         kw = dict(rtol=tol, atol=tol, backend="python", **common)
         wall, sol = best_of(lambda kw=kw: gm.solve(body, "solve_ivp", **kw), 2, budget=10.0)
         rows.append(dict(who="geomech solve_ivp (Python, scipy DOP853)", tol=tol, error=error(sol), wall_ms=wall * 1e3))
-    for tol in HEYOKA_TOLS[1::2] if args.quick else HEYOKA_TOLS:
-        start_jit = time.perf_counter()
-        ta = hy.taylor_adaptive(sys_hy, y0.copy(), tol=tol)
-        jit = time.perf_counter() - start_jit
-
-        def run(ta: Any = ta) -> np.ndarray:
-            ta.time = 0.0
-            ta.state[:] = y0
-            ta.propagate_until(T)
-            return ta.state.copy()
-
-        wall, state = best_of(run, repeats)
-        rows.append(
-            dict(
-                who="heyoka taylor_adaptive",
-                tol=tol,
-                error=float(np.abs(state - ref).max()),
-                wall_ms=wall * 1e3,
-                compile_s=jit,
-            )
-        )
+    rows += heyoka_rows(hy, sys_hy, y0, T, ref, HEYOKA_TOLS[1::2] if args.quick else HEYOKA_TOLS, repeats)
     out = dict(
         machine=f"{platform.machine()} {platform.processor()}, {platform.python_version()}",
         versions=dict(geomech=gm.__version__, heyoka=hy.__version__, numpy=np.__version__),

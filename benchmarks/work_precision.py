@@ -355,18 +355,55 @@ def run_scipy(prob: Problem, name: str, tol: float, T: float, ref: np.ndarray, r
     return rec
 
 
-def run_heyoka(hy: Any, prob: Problem, tol: float, T: float, ref: np.ndarray, repeats: int) -> dict:
+def heyoka_timed(hy: Any, system: list, y0: np.ndarray, T: float, tol: float, repeats: int) -> tuple:
+    """heyoka's ``propagate_until(T)`` from a reset state, best of ``repeats``: (wall time, final state, the
+    integrator, its construction and JIT time, which is not in the wall time)."""
     t = time.perf_counter()
-    ta = hy.taylor_adaptive(prob.heyoka_system(hy), prob.y0.copy(), tol=tol)
+    ta = hy.taylor_adaptive(system, y0.copy(), tol=tol)
     compile_time = time.perf_counter() - t
 
     def run() -> np.ndarray:
         ta.time = 0.0
-        ta.state[:] = prob.y0
+        ta.state[:] = y0
         ta.propagate_until(T)
         return ta.state.copy()
 
     wall, final = best_of(run, repeats)
+    return wall, final, ta, compile_time
+
+
+def heyoka_rows(hy: Any, system: list, y0: np.ndarray, T: float, ref: np.ndarray, tols: Any, repeats: int) -> list:
+    """One table row per tolerance of heyoka on ``system`` (the error of the state at ``T`` against ``ref``)."""
+    rows = []
+    for tol in tols:
+        wall, state, _, jit = heyoka_timed(hy, system, y0, T, tol, repeats)
+        rows.append(
+            dict(
+                who="heyoka taylor_adaptive",
+                tol=tol,
+                error=float(np.abs(state - ref).max()),
+                wall_ms=wall * 1e3,
+                compile_s=jit,
+            )
+        )
+    return rows
+
+
+def quadruple_reference(hy: Any, system: list, y0: np.ndarray, T: float) -> tuple[np.ndarray, float]:
+    """The state at ``T`` by heyoka in quadruple precision (real128, tolerance 1e-32), and its distance to heyoka
+    in long double (tolerance 1e-19): the reference and how far it can be trusted."""
+    q = hy.real128
+    ta = hy.taylor_adaptive(system, np.array([q(float(v)) for v in y0]), fp_type=q, tol=q("1e-32"))
+    ta.propagate_until(q(T))
+    ref = np.array([float(v) for v in ta.state])
+    ld = np.longdouble
+    check = hy.taylor_adaptive(system, y0.astype(ld), fp_type=ld, tol=ld(1e-19))
+    check.propagate_until(ld(T))
+    return ref, float(np.abs(np.array(check.state, dtype=float) - ref).max())
+
+
+def run_heyoka(hy: Any, prob: Problem, tol: float, T: float, ref: np.ndarray, repeats: int) -> dict:
+    wall, final, ta, compile_time = heyoka_timed(hy, prob.heyoka_system(hy), prob.y0, T, tol, repeats)
     # the energy along the run, from a separate (untimed) run with output on a grid
     ta.time = 0.0
     ta.state[:] = prob.y0

@@ -20,6 +20,7 @@ from ._k_common import (
     load,
     max_abs,
     newton_update,
+    param_row,
     store,
 )
 
@@ -104,7 +105,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, P
     counts = np.zeros(2)  # rhs evaluations, Newton iterations
     off = n if variant == 0 else 0  # the implicit unknown is p (variant 0) or q
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -173,7 +174,7 @@ def verlet_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     n = d // 2
     y, g, gq = np.empty(d), np.empty(d), np.empty(n)
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1

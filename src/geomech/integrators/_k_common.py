@@ -60,6 +60,12 @@ F_GHESS3 = 6
 
 
 @kernel
+def param_row(PRM, b):
+    """The parameter values of trajectory ``b``: ``PRM`` has one row for all trajectories, or one for each."""
+    return PRM[0] if PRM.shape[0] == 1 else PRM[b]
+
+
+@kernel
 def finite(y):
     for i in range(y.shape[0]):
         if not math.isfinite(y[i]):

@@ -16,6 +16,7 @@ from ._k_common import (
     fail,
     finite,
     kernel,
+    param_row,
     store,
 )
 from ._k_explicit import (
@@ -253,7 +254,7 @@ def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns
     W = np.empty((6, d))
     S = np.empty(EK_SIZE)
     for b in range(nb):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)
         while action != ERK_DONE:
             if action == ERK_F0:

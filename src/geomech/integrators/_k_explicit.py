@@ -19,6 +19,7 @@ from ._k_common import (
     finite,
     kernel,
     load,
+    param_row,
     store,
 )
 
@@ -49,7 +50,7 @@ def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     y = np.empty(d)
     k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -77,7 +78,7 @@ def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     fstar = np.empty(d)
     fp = FP[F_RHS]
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1

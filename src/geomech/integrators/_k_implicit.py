@@ -23,6 +23,7 @@ from ._k_common import (
     max_abs,
     newton_done,
     newton_update,
+    param_row,
     store,
 )
 
@@ -46,7 +47,7 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     f, r, tmp = np.empty(d), np.empty(d), np.empty(d)
     J, A = np.empty((d, d)), np.empty((d, d))
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -101,7 +102,7 @@ def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
     hh = 0.5 * h
     f, J, y = np.empty(2), np.empty((2, 2)), np.empty(2)
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         y0, y1 = Y0[b, 0], Y0[b, 1]
         OUT[b, 0, 0], OUT[b, 0, 1] = y0, y1
         isave = 1
@@ -180,7 +181,7 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     Js = np.empty((s, d, d))
     M = np.empty((n, n))
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1

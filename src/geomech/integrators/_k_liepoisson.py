@@ -28,6 +28,7 @@ from ._k_common import (
     load,
     max_abs,
     newton_update,
+    param_row,
     store,
 )
 
@@ -189,7 +190,7 @@ def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     fsal = J > 1 and axes[0] == axes[J - 1]
     y = np.empty(d)
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -343,7 +344,7 @@ def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     mu, g, u, v, tmp = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     D, hm, A, F = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
@@ -410,7 +411,7 @@ def cg_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     W = np.empty((s, 3))
     E, hm = np.empty((3, 3)), np.empty((3, 3))
     for b in range(B):
-        prm = PRM[0] if PRM.shape[0] == 1 else PRM[b]
+        prm = param_row(PRM, b)
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
         isave = 1
