@@ -41,7 +41,8 @@ def test_a_torque_gait_on_rotors_is_the_torque_callable():
     kw = dict(t_final=t[-1], saveat=t, m0=[0.4, 1.0, -0.3], Gamma0=[0.05, -0.1, 0.2], rtol=1e-12, atol=1e-12)
     a = gm.solve(body, "solve_ivp", tau=gait, **kw)
     b = gm.solve(body, "solve_ivp", tau=torque, **kw)
-    np.testing.assert_allclose(a.states, b.states, rtol=0, atol=1e-14)
+    # the same equations, the torque compiled from its formula or called in Python: equal to round-off of the states
+    np.testing.assert_allclose(a.states, b.states, rtol=0, atol=1e-13 * max(1.0, float(np.abs(b.states).max())))
     power = np.sum(a.tau * body.rotor_rates(a.m, a.Gamma), axis=-1)
     np.testing.assert_allclose(a.energy[-1] - a.energy[0], trapezoid(power, t), atol=1e-4)
     assert np.ptp(np.linalg.norm(a.spatial_momentum, axis=-1)) < 1e-10

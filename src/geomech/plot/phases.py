@@ -194,7 +194,8 @@ def connection_field(
     mag = np.hypot(A[..., 0], A[..., 1])
     name = model.group.algebra_names[c]
     tex = _connection_tex(model)
-    if mag.max() > 0:
+    # a component zero in exact arithmetic comes out at round-off of the others: below that it is drawn as zero
+    if mag.max() > 1e-12 * max(1.0, float(np.abs(A_all).max())):
         q = ax.quiver(X, Y, -A[..., 0], -A[..., 1], mag, cmap="viridis", pivot="mid")
         ax.figure.colorbar(q, ax=ax, label=f"$|{tex}|$ ({name})")
     else:
