@@ -51,6 +51,7 @@ __all__ = [
     "kernel_source",
     "model_functions",
     "numba_available",
+    "python_header",
     "python_module",
     "rhs_address",
 ]
@@ -278,6 +279,11 @@ def model_functions(loop: str) -> tuple[str, ...]:
                 elif node.id in functions:
                     todo.append(node.id)
     return tuple(name for name in MODEL_FUNCTIONS if name in found)
+
+
+def python_header() -> str:
+    """The header of generated source run as plain Python (``kernel`` the identity)."""
+    return _HEADER_PYTHON
 
 
 class _Namespace:

@@ -146,7 +146,8 @@ def solve(
     q0, qdot0, rdot0, p0 :
         The initial state of a Lagrangian system: coordinates, and velocities given as all of them
         (``qdot0``), or as the shape rates with the nonholonomic momentum (``rdot0``, ``p0``); see
-        :func:`~geomech.integrators.initial_state`.
+        :func:`~geomech.integrators.initial_state`. ``q0``, ``rdot0`` and ``p0`` given as arrays with leading
+        axes (``(..., n)``, ``(..., sigma)``, ``(..., m)``) are a batch (BKMM, compiled).
     Gamma0, gamma0 : array_like, shape (..., N)
         A body with rotors: the rotors' axial momenta and angles (default 0); broadcast against ``m0`` and
         ``R0`` (default the identity). Every method for an ODE applies; with a torque law given by formulas (none,
@@ -160,10 +161,14 @@ def solve(
         A Lagrangian system's prescribed shapes (``{"psi": "sin(2*pi*t)"}`` or a :class:`~geomech.Gait`)
         and the torques on its free shapes (a mapping of formulas in ``t``, the coordinates and velocities, or
         of callables; or open-loop torques in time as a :class:`~geomech.Gait`, the same type as the shapes);
+        formulas may hold named coefficients (``"a*sin(w*t + c)"``) whose values are given in ``parameters``;
         the rotor torques of a body with rotors (a :class:`~geomech.Gait` in time, a callable
         ``u(t, R, m, gamma, Gamma)`` or a feedback law such as a :class:`~geomech.StructurePreservingControl`).
     parameters : mapping, optional
-        Values of a Lagrangian system's parameters not stored in it; for a canonical or left-invariant system
+        Values of a Lagrangian system's parameters not stored in it, and of the coefficients of its gait's and
+        torques' formulas, a number or an array for each: arrays (their broadcast shape, with the initial states'
+        batch) make a batch of trajectories in one call of the compiled BKMM loop, across ``threads`` (a gait
+        ensemble: ``{"a": amplitudes, "c": phases}``); for a canonical or left-invariant system
         built from a formula with named parameters, or a body with rotors of a named layout (``lambda1``,
         ``J1``, ...) under a torque law of formulas, values for this run, a number or an array for each: the
         arrays' broadcast shape is a batch of trajectories (broadcast with the initial states' batch), all of
@@ -276,6 +281,7 @@ def solve(
             newton_tol=tol,
             max_newton=int(max_newton),
             backend=backend,
+            threads=threads,
         )
         return _finish(solution, raise_on_failure)
     for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):

@@ -342,6 +342,13 @@ class StraightLine:
         self.flush()
         return "\n".join(indent + line for line in self.lines) + "\n"
 
+    def copy(self) -> StraightLine:
+        """The code so far, continued apart: two functions that share their beginning (the values named so far)."""
+        self.flush()
+        other = StraightLine(self._prefix)
+        other.lines, other._count, other._cse = list(self.lines), self._count, self._cse
+        return other
+
 
 def _hoist_numbers(e: sp.Expr, table: dict[sp.Symbol, float], first: int) -> sp.Expr:
     """``e`` with its numeric coefficients and terms (not its exponents, not +-1) replaced by the parameters

@@ -20,6 +20,8 @@ form (``a sin(w t + phi)``, whatever a, w and phi) share one compilation.
 from __future__ import annotations
 
 import weakref
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -32,7 +34,7 @@ from ...systems.gait import T_SYMBOL
 from .. import _codegen
 from ..methods import DormandPrince
 
-__all__ = ["COMPILED_SOLVERS", "bkmm_module", "bkmm_source", "compiled_pair"]
+__all__ = ["BKMMSource", "COMPILED_SOLVERS", "bkmm_module", "bkmm_source", "compiled_pair", "observe"]
 
 #: scipy's solvers of the BKMM method that have a compiled twin: the same pairs, the same error control
 COMPILED_SOLVERS = {"DOP853": "DOP853", "RK45": "DOPRI5"}
@@ -78,17 +80,62 @@ _SOURCES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _TIME = sp.Symbol("_t")
 
 
-def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
-    """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and the values of the
-    gait's and the torques' numbers (read after the system's parameters), or None where the gait or a torque is a
-    Python callable. Generated once per system, basis and form of the gait and torques."""
-    gait, torques = setup.gait, setup.torques
-    if torques.expressions is None or (setup.prescribed and gait.expressions is None):
+@dataclass(frozen=True)
+class BKMMSource:
+    """The generated module's source and what each entry of its ``prm`` is: the system's parameters (by name), then
+    the numbers of the gait's and the torques' formulas (values), then their named coefficients (by name)."""
+
+    source: str
+    parameters: tuple[str, ...]
+    constants: np.ndarray
+    coefficients: tuple[str, ...]
+    #: the width of a row of :func:`observe`'s output: q, qdot, the shape forces, the energy, the constraints
+    observed: int
+
+    def rows(self, values: Mapping[str, Any], B: int) -> np.ndarray:
+        """The ``prm`` rows of a batch of ``B`` members (one row where no value is an array): each name's value,
+        a scalar or an array of ``B`` (a batch's members, flattened)."""
+        names = self.parameters + self.coefficients
+        arrays = [np.asarray(values[n], dtype=float).reshape(-1) for n in names]
+        n_rows = B if any(a.size > 1 for a in arrays) else 1
+        out = np.empty((n_rows, len(names) + len(self.constants)))
+        k = len(self.parameters)
+        for i, a in enumerate(arrays[:k]):
+            out[:, i] = a
+        out[:, k : k + len(self.constants)] = self.constants
+        for i, a in enumerate(arrays[k:]):
+            out[:, k + len(self.constants) + i] = a
+        return out
+
+
+def bkmm_source(setup: Any, reduction: Any) -> BKMMSource | None:
+    """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and its observation, and
+    the layout of the values they read, or None where the gait or a torque is a Python callable. Generated once per
+    system, basis and form of the gait and torques."""
+    gait_forms, torques = setup.gait_forms, setup.torques
+    if torques.expressions is None or (setup.prescribed and gait_forms is None):
         return None
+    system = setup.system
+    own = {q.name: sp.Symbol(f"_p{i}") for i, q in enumerate(system.parameter_symbols)}
+    first = len(own)
+
+    def named(e: sp.Expr) -> sp.Expr:
+        return e.xreplace(
+            {
+                q: own.get(q.name, sp.Symbol(f"_c_{q.name}"))
+                for q in e.free_symbols
+                if q.name in own or q.name in setup.coefficients
+            }
+        )
+
     table: dict[sp.Symbol, float] = {}
-    first = len(setup.system.parameter_symbols)
-    gait_forms = tuple(number_form(e.xreplace({T_SYMBOL: _TIME}), table, first) for e in gait.expressions or ())
-    torque_forms = tuple(number_form(e, table, first) for e in torques.expressions)
+    gait_forms = tuple(number_form(named(e).xreplace({T_SYMBOL: _TIME}), table, first) for e in gait_forms or ())
+    torque_forms = tuple(number_form(named(e), table, first) for e in torques.expressions)
+    slots = {
+        sp.Symbol(f"_c_{name}"): sp.Symbol(f"_p{first + len(table) + j}") for j, name in enumerate(setup.coefficients)
+    }
+    gait_forms = tuple(e.xreplace(slots) for e in gait_forms)
+    torque_forms = tuple(e.xreplace(slots) for e in torque_forms)
     key = (
         sp.ImmutableMatrix(reduction.basis),
         gait_forms,
@@ -96,10 +143,16 @@ def bkmm_source(setup: Any, reduction: Any) -> tuple[str, np.ndarray] | None:
         tuple(setup.free_shapes),
         tuple(setup.prescribed),
     )
-    known = _SOURCES.setdefault(setup.system, {})
+    known = _SOURCES.setdefault(system, {})
     if key not in known:
-        known[key] = _generate(setup, reduction, gait_forms, torque_forms, first + len(table))
-    return known[key], np.array(list(table.values()), dtype=float)
+        known[key] = _generate(setup, reduction, gait_forms, torque_forms, first + len(table) + len(slots))
+    return BKMMSource(
+        known[key],
+        tuple(own),
+        np.array(list(table.values()), dtype=float),
+        setup.coefficients,
+        2 * system.n + system.sigma + 1 + system.c,
+    )
 
 
 def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int) -> str:
@@ -232,6 +285,13 @@ def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple
         tau_v[j] = tau_f[jj]
     for jj, j in enumerate(P):
         tau_v[j] = z[nF + jj]
+    # what a saved state shows (observe): q, qdot, the shape forces, the energy and the constraints A(q) qdot
+    seen = code.copy()
+    qdot = sp.Matrix(list(gdot) + rd)
+    energy = sp.sympify(system.energy).xreplace(at).xreplace(params)
+    residual = (sp.Matrix(system.constraint_matrix).xreplace(at).xreplace(params) * qdot) if c else sp.zeros(0, 1)
+    observed = seen.values(list(g) + r + list(qdot) + tau_v + [energy] + list(residual))
+    seen.line("\n".join(f"out[{i}] = {seen.code(v)}" for i, v in enumerate(observed)))
     outputs = (
         list(gdot)
         + [rd[j] for j in F]
@@ -251,13 +311,66 @@ def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple
         "    out = numba.carray(out_, (d,))\n"
         "    prm = numba.carray(prm_, (n_prm,))\n"
     )
-    return "@kernel\ndef rhs(y, out, prm):\n" + body + "\n\n" + c_twin + body
+    return (
+        "@kernel\ndef rhs(y, out, prm):\n"
+        + body
+        + "\n\n"
+        + c_twin
+        + body
+        + "\n\n@kernel\ndef observe(y, out, prm):\n"
+        + seen.body()
+        + _OBSERVE_ALL
+    )
 
 
-def bkmm_module(setup: Any, reduction: Any, parameters: Any) -> tuple[Any, np.ndarray] | None:
-    """The compiled module of ``setup``'s BKMM equations and the values ``prm`` it reads (the system's parameters,
-    then the gait's and the torques' numbers), or None where they cannot be compiled (numba missing, a callable
-    gait or torque, a function numba lacks)."""
+# the observation of saved states: rows of Y (n_members x n_saved, flattened), member i // per's parameters
+_OBSERVE_ALL = """
+
+@kernel
+def observe_all(Y, OUT, PRM, per):
+    for i in range(Y.shape[0]):
+        finite = True
+        for j in range(Y.shape[1]):
+            if not math.isfinite(Y[i, j]):
+                finite = False
+        if finite:
+            observe(Y[i], OUT[i], PRM[i // per if PRM.shape[0] > 1 else 0])
+        else:
+            for j in range(OUT.shape[1]):
+                OUT[i, j] = math.nan
+"""
+
+
+#: Up to this many states the observation runs as Python (about 25 us a state for the snakeboard): compiling it
+#: costs seconds, once per system and form of the gait.
+PYTHON_ROWS = 4000
+_PYTHON: dict[str, Any] = {}
+
+
+def observe(module: Any, made: BKMMSource, Y: np.ndarray, PRM: np.ndarray, per: int) -> np.ndarray:
+    """What the states ``Y`` (rows of ``(g, r_F, rdot_F, p, W, t)``) show, ``(rows, made.observed)``: q, qdot, the
+    shape forces, the energy, the constraints; NaN for a state that is not finite. Row i reads the parameters of
+    member ``i // per`` (a batch's saved states, member by member)."""
+    Y = np.ascontiguousarray(Y, dtype=float)
+    OUT = np.empty((Y.shape[0], made.observed))
+    observe_all = module.observe_all
+    if Y.shape[0] <= PYTHON_ROWS and not observe_all.signatures:
+        namespace = _PYTHON.get(made.source)
+        if namespace is None:  # the same source as plain Python
+            namespace = {}
+            exec(compile(_codegen.python_header() + made.source, "<geomech BKMM>", "exec"), namespace)
+            if len(_PYTHON) >= 32:
+                _PYTHON.pop(next(iter(_PYTHON)))
+            _PYTHON[made.source] = namespace
+        observe_all = namespace["observe_all"]
+    observe_all(Y, OUT, PRM, per)
+    return OUT
+
+
+def bkmm_module(setup: Any, reduction: Any) -> tuple[Any, BKMMSource] | None:
+    """The compiled module of ``setup``'s BKMM equations and the layout of the values ``prm`` it reads (the
+    system's parameters, the gait's and the torques' numbers, their coefficients), or None where they cannot be
+    compiled (numba missing, a callable gait or torque, a function numba lacks)."""
     if not _codegen.numba_available():
         return None
     try:
@@ -267,7 +380,4 @@ def bkmm_module(setup: Any, reduction: Any, parameters: Any) -> tuple[Any, np.nd
         return None
     if made is None:
         return None
-    source, constants = made
-    values = setup.system.parameter_values(parameters)
-    prm = np.r_[np.array([float(values[q]) for q in setup.system.parameter_symbols], dtype=float), constants]
-    return _codegen.compiled_module(source, "bk"), prm
+    return _codegen.compiled_module(made.source, "bk"), made

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -24,7 +25,7 @@ from .._adaptive import (
 )
 from .._runners import INFO_COLUMNS, run_embedded
 from ..solution import Failure, Status
-from ._compiled import COMPILED_SOLVERS, bkmm_module, compiled_pair
+from ._compiled import COMPILED_SOLVERS, bkmm_module, compiled_pair, observe
 from ._inputs import _group_rates, _Setup
 from ._trajectory import _accelerations, _Raw
 
@@ -153,7 +154,7 @@ def run_reduced(
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
     pair = compiled_pair(method.solver) if backend != "python" else None
-    compiled = bkmm_module(setup, red, parameters) if pair is not None else None
+    compiled = bkmm_module(setup, red) if pair is not None else None
     if compiled is None and backend == "numba":
         raise InputError(
             f"backend='numba' runs BKMM with the solvers {sorted(COMPILED_SOLVERS)} on a gait and torques given as "
@@ -162,72 +163,171 @@ def run_reduced(
             + "."
         )
     if compiled is not None:
-        assert pair is not None
-        budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
-        module, prm = compiled
-        Y, failure, nfev, n_steps, compile_time, loop_time = _run_compiled(
-            module, pair, prm, y0, t0, times, tolerances, budget
+        module, made = compiled
+        run = run_bkmm(
+            module,
+            made,
+            made.rows({**system.parameters, **dict(parameters or {})}, 1),
+            y0[None],
+            t0,
+            times,
+            method,
+            tolerances,
+            max_evaluations,
+            1,
         )
-        used = "numba"
-    else:
-        budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-        Y, failure, nfev, n_steps = integrate_ivp(
-            "BKMM", rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR
-        )
-        used, compile_time, loop_time = "python", 0.0, None
+        failure = run.failures[0][1] if run.failures else None
+        return run.raw(setup, m, 0, failure)
+    budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
+    Y, failure, nfev, n_steps = integrate_ivp("BKMM", rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR)
     Q, QD, TAU = _rows(setup, times, Y, evaluate)
-    return _Raw(
-        Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps, backend=used, compile_time=compile_time, loop_time=loop_time
-    )
+    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
 
 
-def _run_compiled(
+@dataclass
+class BKMMRun:
+    """A compiled BKMM run of a batch: the states ``(B, n_saved, d)`` (``(g, r_F, rdot_F, p, W)``), what they show
+    ``(B, n_saved, w)`` (:class:`~._compiled.BKMMSource`'s observation: q, qdot, shape forces, energy, constraints),
+    the failures by member, the evaluations and accepted steps in all, and the compile and loop times."""
+
+    states: np.ndarray
+    observed: np.ndarray
+    failures: list[tuple[int, Failure]]
+    nfev: int
+    steps: int
+    compile_time: float
+    loop_time: float
+
+    def raw(self, setup: _Setup, m: int, b: int, failure: Failure | None) -> _Raw:
+        """Member ``b`` as the engines' :class:`_Raw`, its quantities included."""
+        s = setup.system
+        n, sigma, c = s.n, s.sigma, s.c
+        k_p = s.k + 2 * len(setup.free_shapes)
+        w, y = self.observed[b], self.states[b]
+        return _Raw(
+            w[:, :n],
+            w[:, n : 2 * n],
+            w[:, 2 * n : 2 * n + sigma],
+            y[:, -1],
+            failure,
+            int(self.nfev),
+            steps=self.steps,
+            backend="numba",
+            compile_time=self.compile_time,
+            loop_time=self.loop_time,
+            energy=w[:, 2 * n + sigma],
+            momentum=y[:, k_p : k_p + m],
+            residual=w[:, 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
+        )
+
+
+def run_bkmm(
     module: Any,
-    pair: Any,
-    prm: np.ndarray,
-    y0: np.ndarray,
+    made: Any,
+    PRM: np.ndarray,
+    Y0: np.ndarray,
     t0: float,
     times: np.ndarray,
+    method: Any,
     tolerances: tuple[float, float],
     max_evaluations: Any,
-) -> tuple[np.ndarray, Failure | None, int, int, float, float]:
-    """The BKMM state ``(g, r_F, rdot_F, p, W)`` at ``times`` by the compiled pair (the time appended to the
-    state, its rate 1), as :func:`~geomech.integrators._adaptive.integrate_ivp` returns it, the compile time and
-    the time of the compiled loop alone."""
-    Y0 = np.r_[y0, t0][None, :]
-    limit = float(V.positive_scalar(max_evaluations, "max_evaluations"))
+    threads: int,
+) -> BKMMRun:
+    """The BKMM states ``Y0`` (rows ``(g, r_F, rdot_F, p, W)``, one per member; ``PRM`` one row for all or one per
+    member) at ``times`` by the compiled pair of ``method.solver``, the time appended to the state (its rate 1), the
+    members over ``threads``; each member's work bounded before it is done (a pilot of its first evaluations, its
+    pace projected to the end, as in Python), its failure its own."""
+    limit = float(
+        V.positive_scalar(MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations, "max_evaluations")
+    )
+    pair = compiled_pair(method.solver)
+    assert pair is not None
+    Y0 = np.ascontiguousarray(np.concatenate([Y0, np.full((Y0.shape[0], 1), float(t0))], axis=1))
+    B, d = Y0.shape
     t_end = float(times[-1])
-
-    def run(budget: float) -> tuple[np.ndarray, np.ndarray, dict[int, str], int, float, float]:
-        OUT = np.empty((1, len(times), Y0.shape[1]))
-        INFO = np.zeros((1, INFO_COLUMNS))
-        reasons: dict[int, str] = {}
-        start = time.perf_counter()
-        steps, compile_time = run_embedded(
-            module, "numba", None, prm[None, :], pair, Y0, t0, times, tolerances, budget, OUT, INFO, reasons, {}, 1
+    OUT = np.empty((B, len(times), d))
+    INFO = np.zeros((B, INFO_COLUMNS))
+    reasons: dict[int, str] = {}
+    reached: dict[int, float] = {}
+    start = time.perf_counter()
+    steps, compile_time = run_embedded(
+        module,
+        "numba",
+        None,
+        PRM,
+        pair,
+        Y0,
+        t0,
+        times,
+        tolerances,
+        min(limit, PILOT),
+        OUT,
+        INFO,
+        reasons,
+        reached,
+        threads,
+    )
+    spent = np.flatnonzero(INFO[:, 0] == 8) if limit > PILOT else np.zeros(0, dtype=int)
+    if spent.size:
+        # the members the pilot did not finish: their pace projected to the end, then run again with the budget
+        t_far = INFO[spent, 5]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            projected = np.where(t_far != t0, PILOT * (t_end - t0) / (t_far - t0), np.inf)
+        worst = int(np.argmax(projected))
+        if projected[worst] > 2.0 * limit:
+            b = int(spent[worst])
+            raise projected_cost_error(
+                "BKMM" + (f" (member {b} of the batch)" if B > 1 else ""),
+                int(INFO[b, 4]),
+                float(t_far[worst]),
+                t_end,
+                float(projected[worst]),
+                limit,
+            )
+        again_out = np.empty((spent.size, len(times), d))
+        again_info = np.zeros((spent.size, INFO_COLUMNS))
+        again_reasons: dict[int, str] = {}
+        again_reached: dict[int, float] = {}
+        steps -= int(INFO[spent, 6].sum())
+        more, _ = run_embedded(
+            module,
+            "numba",
+            None,
+            PRM if PRM.shape[0] == 1 else PRM[spent],
+            pair,
+            Y0[spent],
+            t0,
+            times,
+            tolerances,
+            limit,
+            again_out,
+            again_info,
+            again_reasons,
+            again_reached,
+            threads,
         )
-        return OUT, INFO, reasons, steps, compile_time, time.perf_counter() - start - compile_time
-
-    # the work is bounded before it is done: a pilot run, and its pace projected to the end (as in Python)
-    OUT, INFO, reasons, steps, compile_time, loop_time = run(min(limit, PILOT))
-    if int(INFO[0, 0]) == 8 and limit > PILOT:
-        t_far = float(INFO[0, 5])
-        projected = PILOT * (t_end - t0) / (t_far - t0) if t_far != t0 else np.inf
-        if projected > 2.0 * limit:
-            raise projected_cost_error("BKMM", int(INFO[0, 4]), t_far, t_end, projected, limit)
-        OUT, INFO, reasons, steps, _, loop_time = run(limit)
-    failure = None
-    code = int(INFO[0, 0])
-    if code:
+        steps += more
+        OUT[spent], INFO[spent] = again_out, again_info
+        for i, b in enumerate(spent.tolist()):
+            reasons.pop(b, None)
+            reached.pop(b, None)
+            if i in again_reasons:
+                reasons[b], reached[b] = again_reasons[i], again_reached[i]
+    loop_time = time.perf_counter() - start - compile_time
+    n = len(times)
+    OBS = observe(module, made, OUT.reshape(B * n, d), PRM, n).reshape(B, n, made.observed)
+    failures = []
+    for b in np.flatnonzero(INFO[:, 0] != 0).tolist():
+        code = int(INFO[b, 0])
         kind = {8: Status.BUDGET_EXHAUSTED, 4: Status.ADAPTIVE_FAILED}.get(code, SINGULAR)
         if kind is Status.BUDGET_EXHAUSTED:
-            detail = budget_spent(int(INFO[0, 4]), t_end)
+            detail = budget_spent(int(INFO[b, 4]), t_end)
         elif kind is SINGULAR:
             detail = (
                 f"the BKMM equations are singular (the locked inertia or the constraints), or the state is not "
-                f"finite, past t = {INFO[0, 5]:.6g}"
+                f"finite, past t = {INFO[b, 5]:.6g}"
             )
         else:
-            detail = reasons[0]
-        failure = Failure(kind, (), int(INFO[0, 1]), float(INFO[0, 5]), float("nan"), detail)
-    return OUT[0, :, :-1], failure, int(INFO[0, 4]), steps, compile_time, loop_time
+            detail = reasons[b]
+        failures.append((b, Failure(kind, (), int(INFO[b, 1]), float(INFO[b, 5]), float("nan"), detail)))
+    return BKMMRun(OUT[..., :-1], OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time)

@@ -15,7 +15,7 @@ import sympy as sp
 from ... import _validate as V
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
-from ...symbolic.compile import compile_scalar, compile_vector
+from ...symbolic.compile import compile_matrix, compile_scalar, compile_vector
 from ...symbolic.formula import to_expression
 from ...systems.gait import T_SYMBOL, Gait
 from ...systems.nonholonomic import NonholonomicSystem
@@ -29,7 +29,7 @@ class _Torques:
     ``f(t, q, qd)``, or open-loop torques in time given as a :class:`~geomech.systems.Gait` (its values, by the
     names of the shapes they act on)."""
 
-    def __init__(self, system: NonholonomicSystem, free: Sequence[int], tau: Any):
+    def __init__(self, system: NonholonomicSystem, free: Sequence[int], tau: Any, values: Mapping[str, float]):
         shape_names = [r.name for r in system.shape]
         self.free = list(free)
         if isinstance(tau, Gait):
@@ -43,7 +43,8 @@ class _Torques:
         local = {s.name: s for s in system.q + system.qdot}
         local["t"] = T_SYMBOL
         self.fns: list[Callable | None] = [None] * len(self.free)
-        #: the torques as formulas in (t, q, qdot), zero where none is given; None where one is a callable
+        #: the torques as formulas in (t, q, qdot) and named coefficients (the system's parameters or numbers given
+        #: by name in ``values``), zero where none is given; None where one is a callable
         self.expressions: list[sp.Expr] | None = [sp.Integer(0)] * len(self.free)
         for name, spec in tau.items():
             if name not in shape_names:
@@ -67,14 +68,16 @@ class _Torques:
                         "(sin, cos, exp, tanh, ...) or pass a Python callable f(t, q, qd)."
                     )
                 e = e.xreplace({s: local[s.name] for s in e.free_symbols if s.name in local})
-                extra = sorted(s.name for s in e.free_symbols - set(local.values()))
+                extra = sorted(s.name for s in e.free_symbols - set(local.values()) if s.name not in values)
                 if extra:
                     raise InputError(
-                        f"The torque on `{name}` has unknown symbols {extra}; it may use t, the "
-                        f"coordinates and the velocities ({', '.join(local)})."
+                        f"The torque on `{name}` has unknown symbols {extra}; it may use t, the coordinates and the "
+                        f"velocities ({', '.join(local)}), the parameters of {system.name}, and coefficients whose "
+                        "values are given in `parameters`."
                     )
                 if self.expressions is not None:
                     self.expressions[self.free.index(i)] = e
+                e = e.xreplace({s: float(values[s.name]) for s in e.free_symbols if s.name in values})
                 f = compile_scalar(e, [T_SYMBOL, *system.q, *system.qdot])
                 fn = (lambda f_: lambda t, q, qd: float(f_(np.concatenate([[t], q, qd]))))(f)
             self.fns[self.free.index(i)] = fn
@@ -108,6 +111,10 @@ class _Setup:
     prescribed: list[int]  # shape indices (0..sigma-1) with a gait
     free_shapes: list[int]
     torques: _Torques
+    #: the gait as formulas in t and named coefficients (None for a gait of callables); ``gait`` has their values
+    gait_forms: tuple[sp.Expr, ...] | None = None
+    #: the names of the gait's and the torques' coefficients that are not parameters of the system, sorted
+    coefficients: tuple[str, ...] = ()
 
     @property
     def n(self) -> int:
@@ -121,10 +128,67 @@ class _Setup:
         return [self.system.k + i for i in self.prescribed]
 
 
-def _setup(system: NonholonomicSystem, shapes: Any, tau: Any) -> _Setup:
+def check_parameter_names(setup: _Setup, parameters: Mapping[str, Any] | None) -> None:
+    """Every name in ``parameters`` is a parameter of the system or a coefficient of the gait's or torques'
+    formulas."""
+    own = {s.name for s in setup.system.parameter_symbols}
+    unknown = sorted(set(parameters or {}) - own - set(setup.coefficients))
+    if unknown:
+        raise InputError(
+            f"`parameters` names {unknown}, which are neither parameters of {setup.system.name} ({sorted(own)}) nor "
+            "coefficients of the gait's or the torques' formulas."
+        )
+
+
+def scalar_values(parameters: Mapping[str, Any] | None) -> dict[str, float]:
+    """One value per name: a batch's first member where a value is an array (what the Python side of a batch, its
+    gait and torques as functions, is built with)."""
+    out = {}
+    for name, value in (parameters or {}).items():
+        arr = np.asarray(value, dtype=float)
+        if arr.size == 0:
+            raise InputError(f"Expected `parameters[{name!r}]` to hold values, got an empty array.")
+        out[str(name)] = float(arr.flat[0])
+    return out
+
+
+def _gait_formulas(shapes: Any) -> tuple[list[str] | None, list[sp.Expr]]:
+    """The gait formulas as sympy, with their names (None for a sequence): their symbols other than t are
+    coefficients."""
+    if isinstance(shapes, Mapping):
+        names: list[str] | None = [str(k) for k in shapes]
+        items = list(shapes.values())
+    elif shapes is None:
+        names, items = [], []
+    elif isinstance(shapes, (str, sp.Expr)) or not isinstance(shapes, Sequence):
+        return None, []  # Gait.from_expressions says what it expects
+    else:
+        names, items = None, list(shapes)
+    labels = [f"shapes[{n!r}]" for n in names] if names is not None else [f"shapes[{i}]" for i in range(len(items))]
+    return names, [to_expression(e, label, {"t": T_SYMBOL}) for e, label in zip(items, labels)]
+
+
+def _setup(system: NonholonomicSystem, shapes: Any, tau: Any, parameters: Mapping[str, Any] | None = None) -> _Setup:
+    """The gait, the torques and which shapes they drive. Gait and torques may be formulas with coefficients other
+    than the system's parameters (``a*sin(w*t + c)``), their values given by name in ``parameters`` (a batch's first
+    member where they are arrays: the compiled path reads every member's)."""
     if not isinstance(system, NonholonomicSystem):
         raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
-    gait = shapes if isinstance(shapes, Gait) else Gait.from_expressions(shapes)
+    values = scalar_values(parameters)
+    own = {s.name for s in system.parameter_symbols}
+    for s in system.parameter_symbols:
+        if s.name in system.parameters:
+            values.setdefault(s.name, float(system.parameters[s.name]))
+    forms: tuple[sp.Expr, ...] | None = None
+    if isinstance(shapes, Gait):
+        gait, forms = shapes, shapes.expressions
+    else:
+        names, exprs = _gait_formulas(shapes)
+        used = {s.name for e in exprs for s in e.free_symbols if s != T_SYMBOL}
+        if used:
+            shapes = dict(zip(names, exprs)) if names is not None else exprs
+        gait = Gait.from_expressions(shapes, parameters={k: v for k, v in values.items() if k in used} or None)
+        forms = tuple(exprs) if used else gait.expressions
     names = [r.name for r in system.shape]
     if gait.names is None:
         if gait.dim != len(names):
@@ -139,7 +203,12 @@ def _setup(system: NonholonomicSystem, shapes: Any, tau: Any) -> _Setup:
         raise InputError(f"`shapes` names {unknown}, which are not shape variables of {system.name} ({names}).")
     prescribed = [names.index(n) for n in gait.names]
     free = [i for i in range(system.sigma) if i not in prescribed]
-    return _Setup(system, gait, prescribed, free, _Torques(system, free, tau))
+    torques = _Torques(system, free, tau, values)
+    local = {T_SYMBOL.name} | {s.name for s in system.q + system.qdot}
+    coefficients = (
+        {s.name for e in list(forms or ()) + list(torques.expressions or ()) for s in e.free_symbols} - local - own
+    )
+    return _Setup(system, gait, prescribed, free, torques, forms, tuple(sorted(coefficients)))
 
 
 def _by_name(value: Any, names: Sequence[str], argname: str) -> dict[str, float]:
@@ -177,7 +246,8 @@ def initial_state(
     (:math:`\dot g = 0`) with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
     constraints (when they involve the shape velocities).
     """
-    setup = _setup(system, shapes, None)
+    setup = _setup(system, shapes, None, parameters)
+    parameters = {k: v for k, v in scalar_values(parameters).items() if k not in setup.coefficients}
     names = [s.name for s in system.q]
     given = _by_name(q0, names, "q0")
     q = np.array([given.get(n, 0.0) for n in names])
@@ -185,7 +255,7 @@ def initial_state(
     for j, i in enumerate(setup.prescribed):
         q[system.k + i] = r_p[j]
     lda = lagrange_dalembert(system).numeric(parameters)
-    _require_positive_kinetic_energy(system, lda, q, parameters)
+    _require_positive_kinetic_energy(system, q, parameters)
     if isinstance(qdot0, str):
         if qdot0 != "rest":
             raise InputError(f"Expected `qdot0` to be velocities or 'rest', got {qdot0!r}.")
@@ -255,28 +325,75 @@ def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.nd
 
 
 def _require_positive_kinetic_energy(
-    system: NonholonomicSystem, lda: Any, q: np.ndarray, parameters: Mapping[str, float] | None
+    system: NonholonomicSystem, q: np.ndarray, values: Mapping[str, Any] | None, members: str = ""
 ) -> None:
     """Parameter values (a negative mass, a wrong inertia) can make the kinetic energy indefinite on D, where
-    the equations have no meaning: say so at the start, with the values, rather than integrate nonsense."""
-    M, A = lda.mass_matrix(q), lda.constraint_matrix(q).reshape(system.c, system.n)
+    the equations have no meaning: say so at the start, with the values, rather than integrate nonsense. ``q`` is
+    one configuration ``(n,)`` or a batch's ``(B, n)``, ``values`` the parameters (scalars, or arrays of ``B``)."""
+    Q = np.atleast_2d(np.asarray(q, dtype=float))
+    B = Q.shape[0]
+    merged = {**system.parameters, **dict(values or {})}
+    missing = sorted(s.name for s in system.parameter_symbols if s.name not in merged)
+    if missing:
+        system.parameter_values({})  # the system's own message, naming them
+    P = (
+        np.stack(
+            [
+                np.broadcast_to(np.asarray(merged[s.name], dtype=float).reshape(-1), (B,))
+                for s in system.parameter_symbols
+            ],
+            axis=-1,
+        )
+        if system.parameter_symbols
+        else np.zeros((B, 0))
+    )
+    mass, constraints = _metric_functions(system)
+    x = np.concatenate([Q, P], axis=1)
+    M, A = mass(x), constraints(x).reshape(B, system.c, system.n)
+    low = np.full(B, np.inf)
     if system.c:
         _, sv, vt = np.linalg.svd(A)
-        X = vt[int(np.sum(sv > 1e-12 * max(1.0, sv.max()))) :].T
+        ranks = np.sum(sv > 1e-12 * np.maximum(1.0, sv.max(axis=1, initial=0.0))[:, None], axis=1)
     else:
-        X = np.eye(system.n)
-    if X.size == 0:
-        return
-    MD = X.T @ M @ X
-    low = float(np.linalg.eigvalsh(0.5 * (MD + MD.T)).min())
-    if not low > 1e-12 * max(1.0, float(np.abs(MD).max())):
-        values = {k: v for k, v in sorted(system.parameter_values(parameters).items(), key=lambda kv: kv[0].name)}
-        shown = ", ".join(f"{k.name}={v:g}" for k, v in values.items())
+        ranks, vt = np.zeros(B, dtype=int), np.broadcast_to(np.eye(system.n), (B, system.n, system.n))
+    for rank in np.unique(ranks):  # the distribution D = ker A, of the dimension it has at each member's q
+        rows = np.flatnonzero(ranks == rank)
+        X = np.swapaxes(vt[rows, int(rank) :], 1, 2)
+        if X.shape[-1] == 0:
+            continue
+        MD = np.swapaxes(X, 1, 2) @ M[rows] @ X
+        smallest = np.linalg.eigvalsh(0.5 * (MD + np.swapaxes(MD, 1, 2))).min(axis=1)
+        scale = np.maximum(1.0, np.abs(MD).max(axis=(1, 2)))
+        low[rows] = np.where(smallest > 1e-12 * scale, np.inf, smallest)
+    bad = np.flatnonzero(low != np.inf)
+    if bad.size:
+        b = int(bad[0])
+        shown = ", ".join(
+            f"{s.name}={P[b, i]:g}" for i, s in sorted(enumerate(system.parameter_symbols), key=lambda kv: kv[1].name)
+        )
+        where = f" (member {b} of the batch{members}, and {bad.size - 1} more)" if B > 1 else ""
         raise InputError(
             f"The kinetic energy of {system.name} is not positive definite on the constraint distribution "
-            f"at q0 = {np.round(q, 6).tolist()} (smallest eigenvalue {low:.3g}) with {shown}: check the "
+            f"at q0 = {np.round(Q[b], 6).tolist()} (smallest eigenvalue {low[b]:.3g}) with {shown}{where}: check the "
             "signs and sizes of the masses and inertias."
         )
+
+
+_METRIC: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _metric_functions(system: NonholonomicSystem) -> tuple[Callable, Callable]:
+    """The mass and constraint matrices as functions of ``(q, parameters)``, vectorised (compiled once per
+    system)."""
+    made = _METRIC.get(system)
+    if made is None:
+        x = list(system.q) + list(system.parameter_symbols)
+        made = (
+            compile_matrix(sp.Matrix(system.mass_matrix), x),
+            compile_matrix(sp.Matrix(system.constraint_matrix).reshape(system.c, system.n), x),
+        )
+        _METRIC[system] = made
+    return made
 
 
 _RATES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

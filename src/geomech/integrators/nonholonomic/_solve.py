@@ -4,6 +4,8 @@ work, constraint residual)."""
 
 from __future__ import annotations
 
+import dataclasses
+import os
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -11,14 +13,18 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
+from ...errors import InputError
+from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
+from .._batch import batch_index
 from .._times import Times
 from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method
 from ..solution import Failure, Solution, Status, run_stats
-from ._continuous import run_full, run_reduced
+from ._compiled import bkmm_module, compiled_pair, observe
+from ._continuous import run_bkmm, run_full, run_reduced
 from ._discrete import run_discrete
-from ._inputs import _setup, initial_state
-from ._trajectory import quantities
+from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state
+from ._trajectory import quantities, spatial_momentum
 
 #: Default ceiling on steps of the discrete Lagrange-d'Alembert integrator (a Python loop, about 0.2 ms a step).
 MAX_DISCRETE_STEPS = 1_000_000
@@ -44,10 +50,31 @@ def solve_lagrangian(
     newton_tol: float,
     max_newton: int,
     backend: str = "auto",
+    threads: int | None = None,
 ) -> Solution:
     """Integrate a :class:`~geomech.systems.NonholonomicSystem` with one of the Lagrangian methods (internal:
     :func:`~geomech.solve` has checked the method and the times)."""
-    setup = _setup(system, shapes, tau)
+    setup = _setup(system, shapes, tau, parameters)
+    check_parameter_names(setup, parameters)
+    shape = _batch_shape(parameters, q0, rdot0, p0)
+    if shape is not None:
+        return _solve_batch(
+            setup,
+            method,
+            times,
+            shape,
+            t0=t0,
+            q0=q0,
+            qdot0=qdot0,
+            rdot0=rdot0,
+            p0=p0,
+            parameters=parameters,
+            tolerances=tolerances,
+            max_evaluations=max_evaluations,
+            memory_limit=memory_limit,
+            backend=backend,
+            threads=threads,
+        )
     q_init, qd_init = initial_state(
         system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
     )
@@ -125,5 +152,153 @@ def solve_lagrangian(
             **extra,
         ),
         parameters={k.name: float(v) for k, v in system.parameter_values(parameters).items()},
+        group_dim=system.k,
+    )
+
+
+def _batch_shape(parameters: Mapping[str, Any] | None, q0: Any, rdot0: Any, p0: Any) -> tuple[int, ...] | None:
+    """The batch of a run (the broadcast shape of the arrays in ``parameters`` and of the leading axes of ``q0``,
+    ``rdot0``, ``p0`` given as arrays), or None for one trajectory."""
+    shapes = {f"parameters[{k!r}]": np.shape(v) for k, v in (parameters or {}).items() if np.ndim(v) > 0}
+    for name, value in (("q0", q0), ("rdot0", rdot0), ("p0", p0)):
+        if value is not None and not isinstance(value, Mapping) and np.ndim(value) > 1:
+            shapes[name] = np.shape(value)[:-1]
+    if not shapes:
+        return None
+    try:
+        return tuple(np.broadcast_shapes(*shapes.values()))
+    except ValueError:
+        raise InputError(
+            "Expected the batches to broadcast: " + ", ".join(f"{k} {v}" for k, v in shapes.items()) + "."
+        ) from None
+
+
+def _rows(value: Any, names: list[str], argname: str, shape: tuple[int, ...]) -> np.ndarray:
+    """An initial value for every member of a batch, ``(B, len(names))``: a mapping by name (zero where not given)
+    or an array with the batch's leading axes (or none)."""
+    if value is None or isinstance(value, Mapping):
+        row = np.array([_by_name(value, names, argname).get(n, 0.0) for n in names])
+        return np.broadcast_to(row, shape + (len(names),)).reshape(int(np.prod(shape)), len(names))
+    arr = V.finite(value, argname)
+    if arr.shape[-1:] != (len(names),):
+        raise InputError(
+            f"Expected `{argname}` to have {len(names)} entries ({names}) on its last axis, got {arr.shape}."
+        )
+    return np.broadcast_to(arr, shape + (len(names),)).reshape(int(np.prod(shape)), len(names))
+
+
+def _solve_batch(
+    setup: Any,
+    method: Method,
+    times: Times,
+    shape: tuple[int, ...],
+    *,
+    t0: float,
+    q0: Any,
+    qdot0: Any,
+    rdot0: Any,
+    p0: Any,
+    parameters: Mapping[str, Any] | None,
+    tolerances: tuple[float, float] | None,
+    max_evaluations: Any,
+    memory_limit: float,
+    backend: str,
+    threads: int | None,
+) -> Solution:
+    """A batch of trajectories (over initial states, the system's parameters and the coefficients of the gait and
+    torques) in one call of the compiled BKMM loop, across threads."""
+    system = setup.system
+    compiled = None
+    if isinstance(method, BKMM) and backend != "python" and compiled_pair(method.solver) is not None:
+        red = bkmm_reduction(system)
+        compiled = bkmm_module(setup, red)
+    if compiled is None:
+        raise InputError(
+            f"A batch (arrays in `parameters`, or initial states with leading axes) of {system.name} runs in the "
+            f"compiled BKMM loop: method BKMM with solver 'DOP853' or 'RK45', the gait and torques as formulas, numba "
+            f"installed, backend 'auto' or 'numba'; got {method!r} with backend {backend!r}. Give one value each, or "
+            "loop over the members."
+        )
+    assert isinstance(method, BKMM)
+    if qdot0 is not None:
+        raise InputError(
+            "In a batch, give the initial state by `q0`, `rdot0` and `p0` (the nonholonomic momentum), not `qdot0`: "
+            "the group velocity then follows from eq. (1.1) for each member."
+        )
+    assert tolerances is not None
+    module, made = compiled
+    B = int(np.prod(shape))
+    k, m = system.k, red.m
+    F = setup.free_shapes
+    n_values = float(B) * times.n_saved * (3 * system.n + system.sigma + system.c + 4)
+    V.memory_budget(
+        n_values,
+        float(memory_limit),
+        f"Keeping {times.n_saved:.3g} states of {B} trajectories",
+        "memory_limit",
+        "save fewer times (`saveat`), or split the batch",
+    )
+    values: dict[str, Any] = {**system.parameters, **dict(parameters or {})}
+    missing = sorted(n for n in made.parameters + made.coefficients if n not in values)
+    if missing:
+        raise InputError(f"{system.name}: no value for {missing}; pass them in `parameters`.")
+    arrays = {}
+    for name in made.parameters + made.coefficients:
+        arr = V.finite(values[name], f"parameters[{name!r}]")
+        arrays[name] = np.broadcast_to(arr, shape).reshape(-1) if arr.ndim else arr
+    PRM = made.rows(arrays, B)
+    Q = _rows(q0, [q.name for q in system.q], "q0", shape)
+    RD = _rows(rdot0, [r.name for r in system.shape], "rdot0", shape)
+    P = _rows(p0, [f"p{i}" for i in range(m)], "p0", shape) if p0 is None or not isinstance(p0, Mapping) else None
+    if P is None:
+        raise InputError(f"Expected `p0` as numbers or an array (..., {m}), got a mapping.")
+    Y0 = np.concatenate([Q[:, :k], Q[:, [k + j for j in F]], RD[:, F], P, np.zeros((B, 1))], axis=1)
+    # each member's configuration at t0 (its prescribed shapes from its gait), checked as one trajectory is
+    start = observe(module, made, np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1), PRM, 1)
+    _require_positive_kinetic_energy(system, start[:, : system.n], arrays, members=f" {shape}")
+    n_threads = threads if threads is not None else (os.cpu_count() or 1)
+    run = run_bkmm(module, made, PRM, Y0, t0, times.t, method, tolerances, max_evaluations, int(n_threads))
+    n, sigma, c = system.n, system.sigma, system.c
+    W = run.observed
+    k_p = k + 2 * len(F)
+    quantities = {
+        "energy": W[..., 2 * n + sigma],
+        "momentum": run.states[..., k_p : k_p + m],
+        "tau": W[..., 2 * n : 2 * n + sigma],
+        "work": run.states[..., -1],
+        "constraint_residual": W[..., 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
+    }
+    if c == 0:
+        quantities["spatial_momentum"] = spatial_momentum(system, W[..., :n], quantities["momentum"])
+    failures = tuple(dataclasses.replace(f, batch_index=batch_index(b, shape)) for b, f in run.failures)
+    name = type(method).__name__
+    if failures:
+        message = f"{name} on {system.name}: {failures[0].describe()} ({len(failures)} of {B} trajectories failed)."
+    else:
+        message = (
+            f"{name} ({method.solver}): {B} trajectories, {len(times.t)} outputs from t = {t0:g} to {times.t[-1]:g}."
+        )
+    batch = lambda x: x.reshape(shape + x.shape[1:])  # noqa: E731
+    return Solution(
+        t=times.t,
+        states=batch(W[..., : 2 * n]),
+        system=system,
+        method=method,
+        layout="qv",
+        labels=tuple(s.name for s in system.q) + tuple(s.name for s in system.qdot),
+        quantities={key: batch(v) for key, v in quantities.items()},
+        status=failures[0].kind if failures else Status.SUCCESS,
+        message=message,
+        failures=failures,
+        stats=run_stats(
+            times.n_steps,
+            run.steps,
+            run.nfev,
+            run.loop_time,
+            backend="numba",
+            compile_time=run.compile_time,
+            loop_time=run.loop_time,
+        ),
+        parameters={key: (v.reshape(shape) if v.ndim else float(v)) for key, v in arrays.items()},
         group_dim=system.k,
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -32,6 +33,8 @@ class _Raw:
     backend: str = "python"
     compile_time: float = 0.0
     loop_time: float | None = None  # the compiled loop alone, where there is one
+    energy: np.ndarray | None = None  # where the engine computed them (the compiled BKMM's observation)
+    momentum: np.ndarray | None = None
 
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:
@@ -39,7 +42,6 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
     constraint residual, and without constraints the spatial momentum (the momentum map
     :math:`J = \\mathrm{Ad}^*_{g^{-1}}p`, conserved), NaN where the run did not reach."""
     s = setup.system
-    lda = lagrange_dalembert(s).numeric(parameters)
     # without constraints the momentum is the body momentum, computed without deriving the reduction
     m = s.k if s.c == 0 else bkmm_reduction(s).m
     N = len(raw.q)
@@ -48,18 +50,20 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
     energy = np.full(N, np.nan)
     residual = np.full((N, s.c), np.nan)
     spatial = np.full((N, s.k), np.nan)
-    if ok.any():
+    if raw.energy is not None and raw.momentum is not None:
+        energy, momentum = raw.energy, raw.momentum
+    elif ok.any():
         q, qd = raw.q[ok], raw.qd[ok]
-        if s.c == 0:
-            momentum[ok] = body_momentum(s, lda, q, qd)
-            G = s.group
-            spatial[ok] = [
-                G.numeric.Ad(G.numeric.inverse(G.from_coordinates(a))).T @ p for a, p in zip(q[:, : s.k], momentum[ok])
-            ]
-        else:
-            momentum[ok] = bkmm_reduction(s).numeric(parameters).momentum(q, qd).reshape(len(q), -1)
+        lda = lagrange_dalembert(s).numeric(parameters)
+        momentum[ok] = (
+            body_momentum(s, lda, q, qd)
+            if s.c == 0
+            else bkmm_reduction(s).numeric(parameters).momentum(q, qd).reshape(len(q), -1)
+        )
         energy[ok] = lda.energy(q, qd)
         residual[ok] = lda.constraint_residual(q, qd).reshape(len(q), s.c)
+    if s.c == 0:
+        spatial = spatial_momentum(s, raw.q, momentum)
     if raw.residual is not None:
         residual = raw.residual
     return {
@@ -70,6 +74,17 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
         "constraint_residual": residual,
         **({"spatial_momentum": spatial} if s.c == 0 else {}),
     }
+
+
+def spatial_momentum(system: Any, q: np.ndarray, momentum: np.ndarray) -> np.ndarray:
+    """The momentum map :math:`J = \\mathrm{Ad}^*_{g^{-1}}p` of a system without constraints at the states
+    ``(..., n)`` and body momenta ``(..., k)``, NaN where they are not finite."""
+    G, k = system.group, system.k
+    out = np.full(momentum.shape, np.nan)
+    flat_q, flat_p, flat_out = q.reshape(-1, q.shape[-1]), momentum.reshape(-1, k), out.reshape(-1, k)
+    for i in np.flatnonzero(np.all(np.isfinite(flat_q), axis=1) & np.all(np.isfinite(flat_p), axis=1)):
+        flat_out[i] = G.numeric.Ad(G.numeric.inverse(G.from_coordinates(flat_q[i, :k]))).T @ flat_p[i]
+    return out
 
 
 # --------------------------------------------------------------------------------------------------
