@@ -116,6 +116,27 @@ def bkmm_source(setup: Any, reduction: Any) -> BKMMSource | None:
     if torques.expressions is None or (setup.prescribed and gait_forms is None):
         return None
     system = setup.system
+    given = (
+        sp.ImmutableMatrix(reduction.basis),
+        tuple(gait_forms or ()),
+        tuple(torques.expressions),
+        tuple(setup.free_shapes),
+        tuple(setup.prescribed),
+        setup.coefficients,
+    )
+    made = _MADE.setdefault(system, {})
+    if given not in made:
+        if len(made) >= 64:
+            made.pop(next(iter(made)))
+        made[given] = _source(setup, reduction)
+    return made[given]
+
+
+_MADE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _source(setup: Any, reduction: Any) -> BKMMSource:
+    gait_forms, torques, system = setup.gait_forms, setup.torques, setup.system
     own = {q.name: sp.Symbol(f"_p{i}") for i, q in enumerate(system.parameter_symbols)}
     first = len(own)
 

@@ -250,26 +250,31 @@ def run_bkmm(
     reasons: dict[int, str] = {}
     reached: dict[int, float] = {}
     start = time.perf_counter()
-    steps, compile_time = run_embedded(
-        module,
-        "numba",
-        None,
-        PRM,
-        pair,
-        Y0,
-        t0,
-        times,
-        tolerances,
-        min(limit, PILOT),
-        OUT,
-        INFO,
-        reasons,
-        reached,
-        threads,
-    )
-    spent = np.flatnonzero(INFO[:, 0] == 8) if limit > PILOT else np.zeros(0, dtype=int)
+
+    def run(members: np.ndarray, budget: float) -> tuple[int, float]:
+        """``members`` with ``budget`` evaluations each, into OUT, INFO, reasons and reached."""
+        out = np.empty((members.size, len(times), d))
+        info = np.zeros((members.size, INFO_COLUMNS))
+        why: dict[int, str] = {}
+        when: dict[int, float] = {}
+        rows = PRM if PRM.shape[0] == 1 else PRM[members]
+        n, seconds = run_embedded(
+            module, "numba", None, rows, pair, Y0[members], t0, times, tolerances, budget, out, info, why, when, threads
+        )
+        OUT[members], INFO[members] = out, info
+        for i, b in enumerate(members.tolist()):
+            reasons.pop(b, None)
+            reached.pop(b, None)
+            if i in why:
+                reasons[b], reached[b] = why[i], when[i]
+        return n, seconds
+
+    # the work is bounded before it is done: a pilot of a few members (spread over the batch), their pace projected
+    # to the end (as in Python); the members it finished are kept, the others run with the budget
+    pilot = np.array(sorted({int(i) for i in np.linspace(0, B - 1, min(B, 8))}), dtype=int)
+    steps, compile_time = run(pilot, min(limit, PILOT))
+    spent = pilot[INFO[pilot, 0] == 8] if limit > PILOT else np.zeros(0, dtype=int)
     if spent.size:
-        # the members the pilot did not finish: their pace projected to the end, then run again with the budget
         t_far = INFO[spent, 5]
         with np.errstate(divide="ignore", invalid="ignore"):
             projected = np.where(t_far != t0, PILOT * (t_end - t0) / (t_far - t0), np.inf)
@@ -284,35 +289,11 @@ def run_bkmm(
                 float(projected[worst]),
                 limit,
             )
-        again_out = np.empty((spent.size, len(times), d))
-        again_info = np.zeros((spent.size, INFO_COLUMNS))
-        again_reasons: dict[int, str] = {}
-        again_reached: dict[int, float] = {}
         steps -= int(INFO[spent, 6].sum())
-        more, _ = run_embedded(
-            module,
-            "numba",
-            None,
-            PRM if PRM.shape[0] == 1 else PRM[spent],
-            pair,
-            Y0[spent],
-            t0,
-            times,
-            tolerances,
-            limit,
-            again_out,
-            again_info,
-            again_reasons,
-            again_reached,
-            threads,
-        )
-        steps += more
-        OUT[spent], INFO[spent] = again_out, again_info
-        for i, b in enumerate(spent.tolist()):
-            reasons.pop(b, None)
-            reached.pop(b, None)
-            if i in again_reasons:
-                reasons[b], reached[b] = again_reasons[i], again_reached[i]
+    finished = set(pilot.tolist()) - set(spent.tolist())
+    rest = np.array([b for b in range(B) if b not in finished], dtype=int) if len(finished) < B else pilot[:0]
+    if rest.size:
+        steps += run(rest, limit)[0]
     loop_time = time.perf_counter() - start - compile_time
     n = len(times)
     OBS = observe(module, made, OUT.reshape(B * n, d), PRM, n).reshape(B, n, made.observed)
