@@ -6,6 +6,7 @@ Describe a system once (:mod:`geomech.systems`), move it between representations
 
 from . import analysis, errors, integrators, lie
 from ._version import __version__
+from .analysis import monte_carlo, sweep
 from .errors import GeomechError
 from .integrators import Solution, solve
 from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
@@ -43,6 +44,8 @@ __all__ = [
     "errors",
     "integrators",
     "lie",
+    "monte_carlo",
     "solve",
+    "sweep",
     "__version__",
 ]

@@ -1,5 +1,6 @@
 """Analysis of mechanical systems: relative equilibria and their stability (Lagrange-Dirichlet,
-energy-Casimir, linearisation), stability boundaries and maps; geometric and dynamic phases; nonholonomic gaits."""
+energy-Casimir, linearisation), stability boundaries and maps; geometric and dynamic phases; nonholonomic gaits;
+studies over many parameter values on dask (sweeps and Monte Carlo, resumable)."""
 
 from ..systems.gait import Gait
 from .equilibria import (
@@ -40,6 +41,7 @@ from .stability import (
     stability_boundary,
 )
 from .stability_map import stability_map, theorem5_margin
+from .sweep import monte_carlo, sweep
 
 __all__ = [
     "GaitAnalysis",
@@ -80,4 +82,6 @@ __all__ = [
     "stability_boundary",
     "stability_map",
     "theorem5_margin",
+    "monte_carlo",
+    "sweep",
 ]
