@@ -84,8 +84,9 @@ PYTHON_TOLS = [1e-8, 1e-12]
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 
 
-def heyoka_equations(hy: Any, s: Any, case: dict) -> list:
-    """(g, p)' from the symbolic reduction, the gait in heyoka.time."""
+def heyoka_equations(hy: Any, s: Any, case: dict, pars: dict | None = None) -> list:
+    """(g, p)' from the symbolic reduction, the gait in heyoka.time (its coefficients, where symbols, heyoka's
+    run-time parameters ``pars``: symbol -> ``heyoka.par[i]``)."""
     red = bkmm_reduction(s)
     gait = {r: case["formulas"][r.name] for r in red.r}
     values = {p: case["parameters"][p.name] for p in s.parameter_symbols}
@@ -96,6 +97,7 @@ def heyoka_equations(hy: Any, s: Any, case: dict) -> list:
     variables = hy.make_vars(*[c.name for c in s.group.coordinates], *[f"p{i}" for i in range(red.m)])
     table = dict(zip(list(s.group.coordinates) + list(red.p), variables))
     table[T_SYMBOL] = hy.time
+    table.update(pars or {})
 
     def floats(e: sp.Expr) -> sp.Expr:
         # heyoka reads rationals only with power-of-two denominators: the others as 34-digit floats
