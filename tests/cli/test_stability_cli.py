@@ -144,6 +144,26 @@ def test_stability_map_writes_figure_and_data(capsys, tmp_path):
     ds.close()
 
 
+def test_stability_map_resumes_its_study(capsys, tmp_path):
+    xr = pytest.importorskip("xarray")
+    args = ["stability-map", "--lambda", "3", "2", "--I3", "1", "--phi", "k*v", "--x", "k=0.05:0.95:5"]
+    args += ["--y", "lambda2=1.2:2.8:4", "--out", str(tmp_path)]
+    code, _, err = run(capsys, *args)
+    assert code == 0, err
+    first = xr.open_dataset(tmp_path / "stability_map.nc").load()
+    # run again: the store is there; without --resume that is one line on stderr, with it nothing is left to do
+    code, _, err = run(capsys, *args)
+    assert code == 2 and "--resume" in err and len(err.strip().splitlines()) == 1
+    code, _, err = run(capsys, *args, "--resume")
+    assert code == 0, err
+    again = xr.open_dataset(tmp_path / "stability_map.nc").load()
+    np.testing.assert_array_equal(again["verdict"].values, first["verdict"].values)
+    np.testing.assert_array_equal(again["m"].values, first["m"].values)
+    # other arguments on the same store: refused, naming the study it holds
+    code, _, err = run(capsys, *args[:-4], "--y", "lambda2=1.2:2.8:3", "--out", str(tmp_path), "--resume")
+    assert code == 2 and "holds another study" in err
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -9,6 +9,8 @@ second variation, whose zero level is the stability boundary. xarray is imported
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -47,8 +49,17 @@ def stability_map(
     n_points: int = 600,
     progress: Callable[[int], None] | None = None,
     max_points: int = 10_000,
+    out: Any = None,
+    resume: bool = False,
+    scheduler: Any = None,
+    chunk: int | None = None,
+    model: Mapping[str, Any] | None = None,
 ):
     """The three verdicts on the relative equilibrium near ``near`` over a grid of two parameters.
+
+    The grid runs as a study (:func:`~geomech.analysis.sweep`): blocks of whole rows (``chunk`` points, default one
+    row), each one task on dask (every core of this machine, or the cluster of ``scheduler``), written to the Zarr
+    store ``out`` as they complete and resumed from it with ``resume=True``.
 
     Parameters
     ----------
@@ -56,27 +67,34 @@ def stability_map(
     x, y : ``(name, values)`` of the two parameters swept.
     near : (3,) the reference, default :math:`(0, G, 0)` (spin about the intermediate axis, the seed's
         :math:`(l, L) = (0, 0)`). At each grid point the equilibrium assessed is the one nearest to ``near``
-        among all relative equilibria, which are continued from grid point to grid point (serpentine
-        order) and searched afresh (:func:`~geomech.analysis.find_equilibria`) wherever the continued set
-        fails the Poincare-Hopf check.
+        among all relative equilibria, which are continued from grid point to grid point along a block's rows
+        and searched afresh (:func:`~geomech.analysis.find_equilibria`) at a block's first point and wherever the
+        continued set fails the Poincare-Hopf check: the nearest one does not depend on the path.
     fixed : values of the other parameters.
     closed_form : optional ``f(values) -> float`` whose zero level is a predicted boundary (e.g.
         :func:`theorem5_margin`); stored as ``closed_form_margin``.
-    progress : optional ``progress(n)``, called with the number of grid points done before each point and
-        once at the end (a progress bar; the command line draws one on a terminal).
+    progress : optional ``progress(n)``, called with the number of grid points done as blocks complete, from 0 to
+        the grid's size (a progress bar; the command line draws one on a terminal).
     max_points : int
         A larger grid (10-15 ms a point) is refused before any work; raise it to run one.
+    out, resume, scheduler, chunk :
+        The study's store, its resumption, where it runs and the points per task (:func:`~geomech.analysis.sweep`).
+    model : mapping, optional
+        What identifies the family in its store (its JSON: the command line gives the model's); default the
+        family's own ``to_json()`` where it has one (a control's family does), else its function's name and source
+        with ``description``.
 
     Returns
     -------
     xarray.Dataset
         Variables ``verdict``, ``lagrange_dirichlet``, ``energy_casimir``, ``linearisation`` (int8 codes),
         ``m`` (the equilibrium assessed), ``branch_jump`` (1 where it is not the continuation of the previous
-        grid point's, i.e. the nearest equilibrium changed identity; the first point counts as a jump),
-        ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``, ``growth_rate`` (largest real
-        part of the linearisation eigenvalues), ``ec_determinant`` and optionally ``closed_form_margin``.
+        point's along the block's row, i.e. the nearest equilibrium changed identity; a block's first point
+        counts as a jump), ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``, ``growth_rate``
+        (largest real part of the linearisation eigenvalues), ``ec_determinant``, ``status`` (the study's: 1 where
+        the assessment raised) and optionally ``closed_form_margin``.
     """
-    import xarray as xr
+    from .sweep import _block_shape, sweep
 
     xname, xs = _axis_values(x, "x")
     yname, ys = _axis_values(y, "y")
@@ -92,118 +110,71 @@ def stability_map(
     )
     G = V.positive_scalar(G, "G")
     near = np.array([0.0, G, 0.0]) if near is None else V.exact_shape(near, "near", (3,))
-    fixed = dict(fixed or {})
-    ny, nx = ys.size, xs.size
-    codes = {
-        k: np.full((ny, nx), VERDICT_CODES["none"], dtype=np.int8)
-        for k in ("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")
+    fixed = {str(k): float(v) for k, v in dict(fixed or {}).items()}
+    if model is None:
+        to_json = getattr(getattr(family, "control", None), "to_json", None) or getattr(family, "to_json", None)
+        model = to_json() if callable(to_json) else {"family": _family_identity(family)}
+    identity = {
+        "function": "geomech.analysis.stability_map",
+        "model": dict(model),
+        "description": description,
+        "G": G,
+        "near": near.tolist(),
+        "fixed": fixed,
+        "n_points": int(n_points),
+        "closed_form": None if closed_form is None else _family_identity(closed_form),
     }
-    m_all = np.full((ny, nx, 3), np.nan)
-    hev = np.full((ny, nx, 2), np.nan)
-    growth = np.full((ny, nx), np.nan)
-    ecdet = np.full((ny, nx), np.nan)
-    margin = np.full((ny, nx), np.nan) if closed_form is not None else None
-    jumped = np.zeros((ny, nx), dtype=np.int8)
-    complete = np.zeros((ny, nx), dtype=np.int8)
-    prev = None
-    last: np.ndarray | None = None
-    done = 0
-    for j in range(ny):
-        order = range(nx) if j % 2 == 0 else range(nx - 1, -1, -1)
-        for i in order:
-            if progress is not None:
-                progress(done)
-            done += 1
-            values = {**fixed, xname: float(xs[i]), yname: float(ys[j])}
-            if margin is not None:
-                assert closed_form is not None  # margin exists only with closed_form
-                margin[j, i] = float(closed_form(values))
-            system = family(**values)
-            # All equilibria, continued from the previous grid point's (a full search when that is not
-            # complete by Poincare-Hopf); the one assessed is the nearest to `near`: a definition that does
-            # not depend on the path through the grid, and that a fold or a pole cannot capture.
-            try:
-                eqs = (
-                    find_equilibria(system, G, n_points=n_points)
-                    if prev is None
-                    else continue_equilibria(system, prev, n_points=n_points)
-                )
-            except (ConvergenceError, InputError, FloatingPointError):
-                prev = None
-                continue
-            if len(eqs) == 0:
-                prev = None
-                continue
-            eq = eqs.nearest(near)
-            # A step to a far point means the nearest equilibrium changed identity (its branch ended in a
-            # fold, or another came nearer): flagged, since the verdict then belongs to another branch.
-            jumped[j, i] = last is None or np.linalg.norm(eq.m - last) > 0.25 * G
-            prev, last = eqs, eq.m
-            complete[j, i] = eqs.complete
-            rep = assess(system, eq)
-            codes["verdict"][j, i] = VERDICT_CODES[rep.verdict]
-            codes["lagrange_dirichlet"][j, i] = VERDICT_CODES[rep.lagrange_dirichlet.verdict]
-            codes["energy_casimir"][j, i] = VERDICT_CODES[rep.energy_casimir.verdict]
-            codes["linearisation"][j, i] = VERDICT_CODES[rep.linearisation.verdict]
-            m_all[j, i] = eq.m
-            hev[j, i] = np.linalg.eigvalsh(eq.hessian)
-            growth[j, i] = float(np.max(np.real(rep.linearisation.eigenvalues)))
-            ecdet[j, i] = _ec_determinant(system, eq.m)
-    if progress is not None:
-        progress(done)
+    study = functools.partial(_assess_points, family, xname, yname, fixed, G, near, closed_form, int(n_points))
+    per_task = xs.size if chunk is None else chunk
+    per_block = math.prod(_block_shape((ys.size, xs.size), per_task))
+    report = None if progress is None else (lambda done, total: progress(min(done * per_block, xs.size * ys.size)))
+    axes: dict[str, Any] = {yname: ys, xname: xs}
+    ds = sweep(
+        study,
+        out=out,
+        resume=resume,
+        scheduler=scheduler,
+        chunk=per_task,
+        progress=report,
+        identity=identity,
+        max_members=int(max_points),
+        **axes,
+    )
+    ds = ds.rename({"m_dim0": "component", "hessian_eigenvalues_dim0": "eigenvalue"})
     flags = {
         "flag_values": np.array(sorted(VERDICT_CODES.values()), dtype=np.int8),
         "flag_meanings": " ".join(k for k, _ in sorted(VERDICT_CODES.items(), key=lambda kv: kv[1])),
     }
-    dims = (yname, xname)
-    data = {
-        "verdict": (
-            dims,
-            codes["verdict"],
-            {
-                **flags,
-                "long_name": "combined verdict (stable if Lagrange-Dirichlet "
-                "or energy-Casimir proves it, unstable if the linearisation does)",
-            },
-        ),
-        "lagrange_dirichlet": (dims, codes["lagrange_dirichlet"], {**flags, "long_name": "Lagrange-Dirichlet on h_p"}),
-        "energy_casimir": (dims, codes["energy_casimir"], {**flags, "long_name": "energy-Casimir on so(3)*"}),
-        "linearisation": (dims, codes["linearisation"], {**flags, "long_name": "linearisation eigenvalues"}),
-        "m": (dims + ("component",), m_all, {"long_name": "body momentum of the continued equilibrium"}),
-        "hessian_eigenvalues": (
-            dims + ("eigenvalue",),
-            hev,
-            {"long_name": "eigenvalues of the Hessian of h_p (Serret-Andoyer chart)"},
-        ),
-        "branch_jump": (
-            dims,
-            jumped,
-            {
-                "long_name": "1 where the continuation left the followed branch (or started "
-                "afresh from `near`), 0 where it followed it"
-            },
-        ),
-        "complete": (dims, complete, {"long_name": "1 where the equilibria found pass the Poincare-Hopf check"}),
-        "growth_rate": (dims, growth, {"long_name": "largest real part of the linearisation eigenvalues"}),
-        "ec_determinant": (
-            dims,
-            ecdet,
-            {
-                "long_name": "normalised determinant of the energy-Casimir second "
-                "variation; its zero level is the stability boundary"
-            },
-        ),
+    described = {
+        "verdict": {
+            **flags,
+            "long_name": "combined verdict (stable if Lagrange-Dirichlet "
+            "or energy-Casimir proves it, unstable if the linearisation does)",
+        },
+        "lagrange_dirichlet": {**flags, "long_name": "Lagrange-Dirichlet on h_p"},
+        "energy_casimir": {**flags, "long_name": "energy-Casimir on so(3)*"},
+        "linearisation": {**flags, "long_name": "linearisation eigenvalues"},
+        "m": {"long_name": "body momentum of the continued equilibrium"},
+        "hessian_eigenvalues": {"long_name": "eigenvalues of the Hessian of h_p (Serret-Andoyer chart)"},
+        "branch_jump": {
+            "long_name": "1 where the continuation left the followed branch (or started afresh at a block's first "
+            "point), 0 where it followed it"
+        },
+        "complete": {"long_name": "1 where the equilibria found pass the Poincare-Hopf check"},
+        "growth_rate": {"long_name": "largest real part of the linearisation eigenvalues"},
+        "ec_determinant": {
+            "long_name": "normalised determinant of the energy-Casimir second variation; its zero level is the "
+            "stability boundary"
+        },
+        "closed_form_margin": {"long_name": "closed-form prediction; zero on the predicted boundary"},
     }
-    if margin is not None:
-        data["closed_form_margin"] = (
-            dims,
-            margin,
-            {"long_name": "closed-form prediction; zero on the predicted boundary"},
-        )
-    return xr.Dataset(
-        data,
-        coords={xname: xs, yname: ys, "component": ["m1", "m2", "m3"], "eigenvalue": [0, 1]},
-        attrs={
+    for name, attrs in described.items():
+        if name in ds:
+            ds[name].attrs.update(attrs)
+    if closed_form is None:
+        ds = ds.drop_vars("closed_form_margin")
+    return ds.assign_coords(component=["m1", "m2", "m3"], eigenvalue=[0, 1]).assign_attrs(
+        {
             "title": "stability map of a relative equilibrium",
             "description": description,
             "G": G,
@@ -212,8 +183,90 @@ def stability_map(
             "x": xname,
             "y": yname,
             "source": f"geomech {__version__}",
-        },
+        }
     )
+
+
+def _family_identity(f: Any) -> dict[str, Any]:
+    from .sweep import _identity
+
+    return _identity(f)
+
+
+def _assess_points(
+    family: Callable[..., Any],
+    xname: str,
+    yname: str,
+    fixed: Mapping[str, float],
+    G: float,
+    near: np.ndarray,
+    closed_form: Callable[[Mapping[str, float]], float] | None,
+    n_points: int,
+    **values: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """The verdicts at the points ``values[xname][i], values[yname][i]``, in their order: all equilibria continued
+    from the previous point's (searched afresh at the first point and where the continued set is not complete by
+    Poincare-Hopf), the one nearest to ``near`` assessed."""
+    xs, ys = values[xname], values[yname]
+    n = xs.size
+    codes = {
+        k: np.full(n, VERDICT_CODES["none"], dtype=np.int8)
+        for k in ("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")
+    }
+    m_all = np.full((n, 3), np.nan)
+    hev = np.full((n, 2), np.nan)
+    growth = np.full(n, np.nan)
+    ecdet = np.full(n, np.nan)
+    margin = np.full(n, np.nan)
+    jumped = np.zeros(n, dtype=np.int8)
+    complete = np.zeros(n, dtype=np.int8)
+    prev = None
+    last: np.ndarray | None = None
+    for i in range(n):
+        point = {**fixed, xname: float(xs[i]), yname: float(ys[i])}
+        if closed_form is not None:
+            margin[i] = float(closed_form(point))
+        system = family(**point)
+        # All equilibria, continued from the previous point's (a full search when that is not complete by
+        # Poincare-Hopf); the one assessed is the nearest to `near`: a definition that does not depend on the
+        # path through the grid, and that a fold or a pole cannot capture.
+        try:
+            eqs = (
+                find_equilibria(system, G, n_points=n_points)
+                if prev is None
+                else continue_equilibria(system, prev, n_points=n_points)
+            )
+        except (ConvergenceError, InputError, FloatingPointError):
+            prev = None
+            continue
+        if len(eqs) == 0:
+            prev = None
+            continue
+        eq = eqs.nearest(near)
+        # A step to a far point means the nearest equilibrium changed identity (its branch ended in a fold, or
+        # another came nearer): flagged, since the verdict then belongs to another branch.
+        jumped[i] = last is None or np.linalg.norm(eq.m - last) > 0.25 * G
+        prev, last = eqs, eq.m
+        complete[i] = eqs.complete
+        rep = assess(system, eq)
+        codes["verdict"][i] = VERDICT_CODES[rep.verdict]
+        codes["lagrange_dirichlet"][i] = VERDICT_CODES[rep.lagrange_dirichlet.verdict]
+        codes["energy_casimir"][i] = VERDICT_CODES[rep.energy_casimir.verdict]
+        codes["linearisation"][i] = VERDICT_CODES[rep.linearisation.verdict]
+        m_all[i] = eq.m
+        hev[i] = np.linalg.eigvalsh(eq.hessian)
+        growth[i] = float(np.max(np.real(rep.linearisation.eigenvalues)))
+        ecdet[i] = _ec_determinant(system, eq.m)
+    return {
+        **codes,
+        "m": m_all,
+        "hessian_eigenvalues": hev,
+        "branch_jump": jumped,
+        "complete": complete,
+        "growth_rate": growth,
+        "ec_determinant": ecdet,
+        "closed_form_margin": margin,
+    }
 
 
 def theorem5_margin(control: Any) -> Callable[[Mapping[str, float]], float]:

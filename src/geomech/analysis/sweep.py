@@ -11,7 +11,8 @@ machine the tasks run on dask's threaded scheduler over every core (the compiled
 a lost worker (a block written twice is written the same). The result is an :class:`xarray.Dataset` with one
 dimension per swept parameter (or ``sample``), the outputs as variables, each member's ``status`` (0 done, 1 the
 study raised on it: its outputs are NaN, the error is in the attributes), the units given, and the provenance
-(the study, its fixed arguments, the axes, the seed, and the versions of geomech and its dependencies).
+(the study, its fixed arguments, the axes, the seed, and the versions of geomech and its dependencies; mappings
+as JSON text, so that the Dataset writes to NetCDF as it is).
 
 Interrupted (Ctrl-C, a killed process, a lost machine), a study rerun with ``resume=True`` and the same arguments
 computes only the blocks not marked done and ends with the same data, to the last bit, as an uninterrupted run:
@@ -128,6 +129,15 @@ def _identity(study: Callable) -> dict[str, Any]:
     }
 
 
+def _json_identity(identity: Mapping[str, Any]) -> dict[str, Any]:
+    try:
+        return json.loads(json.dumps(dict(identity), sort_keys=True))
+    except TypeError as exc:
+        raise InputError(
+            f"Expected `identity` to hold JSON values (numbers, strings, lists, mappings): {exc}."
+        ) from None
+
+
 def _block_shape(shape: tuple[int, ...], chunk: int) -> tuple[int, ...]:
     """Blocks of at most ``chunk`` members: whole trailing dimensions first (contiguous members), then part of the
     next."""
@@ -175,6 +185,7 @@ def sweep(
     units: Mapping[str, str] | None = None,
     progress: Callable[[int, int], None] | None = None,
     max_members: int = 10**8,
+    identity: Mapping[str, Any] | None = None,
     **axes: Any,
 ):
     """``study`` over the grid of the named ``axes`` (each a 1-D array of values): an :class:`xarray.Dataset` with
@@ -206,6 +217,9 @@ def sweep(
         Called as blocks complete (done counts the blocks already in the store).
     max_members : int
         A larger grid is refused before any work.
+    identity : mapping, optional
+        What names the study in its store where its function cannot (a ``functools.partial`` over objects): JSON
+        values, in place of the function's module, name and source.
     """
     if not axes:
         raise InputError("Expected at least one axis to sweep, as `name=values`.")
@@ -224,7 +238,7 @@ def sweep(
     block = _block_shape(shape, chunk)
     identity = {
         "kind": "sweep",
-        "study": _identity(study),
+        "study": _identity(study) if identity is None else _json_identity(identity),
         "fixed": fixed_values,
         "axes": {d: coords[d].tolist() for d in dims},
         "block": list(block),
@@ -492,9 +506,10 @@ def _provenance(plan: _Plan) -> str:
         swept = ", ".join(
             f"{d}=<{len(plan.coords[d])} values in [{plan.coords[d][0]:g}, {plan.coords[d][-1]:g}]>" for d in plan.dims
         )
-        return f"geomech.sweep({ident['study']['function']}, {swept}{args})"
+        return f"geomech.sweep({ident['study'].get('function', '<study>')}, {swept}{args})"
     dist = ", ".join(f"{k}={tuple(v)!r}" for k, v in ident["distributions"].items())
-    return f"geomech.monte_carlo({ident['study']['function']}, n={ident['n']}, seed={ident['seed']}, {dist}{args})"
+    name = ident["study"].get("function", "<study>")
+    return f"geomech.monte_carlo({name}, n={ident['n']}, seed={ident['seed']}, {dist}{args})"
 
 
 def _open_existing(plan: _Plan, path: Path, resume: bool) -> Any:
@@ -575,7 +590,10 @@ def _run(plan: _Plan, out: Any, resume: bool, scheduler: Any, progress: Callable
         ds = xr.open_zarr(str(path), consolidated=False, zarr_format=3).drop_vars("_done")
         if temporary:
             ds = ds.load()
-        return ds
+        # mappings as JSON text, so that the Dataset writes to NetCDF as it is
+        return ds.assign_attrs(
+            {k: json.dumps(v, sort_keys=True) for k, v in ds.attrs.items() if isinstance(v, (dict, list))}
+        )
     finally:
         if temporary:
             shutil.rmtree(path.parent, ignore_errors=True)

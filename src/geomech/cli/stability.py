@@ -344,9 +344,27 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
     show_default=True,
     help="Refuse larger grids (10-15 ms a point).",
 )
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Continue the study in OUT/stability_map.zarr (the blocks already done are kept): same arguments only.",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Run on a dask.distributed cluster (tcp://host:8786) instead of this machine's cores; OUT must be a path "
+    "its workers reach.",
+)
+@click.option(
+    "--chunk",
+    type=click.IntRange(1, None),
+    default=None,
+    help="Grid points per task (default: one row of --x).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def stability_map_cmd(
-    lambdas, I3, phis, model_file, params, p, G, xspec, yspec, near, out, max_points, as_json
+    lambdas, I3, phis, model_file, params, p, G, xspec, yspec, near, out, max_points, resume, scheduler, chunk, as_json
 ) -> None:
     """Stability verdicts over a grid of two parameters, on the relative equilibrium nearest to --near.
 
@@ -354,7 +372,8 @@ def stability_map_cmd(
     afresh where the Poincare-Hopf check fails) and the one nearest to --near is assessed. Writes the map
     as a figure (computed boundary in black; Theorem 5's closed form dashed where it applies) and as a
     netCDF data file with the verdict codes (1 stable, 0 inconclusive, -1 unstable, -9 no equilibrium),
-    the equilibrium and the eigenvalues at every grid point.
+    the equilibrium and the eigenvalues at every grid point. The grid runs on dask in blocks of rows, written to
+    OUT/stability_map.zarr as they complete: an interrupted map continues with --resume.
     """
     import matplotlib
 
@@ -370,7 +389,8 @@ def stability_map_cmd(
         family, model = _file_family(model_file, given, G, (xname, "'--x'"), (yname, "'--y'"))
         if xname == yname:
             raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
-        ds = _run_map(family, (xname, xs), (yname, ys), G, near, None, f"model file {model_file}", max_points)
+        study = dict(out=out, resume=resume, scheduler=scheduler, chunk=chunk, model=model)
+        ds = _run_map(family, (xname, xs), (yname, ys), G, near, None, f"model file {model_file}", max_points, study)
         _write_map(ds, model, xname, xs, yname, ys, out, as_json)
         return
     if lambdas is None or not phis:
@@ -396,8 +416,10 @@ def stability_map_cmd(
     _check_swept_body(control, lambdas, (xname, xs, "'--x'"), (yname, ys, "'--y'"))
     closed = theorem5_margin(control) if control.kind == "one-rotor" else None
     desc = f"phi = {', '.join(str(e) for e in control.phi_expression)}" if control.phi_expression is not None else ""
-    ds = _run_map(control.family(), (xname, xs), (yname, ys), G, near, closed, desc, max_points)
-    _write_map(ds, _model_json(control, G), xname, xs, yname, ys, out, as_json)
+    model = _model_json(control, G)
+    study = dict(out=out, resume=resume, scheduler=scheduler, chunk=chunk, model=model)
+    ds = _run_map(control.family(), (xname, xs), (yname, ys), G, near, closed, desc, max_points, study)
+    _write_map(ds, model, xname, xs, yname, ys, out, as_json)
 
 
 def _file_family(model_file: str, given: dict[str, float], G: float, *swept: tuple[str, str]) -> tuple[Any, dict]:
@@ -425,12 +447,32 @@ def _file_family(model_file: str, given: dict[str, float], G: float, *swept: tup
         obj = build(**{**given, **values})
         return obj.closed_loop() if isinstance(obj, StructurePreservingControl) else as_left_invariant(obj)
 
-    return family, {"model": {"file": str(model_file), "G": G, "parameters": dict(given)}}
+    import hashlib
+    from pathlib import Path
+
+    digest = hashlib.sha256(Path(model_file).read_bytes()).hexdigest()
+    return family, {"model": {"file": str(model_file), "sha256": digest, "G": G, "parameters": dict(given)}}
 
 
-def _run_map(family: Any, x: tuple, y: tuple, G: float, near: Any, closed: Any, desc: str, max_points: int) -> Any:
+def _run_map(
+    family: Any, x: tuple, y: tuple, G: float, near: Any, closed: Any, desc: str, max_points: int, study: dict
+) -> Any:
+    """The map as a study whose store is OUT/stability_map.zarr (created with OUT)."""
+    from pathlib import Path
+
     from ..analysis import stability_map
 
+    out = Path(study.pop("out"))
+    out.mkdir(parents=True, exist_ok=True)
+    kw = dict(
+        G=G,
+        near=near,
+        closed_form=closed,
+        description=desc,
+        max_points=max_points,
+        out=out / "stability_map.zarr",
+        **study,
+    )
     n = x[1].size * y[1].size
     if sys.stderr.isatty():  # a progress bar for a person at a terminal, nothing in scripts and logs
         with click.progressbar(length=n, label="grid points", file=sys.stderr) as bar:
@@ -438,18 +480,8 @@ def _run_map(family: Any, x: tuple, y: tuple, G: float, near: Any, closed: Any, 
             def advance(done: int) -> None:
                 bar.update(done - bar.pos)
 
-            return stability_map(
-                family,
-                x,
-                y,
-                G=G,
-                near=near,
-                closed_form=closed,
-                description=desc,
-                progress=advance,
-                max_points=max_points,
-            )
-    return stability_map(family, x, y, G=G, near=near, closed_form=closed, description=desc, max_points=max_points)
+            return stability_map(family, x, y, progress=advance, **kw).load()
+    return stability_map(family, x, y, **kw).load()
 
 
 def _write_map(ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, out: Any, as_json: bool) -> None:

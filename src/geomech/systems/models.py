@@ -17,6 +17,7 @@ import contextlib
 import importlib.util
 import inspect
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -37,6 +38,9 @@ def _kinds(kind: Any) -> tuple[tuple[type, ...], str]:
 
     kinds = (NonholonomicSystem,) if kind is None else (kind if isinstance(kind, tuple) else (kind,))
     return kinds, " or ".join(k.__name__ for k in kinds)
+
+
+_BUILDING = threading.RLock()
 
 
 def model_builder(path: str | Path, *, kind: Any = None) -> Callable[..., Any]:
@@ -72,7 +76,9 @@ def model_builder(path: str | Path, *, kind: Any = None) -> Callable[..., Any]:
     if hasattr(module, "build") and callable(module.build):
 
         def build(**params: float) -> Any:
-            with contextlib.redirect_stdout(sys.stderr):
+            # sys.stdout is one for the process: threads building at once (a study's tasks) take turns, or one
+            # could restore another's redirection and leave stdout pointing at stderr
+            with _BUILDING, contextlib.redirect_stdout(sys.stderr):
                 try:
                     system = module.build(**params)
                 except GeomechError:
