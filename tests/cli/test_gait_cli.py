@@ -161,3 +161,35 @@ def test_names_are_checked_before_any_derivation(capsys, monkeypatch, args, word
     code = main(args)
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and words in err, err
+
+
+def test_a_sweep_of_coefficients_and_parameters_is_a_resumable_study(capsys, tmp_path):
+    xr = pytest.importorskip("xarray")
+    from scipy.special import jv
+
+    loop = ["--shape-loop", "psi=a*sin(2*pi*t/T)", "--shape-loop", "phi=0.4*sin(2*pi*t/T)"]
+    args = [
+        *BOARD,
+        *loop,
+        "--period",
+        "1.5",
+        "--sweep",
+        "a=0.5:1.5:3",
+        "--sweep",
+        "J0=0.2:0.4:2",
+        "--out",
+        str(tmp_path),
+    ]
+    code, out, err = run(capsys, *args, "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["summary"]["members"] == 6 and s["summary"]["failed"] == 0
+    ds = xr.open_dataset(tmp_path / "gait_sweep.nc").load()
+    want = 4 * np.pi * ds["J0"].values[None, :] * ds["a"].values[:, None] * (2 * np.pi / 1.5) * jv(1, 0.4)
+    np.testing.assert_allclose(ds["momentum_change"].values[..., 0], want, rtol=1e-8)
+    code, _, err = run(capsys, *args)
+    assert code == 2 and "--resume" in err and len(err.strip().splitlines()) == 1
+    code, _, err = run(capsys, *args, "--resume")
+    assert code == 0, err
+    code, _, err = run(capsys, *BOARD, *DRIVE, "--period", "1", "--resume")
+    assert code == 2 and "give `--sweep`" in err

@@ -39,6 +39,20 @@ COMMANDS = {
         "--period",
         "1",
     ],
+    "gait sweep": [
+        "gait",
+        *SNAKE,
+        "--shape-loop",
+        "psi=a*sin(2*pi*t/T)",
+        "--shape-loop",
+        "phi=0.2*cos(2*pi*t/T)",
+        "--period",
+        "1",
+        "--sweep",
+        "a=0.2:0.4:2",
+        "--out",
+        "{out}",
+    ],
     "reproduce serret-andoyer": ["reproduce", "serret-andoyer", "--t-final", "0.02", "--no-extras", "--out", "{out}"],
 }
 
@@ -60,7 +74,7 @@ def test_the_schema_is_a_valid_draft_2020_12_schema():
     # every command of the schema has an invocation here, and the other way round
     assert set(schema()["$defs"]["commands"]) == {"show"} | {
         a[0] if a[0] not in ("phase", "reproduce") else " ".join(a[:2]) for a in COMMANDS.values()
-    }
+    } | {"gait sweep"}
 
 
 # the study compiles five integrators for its own systems (15 s on a fresh cache): in the slow suite, where its

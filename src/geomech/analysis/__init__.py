@@ -12,6 +12,7 @@ from .equilibria import (
     refine_equilibrium,
 )
 from .gait_model import gait_loop
+from .gait_sweep import GaitSweep
 from .gaits import GaitAnalysis, analyse_gait
 from .group_paths import decompose_displacement, integrate_path
 from .phases import (
@@ -45,6 +46,7 @@ from .sweep import monte_carlo, sweep
 
 __all__ = [
     "GaitAnalysis",
+    "GaitSweep",
     "analyse_gait",
     "gait_loop",
     "PhaseSplit",

@@ -143,6 +143,47 @@ def parse_shape_loop(items: Sequence[str], names: Sequence[str], option: str, ow
     return {n: given[n] for n in names}
 
 
+def parse_range(spec: str, hint: str, max_n: int = 1000) -> tuple[str, Any]:
+    """``NAME=START:STOP:N``: the name and ``numpy.linspace(START, STOP, N)``, or a bad-parameter error naming the
+    option (``hint``)."""
+    import numpy as np
+
+    name, sep, rng = spec.partition("=")
+    parts = rng.split(":")
+    try:
+        if not sep or not name.strip() or len(parts) != 3:
+            raise ValueError
+        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise click.BadParameter(f"expected NAME=START:STOP:N (e.g. k=0:1:41), got {spec!r}", param_hint=hint) from None
+    if not (np.isfinite(a) and np.isfinite(b) and b > a and 2 <= n <= max_n):
+        raise click.BadParameter(f"expected START < STOP and 2 <= N <= {max_n}, got {spec!r}", param_hint=hint)
+    return name.strip(), np.linspace(a, b, n)
+
+
+def study_options(store: str) -> Any:
+    """``--resume``, ``--scheduler`` and ``--chunk`` of a command that runs a study (its store OUT/``store``)."""
+
+    def decorate(f: Any) -> Any:
+        f = click.option("--chunk", type=click.IntRange(1, None), default=None, help="Members (grid points) per task.")(
+            f
+        )
+        f = click.option(
+            "--scheduler",
+            default=None,
+            metavar="ADDRESS",
+            help="Run on a dask.distributed cluster (tcp://host:8786) instead of this machine's cores; OUT must be a "
+            "path its workers reach.",
+        )(f)
+        return click.option(
+            "--resume",
+            is_flag=True,
+            help=f"Continue the study in OUT/{store} (the blocks already done are kept): same arguments only.",
+        )(f)
+
+    return decorate
+
+
 class OutDir(click.ParamType):
     """``--out DIR``: checked when the command line is read, before any work (nothing is created then)."""
 

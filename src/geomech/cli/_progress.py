@@ -8,10 +8,10 @@ import itertools
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-__all__ = ["activity"]
+__all__ = ["activity", "study_progress"]
 
 _DELAY = 1.0  # seconds of work before anything is shown: quick commands stay silent
 _PERIOD = 0.2
@@ -45,3 +45,26 @@ def activity(label: str) -> Iterator[None]:
     finally:
         done.set()
         thread.join()
+
+
+@contextmanager
+def study_progress(label: str) -> Iterator[Callable[[int, int], None] | None]:
+    """A ``progress(done, total)`` for a study's tasks: click's progress bar on a terminal, None elsewhere."""
+    import click
+
+    stream = sys.stderr
+    if not (hasattr(stream, "isatty") and stream.isatty()):
+        yield None
+        return
+    bar: list = []
+
+    def progress(done: int, total: int) -> None:
+        if not bar:
+            bar.append(click.progressbar(length=total, label=f"{label}: tasks", file=stream).__enter__())
+        bar[0].update(done - bar[0].pos)
+
+    try:
+        yield progress
+    finally:
+        if bar:
+            bar[0].__exit__(None, None, None)

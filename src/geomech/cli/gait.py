@@ -28,7 +28,9 @@ from ._args import (
     one_model,
     out_option,
     parse_params,
+    parse_range,
     parse_shape_loop,
+    study_options,
 )
 from ._progress import activity
 
@@ -137,6 +139,15 @@ def _figures(analysis: Any, out: Path) -> Outputs:
 @click.option(
     "--samples", type=click.IntRange(3, 10**5), default=201, show_default=True, help="Output times per period."
 )
+@click.option(
+    "--sweep",
+    "sweeps",
+    multiple=True,
+    metavar="NAME=START:STOP:N",
+    help="Sweep a parameter of the model or a coefficient of the --shape-loop formulas (repeatable: a grid); "
+    "writes the net displacement of every gait to OUT/gait_sweep.nc, from a study resumable in OUT/gait_sweep.zarr.",
+)
+@study_options("gait_sweep.zarr")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @out_option("Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).")
 def gait_cmd(
@@ -149,6 +160,10 @@ def gait_cmd(
     g0: tuple,
     params: tuple,
     samples: int,
+    sweeps: tuple,
+    resume: bool,
+    scheduler: str | None,
+    chunk: int | None,
     as_json: bool,
     out: Path | None,
 ) -> None:
@@ -164,7 +179,27 @@ def gait_cmd(
 
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
-    system = _system(one_model(model, model_file), parse_params(params))
+    given = parse_params(params)
+    if sweeps:
+        _sweep(
+            one_model(model, model_file),
+            given,
+            shape_loop,
+            period,
+            periods,
+            p0,
+            g0,
+            sweeps,
+            resume,
+            scheduler,
+            chunk,
+            as_json,
+            out,
+        )
+        return
+    if resume or scheduler is not None or chunk is not None:
+        raise InputError("`--resume`, `--scheduler` and `--chunk` run a study: give `--sweep`.")
+    system = _system(one_model(model, model_file), given)
     loop = _shape_loop(system, shape_loop)
     with activity(f"gait of {system.name}: deriving and integrating"):
         analysis = analyse_gait(
@@ -181,3 +216,96 @@ def gait_cmd(
     doc = document("gait", head, detail)
     outputs = _figures(analysis, out) if out is not None else None
     emit(doc, as_json, _text(doc), outputs, "gait")
+
+
+def _sweep(
+    model: str,
+    given: dict[str, float],
+    shape_loop: tuple,
+    period: float,
+    periods: int,
+    p0: tuple | None,
+    g0: tuple,
+    sweeps: tuple,
+    resume: bool,
+    scheduler: str | None,
+    chunk: int | None,
+    as_json: bool,
+    out: Path | None,
+) -> None:
+    """``--sweep``: the net displacement over a grid of parameters and coefficients, as a study on dask."""
+    import numpy as np
+
+    from ..analysis import GaitSweep
+    from ._progress import study_progress
+
+    if out is None:
+        raise InputError("`--sweep` writes its study to `--out DIR`: give it.")
+    if g0:
+        raise InputError("`--g0` does not change a displacement g(0)^-1 g(nT); a sweep starts at the identity.")
+    axes: dict[str, Any] = {}
+    for spec in sweeps:
+        name, values = parse_range(spec, "'--sweep'", max_n=100_000)
+        if name in axes:
+            raise InputError(f"`--sweep` gives {name!r} twice.")
+        axes[name] = values
+    from .nonholonomic import nonholonomic_system, require_values
+
+    # a swept parameter of the model needs no --param: its first value stands in while the model is built
+    system = nonholonomic_system(model, given)
+    swept_own = {q.name for q in system.parameter_symbols} & set(axes)
+    stand_in = {k: float(axes[k][0]) for k in swept_own if k not in given}
+    if stand_in:
+        system = nonholonomic_system(model, {**given, **stand_in})
+    require_values(system)
+    loop = _shape_loop(system, shape_loop)
+    fixed = {k: v for k, v in given.items() if k not in axes}
+    study = GaitSweep(
+        system,
+        {k: str(e) for k, e in loop.items()},
+        period=period,
+        periods=periods,
+        p0=p0,
+        parameters={**{q.name: v for q, v in system.parameter_values({}).items() if q.name not in swept_own}, **fixed},
+    )
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with study_progress("gait sweep") as progress:
+        ds = study.run(
+            out=out / "gait_sweep.zarr",
+            resume=resume,
+            scheduler=scheduler,
+            chunk=1024 if chunk is None else chunk,
+            progress=progress,
+            **axes,
+        ).load()
+    net = ds["net_displacement"]
+    members = int(np.prod([len(v) for v in axes.values()]))
+    extremes = {}
+    for c in net["coordinate"].values.tolist():
+        v = net.sel(coordinate=c)
+        if bool(np.isfinite(v.values).any()):
+            where = np.unravel_index(int(np.nanargmax(np.abs(v.values))), v.shape)
+            extremes[c] = {
+                "value": float(v.values[where]),
+                **{d: float(ds[d].values[i]) for d, i in zip(v.dims, where)},
+            }
+    summary = {
+        "members": members,
+        "failed": int((ds["failed"].values != 0).sum() + (ds["status"].values != 0).sum()),
+        "largest_net_displacement": extremes,
+    }
+    detail = {
+        "system": system.name,
+        "loop": study.loop,
+        "period": period,
+        "periods": periods,
+        "sweep": {k: {"start": float(v[0]), "stop": float(v[-1]), "n": len(v)} for k, v in axes.items()},
+    }
+    outputs = Outputs(out)
+    outputs.dataset("gait_sweep.nc", ds)
+    doc = document("gait sweep", summary, detail)
+    text = f"gait sweep of {system.name}: {members} gaits, {summary['failed']} failed\nlargest |net displacement|: " + (
+        ", ".join(f"{c} {e['value']:.6g}" for c, e in extremes.items()) or "none"
+    )
+    emit(doc, as_json, text, outputs, "gait_sweep")

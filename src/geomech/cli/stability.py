@@ -14,7 +14,7 @@ import click
 import numpy as np
 
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, Outputs, document, emit, out_option, parse_params
+from ._args import FloatVector, Outputs, document, emit, out_option, parse_params, parse_range, study_options
 
 __all__ = ["stability_cmd", "stability_map_cmd"]
 
@@ -305,20 +305,6 @@ def _check_swept_body(control: Any, lambdas: tuple[float, ...], *sweeps: tuple[s
         )
 
 
-def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
-    name, sep, rng = spec.partition("=")
-    parts = rng.split(":")
-    try:
-        if not sep or not name.strip() or len(parts) != 3:
-            raise ValueError
-        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
-    except ValueError:
-        raise click.BadParameter(f"expected NAME=START:STOP:N (e.g. k=0:1:41), got {spec!r}", param_hint=hint) from None
-    if not (np.isfinite(a) and np.isfinite(b) and b > a and 2 <= n <= 1000):
-        raise click.BadParameter(f"expected START < STOP and 2 <= N <= 1000, got {spec!r}", param_hint=hint)
-    return name.strip(), np.linspace(a, b, n)
-
-
 @click.command("stability-map")
 @_model_options
 @click.option(
@@ -344,24 +330,7 @@ def _range(spec: str, hint: str) -> tuple[str, np.ndarray]:
     show_default=True,
     help="Refuse larger grids (10-15 ms a point).",
 )
-@click.option(
-    "--resume",
-    is_flag=True,
-    help="Continue the study in OUT/stability_map.zarr (the blocks already done are kept): same arguments only.",
-)
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS",
-    help="Run on a dask.distributed cluster (tcp://host:8786) instead of this machine's cores; OUT must be a path "
-    "its workers reach.",
-)
-@click.option(
-    "--chunk",
-    type=click.IntRange(1, None),
-    default=None,
-    help="Grid points per task (default: one row of --x).",
-)
+@study_options("stability_map.zarr")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def stability_map_cmd(
     lambdas, I3, phis, model_file, params, p, G, xspec, yspec, near, out, max_points, resume, scheduler, chunk, as_json
@@ -381,8 +350,8 @@ def stability_map_cmd(
 
     from ..analysis import theorem5_margin
 
-    xname, xs = _range(xspec, "'--x'")
-    yname, ys = _range(yspec, "'--y'")
+    xname, xs = parse_range(xspec, "'--x'")
+    yname, ys = parse_range(yspec, "'--y'")
     given = parse_params(params)
     if model_file is not None:
         _no_rotor_options(lambdas, I3, phis, p)
