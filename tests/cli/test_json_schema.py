@@ -54,6 +54,17 @@ COMMANDS = {
         "{out}",
     ],
     "reproduce serret-andoyer": ["reproduce", "serret-andoyer", "--t-final", "0.02", "--no-extras", "--out", "{out}"],
+    "reproduce serret-andoyer sweep": [
+        "reproduce",
+        "serret-andoyer",
+        "--t-final",
+        "0.02",
+        "--no-extras",
+        "--sweep",
+        "h=0.001:0.002:2",
+        "--out",
+        "{out}",
+    ],
 }
 
 
@@ -74,7 +85,7 @@ def test_the_schema_is_a_valid_draft_2020_12_schema():
     # every command of the schema has an invocation here, and the other way round
     assert set(schema()["$defs"]["commands"]) == {"show"} | {
         a[0] if a[0] not in ("phase", "reproduce") else " ".join(a[:2]) for a in COMMANDS.values()
-    } | {"gait sweep"}
+    } | {"gait sweep", "reproduce serret-andoyer sweep"}
 
 
 # the study compiles five integrators for its own systems (15 s on a fresh cache): in the slow suite, where its
