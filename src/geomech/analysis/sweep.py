@@ -587,7 +587,8 @@ def _run(plan: _Plan, out: Any, resume: bool, scheduler: Any, progress: Callable
             log = dict(root.attrs.get("failures", {}))
             log.update(failures)
             root.attrs["failures"] = log
-        ds = xr.open_zarr(str(path), consolidated=False, zarr_format=3).drop_vars("_done")
+        # no dask arrays (zarr's, read as indexed): reading needs no scheduler, whose pool would not survive a fork
+        ds = xr.open_zarr(str(path), consolidated=False, zarr_format=3, chunks=None).drop_vars("_done")
         if temporary:
             ds = ds.load()
         # mappings as JSON text, so that the Dataset writes to NetCDF as it is
