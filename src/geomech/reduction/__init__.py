@@ -16,6 +16,7 @@ from .coadjoint import CoadjointOrbit, StationarySubgroup
 from .euler_coordinates import EulerCoordinates
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, reduced_numeric
+from .quaternion_coordinates import QuaternionCoordinates
 from .reduced_numeric import ReducedNumeric
 from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
 
@@ -35,6 +36,7 @@ __all__ = [
     "reduced_numeric",
     "ClassicalSerretAndoyer",
     "EulerCoordinates",
+    "QuaternionCoordinates",
     "GeneralizedSerretAndoyer",
     "LPeriod",
     "SerretAndoyerChart",
