@@ -321,6 +321,13 @@ def make_problem(system: Any, *, attitude: bool) -> Problem:
     return Problem(kind="lie_poisson", layout=layout, dim=12 if attitude else 3, system=system, core=core, **analysis)
 
 
+def _shown(expr: sp.Expr, limit: int = 120) -> str:
+    """`` = expr`` for a message when it is short; nothing when it is long (simplifying it to show it could take
+    longer than the whole simulation: it is computed for every problem, and read only on a refusal)."""
+    text = str(expr)
+    return f" = {text}" if len(text) <= limit else ""
+
+
 def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
     variables = tuple(core.q_symbols) + tuple(core.p_symbols)
     missing: dict[Structure, str] = {}
@@ -340,7 +347,7 @@ def _analyse_canonical(core: CanonicalSystem) -> dict[str, Any]:
                 mixed = sp.diff(expr, q, p)
                 if not vanishes(mixed):
                     missing[Structure.SEPARABLE_CANONICAL] = (
-                        f"{core.name} is not separable: d^2H/d{q} d{p} = {sp.simplify(mixed)} is not zero"
+                        f"{core.name} is not separable: d^2H/d{q} d{p}{_shown(mixed)} is not zero"
                     )
                     break
             if Structure.SEPARABLE_CANONICAL in missing:
@@ -392,8 +399,7 @@ def _analyse_lie_poisson(core: LeftInvariantSystem) -> dict[str, Any]:
             mixed = sp.diff(grad[i], M_SYMBOLS[j])
             if not vanishes(mixed):
                 missing[Structure.LIE_POISSON_SPLIT] = (
-                    f"H is not a sum f1(m1) + f2(m2) + f3(m3): d^2H/dm{i + 1} dm{j + 1} = {sp.simplify(mixed)} "
-                    "is not zero"
+                    f"H is not a sum f1(m1) + f2(m2) + f3(m3): d^2H/dm{i + 1} dm{j + 1}{_shown(mixed)} is not zero"
                 )
                 break
         if Structure.LIE_POISSON_SPLIT in missing:
