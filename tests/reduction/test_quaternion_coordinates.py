@@ -13,7 +13,7 @@ from geomech.errors import SingularityError, SymbolicError
 from geomech.integrators import DormandPrince, ImplicitMidpoint
 from geomech.lie import quaternion as quat
 from geomech.lie import so3
-from geomech.reduction import EulerCoordinates, QuaternionCoordinates
+from geomech.reduction import ClassicalSerretAndoyer, EulerCoordinates, QuaternionCoordinates
 from geomech.systems import LeftInvariantSystem, RigidBody
 
 FREE = "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3)"
@@ -204,3 +204,50 @@ def test_midpoint_in_quaternions_converges_at_order_2_to_the_lie_group_solution(
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert errors[-1] > 1e-8  # far above the reference's error
     np.testing.assert_allclose(orders, 2.0, atol=0.1)
+
+
+def test_serret_andoyer_in_quaternion_form_is_canonical_and_agrees_with_the_euler_route(rng):
+    sa_map = ClassicalSerretAndoyer()
+    chart = QuaternionCoordinates(free_body())
+    euler = EulerCoordinates(free_body())
+    eps = 1e-6
+    for _ in range(5):
+        R, m = so3.exp(rng.normal(size=3)), rng.normal(size=3)
+        sa = sa_map.from_body(R, m)
+        y = sa_map.to_quaternion(sa)
+        # the same state as the quaternion chart's (up to the sign of the double cover), and both routes agree
+        y_chart = chart.forward(R, m)
+        assert min(np.abs(y - y_chart).max(), np.abs(y + y_chart).max()) < 1e-13
+        np.testing.assert_allclose(sa_map.from_quaternion(y), sa, atol=1e-13)
+        np.testing.assert_allclose(sa_map.forward(euler.forward(R, m)), sa, atol=1e-12)
+        # canonical: the Liouville form pi . dq pulls back to L dl + G dg + H dh
+        pulled = [
+            y[4:] @ (sa_map.to_quaternion(sa + eps * e)[:4] - sa_map.to_quaternion(sa - eps * e)[:4]) / (2 * eps)
+            for e in np.eye(6)
+        ]
+        np.testing.assert_allclose(pulled, [sa[3], sa[4], sa[5], 0.0, 0.0, 0.0], atol=1e-8 * sa[4])
+        # a turn of l is a turn of the body: the other sheet of the double cover
+        np.testing.assert_allclose(sa_map.to_quaternion(sa + 2 * np.pi * np.eye(6)[0]), -y, atol=1e-13)
+
+
+def test_serret_andoyer_variables_along_a_motion_through_the_gimbal_lock():
+    system = free_body()
+    chart = QuaternionCoordinates(system)
+    sa_map = ClassicalSerretAndoyer()
+    R0, m0 = np.eye(3), np.array([1.0, 0.05, 0.02])  # theta = 0: the Euler route cannot start
+    with pytest.raises(SingularityError):
+        sa_map.forward(EulerCoordinates(system).forward(R0, m0))
+    sol = gm.solve(
+        chart.canonical_system(), ImplicitMidpoint(), t_final=30.0, h=0.02, y0=chart.forward(R0, m0), backend="python"
+    )
+    R, m = chart.inverse(sol.y)
+    theta = np.arccos(np.clip(R[:, 2, 2], -1, 1))
+    assert theta.max() > 3.0 and theta[len(theta) // 4 :].min() < 0.06
+    sa = sa_map.from_quaternion(sol.y)
+    G = np.linalg.norm(m0)
+    # G, H and the node h are the spatial momentum's: constant to round-off; L is m3; l turns continuously
+    np.testing.assert_allclose(sa[:, 4], G, atol=1e-13 * G)
+    np.testing.assert_allclose(sa[:, 5], sa[0, 5], atol=1e-13 * G)
+    np.testing.assert_allclose(np.unwrap(sa[:, 2]), sa[0, 2], atol=1e-12)
+    np.testing.assert_allclose(sa[:, 3], m[:, 2], atol=1e-14)
+    assert np.abs(np.diff(np.unwrap(sa[:, 0]))).max() < 0.1

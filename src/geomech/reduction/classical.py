@@ -36,6 +36,7 @@ from scipy.integrate import quad
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, SingularityError
+from ..lie import quaternion as _quat
 from ..lie import so3
 from .euler_coordinates import _angles_from_matrix, _body_momentum, _coordinates, _matrix_from_angles, _momenta
 
@@ -181,6 +182,51 @@ class ClassicalSerretAndoyer:
         R = _rz(h) @ _rx(sigma) @ _rz(g) @ _rx(beta) @ _rz(l_)
         m = np.stack([sin_beta * np.sin(l_), sin_beta * np.cos(l_), L], -1)
         return R, m
+
+    # -- quaternion coordinates <-> Serret-Andoyer --------------------------------------------------
+    def to_quaternion(self, sa: Any) -> np.ndarray:
+        """The point :math:`(q, \\pi)` of the quaternion coordinates
+        (:class:`~geomech.reduction.QuaternionCoordinates`) of :math:`(l, g, h, L, G, H)`, shape ``(..., 8)``.
+
+        :math:`q = q_z(h)\\,q_x(\\sigma)\\,q_z(g)\\,q_x(\\beta)\\,q_z(l)` with :math:`q_z(a) = (\\cos\\frac a2, 0, 0,
+        \\sin\\frac a2)`, :math:`q_x(a) = (\\cos\\frac a2, \\sin\\frac a2, 0, 0)` (the quaternion of the product of
+        rotations of :meth:`to_body`, on the double cover: a turn of an angle changes the sign of ``(q, pi)``,
+        the same state), and :math:`\\pi = 2q(0, m)`. The map is canonical: the Liouville form
+        :math:`\\pi\\cdot dq` pulls back to :math:`L\\,dl + G\\,dg + H\\,dh` (Deprit and Elipe's quaternion form of
+        the transformation); it is defined wherever the Serret-Andoyer chart is, whatever the Euler angles of
+        the attitude (at their gimbal lock too).
+        """
+        sa = V.trailing_shape(sa, "sa", (6,))
+        R, m = self.to_body(sa)  # checks the chart's ranges
+        l_, g, h, L, G, H = (sa[..., k] for k in range(6))
+        beta = np.arctan2(np.sqrt((G - L) * (G + L)), L)
+        sigma = np.arctan2(np.sqrt((G - H) * (G + H)), H)
+        zero = np.zeros_like(l_)
+
+        def qz(a: np.ndarray) -> np.ndarray:
+            return np.stack([np.cos(a / 2), zero, zero, np.sin(a / 2)], -1)
+
+        def qx(a: np.ndarray) -> np.ndarray:
+            return np.stack([np.cos(a / 2), np.sin(a / 2), zero, zero], -1)
+
+        q = qz(h)
+        for factor in (qx(sigma), qz(g), qx(beta), qz(l_)):
+            q = _quat.multiply(q, factor)
+        w, v = q[..., 0], q[..., 1:]
+        pi = 2.0 * np.concatenate([-np.sum(v * m, -1)[..., None], w[..., None] * m + np.cross(v, m)], -1)
+        return np.concatenate([q, pi], -1)
+
+    def from_quaternion(self, y: Any) -> np.ndarray:
+        """:math:`(l, g, h, L, G, H)` of a point :math:`(q, \\pi)` of the quaternion coordinates, shape ``(..., 6)``:
+        :meth:`from_body` of its attitude and body momentum, with no Euler angle on the way (so along a motion
+        through the Euler angles' gimbal lock as well)."""
+        from .quaternion_coordinates import _body_momentum as _quaternion_momentum
+
+        y = V.trailing_shape(y, "y", (8,))
+        norm = np.linalg.norm(y[..., :4], axis=-1, keepdims=True)
+        if np.any(norm == 0):
+            raise InputError("Expected `y` to have a nonzero quaternion part q (its first four components).")
+        return self.from_body(_quat.as_matrix(y[..., :4] / norm), _quaternion_momentum(y))
 
     # -- Euler coordinates <-> Serret-Andoyer -------------------------------------------------------
     def forward(self, q_euler: Any) -> np.ndarray:
