@@ -3,6 +3,7 @@ machine's cores (dask's threaded scheduler) and on a dask.distributed LocalClust
 
     PYTHONPATH=src python benchmarks/studies.py           # a 100 x 100 map and 100,000 gaits, about 10 minutes
     PYTHONPATH=src python benchmarks/studies.py --quick   # a 30 x 30 map and 10,000 gaits
+    PYTHONPATH=src python benchmarks/studies.py --scale   # a 200 x 200 map; 4 worker processes; peak memory
 
 Not part of the test suite. The problems (issue 18, item 5; issue 16, item 4):
 
@@ -81,6 +82,98 @@ def run_gaits(shape: tuple[int, int, int], where: Any, store: Path) -> tuple[flo
     return time.perf_counter() - t, ds
 
 
+def peak_rss_mib() -> float:
+    """This process's peak resident memory (MiB); run in a worker by ``client.run``."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def local_cluster(workers: int, memory_limit: str) -> tuple[Any, Any]:
+    import distributed
+
+    cluster = distributed.LocalCluster(
+        n_workers=workers,
+        processes=True,
+        threads_per_worker=1,
+        host="127.0.0.1",
+        dashboard_address=None,
+        memory_limit=memory_limit,
+    )
+    return cluster, distributed.Client(cluster)
+
+
+def scale(n_map: int, workers: int, gaits: tuple[int, int, int]) -> int:
+    """The larger runs of issue 18, item 5: an ``n_map`` x ``n_map`` stability map on 2 worker processes (the
+    fastest configuration of the map above), and both studies on a cluster of ``workers`` worker processes with
+    1 GiB each (more processes than cores: the same code a cluster of machines would run), with every worker's
+    peak memory. Writes ``results/studies_scale.json`` and ``results/studies_scale.md``."""
+    scratch = Path(tempfile.mkdtemp(prefix="geomech-bench-"))
+    rows: list[dict[str, Any]] = []
+    plans = [
+        ("2 processes x 1 thread", 2, "4GiB", [("stability_map", n_map)]),
+        (f"{workers} processes x 1 thread, 1 GiB each", workers, "1GiB", [("stability_map", 100), ("gaits", 0)]),
+    ]
+    try:
+        for label, n_workers, limit, studies in plans:
+            cluster, client = local_cluster(n_workers, limit)
+            try:
+                run_map(4, client, scratch / f"warm-map-{n_workers}.zarr")
+                run_gaits((2, 2, 2), client, scratch / f"warm-gait-{n_workers}.zarr")
+                for name, size in studies:
+                    store = scratch / f"{name}-{n_workers}-{size}.zarr"
+                    if name == "stability_map":
+                        wall, ds = run_map(size, client, store)
+                        members, shape = size * size, f"{size} x {size}"
+                    else:
+                        wall, ds = run_gaits(gaits, client, store)
+                        members, shape = int(np.prod(gaits)), " x ".join(map(str, gaits))
+                    store_mib = sum(f.stat().st_size for f in store.rglob("*") if f.is_file()) / 2**20
+                    peaks = sorted(client.run(peak_rss_mib).values())
+                    rows.append(
+                        dict(
+                            study=name,
+                            grid=shape,
+                            members=members,
+                            where=label,
+                            wall_s=wall,
+                            per_member_us=wall / members * 1e6,
+                            status_nonzero=int((ds["status"].values != 0).sum()),
+                            worker_peak_rss_mib=peaks,
+                            store_mib=store_mib,
+                        )
+                    )
+                    print(rows[-1], flush=True)
+            finally:
+                client.close()
+                cluster.close()
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    out = dict(
+        machine=f"{platform.machine()} {platform.processor()}, {platform.python_version()}, {os.cpu_count()} CPUs",
+        command=f"PYTHONPATH=src python benchmarks/studies.py --scale (map {n_map} x {n_map}, {workers} workers)",
+        controller_peak_rss_mib=peak_rss_mib(),
+        rows=rows,
+    )
+    results = HERE / "results"
+    results.mkdir(exist_ok=True)
+    (results / "studies_scale.json").write_text(json.dumps(out, indent=1) + "\n")
+    lines = [
+        "| study | grid | where | wall time (s) | per member (us) | workers' peak memory (MiB) | store (MiB) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        peaks = ", ".join(f"{x:.0f}" for x in r["worker_peak_rss_mib"])
+        lines.append(
+            f"| {r['study']} | {r['grid']} | {r['where']} | {r['wall_s']:.1f} | {r['per_member_us']:.0f} | {peaks} | "
+            f"{r['store_mib']:.1f} |"
+        )
+    table = "\n".join(lines) + f"\n\ncontroller peak memory: {out['controller_peak_rss_mib']:.0f} MiB\n"
+    (results / "studies_scale.md").write_text(table)
+    print(table)
+    return 0
+
+
 def same(a: Any, b: Any) -> bool:
     return all(np.array_equal(a[v].values, b[v].values, equal_nan=True) for v in a.data_vars)
 
@@ -88,12 +181,15 @@ def same(a: Any, b: Any) -> bool:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a 30 x 30 map and 10,000 gaits")
+    ap.add_argument("--scale", action="store_true", help="a 200 x 200 map; 4 worker processes; peak memory")
     args = ap.parse_args(argv)
     try:
         import distributed
     except ImportError:
         print("studies.py: dask.distributed is not installed", file=sys.stderr)
         return 2
+    if args.scale:
+        return scale(40 if args.quick else 200, 4, (10, 10, 100) if args.quick else (100, 10, 100))
     n_map = 30 if args.quick else 100
     gaits = (10, 10, 100) if args.quick else (100, 10, 100)
     scratch = Path(tempfile.mkdtemp(prefix="geomech-bench-"))
