@@ -1,7 +1,14 @@
 """Maps between representations: Euler-angle coordinates, Serret-Andoyer charts, reduction."""
 
 from . import rotor_closed_forms
-from .almost_poisson import AlmostPoissonStructure, PoissonReduction, almost_poisson, poisson_reduction
+from .almost_poisson import (
+    AlmostPoissonStructure,
+    FullAlmostPoisson,
+    PoissonReduction,
+    almost_poisson,
+    full_almost_poisson,
+    poisson_reduction,
+)
 from .classical import (
     ClassicalSerretAndoyer,
     LPeriod,
@@ -30,6 +37,8 @@ __all__ = [
     "PoissonReduction",
     "ReducedNumeric",
     "almost_poisson",
+    "FullAlmostPoisson",
+    "full_almost_poisson",
     "bkmm_reduction",
     "lagrange_dalembert",
     "poisson_reduction",
