@@ -15,6 +15,7 @@ from .gait_model import gait_loop
 from .gait_sweep import GaitSweep
 from .gaits import GaitAnalysis, analyse_gait
 from .group_paths import decompose_displacement, integrate_path
+from .momentum_transport import MomentumTransport, momentum_connection, momentum_curvature, momentum_transport
 from .phases import (
     PhaseSplit,
     Reconstruction,
@@ -45,6 +46,10 @@ from .stability_map import stability_map, theorem5_margin
 from .sweep import monte_carlo, sweep
 
 __all__ = [
+    "MomentumTransport",
+    "momentum_connection",
+    "momentum_curvature",
+    "momentum_transport",
     "GaitAnalysis",
     "GaitSweep",
     "analyse_gait",
