@@ -13,7 +13,7 @@ ROOT = Path(geomech.__file__).parent
 #: From the bottom up (docs/DESIGN: lie -> symbolic layer -> systems -> reduction -> integrators -> analysis ->
 #: plot -> experiments -> cli). The base modules (errors, validation, version, storage) are below them all.
 LAYERS = ["base", "lie", "symbolic", "systems", "reduction", "integrators", "analysis", "plot", "experiments", "cli"]
-BASE = {"errors", "_validate", "_version", "_storage"}
+BASE = {"errors", "_validate", "_version", "_storage", "_display"}
 
 
 def _module_name(path: Path) -> str:

@@ -19,6 +19,7 @@ from typing import Any, cast
 import numpy as np
 
 from .. import _validate as V
+from .._display import ShowsItselfAsHTML
 from ..errors import ConvergenceError, InputError, NumericalError
 from ..reduction import SerretAndoyerChart
 from ..systems import as_left_invariant
@@ -88,7 +89,7 @@ def _best_axis(m: np.ndarray) -> int:
 
 
 @dataclass(frozen=True)
-class Equilibrium:
+class Equilibrium(ShowsItselfAsHTML):
     """A relative equilibrium: a critical point of :math:`h_p` on :math:`|m| = G`.
 
     Attributes

@@ -40,6 +40,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
+from .._display import ShowsItselfAsHTML
 from ..errors import InputError, NumericalError, ShapeError
 from ..integrators import Solution
 from ..reduction.nonholonomic import reduced_numeric
@@ -65,7 +66,7 @@ _NOTE = (
 # The analysis
 # ---------------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class GaitAnalysis:
+class GaitAnalysis(ShowsItselfAsHTML):
     """The motion of a nonholonomic system along ``periods`` periods of a gait, and its parts.
 
     Attributes
@@ -174,6 +175,9 @@ class GaitAnalysis:
         if self.model.exponential_coordinates:
             return tuple(f"log_{n}" for n in self.model.group.algebra_names)
         return tuple(c.name for c in self.system.group.coordinates)
+
+    def _html_data(self) -> dict[str, Any]:
+        return self.summary()
 
     def summary(self) -> dict[str, Any]:
         """A JSON-ready summary (numbers as floats and lists)."""

@@ -37,6 +37,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
+from .._display import ShowsItselfAsHTML
 from ..errors import InputError, NumericalError, ShapeError
 from ..reduction.nonholonomic import reduced_numeric
 from ..reduction.reduced_numeric import ReducedNumeric
@@ -113,7 +114,7 @@ def momentum_curvature(
 
 
 @dataclass(frozen=True)
-class MomentumTransport:
+class MomentumTransport(ShowsItselfAsHTML):
     """The momentum equation integrated along a shape path as the affine map :math:`p(t) = \\Phi(t)p_0 + b(t)`.
 
     Attributes
@@ -135,6 +136,16 @@ class MomentumTransport:
     transport: np.ndarray
     forcing: np.ndarray
     nfev: int
+
+    def _html_data(self) -> dict[str, Any]:
+        return {
+            "system": self.model.system.name,
+            "period": float(self.loop.T),
+            "holonomy Phi(T)": self.holonomy.tolist(),
+            "forcing b(T)": self.offset.tolist(),
+            "momentum gained from 0": self.gained().tolist(),
+            "evaluations": self.nfev,
+        }
 
     @property
     def holonomy(self) -> np.ndarray:

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._display import ShowsItselfAsHTML
 from ..errors import ConvergenceError, InputError, ShapeError
 from ..integrators import Solution
 from ..lie._common import wrap_angle
@@ -61,7 +62,7 @@ __all__ = [
 # Phases (Theorem 2.2)
 # ---------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class PhaseSplit:
+class PhaseSplit(ShowsItselfAsHTML):
     """Geometric, dynamic and total phase over one period of a closed shape loop (eq. 2.3), unwrapped.
 
     ``component`` names the group coordinate the phase is for (``"theta"``: the S^1 angle, or the

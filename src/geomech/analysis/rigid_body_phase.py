@@ -11,6 +11,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import _validate as V
+from .._display import ShowsItselfAsHTML
 from ..errors import InputError, NumericalError
 from ..lie._common import wrap_angle
 from .group_paths import integrate_path
@@ -23,7 +24,7 @@ __all__ = ["RigidBodyPhase", "rigid_body_phase", "spherical_polygon_area"]
 # The free rigid body: Montgomery's formula (G_mu = S^1)
 # ---------------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class RigidBodyPhase:
+class RigidBodyPhase(ShowsItselfAsHTML):
     """Montgomery's formula for the free rigid body over one period :math:`T` of the body momentum.
 
     After one period the attitude has turned about the spatial momentum :math:`\\mu` by

@@ -39,6 +39,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from .. import _validate as V
+from .._display import ShowsItselfAsHTML
 from ..errors import ConvergenceError, InputError, NumericalError
 from ..lie.so3 import hat
 from ..systems import as_left_invariant
@@ -67,7 +68,7 @@ _DEGENERATE = 1e-9
 
 
 @dataclass(frozen=True)
-class Verdict:
+class Verdict(ShowsItselfAsHTML):
     """One method's verdict: ``"stable"``, ``"unstable"`` or ``"inconclusive"``, with the evidence.
 
     ``matrix`` is the matrix the verdict rests on (the Hessian of :math:`h_p`, the energy-Casimir second
@@ -255,7 +256,7 @@ def linearisation(system: Any, equilibrium: Equilibrium) -> Verdict:
 
 
 @dataclass(frozen=True)
-class StabilityReport:
+class StabilityReport(ShowsItselfAsHTML):
     """The three verdicts on one relative equilibrium, and the combined one.
 
     ``verdict`` is ``"stable"`` if Lagrange-Dirichlet or energy-Casimir proves it, ``"unstable"`` if the
@@ -305,7 +306,7 @@ def assess(system: Any, equilibrium: Equilibrium) -> StabilityReport:
 
 
 @dataclass(frozen=True)
-class StabilityAnalysis:
+class StabilityAnalysis(ShowsItselfAsHTML):
     """Every relative equilibrium on :math:`|m| = G` with its :class:`StabilityReport`."""
 
     reports: tuple[StabilityReport, ...]

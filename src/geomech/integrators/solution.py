@@ -526,6 +526,42 @@ class Solution:
             raise ValueError(f"final() reads one trajectory; this solution has batch shape {self.batch_shape}.")
         return {name: float(v) for name, v in zip(self.labels, self.states[-1])}
 
+    def _repr_html_(self) -> str:
+        """Jupyter: a compact table of the run (method, status, times, steps) and the drift of every conserved or
+        constrained quantity it records."""
+        from .._display import html_table
+
+        name = getattr(self.system, "name", type(self.system).__name__)
+        data: dict[str, Any] = {
+            "system": name,
+            "method": self.method,
+            "status": self.status.value,
+            "saved states": len(self.t),
+            "t": [float(self.t[0]), float(self.t[-1])],
+            "components": list(self.labels),
+        }
+        if self.batch_shape:
+            data["batch shape"] = list(self.batch_shape)
+        if self.message:
+            data["message"] = self.message
+        drifts = {}
+        for label, attr in (
+            ("energy", "energy_error"),
+            ("Casimir |m|^2", "casimir_error"),
+            ("momentum", "momentum_error"),
+            ("constraints", "constraint_residual"),
+        ):
+            try:
+                values = np.asarray(getattr(self, attr), dtype=float)
+            except (AttributeError, KeyError, ValueError, TypeError):
+                continue
+            if values.size and np.isfinite(values).any():
+                drifts[label] = float(np.nanmax(np.abs(values)))
+        if drifts:
+            data["largest drift"] = drifts
+        data["stats"] = {k: v for k, v in dict(self.stats).items() if isinstance(v, (int, float, str, bool))}
+        return html_table("Solution", data)
+
     def __repr__(self) -> str:
         name = getattr(self.system, "name", type(self.system).__name__)
         return (

@@ -123,3 +123,15 @@ class Derived:
 
     def __str__(self) -> str:
         return self.to_text()
+
+    def _repr_latex_(self) -> str:
+        """Jupyter: every derived object as aligned LaTeX (one that is too long to read shown by its size)."""
+        from .._display import latex_block
+
+        lines = []
+        for _, tex, value in self.items():
+            if isinstance(value, Labelled):
+                lines += [(label_tex, self._latex(v)) for _, label_tex, v in value]
+            else:
+                lines.append((tex, self._latex(value)))
+        return latex_block(self.title, lines)

@@ -88,6 +88,14 @@ class CanonicalSystem:
             template=(template, {k.name: float(v) for k, v in numbers.items()}) if template_ok else None,
         )
 
+    def _repr_latex_(self) -> str | None:
+        """Jupyter: :math:`H(q, p)` (nothing for a system built from callables)."""
+        if self.expression is None:
+            return None
+        from .._display import latex_block
+
+        return latex_block(self.name, [("H(q, p)", sp.latex(self.expression))])
+
     def _y(self, y: Any) -> np.ndarray:
         return V.trailing_shape(y, "y", (2 * self.n,))
 

@@ -271,6 +271,16 @@ class LeftInvariantSystem:
         params = ", ".join(f"{k}={v:g}" for k, v in self.parameters.items())
         return f"LeftInvariantSystem(H = {self.expression}{'; ' + params if params else ''})"
 
+    def _repr_latex_(self) -> str | None:
+        """Jupyter: :math:`H(m)` and the parameter values (nothing for a system built from a callable)."""
+        if self.expression is None:
+            return None
+        from .._display import latex_block, latex_text
+
+        lines = [("H(m)", sp.latex(self.expression))]
+        lines += [(sp.latex(sp.Symbol(k)), f"{v:g}") for k, v in self.parameters.items()]
+        return latex_block(latex_text(self.name) if self.name else "", lines)
+
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready description."""
         return {

@@ -577,6 +577,19 @@ class NonholonomicSystem:
             f"constraints={self.c})"
         )
 
+    def _repr_latex_(self) -> str:
+        """Jupyter: the Lagrangian, the constraint one-forms and the parameter values."""
+        from .._display import latex_block
+
+        names = self.latex_names
+        qd = sp.Matrix(self.qdot)
+        lines = [("L", sp.latex(self.lagrangian, symbol_names=names))]
+        for a in range(self.c):
+            form = (sp.Matrix(self.constraint_matrix)[a, :] * qd)[0, 0]
+            lines.append((rf"\omega^{{{a + 1}}}(\dot q)", sp.latex(form, symbol_names=names) + " = 0"))
+        lines += [(sp.latex(sp.Symbol(k)), f"{v:g}") for k, v in self.parameters.items()]
+        return latex_block(f"{self.name} on {self.group.name} x shapes {[s.name for s in self.shape]}", lines)
+
 
 def _dynamic_map(q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> dict:
     t = sp.Symbol("t")
