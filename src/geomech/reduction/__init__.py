@@ -9,6 +9,7 @@ from .almost_poisson import (
     full_almost_poisson,
     poisson_reduction,
 )
+from .bates_sniatycki import BatesSniatycki, bates_sniatycki
 from .classical import (
     ClassicalSerretAndoyer,
     LPeriod,
@@ -37,6 +38,8 @@ __all__ = [
     "PoissonReduction",
     "ReducedNumeric",
     "almost_poisson",
+    "BatesSniatycki",
+    "bates_sniatycki",
     "FullAlmostPoisson",
     "full_almost_poisson",
     "bkmm_reduction",
