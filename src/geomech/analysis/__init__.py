@@ -15,6 +15,7 @@ from .gait_model import gait_loop
 from .gait_sweep import GaitSweep
 from .gaits import GaitAnalysis, analyse_gait
 from .group_paths import decompose_displacement, integrate_path
+from .isotropy_phase import IsotropyPhase, isotropy_phase, periodic_body_momentum
 from .momentum_transport import MomentumTransport, momentum_connection, momentum_curvature, momentum_transport
 from .phases import (
     PhaseSplit,
@@ -46,6 +47,9 @@ from .stability_map import stability_map, theorem5_margin
 from .sweep import monte_carlo, sweep
 
 __all__ = [
+    "IsotropyPhase",
+    "isotropy_phase",
+    "periodic_body_momentum",
     "MomentumTransport",
     "momentum_connection",
     "momentum_curvature",

@@ -154,8 +154,8 @@ def phases(system: Any, loop: Gait, mu: Any = 0.0, *, g0: Any = None, rtol: floa
     :math:`p_\\theta = (\\mathrm{Ad}_g^T\\mu)_\\theta` is constant: always when the linear momentum is zero
     (then :math:`p_\\theta = L`), and in a centre-of-mass frame (no translational connection, translational
     locked inertia :math:`M\\,\\mathrm{Id}`) for any momentum (:math:`p_\\theta` is then the angular momentum
-    about the centre of mass). Otherwise, and for SO(3) with shape, no such formula holds: use
-    :func:`reconstruct`.
+    about the centre of mass). Otherwise no such formula holds: use :func:`reconstruct`; for SO(3) with shape and
+    :math:`\\mu \\ne 0` (the isotropy a circle) see :func:`~geomech.analysis.isotropy_phase`.
     """
     T = loop.T
     c, p_rot, integrand, turns = _phase_integrand(system, loop, mu, g0)
@@ -194,8 +194,9 @@ def _phase_integrand(system: Any, loop: Gait, mu: Any, g0: Any) -> tuple[int, fl
         raise InputError(
             f"Theorem 2.2 (eq. 2.3) gives the phase of one angle, the component of the algebra on which the group "
             f"is a homomorphism to the circle (S^1, the rotation of SE(2)); {system.name} has G = {G.name} with "
-            f"{len(G.angle_components) or 'no'} such components: integrate the reconstruction equation with "
-            "geomech.analysis.reconstruct instead."
+            f"{len(G.angle_components) or 'no'} such components: for SO(3) with shapes and a momentum mu != 0 use "
+            "geomech.analysis.isotropy_phase (G_mu a circle), otherwise integrate the reconstruction equation with "
+            "geomech.analysis.reconstruct."
         )
     (c,) = G.angle_components
     others = [a for a in range(G.dim) if a != c]
