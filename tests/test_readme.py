@@ -42,8 +42,10 @@ def _readme_commands() -> list[str]:
 
 
 @pytest.mark.slow  # every README command run through the CLI: a long verification
-def test_readme_commands_run(tmp_path, capsys):
+def test_readme_commands_run(tmp_path, capsys, monkeypatch):
     import shlex
+
+    monkeypatch.chdir(tmp_path)  # files a command names without DIR (--html map.html) land here
 
     from geomech.cli.main import main
 

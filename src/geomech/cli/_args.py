@@ -205,6 +205,32 @@ def out_option(help: str, *, required: bool = False) -> Any:
     return click.option("--out", type=OutDir(), required=required, default=None, help=help)
 
 
+class HtmlFile(click.ParamType):
+    """``--html FILE``: an interactive figure, a self-contained HTML file; its directory must exist and be
+    writable, checked when the command line is read (before any work)."""
+
+    name = "file"
+
+    def convert(self, value, param, ctx):
+        import os
+
+        path = Path(value)
+        if path.suffix.lower() not in (".html", ".htm"):
+            self.fail(f"expected a file name ending in .html, got {str(value)!r}", param, ctx)
+        parent = path.parent if str(path.parent) else Path(".")
+        if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+            self.fail(f"cannot write {str(value)!r}: {str(parent)!r} is not a writable directory", param, ctx)
+        if path.is_dir():
+            self.fail(f"{str(value)!r} is a directory; give a file name ending in .html", param, ctx)
+        return path
+
+
+def html_option(what: str) -> Any:
+    """The ``--html FILE`` option of a command that draws: ``what`` as an interactive figure (plotly, no network
+    needed to open it), written atomically."""
+    return click.option("--html", "html", type=HtmlFile(), default=None, metavar="FILE", help=f"Write {what}.")
+
+
 class Outputs:
     """The files of one command's ``--out``, written all together at the end, all or nothing
     (:func:`geomech._storage.write_set`): an interrupted or failed run leaves no half set behind."""
@@ -272,13 +298,21 @@ def document(command: str, summary: dict[str, Any], detail: dict[str, Any]) -> d
     return doc
 
 
-def emit(doc: dict, as_json: bool, text: str, outputs: Outputs | None, name: str) -> None:
+def emit(
+    doc: dict, as_json: bool, text: str, outputs: Outputs | None, name: str, written_too: Sequence[Path] = ()
+) -> None:
     """Print the document (JSON, checked finite, or ``text``) and, with ``--out``, commit the files with
-    ``name.json`` (the document, with ``files`` listing what was written) among them."""
+    ``name.json`` (the document, with ``files`` listing what was written) among them; ``written_too`` are files
+    already written elsewhere (``--html``), listed in ``files`` too."""
     from .._storage import dumps_json
 
+    extra = [str(p) for p in written_too]
+    if extra:
+        text += "\n" + "\n".join(f"interactive figure: {p}" for p in extra)
+    if outputs is None and extra:
+        doc = {**doc, "files": extra}
     if outputs is not None:
-        doc = {**doc, "files": outputs.paths(f"{name}.json")}
+        doc = {**doc, "files": outputs.paths(f"{name}.json") + extra}
         check_document(doc)
         outputs.json(f"{name}.json", doc)
         outputs.commit()

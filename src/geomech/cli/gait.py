@@ -24,6 +24,7 @@ from ._args import (
     Outputs,
     document,
     emit,
+    html_option,
     model_argument,
     one_model,
     out_option,
@@ -148,6 +149,7 @@ def _figures(analysis: Any, out: Path) -> Outputs:
     "writes the net displacement of every gait to OUT/gait_sweep.nc, from a study resumable in OUT/gait_sweep.zarr.",
 )
 @study_options("gait_sweep.zarr")
+@html_option("the gait as an interactive figure: the motion in the plane animated beside the shape variables (SE(2))")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @out_option("Directory for gait.json, gait.nc and the figures (path, momentum, connection, curvature).")
 def gait_cmd(
@@ -164,6 +166,7 @@ def gait_cmd(
     resume: bool,
     scheduler: str | None,
     chunk: int | None,
+    html: Path | None,
     as_json: bool,
     out: Path | None,
 ) -> None:
@@ -180,6 +183,8 @@ def gait_cmd(
     if not (math.isfinite(period) and period > 0):
         raise InputError(f"Expected `--period` to be positive, got {period}.")
     given = parse_params(params)
+    if sweeps and html is not None:
+        raise InputError("`--html` animates one gait; a `--sweep` writes its grid to OUT/gait_sweep.nc instead.")
     if sweeps:
         _sweep(
             one_model(model, model_file),
@@ -215,7 +220,15 @@ def gait_cmd(
     head = {k: detail.pop(k) for k in ("net_displacement", "momentum_change_per_period")}
     doc = document("gait", head, detail)
     outputs = _figures(analysis, out) if out is not None else None
-    emit(doc, as_json, _text(doc), outputs, "gait")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import gait_html
+
+        if analysis.model.group.name != "SE(2)":
+            raise InputError(f"`--html` animates a planar gait; {system.name} moves on {analysis.model.group.name}.")
+        gait_html(analysis, path=html)
+        written_too.append(html)
+    emit(doc, as_json, _text(doc), outputs, "gait", written_too)
 
 
 def _sweep(

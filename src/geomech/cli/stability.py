@@ -14,7 +14,17 @@ import click
 import numpy as np
 
 from ..symbolic.formula import parse_formula
-from ._args import FloatVector, Outputs, document, emit, out_option, parse_params, parse_range, study_options
+from ._args import (
+    FloatVector,
+    Outputs,
+    document,
+    emit,
+    html_option,
+    out_option,
+    parse_params,
+    parse_range,
+    study_options,
+)
 
 __all__ = ["stability_cmd", "stability_map_cmd"]
 
@@ -331,9 +341,26 @@ def _check_swept_body(control: Any, lambdas: tuple[float, ...], *sweeps: tuple[s
     help="Refuse larger grids (10-15 ms a point).",
 )
 @study_options("stability_map.zarr")
+@html_option("the map as an interactive figure, each point's verdicts and numbers on hover")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def stability_map_cmd(
-    lambdas, I3, phis, model_file, params, p, G, xspec, yspec, near, out, max_points, resume, scheduler, chunk, as_json
+    lambdas,
+    I3,
+    phis,
+    model_file,
+    params,
+    p,
+    G,
+    xspec,
+    yspec,
+    near,
+    out,
+    max_points,
+    resume,
+    scheduler,
+    chunk,
+    html,
+    as_json,
 ) -> None:
     """Stability verdicts over a grid of two parameters, on the relative equilibrium nearest to --near.
 
@@ -360,7 +387,7 @@ def stability_map_cmd(
             raise click.BadParameter("--x and --y must sweep two different parameters", param_hint="'--y'")
         study = dict(out=out, resume=resume, scheduler=scheduler, chunk=chunk, model=model)
         ds = _run_map(family, (xname, xs), (yname, ys), G, near, None, f"model file {model_file}", max_points, study)
-        _write_map(ds, model, xname, xs, yname, ys, out, as_json)
+        _write_map(ds, model, xname, xs, yname, ys, out, as_json, html)
         return
     if lambdas is None or not phis:
         raise click.UsageError("give the model: --lambda and --phi (a rotor control), or --model FILE.py")
@@ -388,7 +415,7 @@ def stability_map_cmd(
     model = _model_json(control, G)
     study = dict(out=out, resume=resume, scheduler=scheduler, chunk=chunk, model=model)
     ds = _run_map(control.family(), (xname, xs), (yname, ys), G, near, closed, desc, max_points, study)
-    _write_map(ds, model, xname, xs, yname, ys, out, as_json)
+    _write_map(ds, model, xname, xs, yname, ys, out, as_json, html)
 
 
 def _file_family(model_file: str, given: dict[str, float], G: float, *swept: tuple[str, str]) -> tuple[Any, dict]:
@@ -453,7 +480,9 @@ def _run_map(
     return stability_map(family, x, y, **kw).load()
 
 
-def _write_map(ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, out: Any, as_json: bool) -> None:
+def _write_map(
+    ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, out: Any, as_json: bool, html: Any = None
+) -> None:
     import matplotlib.pyplot as plt
 
     from ..plot.stability import stability_map_plot
@@ -474,4 +503,10 @@ def _write_map(ds: Any, model: dict, xname: str, xs: Any, yname: str, ys: Any, o
     text = f"stability map over {xname} x {yname} ({xs.size} x {ys.size} points): " + (
         ", ".join(f"{n} {v}" for v, n in counts.items() if n) or "no verdicts"
     )
-    emit(doc, as_json, text, outputs, "stability_map")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import stability_map_html
+
+        stability_map_html(ds, path=html)
+        written_too.append(html)
+    emit(doc, as_json, text, outputs, "stability_map", written_too)

@@ -1,0 +1,115 @@
+"""Interactive figures: self-contained HTML (plotly.js inside, nothing fetched), holding the right data: level curves
+that are level curves, a map whose colours and hovers are the verdicts, a gait whose frames follow the path."""
+
+from __future__ import annotations
+
+import json
+import re
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+
+import geomech as gm
+from cli_helpers import run
+from geomech.analysis import analyse_gait, stability_map
+from geomech.integrators import ImplicitMidpoint
+from geomech.plot.interactive import gait_html, momentum_sphere_html, stability_map_html
+from geomech.systems.nonholonomic_examples import snakeboard_bkmm
+
+ROTOR = ["--lambda", "3", "2", "--I3", "1", "--phi", "k*v"]
+
+
+class _Resources(HTMLParser):
+    """The external resources an HTML page loads: script, link and img sources."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.sources: list[str] = []
+        self.scripts = 0
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        self.scripts += tag == "script"
+        for key in ("src", "href"):
+            if tag in ("script", "link", "img", "iframe") and attrs.get(key):
+                self.sources.append(attrs[key])
+
+
+def self_contained(path) -> str:
+    text = path.read_text()
+    page = _Resources()
+    page.feed(text)
+    assert page.scripts >= 1 and page.sources == []  # nothing to fetch
+    assert len(text) > 1_000_000 and "Plotly.newPlot" in text  # plotly.js is inside
+    return text
+
+
+def test_momentum_sphere_draws_level_curves_of_H_and_the_trajectory(tmp_path):
+    H = gm.LeftInvariantSystem.from_expression("m1**2/6 + m2**2/4 + m3**2/2")
+    sol = gm.solve(H, ImplicitMidpoint(), m0=[0.1, 1.0, 0.2], t_final=10.0, h=0.05, backend="python")
+    fig = momentum_sphere_html(sol.m, hamiltonian=H.hamiltonian, labels=["near m2"], path=tmp_path / "s.html")
+    self_contained(tmp_path / "s.html")
+    traces = {t.name: t for t in fig.data}
+    G = np.linalg.norm(sol.m[0])
+    x, y, z = (np.array(getattr(traces["level curves of H"], c), dtype=float) for c in "xyz")
+    pts = np.stack([x, y, z], -1)
+    breaks = np.nonzero(np.isnan(x))[0]
+    assert len(breaks) >= 10
+    np.testing.assert_allclose(np.linalg.norm(pts[~np.isnan(x)], axis=-1), G, rtol=1e-12)
+    start = 0
+    for end in breaks[:10]:  # along each curve H is one value (to the contouring's resolution)
+        seg = pts[start:end]
+        E = H.hamiltonian(seg)
+        assert np.ptp(E) < 2e-3 * np.abs(E).max()
+        start = end + 1
+    np.testing.assert_allclose(np.array(traces["near m2"].x, dtype=float), sol.m[:, 0])
+
+
+def test_stability_map_colours_and_hovers_are_the_verdicts(tmp_path):
+    control = gm.StructurePreservingControl.one_rotor(
+        gm.RotorBody.one_rotor(3.0, 2.0, 1.0), "k*v", parameters={"k": 0.5}, probe_radius=1.0
+    )
+    ds = stability_map(control.family(), ("k", np.linspace(0.05, 0.95, 4)), ("lambda2", np.linspace(1.2, 2.8, 3)))
+    fig = stability_map_html(ds, path=tmp_path / "map.html")
+    self_contained(tmp_path / "map.html")
+    heat = fig.data[0]
+    ticks = list(heat.colorbar.ticktext)
+    codes = ds["verdict"].values
+    meanings = ds["verdict"].attrs["flag_meanings"].split()
+    values = [int(v) for v in ds["verdict"].attrs["flag_values"]]
+    z = np.array(heat.z, dtype=float)
+    for j in range(codes.shape[0]):
+        for i in range(codes.shape[1]):
+            name = meanings[values.index(int(codes[j, i]))]
+            assert ticks[int(z[j, i])] == name.replace("_", " ")
+            assert f"verdict: {name}" in heat.text[j][i]
+    assert len(set(codes.ravel())) >= 2  # the grid crosses the boundary
+
+
+def test_gait_frames_follow_the_path_at_equal_aspect(tmp_path):
+    board = snakeboard_bkmm(m=1.0, r=1.0, J0=0.3, J1=0.1)
+    a = analyse_gait(board, {"psi": "sin(4*pi*t/T)", "phi": "0.4*sin(2*pi*t/T)"}, period=1.0, periods=2, p0=[0.2])
+    fig = gait_html(a, frames=30, path=tmp_path / "gait.html")
+    self_contained(tmp_path / "gait.html")
+    assert len(fig.frames) == 30 and fig.layout.yaxis.scaleanchor == "x"
+    g = a.path.g
+    for frame in fig.frames[::7]:
+        t = float(frame.name)
+        k = int(np.argmin(np.abs(a.t - t)))
+        body = frame.data[0]
+        assert body.x[0] == pytest.approx(g[k, 0]) and body.y[0] == pytest.approx(g[k, 1])
+        heading = np.arctan2(body.y[1] - body.y[0], body.x[1] - body.x[0])
+        assert np.cos(heading - g[k, 2]) == pytest.approx(1.0)
+
+
+def test_the_command_line_writes_the_figure_and_refuses_bad_paths(capsys, tmp_path):
+    target = tmp_path / "map.html"
+    grid = ["--x", "k=0.05:0.95:2", "--y", "lambda2=1.2:2.8:2", "--out", str(tmp_path / "o")]
+    code, out, err = run(capsys, "stability-map", *ROTOR, *grid, "--html", str(target), "--json")
+    assert code == 0, err
+    assert str(target) in json.loads(out)["files"]
+    self_contained(target)
+    for bad in (str(tmp_path / "missing" / "m.html"), str(tmp_path / "m.png")):
+        code, out, err = run(capsys, "stability-map", *ROTOR, *grid, "--html", bad)
+        assert code == 2 and len(err.strip().splitlines()) == 1 and re.search("html|directory", err), err
