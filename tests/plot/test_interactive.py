@@ -9,9 +9,9 @@ from html.parser import HTMLParser
 
 import numpy as np
 import pytest
+from cli_helpers import run
 
 import geomech as gm
-from cli_helpers import run
 from geomech.analysis import analyse_gait, stability_map
 from geomech.integrators import ImplicitMidpoint
 from geomech.plot.interactive import gait_html, momentum_sphere_html, stability_map_html
