@@ -37,3 +37,20 @@ def test_demo(tmp_path):
 def test_spacecraft_example(tmp_path):
     _run("spacecraft_control.py", tmp_path)
     assert any(p.suffix == ".png" for p in tmp_path.iterdir())
+
+
+@pytest.mark.slow
+def test_quaternion_midpoint_example(tmp_path):
+    text = _run("quaternion_midpoint.py", tmp_path)
+    for name in ("midpoint_momentum_drift.png", "quaternions_through_gimbal_lock.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
+    drift = {line.split(":")[0]: line for line in text.splitlines()}
+    assert "e-15" in drift["quaternions"] or "e-16" in drift["quaternions"]
+
+
+@pytest.mark.slow
+def test_momentum_transport_example(tmp_path):
+    text = _run("momentum_transport.py", tmp_path)
+    assert (tmp_path / "momentum_transport.png").stat().st_size > 10_000
+    values = [float(line.rsplit(":", 1)[1]) for line in text.splitlines() if ":" in line]
+    assert len(values) == 2 and max(values) < 1e-9
