@@ -54,3 +54,12 @@ def test_momentum_transport_example(tmp_path):
     assert (tmp_path / "momentum_transport.png").stat().st_size > 10_000
     values = [float(line.rsplit(":", 1)[1]) for line in text.splitlines() if ":" in line]
     assert len(values) == 2 and max(values) < 1e-9
+
+
+@pytest.mark.slow
+def test_spacecraft_phase_example(tmp_path):
+    text = _run("spacecraft_phase.py", tmp_path)
+    assert (tmp_path / "spacecraft_phase.png").stat().st_size > 10_000
+    values = dict(line.rsplit(":", 1) for line in text.splitlines() if ":" in line)
+    assert float(values["largest |formula - reconstruction| (rad)"]) < 1e-8
+    assert abs(float(values["geometric phase at the largest amplitude (rad)"])) > 0.1
