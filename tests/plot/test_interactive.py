@@ -113,3 +113,23 @@ def test_the_command_line_writes_the_figure_and_refuses_bad_paths(capsys, tmp_pa
     for bad in (str(tmp_path / "missing" / "m.html"), str(tmp_path / "m.png")):
         code, out, err = run(capsys, "stability-map", *ROTOR, *grid, "--html", bad)
         assert code == 2 and len(err.strip().splitlines()) == 1 and re.search("html|directory", err), err
+
+
+def test_rigid_body_and_gait_commands_write_their_figures(capsys, tmp_path):
+    target = tmp_path / "sphere.html"
+    code, out, err = run(
+        capsys, "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2", "--t-final", "5",
+        "--html", str(target), "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    assert json.loads(out)["files"] == [str(target)]
+    self_contained(target)
+    gait = [
+        "gait", "snakeboard_bkmm", "--param", "m=1", "--param", "r=1", "--param", "J0=0.3", "--param", "J1=0.1",
+        "--period", "1", "--shape-loop", "psi=sin(4*pi*t/T)", "--shape-loop", "phi=0.4*sin(2*pi*t/T)",
+    ]  # fmt: skip
+    code, out, err = run(capsys, *gait, "--html", str(tmp_path / "gait.html"))
+    assert code == 0, err
+    self_contained(tmp_path / "gait.html")
+    code, out, err = run(capsys, *gait, "--sweep", "m=1:2:2", "--out", str(tmp_path / "s"), "--html", "g.html")
+    assert code == 2 and "--html" in err and len(err.strip().splitlines()) == 1

@@ -25,6 +25,7 @@ from ._args import (
     document,
     emit,
     gather_vectors,
+    html_option,
     out_option,
     parse_params,
     repeated_option,
@@ -74,11 +75,12 @@ def cli() -> None:
     help="Refuse runs of more turns of the body (t_final |omega| / 2 pi), about 60 ms each.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
+@html_option("the trajectory on the momentum sphere with the level curves of H, as an interactive figure")
 @out_option(
     "Directory for rigid_body.json, the trajectory rigid_body.nc (m, R, invariants; NetCDF) and a figure of "
     "the momentum on its sphere."
 )
-def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json, out) -> None:
+def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json, html, out) -> None:
     """The free rigid body: exact elliptic solution vs the integrated Serret-Andoyer reduced system.
 
     Prints the momentum at the final time from both, the energy and Casimir drift of the integration,
@@ -100,7 +102,16 @@ def rigid_body_cmd(inertia, momentum, t_final, samples, rtol, max_turns, as_json
         fig_ax = momentum_sphere(traj.m, title=f"I = {doc['inertia']['principal_moments']}")
         outputs.figure("rigid_body_momentum.png", fig_ax, dpi=120)
         outputs.dataset("rigid_body.nc", traj.to_dataset())
-    emit(doc, as_json, summary_text(doc), outputs, "rigid_body")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import momentum_sphere_html
+        from ..systems import as_left_invariant
+
+        H = as_left_invariant(traj.system)
+        title = f"free rigid body, I = {doc['inertia']['principal_moments']}"
+        momentum_sphere_html(traj.m, hamiltonian=H.hamiltonian, labels=["m(t)"], title=title, path=html)
+        written_too.append(html)
+    emit(doc, as_json, summary_text(doc), outputs, "rigid_body", written_too)
 
 
 @cli.command("reduce")
