@@ -133,3 +133,14 @@ def test_rigid_body_and_gait_commands_write_their_figures(capsys, tmp_path):
     self_contained(tmp_path / "gait.html")
     code, out, err = run(capsys, *gait, "--sweep", "m=1:2:2", "--out", str(tmp_path / "s"), "--html", "g.html")
     assert code == 2 and "--html" in err and len(err.strip().splitlines()) == 1
+
+
+def test_phase_rigid_body_writes_the_momentum_curve(capsys, tmp_path):
+    target = tmp_path / "phase.html"
+    code, out, err = run(
+        capsys, "phase", "rigid-body", "--inertia", "3", "2", "1", "--momentum", "1", "0.3", "0.2",
+        "--html", str(target), "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    self_contained(target)
+    assert "solid angle" in target.read_text()

@@ -23,6 +23,7 @@ from ._args import (
     Outputs,
     document,
     emit,
+    html_option,
     is_model_file,
     model_argument,
     one_model,
@@ -133,9 +134,16 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
 )
 @click.option("--rtol", type=float, default=1e-12, show_default=True, help="Tolerance of the direct integration.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@html_option("one period of the body momentum on its sphere with the level curves of H, as an interactive figure")
 @out_option("Directory for rigid_body_phase.json and a figure of the enclosed solid angle.")
 def rigid_body_cmd(
-    inertia: tuple, momentum: tuple, attitude: tuple | None, rtol: float, as_json: bool, out: Path | None
+    inertia: tuple,
+    momentum: tuple,
+    attitude: tuple | None,
+    rtol: float,
+    as_json: bool,
+    html: Path | None,
+    out: Path | None,
 ) -> None:
     """Montgomery's formula: the rotation about the spatial momentum after one period of the body momentum.
 
@@ -184,7 +192,18 @@ def rigid_body_cmd(
         f"direct integration, wrapped         = {res.direct_wrapped:.12g}\n"
         f"difference (wrapped)                = {res.difference:.3g}"
     )
-    emit(doc, as_json, text, outputs, "rigid_body_phase")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import momentum_sphere_html
+        from ..systems import as_left_invariant
+
+        title = f"one period of m(t): solid angle {res.solid_angle:.6g}, total phase {res.total_wrapped:.6g}"
+        curve = res.momentum_curve(400)
+        momentum_sphere_html(
+            curve, hamiltonian=as_left_invariant(body).hamiltonian, labels=["m(t)"], title=title, path=html
+        )
+        written_too.append(html)
+    emit(doc, as_json, text, outputs, "rigid_body_phase", written_too)
 
 
 def _holonomic_system(model: str, params: dict[str, float]) -> Any:
