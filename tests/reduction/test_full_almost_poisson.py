@@ -7,30 +7,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+from own_systems import knife_edge_with_rotor
 
 from geomech.errors import InputError
 from geomech.reduction import lagrange_dalembert
-from geomech.reduction.almost_poisson import almost_poisson, full_almost_poisson, jacobiator
+from geomech.reduction.almost_poisson import almost_poisson, jacobiator
+from geomech.reduction.full_almost_poisson import full_almost_poisson
 from geomech.systems import NonholonomicSystem
 from geomech.systems.nonholonomic_examples import EXAMPLES
-
-
-def own_system() -> NonholonomicSystem:
-    """A knife edge on SE(2) carrying a pendulum-like rotor (shape phi) coupled to the heading: the test's own."""
-    return NonholonomicSystem.from_lagrangian(
-        "m*(x_dot**2 + y_dot**2)/2 + J*theta_dot**2/2 + k*phi_dot**2/2 + c*theta_dot*phi_dot - e*cos(phi)",
-        "SE2",
-        ["phi"],
-        ["-sin(theta)*x_dot + cos(theta)*y_dot"],
-        parameters={"m": 1.3, "J": 0.7, "k": 0.4, "c": 0.1, "e": 0.3},
-        name="knife edge with rotor",
-    )
-
 
 SYSTEMS = {
     "chaplygin_sleigh": lambda: EXAMPLES["chaplygin_sleigh"](),
     "rolling_disk": lambda: EXAMPLES["rolling_disk"](),
-    "own": own_system,
+    "own": knife_edge_with_rotor,
 }
 
 
@@ -142,7 +131,7 @@ def test_off_M_the_full_bracket_moves_across_D_by_the_constraint_value(name, rng
 
 
 def test_another_complement_gives_the_same_motion_on_M(rng):
-    s = _with_values(own_system(), rng)
+    s = _with_values(knife_edge_with_rotor(), rng)
     default = full_almost_poisson(s)
     # a complement that is not kinetic-orthogonal: the coordinate direction y (A Omega = cos(theta))
     other = full_almost_poisson(s, complement=[["0"], ["1"], ["0"], ["0"]])
@@ -163,7 +152,7 @@ def test_another_complement_gives_the_same_motion_on_M(rng):
 
 
 def test_bad_complements_and_unconstrained_systems_are_refused():
-    s = own_system()
+    s = knife_edge_with_rotor()
     with pytest.raises(InputError, match="complement"):
         full_almost_poisson(s, complement=[["1"], ["0"], ["0"], ["0"], ["0"]])
     with pytest.raises(InputError, match="singular"):

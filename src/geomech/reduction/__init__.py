@@ -1,14 +1,7 @@
 """Maps between representations: Euler-angle coordinates, Serret-Andoyer charts, reduction."""
 
 from . import rotor_closed_forms
-from .almost_poisson import (
-    AlmostPoissonStructure,
-    FullAlmostPoisson,
-    PoissonReduction,
-    almost_poisson,
-    full_almost_poisson,
-    poisson_reduction,
-)
+from .almost_poisson import AlmostPoissonStructure, PoissonReduction, almost_poisson, poisson_reduction
 from .bates_sniatycki import BatesSniatycki, bates_sniatycki
 from .classical import (
     ClassicalSerretAndoyer,
@@ -22,6 +15,7 @@ from .classical import (
 )
 from .coadjoint import CoadjointOrbit, StationarySubgroup
 from .euler_coordinates import EulerCoordinates
+from .full_almost_poisson import FullAlmostPoisson, full_almost_poisson
 from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, reduced_numeric
 from .quaternion_coordinates import QuaternionCoordinates
