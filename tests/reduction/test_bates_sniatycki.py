@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+from own_systems import knife_edge_with_rotor
 from scipy.integrate import solve_ivp
 
 from geomech import solve
@@ -14,21 +15,7 @@ from geomech.integrators import BKMM
 from geomech.reduction import lagrange_dalembert
 from geomech.reduction.almost_poisson import almost_poisson
 from geomech.reduction.bates_sniatycki import bates_sniatycki
-from geomech.systems import NonholonomicSystem
 from geomech.systems.nonholonomic_examples import EXAMPLES, roller_racer, snakeboard_bkmm
-
-
-def own_system() -> NonholonomicSystem:
-    """A knife edge on SE(2) carrying a rotor (shape phi) coupled to the heading, in a potential."""
-    return NonholonomicSystem.from_lagrangian(
-        "m*(x_dot**2 + y_dot**2)/2 + J*theta_dot**2/2 + k*phi_dot**2/2 + c*theta_dot*phi_dot - e*cos(phi)",
-        "SE2",
-        ["phi"],
-        ["-sin(theta)*x_dot + cos(theta)*y_dot"],
-        parameters={"m": 1.3, "J": 0.7, "k": 0.4, "c": 0.1, "e": 0.3},
-        name="knife edge with rotor",
-    )
-
 
 FLOWS = {
     "snakeboard": (
@@ -39,7 +26,7 @@ FLOWS = {
         lambda: roller_racer(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6),
         dict(q0={"phi": 0.3}, rdot0={"phi": 0.5}, p0=[0.4]),
     ),
-    "own": (own_system, dict(q0={"phi": 0.4}, rdot0={"phi": -0.6}, p0=[0.5, -0.2])),
+    "own": (knife_edge_with_rotor, dict(q0={"phi": 0.4}, rdot0={"phi": -0.6}, p0=[0.5, -0.2])),
 }
 
 
@@ -69,7 +56,7 @@ def test_the_symplectic_route_is_the_almost_poisson_field(name, rng):
 def test_the_form_is_the_pullback_of_dq_wedge_dp(rng):
     # omega_M(u, v) = dq(u) . dP(v) - dq(v) . dP(u), with dP the derivative of the point of M: here by
     # differences of P(q, pt), independent of the matrix the module assembles
-    s = own_system()
+    s = knife_edge_with_rotor()
     bs = bates_sniatycki(s)
     f = bs.numeric()
     P = sp.lambdify(bs.z, sp.Matrix(bs.structure.momentum).subs(s.parameter_values()))
