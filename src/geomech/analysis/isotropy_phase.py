@@ -42,7 +42,9 @@ from .shape_loops import bind_loop
 __all__ = ["IsotropyPhase", "isotropy_phase", "periodic_body_momentum"]
 
 
-def _model(system: Any, parameters: Mapping[str, float] | None) -> ReducedNumeric:
+def _model_and_loop(
+    system: Any, loop: Any, period: float | None, parameters: Mapping[str, float] | None
+) -> tuple[ReducedNumeric, Any]:
     model = system if isinstance(system, ReducedNumeric) else reduced_numeric(system, parameters)
     s = model.system
     if s.group.name != "SO(3)" or s.c:
@@ -51,7 +53,9 @@ def _model(system: Any, parameters: Mapping[str, float] | None) -> ReducedNumeri
             f"{s.name} has G = {s.group.name} and {s.c} constraint(s): use geomech.analysis.phases (S^1, SE(2)) or "
             "reconstruct on the group."
         )
-    return model
+    loop = gait_loop(s, loop, period, parameters=parameters)
+    bind_loop(model, loop)
+    return model, loop
 
 
 def _rates(model: ReducedNumeric, loop: Any, G: float):
@@ -72,17 +76,13 @@ def _rates(model: ReducedNumeric, loop: Any, G: float):
     return rhs
 
 
-def _period_map(model: ReducedNumeric, loop: Any, Pi0: np.ndarray, rtol: float, atol: float, extras: bool) -> Any:
+def _period_map(model: ReducedNumeric, loop: Any, Pi0: np.ndarray, rtol: float, atol: float) -> Any:
+    """(Pi, the three integrals of the phase) over one period from Pi0; the integrals start at 0."""
     G = float(np.linalg.norm(Pi0))
     rhs = _rates(model, loop, G)
     axis = Pi0 / G
     y0 = np.concatenate([Pi0, np.zeros(3)])
-    if extras:
-        f = lambda t, y: rhs(t, y, axis)  # noqa: E731
-    else:
-        f = lambda t, y: np.concatenate([rhs(t, np.concatenate([y, np.zeros(3)]), axis)[:3]])  # noqa: E731
-        y0 = Pi0.copy()
-    sol = solve_ivp(f, (0.0, loop.T), y0, method="DOP853", rtol=rtol, atol=atol * G, dense_output=extras)
+    sol = solve_ivp(lambda t, y: rhs(t, y, axis), (0.0, loop.T), y0, method="DOP853", rtol=rtol, atol=atol * G)
     if sol.status != 0 or not np.all(np.isfinite(sol.y)):
         raise NumericalError(f"The body momentum along the shape loop failed at t = {sol.t[-1]:.6g}: {sol.message}")
     return sol
@@ -153,14 +153,12 @@ def isotropy_phase(
         does not return after one period (the curve is not closed in :math:`Q/G_\\mu`): start from
         :func:`periodic_body_momentum`.
     """
-    model = _model(system, parameters)
-    loop = gait_loop(model.system, loop, period, parameters=parameters)
-    bind_loop(model, loop)
+    model, loop = _model_and_loop(system, loop, period, parameters)
     Pi0 = V.exact_shape(Pi0, "Pi0", (3,))
     G = float(np.linalg.norm(Pi0))
     if G == 0:
         raise InputError("Expected a nonzero body momentum `Pi0`: at mu = 0 the isotropy group is SO(3), not a circle.")
-    sol = _period_map(model, loop, Pi0, rtol, atol, extras=True)
+    sol = _period_map(model, loop, Pi0, rtol, atol)
     yT = sol.y[:, -1]
     closure = float(np.linalg.norm(yT[:3] - Pi0) / G)
     if closure > closure_tol:
@@ -185,9 +183,7 @@ def periodic_body_momentum(
     """A body momentum :math:`\\Pi_0` on the sphere :math:`|\\Pi| = |\\Pi_{guess}|` that returns after one period of
     the shape ``loop``: a fixed point of the period map, by Newton (scipy's ``hybr``) in the tangent plane at the
     guess. Raises :class:`~geomech.errors.ConvergenceError` when none is found near the guess."""
-    model = _model(system, parameters)
-    loop = gait_loop(model.system, loop, period, parameters=parameters)
-    bind_loop(model, loop)
+    model, loop = _model_and_loop(system, loop, period, parameters)
     guess = V.exact_shape(Pi_guess, "Pi_guess", (3,))
     G = float(np.linalg.norm(guess))
     if G == 0:
@@ -203,7 +199,7 @@ def periodic_body_momentum(
 
     def residual(a: np.ndarray) -> np.ndarray:
         P0 = point(a)
-        PT = _period_map(model, loop, P0, 1e-13, 1e-14, extras=False).y[:, -1]
+        PT = _period_map(model, loop, P0, 1e-13, 1e-14).y[:3, -1]
         d = (PT - P0) / G
         return np.array([d @ e1, d @ e2])
 
