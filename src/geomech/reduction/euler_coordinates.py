@@ -29,8 +29,8 @@ import sympy as sp
 from .. import _validate as V
 from ..errors import SingularityError
 from ..lie import euler
-from ..symbolic.compile import M_SYMBOLS, compile_vector
-from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
+from ..symbolic.compile import compile_vector
+from ._cotangent_chart import CotangentChart
 
 __all__ = ["EulerCoordinates"]
 
@@ -137,7 +137,7 @@ def _body_momentum_expressions() -> list[sp.Expr]:
 
 
 @final
-class EulerCoordinates:
+class EulerCoordinates(CotangentChart):
     """3-1-3 Euler-angle canonical coordinates :math:`q = (\\phi, \\theta, \\psi, \\Phi, \\Theta, \\Psi)`
     of :math:`T^*SO(3)` for a left-invariant Hamiltonian :math:`H(m)` (Lemma 2 of the Serret-Andoyer
     paper).
@@ -170,23 +170,16 @@ class EulerCoordinates:
     :class:`~geomech.errors.SingularityError` is raised at :math:`\\theta = 0, \\pi`.
     """
 
-    __slots__ = ("_cache", "system")
-
-    system: LeftInvariantSystem
-    _cache: dict[Any, Any]
+    __slots__ = ()
 
     #: The coordinate symbols :math:`(\phi, \theta, \psi, \Phi, \Theta, \Psi)` (sympy, real).
-    symbols: tuple[sp.Symbol, ...] = EULER_SYMBOLS
-
-    def __init__(self, system: Any):
-        object.__setattr__(self, "system", as_left_invariant(system))
-        object.__setattr__(self, "_cache", {})
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        raise AttributeError("EulerCoordinates is immutable; build a new one.")
-
-    def __repr__(self) -> str:
-        return f"EulerCoordinates({self.system})"
+    symbols = EULER_SYMBOLS
+    chart_name = "in 3-1-3 Euler coordinates"
+    angle_coordinates = (0, 1, 2)
+    _y = staticmethod(_coordinates)
+    _m = staticmethod(_body_momentum)
+    _dm = staticmethod(_momentum_jacobian)
+    _m_expressions = staticmethod(_body_momentum_expressions)
 
     @property
     def angle_symbols(self) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
@@ -280,100 +273,8 @@ class EulerCoordinates:
         """
         return _momentum_jacobian(_coordinates(q))
 
-    # -- the Hamiltonian side ----------------------------------------------------------------------
-    def hamiltonian(self, q: Any) -> np.ndarray:
-        """:math:`K(q) = H(m(q))`, shape ``(...)``."""
-        return self.system.hamiltonian(self.body_momentum(q))
-
-    def gradient(self, q: Any) -> np.ndarray:
-        """:math:`\\partial K/\\partial q_j = \\nabla H(m)\\cdot\\partial m/\\partial q_j`, shape ``(..., 6)``."""
-        q = _coordinates(q)
-        m = _body_momentum(q)
-        omega = self.system.gradient(m)
-        return np.einsum("...i,...ij->...j", omega, _momentum_jacobian(q))
-
-    def vector_field(self, q: Any) -> np.ndarray:
-        """Hamilton's canonical equations in Euler-angle coordinates, shape ``(..., 6)``.
-
-        .. math::
-
-            (\\dot\\phi, \\dot\\theta, \\dot\\psi) = \\partial K/\\partial(\\Phi, \\Theta, \\Psi), \\qquad
-            (\\dot\\Phi, \\dot\\Theta, \\dot\\Psi) = -\\partial K/\\partial(\\phi, \\theta, \\psi),
-
-        with :math:`\\partial K/\\partial q_j = \\nabla H(m)\\cdot\\partial m/\\partial q_j` by the chain
-        rule through the exact derivatives of eq. (6) (:meth:`momentum_jacobian`), so it needs only
-        :meth:`LeftInvariantSystem.gradient` and works for systems built from callables. The angle
-        rates agree with :meth:`euler_angle_rates` (eq. 2 inverted) and :math:`\\dot\\Psi =
-        (m\\times\\nabla H)_3`.
-        """
-        g = self.gradient(q)
-        return np.concatenate([g[..., 3:], -g[..., :3]], -1)
-
-    def canonical_system(self):
-        """This Hamiltonian as a :class:`~geomech.systems.CanonicalSystem` in
-        :math:`(\\phi, \\theta, \\psi; \\Phi, \\Theta, \\Psi)`, for the canonical integrators.
-
-        From a formula the gradient and Hessian are exact (symbolic); from a callable the gradient is
-        the chain rule of :meth:`gradient` and there is no Hessian.
-        """
-        from ..systems.canonical import CanonicalSystem
-
-        name = f"{self.system.name} in 3-1-3 Euler coordinates"
-        if self.system.expression is not None:
-            return CanonicalSystem.from_expression(
-                self.canonical_hamiltonian(),
-                self.symbols[:3],
-                self.symbols[3:],
-                name=name,
-                angle_coordinates=(0, 1, 2),
-                substitutions=self._parameter_subs(),
-            )
-        return CanonicalSystem(
-            n=3,
-            name=name,
-            _hamiltonian=lambda y: self.hamiltonian(y),
-            _gradient=lambda y: self.gradient(y),
-            angle_coordinates=(0, 1, 2),
-        )
-
-    # -- symbolic ----------------------------------------------------------------------------------
-    def _parameter_subs(self) -> dict[sp.Symbol, float]:
-        return {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}
-
-    def canonical_hamiltonian(self, *, substitute_parameters: bool = False) -> sp.Expr:
-        """:math:`K(\\phi, \\theta, \\psi, \\Phi, \\Theta, \\Psi) = H(m(q))` as a sympy expression in
-        :attr:`symbols` (eq. 6 substituted into H).
-
-        For the free rigid body :math:`H = \\sum m_i^2/(2 I_i)` this simplifies to eq. (5) of the paper.
-        Parameters of H stay symbolic unless ``substitute_parameters``.
-
-        Raises
-        ------
-        SymbolicError
-            When the system was built from a callable.
-        """
-        key = ("K", substitute_parameters)
-        if key not in self._cache:
-            expr = self.system.require_expression("EulerCoordinates.canonical_hamiltonian()")
-            if substitute_parameters:
-                expr = expr.subs(self._parameter_subs())
-            m = _body_momentum_expressions()
-            self._cache[key] = expr.xreplace(dict(zip(M_SYMBOLS, m)))
-        return self._cache[key]
-
-    def hamilton_equations(self, *, substitute_parameters: bool = False) -> tuple[sp.Expr, ...]:
-        """Right-hand sides of Hamilton's equations
-        :math:`(\\dot\\phi, \\dot\\theta, \\dot\\psi, \\dot\\Phi, \\dot\\Theta, \\dot\\Psi)` as sympy
-        expressions in :attr:`symbols`: :math:`(\\partial_P K, -\\partial_q K)` with
-        :math:`K` from :meth:`canonical_hamiltonian`. :math:`\\dot\\Phi = 0` (phi is cyclic).
-        """
-        key = ("eqs", substitute_parameters)
-        if key not in self._cache:
-            K = self.canonical_hamiltonian(substitute_parameters=substitute_parameters)
-            q, P = self.symbols[:3], self.symbols[3:]
-            self._cache[key] = tuple(sp.diff(K, s) for s in P) + tuple(-sp.diff(K, s) for s in q)
-        return self._cache[key]
-
+    # -- the Hamiltonian side: hamiltonian, gradient, vector_field, canonical_system, canonical_hamiltonian and
+    # hamilton_equations are CotangentChart's (K = H(m(q)) through eq. 6; phi is cyclic, so Phi' = 0)
     def compiled_vector_field(self):
         """:meth:`hamilton_equations` compiled to ``f(q)`` with ``q`` of shape ``(..., 6)`` (parameters
         substituted); equal to :meth:`vector_field` up to round-off, and like it raises

@@ -37,8 +37,7 @@ import sympy as sp
 from .. import _validate as V
 from ..errors import InputError
 from ..lie import quaternion as quat
-from ..symbolic.compile import M_SYMBOLS
-from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
+from ._cotangent_chart import CotangentChart
 
 __all__ = ["QuaternionCoordinates"]
 
@@ -91,7 +90,7 @@ def _body_momentum_expressions() -> list[sp.Expr]:
     return [sp.expand(e) for e in m]
 
 
-class QuaternionCoordinates:
+class QuaternionCoordinates(CotangentChart):
     """Quaternion canonical coordinates :math:`y = (q, \\pi) \\in T^*\\mathbb R^4` of :math:`T^*SO(3)` for a
     left-invariant Hamiltonian :math:`H(m)`: global (no gimbal lock), the symmetry acting linearly.
 
@@ -118,23 +117,18 @@ class QuaternionCoordinates:
     reads :math:`R` from :math:`q/|q|`. :math:`(q, \\pi)` and :math:`(-q, -\\pi)` are the same state.
     """
 
-    __slots__ = ("_cache", "system")
-
-    system: LeftInvariantSystem
-    _cache: dict[Any, Any]
+    __slots__ = ()
 
     #: :math:`(q_w, q_x, q_y, q_z, p_w, p_x, p_y, p_z)`: the quaternion and its conjugate momentum (sympy, real).
-    symbols: tuple[sp.Symbol, ...] = QUATERNION_SYMBOLS
+    symbols = QUATERNION_SYMBOLS
+    chart_name = "in quaternion coordinates"
+    _m = staticmethod(_body_momentum)
+    _dm = staticmethod(_momentum_jacobian)
+    _m_expressions = staticmethod(_body_momentum_expressions)
 
-    def __init__(self, system: Any):
-        object.__setattr__(self, "system", as_left_invariant(system))
-        object.__setattr__(self, "_cache", {})
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        raise AttributeError("QuaternionCoordinates is immutable; build a new one.")
-
-    def __repr__(self) -> str:
-        return f"QuaternionCoordinates({self.system})"
+    @staticmethod
+    def _y(y: Any) -> np.ndarray:
+        return V.trailing_shape(y, "y", (8,))
 
     # -- the chart ---------------------------------------------------------------------------------
     def forward(self, R: Any, m: Any) -> np.ndarray:
@@ -184,70 +178,6 @@ class QuaternionCoordinates:
         """Exact Jacobian :math:`\\partial\\tilde m_i/\\partial y_j`, shape ``(..., 3, 8)``."""
         return _momentum_jacobian(V.trailing_shape(y, "y", (8,)))
 
-    # -- the Hamiltonian side ----------------------------------------------------------------------
-    def hamiltonian(self, y: Any) -> np.ndarray:
-        """:math:`\\tilde H(y) = H(\\tilde m(y))`, shape ``(...)``."""
-        return self.system.hamiltonian(self.body_momentum(y))
-
-    def gradient(self, y: Any) -> np.ndarray:
-        """:math:`\\partial\\tilde H/\\partial y_j = \\nabla H(\\tilde m)\\cdot\\partial\\tilde m/\\partial y_j`,
-        shape ``(..., 8)``."""
-        y = V.trailing_shape(y, "y", (8,))
-        omega = self.system.gradient(_body_momentum(y))
-        return np.einsum("...i,...ij->...j", omega, _momentum_jacobian(y))
-
-    def vector_field(self, y: Any) -> np.ndarray:
-        """Hamilton's equations :math:`(\\dot q, \\dot\\pi) = (\\partial_\\pi\\tilde H, -\\partial_q\\tilde H)`,
-        shape ``(..., 8)``, by the chain rule through :meth:`momentum_jacobian` (works from a callable H)."""
-        g = self.gradient(y)
-        return np.concatenate([g[..., 4:], -g[..., :4]], -1)
-
-    def canonical_system(self):
-        """This Hamiltonian as a :class:`~geomech.systems.CanonicalSystem` in :math:`(q; \\pi)`, for the canonical
-        integrators: :func:`~geomech.solve` with :class:`~geomech.integrators.ImplicitMidpoint` conserves the
-        spatial momentum, :math:`|q|` and :math:`q\\cdot\\pi` to round-off and runs through every attitude.
-
-        From a formula the gradient and Hessian are exact (symbolic); from a callable the gradient is the chain
-        rule of :meth:`gradient` and there is no Hessian.
-        """
-        from ..systems.canonical import CanonicalSystem
-
-        name = f"{self.system.name} in quaternion coordinates"
-        if self.system.expression is not None:
-            return CanonicalSystem.from_expression(
-                self.canonical_hamiltonian(),
-                self.symbols[:4],
-                self.symbols[4:],
-                name=name,
-                substitutions={sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()},
-            )
-        return CanonicalSystem(
-            n=4, name=name, _hamiltonian=lambda y: self.hamiltonian(y), _gradient=lambda y: self.gradient(y)
-        )
-
-    # -- symbolic ----------------------------------------------------------------------------------
-    def canonical_hamiltonian(self, *, substitute_parameters: bool = False) -> sp.Expr:
-        """:math:`\\tilde H(q, \\pi) = H(\\tilde m(q, \\pi))` as a sympy expression in :attr:`symbols`.
-
-        Raises
-        ------
-        SymbolicError
-            When the system was built from a callable.
-        """
-        key = ("K", substitute_parameters)
-        if key not in self._cache:
-            expr = self.system.require_expression("QuaternionCoordinates.canonical_hamiltonian()")
-            if substitute_parameters:
-                expr = expr.subs({sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()})
-            self._cache[key] = expr.xreplace(dict(zip(M_SYMBOLS, _body_momentum_expressions())))
-        return self._cache[key]
-
-    def hamilton_equations(self, *, substitute_parameters: bool = False) -> tuple[sp.Expr, ...]:
-        """Right-hand sides :math:`(\\dot q, \\dot\\pi) = (\\partial_\\pi\\tilde H, -\\partial_q\\tilde H)` as sympy
-        expressions in :attr:`symbols`."""
-        key = ("eqs", substitute_parameters)
-        if key not in self._cache:
-            K = self.canonical_hamiltonian(substitute_parameters=substitute_parameters)
-            q, P = self.symbols[:4], self.symbols[4:]
-            self._cache[key] = tuple(sp.diff(K, s) for s in P) + tuple(-sp.diff(K, s) for s in q)
-        return self._cache[key]
+    # -- the Hamiltonian side: hamiltonian, gradient, vector_field, canonical_system (through which solve with
+    # ImplicitMidpoint keeps the spatial momentum, |q| and q . pi to round-off, at every attitude),
+    # canonical_hamiltonian and hamilton_equations are CotangentChart's, with K = H(m~(q, pi))
