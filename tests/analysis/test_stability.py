@@ -241,6 +241,21 @@ def test_stability_map_linear_control_matches_theorem5():
     np.testing.assert_allclose(ds["m"].values[..., 1], 1.0, atol=1e-12)
 
 
+def test_stability_map_finds_a_pair_born_in_a_fold_between_grid_points():
+    """phi = k v + a v^3 with p = 0.1: between k = 0.6 and k = 0.95 (a = -1) a pair of equilibria is born in a fold
+    nearer to (0, G, 0) than the branch continued from k = 0.6. The map must assess the nearest one, as a fresh
+    search at that point does, whatever the path through the grid."""
+    control = SPC.one_rotor(
+        RotorBody.one_rotor(3.0, 2.0, 1.0), "k*v + a*v**3", parameters={"k": 0.5, "a": 0.0}, p=0.1, probe_radius=1.0
+    )
+    ds = stability_map(control.family(), ("k", [0.6, 0.95]), ("a", [-1.0, -0.9]))
+    for j, a in enumerate([-1.0, -0.9]):
+        fresh = find_equilibria(control.family()(k=0.95, a=a), 1.0).nearest([0.0, 1.0, 0.0])
+        np.testing.assert_allclose(ds["m"].values[j, 1], fresh.m, atol=1e-9)
+        assert ds["verdict"].values[j, 1] == 1  # the nearer equilibrium is stable; the continued one is not
+    assert ds["branch_jump"].values[:, 0].sum() == 0  # a row's first point has nothing to jump from
+
+
 def test_stability_map_nonlinear_control_data_file(tmp_path):
     """phi(0) + p != 0: the equilibrium moves; the map's verdicts agree with the meridian criterion wherever
     the assessed equilibrium is on the meridian l = 0, and the data file round-trips through netCDF."""

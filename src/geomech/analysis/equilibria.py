@@ -313,20 +313,26 @@ def _as_set(found: list[Equilibrium], G: float) -> EquilibriumSet:
 
 
 def continue_equilibria(
-    system: Any, previous: EquilibriumSet, *, n_points: int = 600, tol: float = 1e-12
+    system: Any, previous: EquilibriumSet, *, n_points: int = 600, tol: float = 1e-12, seeds: Any = None
 ) -> EquilibriumSet:
     """The equilibria of ``system`` continued from those of a nearby system (``previous``, same G).
 
-    Each previous equilibrium is refined for the new system; when the result is not complete
-    (Poincare-Hopf), e.g. after a fold, a pitchfork or a merger, the full search :func:`find_equilibria`
-    is run instead.
+    Each previous equilibrium is refined for the new system, and so is each point of ``seeds`` (``(k, 3)``
+    momenta, scaled to the sphere: Newton from there may find an equilibrium the previous set did not have). When
+    the result is not complete (Poincare-Hopf), e.g. after a fold, a pitchfork or a merger, or when it has more
+    equilibria than ``previous`` (a seed found a pair born in a fold, which Poincare-Hopf cannot see: its two
+    indices cancel), the full search :func:`find_equilibria` is run instead.
     """
     system = as_left_invariant(system)
     G = previous.G
+    starts = [e.m for e in previous]
+    if seeds is not None:
+        extra = np.asarray(seeds, dtype=float).reshape(-1, 3)
+        starts += [G * s / np.linalg.norm(s) for s in extra if np.linalg.norm(s) > 0]
     found: list[Equilibrium] = []
-    for e in previous:
+    for m in starts:
         try:
-            eq = refine_equilibrium(system, e.m, G, tol=tol, max_iter=12)
+            eq = refine_equilibrium(system, m, G, tol=tol, max_iter=12)
         except (ConvergenceError, InputError, FloatingPointError):
             continue
         if all(np.linalg.norm(eq.m - f.m) > 1e-7 * G for f in found):

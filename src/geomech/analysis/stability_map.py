@@ -67,9 +67,13 @@ def stability_map(
     x, y : ``(name, values)`` of the two parameters swept.
     near : (3,) the reference, default :math:`(0, G, 0)` (spin about the intermediate axis, the seed's
         :math:`(l, L) = (0, 0)`). At each grid point the equilibrium assessed is the one nearest to ``near``
-        among all relative equilibria, which are continued from grid point to grid point along a block's rows
-        and searched afresh (:func:`~geomech.analysis.find_equilibria`) at a block's first point and wherever the
-        continued set fails the Poincare-Hopf check: the nearest one does not depend on the path.
+        among the relative equilibria found. They are continued from grid point to grid point along a block's
+        rows, with Newton also started from ``near``, and searched afresh
+        (:func:`~geomech.analysis.find_equilibria`) at a block's first point, wherever the continued set fails
+        the Poincare-Hopf check, and wherever the start from ``near`` finds an equilibrium the previous point did
+        not have (a pair born in a fold between grid points, which Poincare-Hopf cannot see). A pair born far
+        from ``near`` and from every continued branch can still be missed until a fresh search; ``chunk=1``
+        searches afresh at every point (about 20 times the cost).
     fixed : values of the other parameters.
     closed_form : optional ``f(values) -> float`` whose zero level is a predicted boundary (e.g.
         :func:`theorem5_margin`); stored as ``closed_form_margin``.
@@ -89,10 +93,10 @@ def stability_map(
     xarray.Dataset
         Variables ``verdict``, ``lagrange_dirichlet``, ``energy_casimir``, ``linearisation`` (int8 codes),
         ``m`` (the equilibrium assessed), ``branch_jump`` (1 where it is not the continuation of the previous
-        point's along the block's row, i.e. the nearest equilibrium changed identity; a block's first point
-        counts as a jump), ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``, ``growth_rate``
-        (largest real part of the linearisation eigenvalues), ``ec_determinant``, ``status`` (the study's: 1 where
-        the assessment raised) and optionally ``closed_form_margin``.
+        point's along the block's row, i.e. the nearest equilibrium changed identity; never at a block's first
+        point, which has no previous one), ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``,
+        ``growth_rate`` (largest real part of the linearisation eigenvalues), ``ec_determinant``, ``status`` (the
+        study's: 1 where the assessment raised) and optionally ``closed_form_margin``.
     """
     from .sweep import _block_shape, sweep
 
@@ -227,14 +231,15 @@ def _assess_points(
         if closed_form is not None:
             margin[i] = float(closed_form(point))
         system = family(**point)
-        # All equilibria, continued from the previous point's (a full search when that is not complete by
-        # Poincare-Hopf); the one assessed is the nearest to `near`: a definition that does not depend on the
-        # path through the grid, and that a fold or a pole cannot capture.
+        # All equilibria, continued from the previous point's, with Newton also started from `near` (a full search
+        # when the continued set is not complete by Poincare-Hopf, or when that start finds an equilibrium the
+        # previous point did not have: a pair born in a fold between the points); the one assessed is the
+        # nearest to `near`.
         try:
             eqs = (
                 find_equilibria(system, G, n_points=n_points)
                 if prev is None
-                else continue_equilibria(system, prev, n_points=n_points)
+                else continue_equilibria(system, prev, n_points=n_points, seeds=near)
             )
         except (ConvergenceError, InputError, FloatingPointError):
             prev = None
@@ -245,7 +250,7 @@ def _assess_points(
         eq = eqs.nearest(near)
         # A step to a far point means the nearest equilibrium changed identity (its branch ended in a fold, or
         # another came nearer): flagged, since the verdict then belongs to another branch.
-        jumped[i] = last is None or np.linalg.norm(eq.m - last) > 0.25 * G
+        jumped[i] = last is not None and np.linalg.norm(eq.m - last) > 0.25 * G
         prev, last = eqs, eq.m
         complete[i] = eqs.complete
         rep = assess(system, eq)

@@ -59,7 +59,6 @@ def stability_map_plot(
             handles.append(plt.Line2D([], [], color="w", linestyle="--", label="closed form"))
     if "branch_jump" in ds:
         jj, ii = np.nonzero(ds["branch_jump"].values == 1)
-        jj, ii = jj[(jj > 0) | (ii > 0)], ii[(jj > 0) | (ii > 0)]
         if jj.size:
             ax.plot(xs[ii], ys[jj], "k.", markersize=3)
             handles.append(
