@@ -148,7 +148,7 @@ class Solution:
     ----------
     t : ndarray, shape (n_save,)
         Times of the saved states (``saveat``).
-    states : ndarray, shape (*batch, n_save, d)
+    states : ndarray, shape ``(*batch, n_save, d)``
         The saved states in the system's layout (``layout``): ``"qp"``, canonical ``(q, p)``; ``"m"`` or
         ``"mR"``, body momentum and attitude (R row-major) of a left-invariant system; ``"qv"``,
         coordinates and velocities ``(q, qdot)`` of a Lagrangian system; ``"rotor"``, ``(m, R, Gamma,

@@ -374,6 +374,6 @@ def random(rng: Any = None, size: Any = (), *, scalar_first: bool = True) -> np.
 
     Returns
     -------
-    ndarray, shape (*size, 4)
+    ndarray, shape ``(*size, 4)``
     """
     return _from_wxyz(c.random_unit_quaternions(c.generator(rng), size), scalar_first)

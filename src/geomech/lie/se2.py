@@ -304,7 +304,7 @@ def random(rng: Any = None, size: Any = ()) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (*size, 3, 3)
+    ndarray, shape ``(*size, 3, 3)``
     """
     rng = c.generator(rng)
     shape = c.batch_shape_of(size)

@@ -285,7 +285,7 @@ def random(rng: Any = None, size: Any = ()) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (*size, 4, 4)
+    ndarray, shape ``(*size, 4, 4)``
     """
     rng = c.generator(rng)
     shape = c.batch_shape_of(size)

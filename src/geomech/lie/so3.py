@@ -323,7 +323,7 @@ def random(rng: Any = None, size: Any = ()) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (*size, 3, 3)
+    ndarray, shape ``(*size, 3, 3)``
     """
     return c.quat_to_matrix(c.random_unit_quaternions(c.generator(rng), size))
 

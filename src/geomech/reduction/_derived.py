@@ -80,6 +80,10 @@ class Derived:
             return r",\; ".join(self._latex(v) for v in value)
         if isinstance(value, (sp.Basic, sp.MatrixBase)):
             return sp.latex(value, symbol_names=names)
+        if isinstance(value, str):  # prose (how a basis was normalised, ...): text, not a product of symbols
+            from .._display import latex_text
+
+            return rf"\text{{{latex_text(value)}}}"
         return str(value)
 
     def to_latex(self) -> str:

@@ -76,7 +76,7 @@ class FullAlmostPoisson(Derived, NumericCache):
 
     @property
     def z(self) -> list[sp.Symbol]:
-        """Coordinates :math:`(q, \tilde p_\alpha, \tilde p_a)` of :math:`T^*Q`."""
+        r"""Coordinates :math:`(q, \tilde p_\alpha, \tilde p_a)` of :math:`T^*Q`."""
         return self.structure.z + list(self.pc)
 
     @property
@@ -102,13 +102,13 @@ class FullAlmostPoisson(Derived, NumericCache):
 
     @shared_property
     def momentum(self) -> sp.ImmutableMatrix:
-        """The canonical momentum :math:`p = W^{-T}\tilde p` at :math:`(q, \tilde p)`."""
+        r"""The canonical momentum :math:`p = W^{-T}\tilde p` at :math:`(q, \tilde p)`."""
         return sp.ImmutableMatrix(sp.Matrix(self.W_inverse).T * sp.Matrix(list(self.structure.pt) + list(self.pc)))
 
     @shared_property
     def hamiltonian(self) -> sp.Expr:
-        """:math:`\tilde H = \tfrac12\tilde p^T(W^T\\mathbb MW)^{-1}\tilde p + V`; block diagonal,
-        :math:`\\mathrm{diag}(G^{-1}, (Z^T\\mathbb MZ)^{-1})`, for the kinetic-orthogonal complement."""
+        r""":math:`\tilde H = \tfrac12\tilde p^T(W^T\mathbb MW)^{-1}\tilde p + V`; block diagonal,
+        :math:`\mathrm{diag}(G^{-1}, (Z^T\mathbb MZ)^{-1})`, for the kinetic-orthogonal complement."""
         s = self.system
         Om = sp.Matrix(self.complement)
         if self.orthogonal:
@@ -123,7 +123,7 @@ class FullAlmostPoisson(Derived, NumericCache):
 
     @shared_property
     def tensor(self) -> sp.ImmutableMatrix:
-        """:math:`\tilde J(q, \tilde p)`, 2n x 2n, ordered :math:`(q, \tilde p_\alpha, \tilde p_a)`."""
+        r""":math:`\tilde J(q, \tilde p)`, 2n x 2n, ordered :math:`(q, \tilde p_\alpha, \tilde p_a)`."""
         s, W = self.system, self.W
         n, q = s.n, list(s.q)
         J = sp.zeros(2 * n, 2 * n)
@@ -138,8 +138,8 @@ class FullAlmostPoisson(Derived, NumericCache):
 
     @shared_property
     def constraint(self) -> sp.ImmutableMatrix:
-        """:math:`\\partial\tilde H/\\partial\tilde p_a`, zero exactly on :math:`\\mathcal M` (it is
-        :math:`(A\\Omega)^{-1}A\\dot q`).r"""
+        r""":math:`\partial\tilde H/\partial\tilde p_a`, zero exactly on :math:`\mathcal M` (it is
+        :math:`(A\Omega)^{-1}A\dot q`).r"""
         return sp.ImmutableMatrix([sp.diff(self.hamiltonian, v) for v in self.pc])
 
     def _latex_names(self) -> dict:

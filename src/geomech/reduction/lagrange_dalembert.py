@@ -1,9 +1,9 @@
-"""The Lagrange-d'Alembert equations of a nonholonomic system, with and without multipliers.
+r"""The Lagrange-d'Alembert equations of a nonholonomic system, with and without multipliers.
 
-:math:`M(q)\\ddot q = f(q, \\dot q) + A(q)^T\\lambda + B\tau`, :math:`A(q)\\dot q = 0`: the multipliers (constraint
-forces) as expressions, on and off the distribution :math:`\\mathcal D`, the accelerations, and the projected
-equations :math:`X^T(M\\ddot q - f - B\tau) = 0` with :math:`X` a basis of :math:`\\mathcal D`. The multipliers on
-:math:`\\mathcal D` use a kinetic-orthogonal complement :math:`Z` of the constraints (:math:`AZ = I`,
+:math:`M(q)\ddot q = f(q, \dot q) + A(q)^T\lambda + B\tau`, :math:`A(q)\dot q = 0`: the multipliers (constraint
+forces) as expressions, on and off the distribution :math:`\mathcal D`, the accelerations, and the projected
+equations :math:`X^T(M\ddot q - f - B\tau) = 0` with :math:`X` a basis of :math:`\mathcal D`. The multipliers on
+:math:`\mathcal D` use a kinetic-orthogonal complement :math:`Z` of the constraints (:math:`AZ = I`,
 :math:`X^T M Z = 0`). BKMM's reduction of these equations is :mod:`geomech.reduction.nonholonomic`.
 """
 

@@ -209,7 +209,7 @@ class StructurePreservingControl:
             callable ``phi(v)``, then with ``dphi`` its derivative.
         p : the conserved :math:`p = \\Gamma - \\varphi(m_3)`.
         parameters : values of the parameters of ``phi``.
-        probe_radius : radius of the ball of momenta where numeric checks sample (use about |m|).
+        probe_radius : radius of the ball of momenta where numeric checks sample (use about ``|m|``).
         integral : ``"auto"`` (default), ``"symbolic"`` or ``"quadrature"``: how the closed-loop Hamiltonian's
             integral is done. ``"auto"`` uses sympy for integrands in the class of
             :func:`geomech.symbolic.integrals.symbolic_friendly` (a rule on the expression, the same on every

@@ -56,10 +56,12 @@ class HolonomicSystem(NonholonomicSystem):
     :meth:`from_reduced` (the reduced Lagrangian in body velocities). Every expression keeps its parameters
     as symbols; :attr:`parameters` holds their values, substituted on compilation.
 
-    Attributes (beyond those of :class:`~geomech.systems.NonholonomicSystem`)
+    It has the attributes of :class:`~geomech.systems.NonholonomicSystem`, and one more.
+
+    Attributes
     ----------
-    reduced_mass_matrix : the matrix of Theorem 2.1, order :math:`(\\xi, \\dot r)`, a function of
-        :math:`r` alone.
+    reduced_mass_matrix : sympy.Matrix
+        The matrix of Theorem 2.1, order :math:`(\\xi, \\dot r)`, a function of :math:`r` alone.
     """
 
     # -- construction ------------------------------------------------------------------------------

@@ -5,17 +5,19 @@ symbolic in every parameter; numeric values given as keyword arguments are store
 symbolic system is built once per process (``functools.lru_cache``), so repeated calls are cheap and share
 the cached derivations of :mod:`geomech.reduction.nonholonomic`.
 
-=========================  ==================  ===============  =========================================
-builder                    group               shape            constraints
-=========================  ==================  ===============  =========================================
-:func:`snakeboard`         SE(2) (x, y, th)    (psi, phi)       no lateral slip of both wheel pairs
-:func:`snakeboard_bkmm`    SE(2)               (psi, phi)       same, with BKMM's inertia normalisation
-:func:`roller_racer`       SE(2)               (phi,)           no lateral slip of both bodies' wheels
-:func:`simplified_bicycle` SE(2)               (phi, sigma)     rear and front wheel do not slip
-:func:`chaplygin_sleigh`   SE(2)               ()               knife edge does not slip sideways
-:func:`rolling_disk`       SE(2)               (phi,)           rolling without slipping
-:func:`geared_body`        SE(2)               (psi,)           integrable: theta' = k psi'
-=========================  ==================  ===============  =========================================
+==========================  ================  ============  =======================================
+builder                     group             shape         constraints
+==========================  ================  ============  =======================================
+:func:`snakeboard`          SE(2) (x, y, th)  (psi, phi)    no lateral slip of both wheel pairs
+:func:`snakeboard_bkmm`     SE(2)             (psi, phi)    same, with BKMM's inertia normalisation
+:func:`roller_racer`        SE(2)             (phi,)        no lateral slip of both bodies' wheels
+:func:`simplified_bicycle`  SE(2)             (phi, sigma)  rear and front wheel do not slip
+:func:`chaplygin_sleigh`    SE(2)             ()            knife edge does not slip sideways
+:func:`rolling_disk`        SE(2)             (phi,)        rolling without slipping
+:func:`geared_body`         SE(2)             (psi,)        integrable: theta' = k psi'
+:func:`kinematic_car`       SE(2)             (psi, phi)    rolling rear wheels, steered front axle
+:func:`chaplygin_ball`      SE(2) (x, y, ph)  (theta, psi)  rolling without slipping on a plane
+==========================  ================  ============  =======================================
 """
 
 from __future__ import annotations

@@ -163,20 +163,20 @@ class LieGroupVariational(Method):
 
 @dataclass(frozen=True)
 class CrouchGrossman(Method):
-    """Crouch-Grossman method of order 3 on the coadjoint orbit and SO(3): explicit, in products of rotations.
+    r"""Crouch-Grossman method of order 3 on the coadjoint orbit and SO(3): explicit, in products of rotations.
 
-    The Lie-Poisson equations read :math:`\\dot m = -\\hat w\\, m`, :math:`\\dot R = R\\,\\hat w` with
+    The Lie-Poisson equations read :math:`\dot m = -\hat w\, m`, :math:`\dot R = R\,\hat w` with
     :math:`w = \nabla H(m)`: the group SO(3) acts on the sphere :math:`|m| = \text{const}` (the coadjoint orbit)
     and on the attitude. A Crouch-Grossman method ([CG]; [OM]) replaces the sums of a Runge-Kutta method by
     products of exponentials of the frozen velocities: the stages
-    :math:`Y_i = \\exp(h a_{i,i-1}\\hat w_{i-1})^T\\cdots\\exp(h a_{i1}\\hat w_1)^T m_n`, :math:`w_i =
-    \nabla H(Y_i)`, and the step :math:`F = \\exp(h b_1 \\hat w_1)\\cdots\\exp(h b_s\\hat w_s)`,
-    :math:`m_{n+1} = F^T m_n`, :math:`R_{n+1} = R_n F`. It stays on the level set of the Casimir |m| and in SO(3)
-    to round-off, and keeps the spatial momentum :math:`R m` (each factor does), where a Runge-Kutta method
+    :math:`Y_i = \exp(h a_{i,i-1}\hat w_{i-1})^T\cdots\exp(h a_{i1}\hat w_1)^T m_n`, :math:`w_i =
+    \nabla H(Y_i)`, and the step :math:`F = \exp(h b_1 \hat w_1)\cdots\exp(h b_s\hat w_s)`,
+    :math:`m_{n+1} = F^T m_n`, :math:`R_{n+1} = R_n F`. It stays on the level set of the Casimir :math:`|m|` and
+    in SO(3) to round-off, and keeps the spatial momentum :math:`R m` (each factor does), where a Runge-Kutta method
     drifts off them: the embedding of the momentum's level set that section 8 of [SA] names as an alternative.
     The coefficients are Crouch and Grossman's three-stage method (c = (0, 3/4, 17/24), b = (13/51, -2/3,
     24/17)), which meets the four classical conditions of order 3 and the one more that non-commuting
-    exponentials impose (:math:`\\sum_i b_i^2 c_i + 2\\sum_{i<j} b_i c_i b_j = 1/3`).
+    exponentials impose (:math:`\sum_i b_i^2 c_i + 2\sum_{i<j} b_i c_i b_j = 1/3`).
 
     Order 3; explicit; neither symplectic nor symmetric (the energy drifts). Structure: Lie-Poisson on so(3)*,
     any H. Cost per step: 3 gradients of H and 6 rotations. Reference: [CG] Crouch & Grossman, Numerical
@@ -208,7 +208,7 @@ class CrouchGrossman(Method):
 
 @dataclass(frozen=True)
 class SerretAndoyerAtlas(Method):
-    """The reduced Serret-Andoyer flow on an atlas of three charts, with the reconstruction of the attitude.
+    r"""The reduced Serret-Andoyer flow on an atlas of three charts, with the reconstruction of the attitude.
 
     In the chart about a body axis the state is the canonical pair :math:`(l, L)` of eq. (20) with the
     reconstruction angle :math:`\varphi` of Theorem 3, integrated by Dormand-Prince 8(5,3) with error
