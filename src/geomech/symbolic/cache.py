@@ -180,6 +180,8 @@ class NumericCache:
             out = {}
             for name, e in exprs.items():
                 e = sp.Matrix(e) if isinstance(e, (sp.MatrixBase, list, tuple)) else sp.Matrix([e])
-                out[name] = compile_matrix(e.subs(pv), variables)
+                # xreplace, not subs: the same expression with the values in, several times faster on large
+                # fields (subs re-evaluates and re-matches every node for each parameter)
+                out[name] = compile_matrix(e.xreplace({s: sp.Float(v) for s, v in pv.items()}), variables)
             cache[key] = out
         return cache[key]
