@@ -281,6 +281,14 @@ def phase_split(system: Any, loop: Any, mu: Any = 0.0, *, g0: Any = None, ax: An
     return ax
 
 
+def _planar_figsize(xy: np.ndarray, width: float = 7.0) -> tuple[float, float]:
+    """A figure whose height follows the path's extent at equal aspect (a long, flat path gets a wide, low
+    figure, not a square one with two empty bands), within limits that keep the title and labels readable."""
+    dx, dy = (float(v) for v in np.ptp(xy, axis=0))
+    ratio = (dy + 0.15 * max(dx, dy)) / (dx + 0.15 * max(dx, dy)) if max(dx, dy) > 0 else 1.0
+    return width, float(np.clip(width * ratio + 1.2, 3.0, 6.5))
+
+
 def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
     """The reconstructed path in the group: for SE(2) the position with the heading drawn along it, for any
     other group its chart coordinates against time (angles unwrapped: S^1; SO(3): 3-1-3 Euler angles)."""
@@ -289,9 +297,9 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
     path = getattr(reconstruction, "path", reconstruction)
     G = path.system.group
     planar = isinstance(G.numeric, SE2)
-    if ax is None:
-        _, ax = plt.subplots(figsize=(5.6, 4.4))
     xy = path.g[:, :2]
+    if ax is None:
+        _, ax = plt.subplots(figsize=_planar_figsize(xy) if planar else (5.6, 4.4), layout="constrained")
     if planar and float(np.ptp(xy, axis=0).max()) <= 1e-9 * max(1.0, float(np.abs(xy).max())):
         # the position does not move (centre-of-mass frame, zero linear momentum): show the rotation
         ax.plot(path.t, path.g[:, 2], color="C0")
