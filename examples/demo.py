@@ -1,9 +1,13 @@
-"""A short tour of geomech: the free rigid body and a user's own left-invariant system, reduced by the
-generalized Serret-Andoyer transformation, simulated through chart switches, and checked; Montgomery's
-phase; a long-time propagation by the period; the snakeboard derived from its Lagrangian and driven
-through a gait.
+"""
+A short tour of geomech
+=======================
 
-Run with `make demo` (or `python examples/demo.py --out DIR`); figures go to DIR.
+The free rigid body and a user's own left-invariant system, reduced by the generalized Serret-Andoyer
+transformation, simulated through chart switches, and checked; Montgomery's phase; a long-time propagation by the
+period; the snakeboard derived from its Lagrangian and driven through a gait.
+
+Run with ``make demo`` (or ``python examples/demo.py [--out DIR]``); figures go to DIR (without it they stay open,
+as the documentation's gallery collects them).
 """
 
 from __future__ import annotations
@@ -19,13 +23,21 @@ from geomech.experiments.rigid_body import run_rigid_body, summary_text
 from geomech.plot import momentum_sphere, reduced_phase_portrait
 
 
-def main(out: Path) -> None:
+def _save(fig, out: Path | None, name: str) -> None:
+    """Write ``fig`` to ``out/name`` when a directory was given; else leave it open (the gallery collects it)."""
+    if out is not None:
+        fig.savefig(out / name, dpi=120)
+
+
+def main(out: Path | None = None) -> None:
     import matplotlib
 
-    matplotlib.use("Agg")
+    if out is not None:
+        matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
 
     print("1. Free rigid body: exact elliptic solution vs the integrated reduced system (l, L)")
     summary, traj = run_rigid_body([3.0, 2.0, 1.0], [1.0, 0.3, 0.2], t_final=50.0)
@@ -69,10 +81,11 @@ def main(out: Path) -> None:
         chart=red.chart_axis - 1,
     )
     fig.tight_layout()
-    fig.savefig(out / "momentum_spheres.png", dpi=120)
+    _save(fig, out, "momentum_spheres.png")
     ax = reduced_phase_portrait(sa, float(np.linalg.norm(m0)), axis=2, trajectory=red)
-    ax.figure.savefig(out / "serret_andoyer_plane.png", dpi=120)
-    plt.close("all")
+    _save(ax.figure, out, "serret_andoyer_plane.png")
+    if out is not None:
+        plt.close("all")
 
     print("\n3. Montgomery's phase: after one period of m, the attitude turns about the spatial momentum by")
     print("   -(solid angle enclosed by m/|m|) + 2 E T / |mu|")
@@ -111,14 +124,15 @@ def main(out: Path) -> None:
         np.round(gait.net_displacement, 6).tolist(),
     )
     ax = gait_paths(gait)
-    ax.figure.savefig(out / "snakeboard_gait.png", dpi=120)
-    plt.close("all")
-    print(
-        f"\nfigures written to {out}/momentum_spheres.png, {out}/serret_andoyer_plane.png and {out}/snakeboard_gait.png"
-    )
+    _save(ax.figure, out, "snakeboard_gait.png")
+    if out is not None:
+        plt.close("all")
+        figures = ("momentum_spheres.png", "serret_andoyer_plane.png", "snakeboard_gait.png")
+        names = ", ".join(f"{out}/{n}" for n in figures)
+        print(f"\nfigures written to {names}")
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--out", type=Path, default=Path("demo-output"))
+    parser = argparse.ArgumentParser(description=(__doc__ or "").strip().partition("\n")[0])
+    parser.add_argument("--out", type=Path, default=None)
     main(parser.parse_args().out)

@@ -1,19 +1,28 @@
-"""The momentum equation as parallel transport: holonomy equals the enclosed curvature (BKMM; eq. 1.2 of the
-nonholonomic seed).
+r"""
+The momentum equation as parallel transport
+===========================================
 
-A point on the plane rolls along the direction of its shape angle r1 (one nonholonomic constraint), its mass
-along x changes with a second shape r2, and x is coupled to r2: L = (1 + k r2^2) x'^2/2 + y'^2/2 + (r1'^2 +
-r2'^2)/2 + c x' r2'. Its momentum equation p' = r'^a K_a(r) p + r'^T H(r) r' is affine in p, so a gait maps the
-momentum by p(T) = Phi p(0) + b: Phi is the holonomy of the connection K_a dr^a on the bundle of momenta
-(geometric: it depends on the loop, not on how fast it is run), b the momentum the forcing builds (it does).
-With one momentum, Stokes' theorem gives log Phi = the curvature F = dK integrated over the enclosed region.
+Holonomy equals the enclosed curvature (BKMM; eq. 1.2 of the nonholonomic seed). A point on the plane rolls along
+the direction of its shape angle :math:`r_1` (one nonholonomic constraint), its mass along :math:`x` changes with a
+second shape :math:`r_2`, and :math:`x` is coupled to :math:`r_2`:
+
+.. math::
+
+    L = \tfrac12 (1 + k r_2^2)\dot x^2 + \tfrac12\dot y^2 + \tfrac12(\dot r_1^2 + \dot r_2^2) + c\,\dot x\dot r_2 .
+
+Its momentum equation :math:`\dot p = \dot r^a K_a(r)\, p + \dot r^T H(r)\,\dot r` is affine in :math:`p`, so a gait
+maps the momentum by :math:`p(T) = \Phi\, p(0) + b`: :math:`\Phi` is the holonomy of the connection
+:math:`K_a\,dr^a` on the bundle of momenta (geometric: it depends on the loop, not on how fast it is run), :math:`b`
+the momentum the forcing builds (it does depend on the timing). With one momentum, Stokes' theorem gives
+:math:`\log\Phi = \iint F`, the curvature :math:`F = dK` integrated over the enclosed region.
 
 The script draws the curvature over the shape plane with a family of elliptic gaits, and compares, for each gait,
-log Phi from integrating the momentum equation with the curvature integrated over the ellipse (scipy's dblquad):
-the points lie on the diagonal. The forcing part b is shown for the same loops run at two speeds (b scales with 1
-over the period).
+:math:`\log\Phi` from integrating the momentum equation with the curvature integrated over the ellipse (scipy's
+``dblquad``): the points lie on the diagonal. The forcing part :math:`b` is shown for the same loops run at two
+speeds (:math:`b` scales with one over the period).
 
-Run: python examples/momentum_transport.py [--out DIR]   (figures go to DIR when given)
+Run: ``python examples/momentum_transport.py [--out DIR]`` (figures go to DIR; without it they stay open, as the
+documentation's gallery collects them).
 """
 
 from __future__ import annotations
@@ -108,6 +117,6 @@ def main(out: Path | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").strip().partition("\n")[0])
     parser.add_argument("--out", type=Path, default=None, help="directory for the figure")
     main(parser.parse_args().out)

@@ -1,19 +1,24 @@
-"""The midpoint rule in Euler angles and in quaternions: Remark 10 of the Serret-Andoyer paper, computed.
+r"""
+The midpoint rule in Euler angles and in quaternions
+====================================================
 
-The seed remarks that discretising the full dynamics on T*SO(3) in Euler angles gives discrete equations that are
-not invariant under the rotations, so their discrete momentum map is not conserved, and that the quaternion setting
-should not have this defect. A body of our own (a rigid body with a quartic term in its energy, H(m) =
-m1^2/6 + m2^2/4 + m3^2/2 + 0.1 m1^4) is integrated by the same implicit midpoint rule (through geomech.solve) in
-the canonical 3-1-3 Euler-angle coordinates and in the quaternion coordinates (q, pi) of T*R^4:
+Remark 10 of the Serret-Andoyer paper, computed. The seed remarks that discretising the full dynamics on
+:math:`T^*SO(3)` in Euler angles gives discrete equations that are not invariant under the rotations, so their
+discrete momentum map is not conserved, and that the quaternion setting should not have this defect. A body of our
+own (a rigid body with a quartic term in its energy,
+:math:`H(m) = m_1^2/6 + m_2^2/4 + m_3^2/2 + 0.1\, m_1^4`) is integrated by the same implicit midpoint rule (through
+:func:`geomech.solve`) in the canonical 3-1-3 Euler-angle coordinates and in the quaternion coordinates
+:math:`(q, \pi)` of :math:`T^*\mathbb R^4`:
 
-- in Euler angles only the spatial momentum's third component (Phi, conjugate to the cyclic angle phi) is kept;
-  the other two drift at O(h^2);
-- in quaternions the spatial momentum is bilinear in (q, pi) and every component is kept to round-off, as are
-  |q| = 1 and q . pi = 0;
-- a second motion starts at the identity, theta = 0, where Euler angles cannot even represent the state, and
-  runs through both gimbal locks.
+- in Euler angles only the spatial momentum's third component (:math:`\Phi`, conjugate to the cyclic angle
+  :math:`\phi`) is kept; the other two drift at :math:`O(h^2)`;
+- in quaternions the spatial momentum is bilinear in :math:`(q, \pi)` and every component is kept to round-off, as
+  are :math:`|q| = 1` and :math:`q \cdot \pi = 0`;
+- a second motion starts at the identity, :math:`\theta = 0`, where Euler angles cannot even represent the state,
+  and runs through both gimbal locks.
 
-Run: python examples/quaternion_midpoint.py [--out DIR]   (figures go to DIR when given)
+Run: ``python examples/quaternion_midpoint.py [--out DIR]`` (figures go to DIR; without it they stay open, as the
+documentation's gallery collects them).
 """
 
 from __future__ import annotations
@@ -102,6 +107,6 @@ def main(out: Path | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").strip().partition("\n")[0])
     parser.add_argument("--out", type=Path, default=None, help="directory for the figures")
     main(parser.parse_args().out)

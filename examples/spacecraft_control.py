@@ -1,14 +1,17 @@
-"""Spin stabilisation of a spacecraft about its intermediate axis with one momentum wheel.
+r"""
+Spin stabilisation about the intermediate axis with one momentum wheel
+======================================================================
 
-A spacecraft spinning about its intermediate principal axis tumbles. A wheel on body axis 3 driven by
-the structure-preserving feedback u = phi'(m3) m3' (eq. 29a of the Serret-Andoyer paper, sign corrected)
-turns the closed loop into a left-invariant Hamiltonian system H_c (eq. 29b), and Theorem 5 says the
-spin about axis 2 becomes stable once phi'(0) > 1 - I3/lambda2. This script designs such a control with a
-bounded wheel momentum, checks it (existence of H_c, Lemma 4, hyperregularity, three stability verdicts,
-the stability boundary), simulates the open-loop equations (26) with the feedback, and plots the reduced
-phase portrait with the level sets of h_p and the equilibria marked.
+A spacecraft spinning about its intermediate principal axis tumbles. A wheel on body axis 3 driven by the
+structure-preserving feedback :math:`u = \varphi'(m_3)\,\dot m_3` (eq. 29a of the Serret-Andoyer paper, sign
+corrected) turns the closed loop into a left-invariant Hamiltonian system :math:`H_c` (eq. 29b), and Theorem 5 says
+the spin about axis 2 becomes stable once :math:`\varphi'(0) > 1 - I_3/\lambda_2`. This script designs such a
+control with a bounded wheel momentum, checks it (existence of :math:`H_c`, Lemma 4, hyperregularity, three
+stability verdicts, the stability boundary), simulates the open-loop equations (26) with the feedback, and plots
+the reduced phase portrait with the level sets of :math:`h_p` and the equilibria marked.
 
-Run: python examples/spacecraft_control.py --out DIR   (figures and a JSON summary go to DIR)
+Run: ``python examples/spacecraft_control.py [--out DIR]`` (figures and a JSON summary go to DIR; without it the
+figures stay open, as the documentation's gallery collects them).
 """
 
 from __future__ import annotations
@@ -26,15 +29,23 @@ from geomech.systems.control import StructurePreservingControl
 from geomech.systems.rotors import RotorBody
 
 
+def _save(fig, out: Path | None, name: str) -> None:
+    """Write ``fig`` to ``out/name`` when a directory was given; else leave it open (the gallery collects it)."""
+    if out is not None:
+        fig.savefig(out / name, dpi=120)
+
+
 def main(out: Path, t_final: float = 1500.0) -> dict:
     import matplotlib
 
-    matplotlib.use("Agg")
+    if out is not None:
+        matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from geomech.plot.stability import equilibria_phase_portrait
 
-    out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
     # Locked inertias about axes 1, 2 (kg m^2), the bus's own moment about the wheel axis, the wheel's axial
     # moment: lambda1 > lambda2 > I3 + J3, so axis 2 is the intermediate axis of the locked spacecraft.
     lam1, lam2, I3, J3 = 1200.0, 1000.0, 700.0, 50.0
@@ -117,7 +128,7 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
     equilibria_phase_portrait(locked, G, ax=axes[1])
     axes[1].set_title("wheel locked: h_p level sets")
     fig.tight_layout()
-    fig.savefig(out / "spacecraft_phase_portrait.png", dpi=120)
+    _save(fig, out, "spacecraft_phase_portrait.png")
     fig2, ax = plt.subplots(figsize=(6.5, 3.8))
     ax.plot(t, tilt(free.m), label="wheel locked")
     ax.plot(t, tilt(ctrl.m), label=f"phi = h_max tanh(k v/h_max), k = {k:.3g}")
@@ -125,8 +136,9 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
     ax.set_ylabel("angle of m from body axis 2 (deg)")
     ax.legend()
     fig2.tight_layout()
-    fig2.savefig(out / "spacecraft_tilt.png", dpi=120)
-    plt.close("all")
+    _save(fig2, out, "spacecraft_tilt.png")
+    if out is not None:
+        plt.close("all")
     summary = {
         "k_min_closed_form": k_min,
         "k_boundary_found": boundary.value,
@@ -146,12 +158,13 @@ def main(out: Path, t_final: float = 1500.0) -> dict:
         "lemma4_relative_error": lemma.max_relative_error,
         "hyperregular": hyp.status,
     }
-    (out / "spacecraft_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    print(f"\nfigures: {out}/spacecraft_phase_portrait.png, {out}/spacecraft_tilt.png")
+    if out is not None:
+        (out / "spacecraft_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        print(f"\nfigures: {out}/spacecraft_phase_portrait.png, {out}/spacecraft_tilt.png")
     return summary
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=Path("spacecraft-output"))
+    parser = argparse.ArgumentParser(description=(__doc__ or "").strip().partition("\n")[0])
+    parser.add_argument("--out", type=Path, default=None)
     main(parser.parse_args().out)

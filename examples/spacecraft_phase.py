@@ -1,18 +1,25 @@
-"""Reorienting a spinning spacecraft with its rotors: the phase about the angular momentum, geometric + dynamic
-(Theorem 2.2 of the nonholonomic seed where the momentum's isotropy is a circle, on SO(3) with shapes).
+r"""
+Reorienting a spinning spacecraft with its rotors
+=================================================
 
-A spacecraft (locked inertia diag(3, 2, 1)) carries two rotors on its body axes 1 and 2, driven through a periodic
-wiggle. Its spatial angular momentum mu is conserved; the body momentum Pi = R^T mu moves on the sphere |Pi| = |mu|.
-From a body momentum that the wiggle brings back after each period (found by Newton on the period map), the
-attitude after a period is the start rotated about mu by
+The phase about the angular momentum, geometric plus dynamic: Theorem 2.2 of the nonholonomic seed where the
+momentum's isotropy is a circle, on SO(3) with shapes. A spacecraft (locked inertia diag(3, 2, 1)) carries two
+rotors on its body axes 1 and 2, driven through a periodic wiggle. Its spatial angular momentum :math:`\mu` is
+conserved; the body momentum :math:`\Pi = R^T\mu` moves on the sphere :math:`|\Pi| = |\mu|`. From a body momentum
+that the wiggle brings back after each period (found by Newton on the period map), the attitude after a period is
+the start rotated about :math:`\mu` by
 
-    Delta theta = [-Lambda - (1/|mu|) oint Pi . A dr] + (1/|mu|) int Pi . I^-1 Pi dt,
+.. math::
 
-the geometric part (the solid angle Lambda swept by Pi, and the rotors' connection) plus the dynamic part. The
-script compares it with the rotation found by integrating the attitude on the group, for wiggles of growing
-amplitude, and draws the body momentum's closed curve for the largest.
+    \Delta\theta = \Bigl[-\Lambda - \frac{1}{|\mu|}\oint \Pi\cdot A\,dr\Bigr]
+        + \frac{1}{|\mu|}\int_0^T \Pi\cdot \mathbb I^{-1}\Pi\,dt,
 
-Run: python examples/spacecraft_phase.py [--out DIR]   (the figure goes to DIR when given)
+the geometric part (the solid angle :math:`\Lambda` swept by :math:`\Pi`, and the rotors' connection) plus the
+dynamic part. The script compares it with the rotation found by integrating the attitude on the group, for wiggles
+of growing amplitude, and draws the body momentum's closed curve for the largest.
+
+Run: ``python examples/spacecraft_phase.py [--out DIR]`` (the figure goes to DIR; without it it stays open, as the
+documentation's gallery collects it).
 """
 
 from __future__ import annotations
@@ -89,6 +96,6 @@ def main(out: Path | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").strip().partition("\n")[0])
     parser.add_argument("--out", type=Path, default=None, help="directory for the figure")
     main(parser.parse_args().out)

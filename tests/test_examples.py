@@ -1,27 +1,7 @@
 """The examples run as shipped (``make demo`` runs examples/demo.py) and write what they say they write."""
 
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _run(script: str, out: Path) -> str:
-    path = str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=path)
-    done = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / script), "--out", str(out)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
-    return done.stdout
+from example_runner import run_example as _run
 
 
 @pytest.mark.slow
