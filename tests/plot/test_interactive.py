@@ -144,3 +144,44 @@ def test_phase_rigid_body_writes_the_momentum_curve(capsys, tmp_path):
     assert code == 0, err
     self_contained(target)
     assert "solid angle" in target.read_text()
+
+
+def test_simulate_draws_the_planar_motion_and_the_momentum_sphere(capsys, tmp_path):
+    board = tmp_path / "board.html"
+    code, out, err = run(
+        capsys, "simulate", "snakeboard", "--param", "m=1", "--param", "r=0.5", "--param", "J=0.18",
+        "--param", "J0=0.05", "--param", "J1=0.01", "--shape", "psi=sin(2*pi*t)", "--shape", "phi=0.5*sin(2*pi*t)",
+        "--t-final", "1", "--samples", "41", "--html", str(board), "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["files"] == [str(board)]
+    self_contained(board)
+    # the animation ends where the summary says the board ends
+    html = board.read_text()
+    final = doc["summary"]["final_configuration"]
+    xs = [float(v) for v in re.findall(r'"x":\[([-0-9.e]+),', html)]
+    assert any(abs(x - final["x"]) < 1e-9 * max(1.0, abs(final["x"])) + 1e-12 for x in xs)
+
+    sphere = tmp_path / "sphere.html"
+    code, out, err = run(
+        capsys, "simulate", "--hamiltonian", "m1**2/6 + m2**2/4 + m3**2/2", "--momentum", "1", "0.3", "0.2",
+        "--t-final", "5", "--html", str(sphere),
+    )  # fmt: skip
+    assert code == 0, err
+    self_contained(sphere)
+    assert str(sphere) in out
+
+
+def test_simulate_refuses_html_for_a_motion_off_the_plane(capsys, tmp_path):
+    model = tmp_path / "cart.py"
+    model.write_text(
+        "from geomech.lie import Rn\n"
+        "from geomech.systems.nonholonomic import NonholonomicSystem\n"
+        "system = NonholonomicSystem.from_lagrangian('(x_dot**2 + y_dot**2 + r_dot**2)/2', Rn('x', 'y'), ['r'],\n"
+        "    ['x_dot - cos(r)*y_dot'], name='cart')\n"
+    )
+    target = tmp_path / "cart.html"
+    code, out, err = run(capsys, "simulate", str(model), "--shape", "r=sin(t)", "--html", str(target))
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "--html" in err and "plane" in err and not target.exists()

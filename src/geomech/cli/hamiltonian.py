@@ -33,6 +33,7 @@ def simulate_hamiltonian(
     max_steps: int,
     as_json: bool,
     out: Path | None,
+    html: Path | None = None,
 ) -> None:
     """Integrate Euler's equation m' = m x grad H(m) (and R' = R hat(grad H) with ``attitude``) from ``momentum``
     by ``method`` (any key of geomech.solve that fits; ``geomech methods --hamiltonian ...`` lists them)."""
@@ -108,4 +109,11 @@ def simulate_hamiltonian(
         f"drift over the run: energy {drift['energy']:.3g}, Casimir |m| {drift['casimir']:.3g}"
         + (f", spatial momentum {drift['spatial_momentum']:.3g}" if attitude else ""),
     ]
-    emit(doc, as_json, "\n".join(lines), outputs, "summary")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import momentum_sphere_html
+
+        title = f"{system.name}: m(t) for 0 <= t <= {t_final:g} by {key}, with the level curves of H"
+        momentum_sphere_html(m, hamiltonian=system.hamiltonian, labels=["m(t)"], title=title, path=html)
+        written_too.append(html)
+    emit(doc, as_json, "\n".join(lines), outputs, "summary", written_too)

@@ -17,7 +17,17 @@ from ..errors import InputError, NumericalError
 from ..lie.groups import SE2
 from ..symbolic.formula import parse_formula
 from ..systems.models import example_system, load_model
-from ._args import FloatVector, Outputs, document, emit, is_model_file, model_argument, one_model, out_option
+from ._args import (
+    FloatVector,
+    Outputs,
+    document,
+    emit,
+    html_option,
+    is_model_file,
+    model_argument,
+    one_model,
+    out_option,
+)
 from ._progress import activity
 
 __all__ = ["derive_cmd", "simulate_cmd"]
@@ -296,6 +306,10 @@ def _plain(value: Any) -> str:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @out_option("Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
+@html_option(
+    "the motion as an interactive figure: for a system on SE(2), the path in the plane animated with the shape "
+    "variables; with --hamiltonian, m(t) on its sphere with the level curves of H"
+)
 def simulate_cmd(
     model,
     model_file,
@@ -317,6 +331,7 @@ def simulate_cmd(
     max_steps,
     as_json,
     out,
+    html,
 ) -> None:
     """Simulate an example or --model FILE.py with gaits (--shape) and torques (--tau).
 
@@ -349,6 +364,7 @@ def simulate_cmd(
             max_steps,
             as_json,
             out,
+            html,
         )
         return
     if method not in ("full", "reduced", "discrete"):
@@ -364,6 +380,11 @@ def simulate_cmd(
         p0=None if p0 is None else list(p0),
     )
     require_values(system)
+    if html is not None and system.group.name != "SE(2)":
+        raise InputError(
+            f"--html draws a motion in the plane, and {system.name} moves on {system.group.name}; drop --html (the "
+            "trajectory is in --out DIR/trajectory.nc)."
+        )
     start = "momentum p0 as given"
     if p0 is None:
         from ..integrators.nonholonomic import initial_state
@@ -423,7 +444,13 @@ def simulate_cmd(
         f"work by shape inputs: {detail['work_by_shape_inputs']:.6g} "
         f"(energy change {detail['energy_final'] - detail['energy_initial']:.6g})"
     )
-    emit(doc, as_json, text, outputs, "summary")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import gait_html
+
+        gait_html(sol, path=html)
+        written_too.append(html)
+    emit(doc, as_json, text, outputs, "summary", written_too)
 
 
 #: What a nonholonomic run's summary block holds; the rest of :func:`_summary` is the detail.

@@ -188,18 +188,35 @@ def stability_map_html(ds: Any, *, title: str | None = None, path: str | Path | 
     return fig
 
 
+def _planar_motion(motion: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str], str]:
+    """``(t, g, r, shape names, default title)`` of a gait analysis or a simulated motion on SE(2)."""
+    if hasattr(motion, "model") and hasattr(motion, "periods"):  # a GaitAnalysis
+        group, g = motion.model.group.name, np.asarray(motion.path.g, dtype=float)
+        t, r = np.asarray(motion.t), np.asarray(motion.r)
+        title = f"{motion.system.name}: {motion.periods} period(s) of the gait"
+    elif getattr(motion, "layout", None) == "qv" and np.ndim(motion.states) == 2:  # one simulated trajectory
+        group, g = motion.system.group.name, np.asarray(motion.g, dtype=float)
+        t, r = np.asarray(motion.t), np.asarray(motion.r)
+        title = f"{motion.system.name}: 0 <= t <= {t[-1]:g}"
+    else:
+        group, g, t, r, title = "", np.empty((0, 0)), np.empty(0), np.empty((0, 0)), ""
+    if group != "SE(2)" or g.ndim != 2 or g.shape[1] != 3:
+        raise InputError(
+            "gait_html draws a planar motion: a GaitAnalysis, or one simulated trajectory (a Solution of layout "
+            "'qv'), of a system on SE(2)."
+        )
+    return t, g, r, [s.name for s in motion.system.shape], title
+
+
 def gait_html(analysis: Any, *, frames: int = 120, title: str | None = None, path: str | Path | None = None) -> Any:
-    """A planar gait (a :class:`~geomech.analysis.GaitAnalysis` on SE(2)) animated: the path in the plane at equal
-    aspect with the body's position and heading moving along it, and the shape variables against time with a
-    marker at the same instant (play, pause and a time slider)."""
+    """A planar gait animated: the path in the plane at equal aspect with the body's position and heading moving
+    along it, and the shape variables against time with a marker at the same instant (play, pause and a time
+    slider). ``analysis``: a :class:`~geomech.analysis.GaitAnalysis` on SE(2), or one trajectory of a Lagrangian
+    system on SE(2) x S simulated by :func:`~geomech.solve` (a :class:`~geomech.Solution` of layout ``"qv"``)."""
     go = _go()
     from plotly.subplots import make_subplots
 
-    g = np.asarray(analysis.path.g, dtype=float)
-    if g.ndim != 2 or g.shape[1] != 3 or analysis.model.group.name != "SE(2)":
-        raise InputError("gait_html draws a planar gait: a GaitAnalysis of a system on SE(2).")
-    t, r = np.asarray(analysis.t), np.asarray(analysis.r)
-    names = [s.name for s in analysis.system.shape]
+    t, g, r, names, default_title = _planar_motion(analysis)
     span = float(np.ptp(g[:, :2], axis=0).max()) or 1.0
     arrow = 0.08 * span
     idx = np.unique(np.linspace(0, len(t) - 1, max(2, int(frames))).astype(int))
@@ -240,7 +257,7 @@ def gait_html(analysis: Any, *, frames: int = 120, title: str | None = None, pat
     fig.update_yaxes(range=[g[:, 1].min() - pad, g[:, 1].max() + pad], title_text="y", scaleanchor="x", row=1, col=1)
     fig.update_xaxes(title_text="t", row=1, col=2)
     fig.update_layout(
-        title=title or f"{analysis.system.name}: {analysis.periods} period(s) of the gait",
+        title=title or default_title,
         updatemenus=[
             {
                 "type": "buttons",
