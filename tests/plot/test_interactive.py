@@ -185,3 +185,22 @@ def test_simulate_refuses_html_for_a_motion_off_the_plane(capsys, tmp_path):
     code, out, err = run(capsys, "simulate", str(model), "--shape", "r=sin(t)", "--html", str(target))
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert "--html" in err and "plane" in err and not target.exists()
+
+
+def test_reproduce_draws_every_approach_on_the_sphere(capsys, tmp_path):
+    target = tmp_path / "study.html"
+    code, out, err = run(
+        capsys, "reproduce", "serret-andoyer", "--t-final", "0.5", "--no-extras", "--out", str(tmp_path / "o"),
+        "--html", str(target), "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    assert json.loads(out)["files"] == [str(target)]
+    self_contained(target)
+    html = target.read_text()
+    for label in ("Adams", "midpoint"):  # the approaches' names are the traces' names
+        assert label.lower() in html.lower()
+    code, out, err = run(
+        capsys, "reproduce", "serret-andoyer", "--out", str(tmp_path / "s"), "--sweep", "h=0.001:0.002:2",
+        "--html", str(tmp_path / "x.html"),
+    )  # fmt: skip
+    assert code == 2 and "--html" in err and "--sweep" in err

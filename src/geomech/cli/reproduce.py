@@ -13,6 +13,7 @@ from ._args import (
     check_document,
     document,
     emit,
+    html_option,
     out_option,
     parse_range,
     study_options,
@@ -80,6 +81,7 @@ _PRESET_NAMES = ("default", "cross-checked")  # experiments.serret_andoyer_study
 )
 @study_options("integrator_sweep.zarr")
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json to stdout.")
+@html_option("every approach's m(t) on the momentum sphere with the level curves of H_c, as an interactive figure")
 @click.pass_context
 def serret_andoyer_cmd(
     ctx,
@@ -98,6 +100,7 @@ def serret_andoyer_cmd(
     scheduler,
     chunk,
     as_json,
+    html,
 ) -> None:
     """Section 8.1 of the Serret-Andoyer paper: five simulations of the controlled rigid body with one rotor
     (phi(v) = 2 tan(v/G), p = 0, G = 1, H_c = 0.47), and geomech's Lie-Poisson and Gauss-Legendre methods."""
@@ -129,6 +132,8 @@ def serret_andoyer_cmd(
     command = "geomech " + " ".join(shlex.quote(a) for a in argv)
     cfg.validate()
     if sweeps:
+        if html is not None:
+            raise click.UsageError("--html draws one study's trajectories; drop it with --sweep")
         _sweep(cfg, sweeps, out, resume, scheduler, chunk, as_json)
         return
     if resume or scheduler is not None or chunk is not None:
@@ -139,8 +144,22 @@ def serret_andoyer_cmd(
     summary = document("reproduce serret-andoyer", head, result)
     check_document(summary)
     files = write_study(out, ds, summary, model, cfg)
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import momentum_sphere_html
+
+        keys = list(ds.approach.values)
+        every = max(1, ds.time.size // 2000)  # at most about 2000 points a curve: the file stays light
+        momentum_sphere_html(
+            [ds.m.sel(approach=k).values[::every] for k in keys],
+            hamiltonian=model.system.hamiltonian,
+            labels=[str(label) for label in ds.label.values],
+            title=f"section 8.1 of the Serret-Andoyer paper: m(t) of every approach, 0 <= t <= {cfg.t_final:g} s",
+            path=html,
+        )
+        written_too.append(html)
     if as_json:
-        emit(summary, True, "", None, "summary")
+        emit(summary, True, "", None, "summary", written_too)
         return
     o = head["orbit"]
     click.echo(f"orbit: {o['kind']}, period {o['period_s']:.10g} s ({o['periods_in_run']:.4g} periods in the run)")
@@ -154,6 +173,8 @@ def serret_andoyer_cmd(
     for name, c in head["claims"].items():
         click.echo(f"claim {name}: {'holds' if c['holds'] else 'does not hold'}")
     click.echo(written(out, files))
+    for f in written_too:
+        click.echo(f"interactive figure: {f}")
 
 
 def _sweep(cfg, sweeps, out, resume, scheduler, chunk, as_json) -> None:
