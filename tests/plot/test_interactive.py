@@ -204,3 +204,36 @@ def test_reproduce_draws_every_approach_on_the_sphere(capsys, tmp_path):
         "--html", str(tmp_path / "x.html"),
     )  # fmt: skip
     assert code == 2 and "--html" in err and "--sweep" in err
+
+
+@pytest.mark.parametrize(
+    "model, loop, planar",
+    [
+        ("three_link_middle", ["alpha1=0.6*cos(2*pi*t/T)", "alpha2=0.6*sin(2*pi*t/T)"], True),
+        ("two_bodies", ["psi=2*pi*t/T"], False),
+    ],
+)
+def test_phase_loop_draws_the_reconstructed_motion(capsys, tmp_path, model, loop, planar):
+    from geomech.analysis import Gait, reconstruct
+    from geomech.plot.interactive import reconstruction_html
+    from geomech.systems.models import example_system
+
+    target = tmp_path / "loop.html"
+    shapes = [a for s in loop for a in ("--shape", s)]
+    code, out, err = run(capsys, "phase", "loop", model, *shapes, "--html", str(target), "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["files"] == [str(target)]
+    self_contained(target)
+    # the figure holds the reconstruction: animated in the plane, or the coordinates against time
+    system = example_system(model, {})
+    rec = reconstruct(system, Gait.from_expressions(dict(s.split("=", 1) for s in loop), 1.0))
+    fig = reconstruction_html(system, rec)
+    if planar:
+        assert len(fig.frames) > 10 and fig.layout.yaxis.scaleanchor == "x"
+        body = fig.frames[-1].data[0]
+        assert body.x[0] == pytest.approx(rec.path.g[-1, 0]) and body.y[0] == pytest.approx(rec.path.g[-1, 1])
+    else:
+        assert not fig.frames
+        theta = np.asarray(fig.data[0].y, dtype=float)
+        assert theta[-1] - theta[0] == pytest.approx(doc["summary"]["net_displacement"]["theta"], abs=1e-9)

@@ -238,6 +238,10 @@ def _holonomic_system(model: str, params: dict[str, float]) -> Any:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @out_option("Directory for loop.json and figures (connection, curvature with the loop, path).")
+@html_option(
+    "the reconstructed motion as an interactive figure: on SE(2) the path in the plane animated, on other groups "
+    "the group coordinates and the shapes against time"
+)
 def loop_cmd(
     model: str | None,
     model_file: str | None,
@@ -247,6 +251,7 @@ def loop_cmd(
     params: tuple,
     as_json: bool,
     out: Path | None,
+    html: Path | None,
 ) -> None:
     """Phases and reconstruction for a closed shape loop of a MODEL without constraints: a built-in one
     (two_bodies, three_link, three_link_middle, planar_3_body, spacecraft; dashes for underscores also work) or
@@ -321,7 +326,13 @@ def loop_cmd(
     lines.append(
         "net motion (reconstructed)   = " + ", ".join(f"{k} {v:.12g}" for k, v in head["net_displacement"].items())
     )
-    emit(doc, as_json, "\n".join(lines), outputs, "loop")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import reconstruction_html
+
+        reconstruction_html(system, rec, path=html)
+        written_too.append(html)
+    emit(doc, as_json, "\n".join(lines), outputs, "loop", written_too)
 
 
 def _winding(system: Any, loop: Any) -> np.ndarray:

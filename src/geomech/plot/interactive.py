@@ -20,7 +20,7 @@ from .._storage import write_atomic
 from ..errors import InputError, ShapeError
 from .momentum import _sphere_level_curves
 
-__all__ = ["gait_html", "momentum_sphere_html", "stability_map_html", "write_html"]
+__all__ = ["gait_html", "momentum_sphere_html", "reconstruction_html", "stability_map_html", "write_html"]
 
 _VERDICT_COLOURS = {"no equilibrium": "#bdbdbd", "unstable": "#d73027", "inconclusive": "#fdae61", "stable": "#1a9850"}
 
@@ -190,6 +190,8 @@ def stability_map_html(ds: Any, *, title: str | None = None, path: str | Path | 
 
 def _planar_motion(motion: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str], str]:
     """``(t, g, r, shape names, default title)`` of a gait analysis or a simulated motion on SE(2)."""
+    if isinstance(motion, _Motion):
+        return motion.t, motion.g, motion.r, motion.shape_names, motion.title
     if hasattr(motion, "model") and hasattr(motion, "periods"):  # a GaitAnalysis
         group, g = motion.model.group.name, np.asarray(motion.path.g, dtype=float)
         t, r = np.asarray(motion.t), np.asarray(motion.r)
@@ -206,6 +208,42 @@ def _planar_motion(motion: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, lis
             "'qv'), of a system on SE(2)."
         )
     return t, g, r, [s.name for s in motion.system.shape], title
+
+
+class _Motion:
+    """A motion on SE(2) given by its arrays (a reconstruction along a shape loop)."""
+
+    def __init__(self, t: np.ndarray, g: np.ndarray, r: np.ndarray, shape_names: list[str], title: str):
+        self.t, self.g, self.r, self.shape_names, self.title = t, g, r, shape_names, title
+
+
+def reconstruction_html(
+    system: Any, reconstruction: Any, *, title: str | None = None, path: str | Path | None = None
+) -> Any:
+    """The motion on the group along a shape path (a :class:`~geomech.analysis.Reconstruction` of ``system``, a
+    Lagrangian system on G x S): on SE(2), with the position moving, the path in the plane animated as by
+    :func:`gait_html`; on any other group (or SE(2) turning in place), the group's chart coordinates and the shape
+    variables against time, side by side, with their values on hover (angles unwrapped)."""
+    go = _go()
+    from plotly.subplots import make_subplots
+
+    G = system.group
+    t, g, r = np.asarray(reconstruction.t), np.asarray(reconstruction.path.g), np.asarray(reconstruction.r)
+    shapes = [s.name for s in system.shape]
+    heading = title or f"{system.name}: the motion on {G.name} along the shape loop"
+    moves = G.name == "SE(2)" and float(np.ptp(g[:, :2], axis=0).max()) > 1e-9 * max(1.0, float(np.abs(g).max()))
+    if moves:
+        return gait_html(_Motion(t, g, r, shapes, heading), path=path)
+    fig = make_subplots(rows=1, cols=2, subplot_titles=(f"group coordinates ({G.name})", "shape variables"))
+    for i, c in enumerate(G.coordinates):
+        fig.add_trace(go.Scatter(x=t, y=g[:, i], mode="lines", name=str(c)), 1, 1)
+    for k, name in enumerate(shapes):
+        fig.add_trace(go.Scatter(x=t, y=r[:, k], mode="lines", name=name, line={"dash": "dot"}), 1, 2)
+    fig.update_xaxes(title_text="t")
+    fig.update_layout(title=heading, hovermode="x unified", legend={"orientation": "h", "y": -0.15})
+    if path is not None:
+        write_html(fig, path)
+    return fig
 
 
 def gait_html(analysis: Any, *, frames: int = 120, title: str | None = None, path: str | Path | None = None) -> Any:
