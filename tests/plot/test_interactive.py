@@ -237,3 +237,30 @@ def test_phase_loop_draws_the_reconstructed_motion(capsys, tmp_path, model, loop
         assert not fig.frames
         theta = np.asarray(fig.data[0].y, dtype=float)
         assert theta[-1] - theta[0] == pytest.approx(doc["summary"]["net_displacement"]["theta"], abs=1e-9)
+
+
+def test_two_bodies_and_show_write_their_figures(capsys, tmp_path):
+    from geomech.plot.interactive import series_html
+
+    target = tmp_path / "bodies.html"
+    args = ["phase", "two-bodies", "--I1", "1", "--I2", "3", "--mu", "-2.5", "--period", "5.5", "--turns", "-1"]
+    code, out, err = run(capsys, *args, "--html", str(target), "--json")
+    assert code == 0, err
+    assert json.loads(out)["files"] == [str(target)]
+    self_contained(target)
+
+    code, out, err = run(
+        capsys, "simulate", "--hamiltonian", "m1**2/6 + m2**2/4 + m3**2/2", "--momentum", "1", "0.3", "0.2",
+        "--t-final", "2", "--out", str(tmp_path / "run"),
+    )  # fmt: skip
+    assert code == 0, err
+    shown = tmp_path / "show.html"
+    code, out, err = run(capsys, "show", str(tmp_path / "run" / "trajectory.nc"), "--html", str(shown), "--json")
+    assert code == 0, err
+    assert json.loads(out)["files"] == [str(shown)]
+    self_contained(shown)
+    # the traces are the variables' components, over the file's times
+    t = np.linspace(0.0, 1.0, 5)
+    fig = series_html(t, {"m": np.stack([t, 2 * t, 3 * t], -1), "energy": t**2})
+    assert [tr.name for tr in fig.data] == ["m[0]", "m[1]", "m[2]", "energy"]
+    np.testing.assert_array_equal(np.asarray(fig.data[2].y, dtype=float), 3 * t)

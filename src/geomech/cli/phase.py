@@ -73,7 +73,10 @@ def phase() -> None:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @out_option("Directory for two_bodies.json and figures of theta(t) and its geometric and dynamic parts.")
-def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, as_json: bool, out: Path | None) -> None:
+@html_option("theta(t) and psi(t) over the period as an interactive figure")
+def two_bodies_cmd(
+    I1: float, I2: float, mu: float, period: float, turns: int, as_json: bool, out: Path | None, html: Path | None
+) -> None:
     """Two planar bodies pinned at their centres of mass (section 2.2 of the nonholonomic paper).
 
     Body 2 turns uniformly `--turns` times relative to body 1 in time `--period`; prints the geometric,
@@ -115,7 +118,13 @@ def two_bodies_cmd(I1: float, I2: float, mu: float, period: float, turns: int, a
         f"closed form                        = {closed:.12g}\n"
         f"reconstructed on the group         = {reconstructed:.12g}"
     )
-    emit(doc, as_json, text, outputs, "two_bodies")
+    written_too = []
+    if html is not None:
+        from ..plot.interactive import reconstruction_html
+
+        reconstruction_html(system, rec, path=html)
+        written_too.append(html)
+    emit(doc, as_json, text, outputs, "two_bodies", written_too)
 
 
 @phase.command("rigid-body")

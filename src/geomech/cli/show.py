@@ -10,7 +10,7 @@ import click
 import numpy as np
 
 from ..errors import InputError
-from ._args import Outputs, document, emit, out_option
+from ._args import Outputs, document, emit, html_option, out_option
 
 __all__ = ["show_cmd"]
 
@@ -53,7 +53,8 @@ def _summary(ds: Any, path: Path) -> dict[str, Any]:
 @click.argument("path", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @out_option("Directory for show.json and a figure of every variable over time (show.png).")
-def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
+@html_option("every variable over time as an interactive figure, the values on hover")
+def show_cmd(path: str, as_json: bool, out: Path | None, html: Path | None) -> None:
     """Summarise a NetCDF file geomech wrote (a trajectory, a gait, a stability map): the command and
     parameters it records, its dimensions, and each variable with its range and final value."""
     import xarray as xr
@@ -68,9 +69,15 @@ def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
     outputs = None
     with ds:
         summary = _summary(ds, p)
+        series = _series(ds, p.name) if out is not None or html is not None else []
         if out is not None:
             outputs = Outputs(out)
-            outputs.figure("show.png", _plot(ds, p.name), dpi=110)
+            outputs.figure("show.png", _plot(ds, p.name, series), dpi=110)
+        if html is not None:
+            from ..plot.interactive import series_html
+
+            t = np.asarray(ds["t"].values, dtype=float)
+            series_html(t, {n: np.asarray(ds[n].values, dtype=float) for n in series}, title=p.name, path=html)
     a = summary["attributes"]
     head = {"file": summary.pop("file"), **{k: a.get(k) for k in ("system", "method", "status")}}
     doc = document("show", head, summary)
@@ -86,15 +93,20 @@ def show_cmd(path: str, as_json: bool, out: Path | None) -> None:
         final = v.get("final")
         fin = "" if final is None else f" final {np.round(np.atleast_1d(final), 6).tolist()}"
         lines.append(f"  {name:<{width}} ({', '.join(v['dims'])}) {rng}{fin}")
-    emit(doc, as_json, "\n".join(lines), outputs, "show")
+    emit(doc, as_json, "\n".join(lines), outputs, "show", [html] if html is not None else [])
 
 
-def _plot(ds: Any, title: str) -> Any:
-    import matplotlib.pyplot as plt
-
+def _series(ds: Any, title: str) -> list[str]:
+    """The numeric variables over time ``t`` (refused, before anything is drawn, when there are none)."""
     series = [n for n, v in ds.data_vars.items() if v.dims and v.dims[0] == "t" and v.dtype.kind in "fiu"]
     if "t" not in ds.coords or not series:
         raise InputError(f"{title} has no variable over time t to draw.")
+    return series
+
+
+def _plot(ds: Any, title: str, series: list[str]) -> Any:
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(len(series), 1, figsize=(6.4, 1.6 * len(series) + 0.6), sharex=True, squeeze=False)
     t = np.asarray(ds["t"].values, dtype=float)
     for ax, name in zip(axes[:, 0], series):

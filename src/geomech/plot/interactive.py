@@ -20,7 +20,14 @@ from .._storage import write_atomic
 from ..errors import InputError, ShapeError
 from .momentum import _sphere_level_curves
 
-__all__ = ["gait_html", "momentum_sphere_html", "reconstruction_html", "stability_map_html", "write_html"]
+__all__ = [
+    "gait_html",
+    "momentum_sphere_html",
+    "reconstruction_html",
+    "series_html",
+    "stability_map_html",
+    "write_html",
+]
 
 _VERDICT_COLOURS = {"no equilibrium": "#bdbdbd", "unstable": "#d73027", "inconclusive": "#fdae61", "stable": "#1a9850"}
 
@@ -241,6 +248,29 @@ def reconstruction_html(
         fig.add_trace(go.Scatter(x=t, y=r[:, k], mode="lines", name=name, line={"dash": "dot"}), 1, 2)
     fig.update_xaxes(title_text="t")
     fig.update_layout(title=heading, hovermode="x unified", legend={"orientation": "h", "y": -0.15})
+    if path is not None:
+        write_html(fig, path)
+    return fig
+
+
+def series_html(t: Any, variables: Any, *, title: str = "", components: int = 9, path: str | Path | None = None) -> Any:
+    """Quantities over time, one panel each with a shared time axis and the values on hover: ``variables`` maps a
+    name to an array whose first axis is ``t`` (a vector quantity shows its first ``components`` components)."""
+    go = _go()
+    from plotly.subplots import make_subplots
+
+    t = np.asarray(t, dtype=float)
+    names = list(variables)
+    if t.ndim != 1 or not names:
+        raise InputError("series_html draws quantities over a 1-D time axis: give t and at least one variable.")
+    fig = make_subplots(rows=len(names), cols=1, shared_xaxes=True, subplot_titles=names, vertical_spacing=0.04)
+    for row, name in enumerate(names, start=1):
+        y = np.asarray(variables[name], dtype=float).reshape(len(t), -1)
+        for j in range(min(y.shape[1], components)):
+            label = name if y.shape[1] == 1 else f"{name}[{j}]"
+            fig.add_trace(go.Scatter(x=t, y=y[:, j], mode="lines", name=label), row, 1)
+    fig.update_xaxes(title_text="t", row=len(names), col=1)
+    fig.update_layout(title=title, height=220 * len(names) + 120, hovermode="x unified", showlegend=False)
     if path is not None:
         write_html(fig, path)
     return fig
