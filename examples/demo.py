@@ -67,7 +67,7 @@ def main(out: Path | None = None) -> None:
     p = np.einsum("nij,nj->ni", red.R, red.m)
     print(f"   spatial momentum p = R m kept to {np.abs(p - p[0]).max():.2e}")
 
-    fig = plt.figure(figsize=(11, 5))
+    fig = plt.figure(figsize=(11, 4.8))
     ax1 = fig.add_subplot(1, 2, 1, projection="3d")
     momentum_sphere(
         traj.m, ax=ax1, title="free rigid body I = (3, 2, 1)", energy_curves=gm.RigidBody([3.0, 2.0, 1.0]).energy
@@ -80,7 +80,7 @@ def main(out: Path | None = None) -> None:
         energy_curves=system.hamiltonian,
         chart=red.chart_axis - 1,
     )
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.0, top=0.9, wspace=0.0)
     _save(fig, out, "momentum_spheres.png")
     ax = reduced_phase_portrait(sa, float(np.linalg.norm(m0)), axis=2, trajectory=red)
     _save(ax.figure, out, "serret_andoyer_plane.png")

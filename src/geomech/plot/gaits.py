@@ -57,7 +57,8 @@ def gait_paths(analysis: Any, *, ax: Any = None, arrows: int = 12, parts: bool =
     ax.plot(xy[:, 0], xy[:, 1], "s", color="C0", ms=4, label="full motion (period ends)")
     ax.plot([], [], color="C3", marker=r"$\rightarrow$", ls="none", ms=10, label="heading (full motion)")
     ax.margins(0.12)  # the heading arrows stick out of the path's bounding box
-    ax.legend(loc="best", fontsize=7, framealpha=0.85)
+    # below the axes, off the data
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=7, frameon=False)
     d = analysis.net_displacement
     ax.set_title(
         f"{analysis.system.name}: {analysis.periods} period(s), net g(0)$^{{-1}}$g(NT) = "

@@ -80,6 +80,8 @@ def momentum_sphere(
         ax.plot(*np.stack([-end, end], 1), color="0.3", linewidth=0.7)
         ax.text(*(1.32 * end), lab)
     ax.set_axis_off()
+    for set_lim in (ax.set_xlim, ax.set_ylim, ax.set_zlim):  # centred: no empty band below the sphere
+        set_lim(-1.3 * G, 1.3 * G)
     ax.set_box_aspect((1, 1, 1), zoom=1.35)
     if title:
         ax.set_title(title)
