@@ -315,7 +315,7 @@ def group_path(reconstruction: Any, *, ax: Any = None, arrows: int = 12) -> Any:
         th = path.g[:, 2]
         ax.plot(xy[:, 0], xy[:, 1], color="0.7", linewidth=0.8, zorder=1)
         # coloured by time, so that a path that doubles back on itself (a board rocking to and fro) can be followed
-        strokes = LineCollection(np.stack([xy[:-1], xy[1:]], axis=1), cmap="viridis", linewidths=1.8, zorder=2)
+        strokes = LineCollection(list(np.stack([xy[:-1], xy[1:]], axis=1)), cmap="viridis", linewidths=1.8, zorder=2)
         strokes.set_array(np.asarray(path.t[:-1], dtype=float))
         ax.add_collection(strokes)
         ax.figure.colorbar(strokes, ax=ax, label="$t$", fraction=0.04, pad=0.02)
