@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 import plotly.io as pio
-from plotly.io._base_renderers import ExternalRenderer
+from plotly.io.base_renderers import ExternalRenderer
 
 _SHOWN: list[str] = []
 

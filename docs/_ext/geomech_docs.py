@@ -89,7 +89,7 @@ def write_api(srcdir: Path) -> list[str]:
     """Write ``api/*.rst`` under ``srcdir``; return the names of the pages written (without suffix)."""
     out = srcdir / "api"
     out.mkdir(exist_ok=True)
-    home: dict[int, str] = {}  # id(object) -> the full name it is documented under
+    home: dict[tuple, str] = {}  # an object's key -> the full name it is documented under
     queue = list(MODULES)
     pages: list[str] = []
     texts: dict[str, str] = {}
@@ -104,7 +104,8 @@ def write_api(srcdir: Path) -> list[str]:
                     submodules.append(obj.__name__)
                     queue.insert(0, (obj.__name__, ""))
                 continue
-            key = id(obj) if (inspect.isclass(obj) or callable(obj)) else id((modname, n))
+            # a function or class once, wherever it is exported; a value (DIM, REGISTRY) under each module's name
+            key = ("obj", id(obj)) if (inspect.isclass(obj) or callable(obj)) else ("data", modname, n)
             if key in home:
                 continue
             home[key] = f"{modname}.{n}"
@@ -115,7 +116,7 @@ def write_api(srcdir: Path) -> list[str]:
     links = []
     for n in public_names(top):
         obj = getattr(top, n)
-        target = obj.__name__ if inspect.ismodule(obj) else home.get(id(obj))
+        target = obj.__name__ if inspect.ismodule(obj) else home.get(("obj", id(obj)))
         if target is not None:
             role = "mod" if inspect.ismodule(obj) else "obj"
             links.append(f"- :{role}:`geomech.{n} <{target}>`")
