@@ -77,6 +77,26 @@ def test_simulate_text_and_other_methods(capsys):
     assert code == 0 and json.loads(out)["work_by_shape_inputs"] == 0.0
 
 
+def test_simulate_by_hamiltons_equations_and_the_group_discretisation(capsys):
+    """The Hamiltonian forms drive the shapes by torques, and agree with the Lagrange-d'Alembert run."""
+    args = [*SNAKE_ARGS[:10], "--tau", "psi=-psi", "--tau", "phi=0.2*cos(t) - 2*phi", "--t-final", "1", "--json"]
+    finals = {}
+    for method in ("full", "bates-sniatycki", "full-tensor", "almost-poisson"):
+        code, out, err = _run(capsys, "simulate", "snakeboard", *args, "--p0", "0.5", "--method", method)
+        assert code == 0, err
+        data = json.loads(out)
+        finals[method] = np.array(list(data["summary"]["final_configuration"].values()))
+        assert abs(data["summary"]["energy_change_minus_work"]) < 1e-8 and data["work_by_shape_inputs"] != 0
+    for method in ("bates-sniatycki", "full-tensor", "almost-poisson"):
+        np.testing.assert_allclose(finals[method], finals["full"], atol=1e-8)
+    code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "discrete-group", "--h", "0.01")
+    assert code == 0 and "discrete Lagrange-d'Alembert (group, h = 0.01)" in out
+    code, _, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "bates-sniatycki")
+    assert code == 2 and err.count("\n") == 1 and "prescribed gait" in err
+    code, _, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "vm")
+    assert code == 2 and "bates-sniatycki" in err
+
+
 def test_derive_snakeboard_json_and_latex(capsys):
     code, out, err = _run(capsys, "derive", "snakeboard_bkmm", "--json")
     assert code == 0, err

@@ -5,30 +5,23 @@ reduction."""
 
 import numpy as np
 import sympy as sp
+from own_systems import SUSLOV_INERTIA, SUSLOV_ROTOR, suslov_with_rotor
 from scipy.integrate import solve_ivp
 
 from geomech import solve
 from geomech.integrators import BKMM, LagrangeDAlembert
-from geomech.lie import SO3
 from geomech.reduction.nonholonomic import bkmm_reduction
 from geomech.symbolic import group_chart
 from geomech.systems.nonholonomic import NonholonomicSystem
 
-INERTIA = np.array([[2.0, 0.0, 0.4], [0.0, 1.5, 0.0], [0.4, 0.0, 1.0]])  # not aligned with the constraint
-J_ROTOR = 0.3
 GAIT = {"psi": "0.8*sin(2*pi*t)"}
 Q0 = {"a": 0.2, "b": 1.0, "c": -0.4}  # away from the chart's gimbal lock at b = 0
+INERTIA, J_ROTOR = SUSLOV_INERTIA, SUSLOV_ROTOR
 
 
 def _system() -> tuple[NonholonomicSystem, sp.Matrix]:
-    G = group_chart(SO3("a", "b", "c"))
-    qdot = sp.Matrix(sp.symbols("a_dot b_dot c_dot"))
-    omega = G.body_velocity_matrix * qdot
-    psid = sp.Symbol("psi_dot")
-    L = (omega.T * sp.Matrix(INERTIA) * omega)[0] / 2 + sp.Rational(3, 10) / 2 * (psid + omega[0]) ** 2
-    # Suslov's constraint omega_3 = 0, a form on the group written in the chart
-    system = NonholonomicSystem.from_lagrangian(sp.nsimplify(L), G, ("psi",), [omega[2]], name="suslov_rotor")
-    return system, G.body_velocity_matrix
+    system = suslov_with_rotor()
+    return system, system.group.body_velocity_matrix
 
 
 def _body_rates(system, Lam, traj) -> np.ndarray:

@@ -276,7 +276,9 @@ def _plain(value: Any) -> str:
     "--method",
     default="full",
     show_default=True,
-    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA. With "
+    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA; "
+    "discrete-group: DLA with the group's discrete Lagrangian; almost-poisson, bates-sniatycki, full-tensor: "
+    "Hamilton's equations on FL(D) (free shapes: --tau, not --shape). With "
     "--hamiltonian any method of geomech.solve that fits (`geomech methods --hamiltonian ...`); full: the "
     "Serret-Andoyer atlas.",
 )
@@ -341,7 +343,7 @@ def simulate_cmd(
     the constraints (constraints on the shape velocities) it starts with nonholonomic momentum 0 instead,
     and the summary says so.
     """
-    from ..integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, solve
+    from ..integrators import Kind, get_method, solve
 
     if hamiltonian is not None:
         from .hamiltonian import simulate_hamiltonian
@@ -367,8 +369,10 @@ def simulate_cmd(
             html,
         )
         return
-    if method not in ("full", "reduced", "discrete"):
-        raise click.BadParameter(f"{method!r}: choose full, reduced or discrete for a MODEL", param_hint="'--method'")
+    if method not in _MODEL_METHODS:
+        raise click.BadParameter(
+            f"{method!r}: choose one of {', '.join(_MODEL_METHODS)} for a MODEL", param_hint="'--method'"
+        )
     if momentum is not None or attitude:
         raise click.UsageError("--momentum and --attitude apply to --hamiltonian")
     system = nonholonomic_system(one_model(model, model_file), _pairs(params, "--param", True))
@@ -397,10 +401,11 @@ def simulate_cmd(
                 raise
             start = "nonholonomic momentum 0 (rest violates the constraints)"
     with activity(f"simulating {system.name} ({method}) to t = {t_final:g}"):
-        if method == "discrete":
+        integrator = get_method(_MODEL_METHODS[method])
+        if integrator.kind is Kind.FIXED_STEP:
             sol = solve(
                 system,
-                DiscreteLagrangeDAlembert(),
+                integrator,
                 t_final=t_final,
                 h=step,
                 max_steps=max_steps,
@@ -408,7 +413,6 @@ def simulate_cmd(
                 **kw,
             )
         else:
-            integrator = LagrangeDAlembert() if method == "full" else BKMM()
             sol = solve(
                 system,
                 integrator,
@@ -453,20 +457,34 @@ def simulate_cmd(
     emit(doc, as_json, text, outputs, "summary", written_too)
 
 
+#: ``simulate --method`` for a MODEL, with the method's key in the registry (the fixed-step ones take ``--h``).
+_MODEL_METHODS = {
+    "full": "lagrange_dalembert",
+    "reduced": "bkmm",
+    "discrete": "discrete_lagrange_dalembert",
+    "discrete-group": "discrete_lagrange_dalembert_group",
+    "almost-poisson": "almost_poisson",
+    "bates-sniatycki": "bates_sniatycki",
+    "full-tensor": "full_almost_poisson",
+}
+
 #: What a nonholonomic run's summary block holds; the rest of :func:`_summary` is the detail.
 _HEADLINE = ("status", "final_configuration", "constraint_residual_max", "energy_change_minus_work")
 
 
 def _method_label(sol, step: float) -> str:
     """The method as the summary names it: the CLI's ``--method`` with the solver or the step."""
-    from ..integrators import BKMM, LagrangeDAlembert
+    from ..integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, NonholonomicHamilton
 
     m = sol.method
     if isinstance(m, LagrangeDAlembert):
         return f"full ({m.solver})"
     if isinstance(m, BKMM):
         return f"reduced ({m.solver})"
-    return f"discrete Lagrange-d'Alembert (midpoint, h = {step:.3g})"
+    if isinstance(m, NonholonomicHamilton):
+        return f"Hamilton's equations on FL(D), {m.form.replace('_', '-')} form ({m.solver})"
+    assert isinstance(m, DiscreteLagrangeDAlembert)
+    return f"discrete Lagrange-d'Alembert ({m.discretization}, h = {step:.3g})"
 
 
 def _summary(sol, label: str) -> dict[str, Any]:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import re
-
 from .methods import REGISTRY, methods_table
 
 HEADER = """# Integrators
@@ -58,12 +56,7 @@ This table is generated from `geomech.integrators.REGISTRY` (`python -m geomech.
 
 
 def _summary(key: str) -> str:
-    """The first sentence of the method's docstring, its first paragraph joined, markup made plain."""
-    doc = (type(REGISTRY[key]).__doc__ or "").strip().split("\n\n")[0]
-    text = " ".join(line.strip() for line in doc.splitlines())
-    text = re.sub(r":math:`([^`]*)`", r"`\1`", text).replace("``", "`")
-    m = re.match(r"(.+?\.)(\s|$)", text)
-    return (m.group(1) if m else text).rstrip(".")
+    return REGISTRY[key].summary
 
 
 def _order(row: dict) -> str:

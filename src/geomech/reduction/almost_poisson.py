@@ -392,12 +392,25 @@ class AlmostPoissonStructure(Derived, NumericCache):
         ]
 
     def numeric(self, parameters: dict | None = None) -> dict:
-        """Compiled ``J(z)``, ``grad H(z)``, ``p(z)`` (the point of M) and ``pt(q, qdot) = X^T M qdot``."""
+        r"""Compiled ``J(z)``, ``gradH(z)``, ``p(z)`` (the point of M), ``X(z)``, ``pt(q, qdot) = X^T M qdot``, and
+        ``field(z, force=None)``: :math:`\dot z = J_{\mathcal M}\nabla H_{\mathcal M} + (0, X^TF)`, the
+        constrained motion under a generalised force :math:`F(q)` (shape ``(..., n)``; none: the free motion).
+        Vectorised over leading axes."""
         s = self.system
         gH = sp.Matrix([sp.diff(self.hamiltonian, v) for v in self.z])
-        out = self._compile(parameters, {"J": self.tensor, "gradH": gH, "p": self.momentum}, self.z)
+        out = dict(self._compile(parameters, {"J": self.tensor, "gradH": gH, "p": self.momentum, "X": self.X}, self.z))
         pt = sp.Matrix(self.X).T * sp.Matrix(s.mass_matrix) * sp.Matrix(s.qdot)
         out.update(self._compile(parameters, {"pt": pt}, list(s.q) + list(s.qdot)))
+        n = s.n
+
+        def field(z: Any, force: Any = None) -> np.ndarray:
+            z = np.asarray(z, dtype=float)
+            f = np.einsum("...ij,...j->...i", out["J"](z), out["gradH"](z)[..., 0])
+            if force is not None:
+                f[..., n:] += np.einsum("...ia,...i->...a", out["X"](z), np.asarray(force, dtype=float))
+            return f
+
+        out["field"] = field
         return out
 
 

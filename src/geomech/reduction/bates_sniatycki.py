@@ -110,8 +110,11 @@ class BatesSniatycki(Derived, NumericCache):
         ]
 
     def numeric(self, parameters: dict | None = None) -> dict:
-        """Compiled ``form(z)``, ``B(z)``, ``gradH(z)``, and ``field(z)``: the dynamics
-        :math:`Z = -B(B^T\\Omega B)^{-1}B^T\\nabla H_{\\mathcal M}`, vectorised over leading axes."""
+        """Compiled ``form(z)``, ``B(z)``, ``gradH(z)``, and ``field(z, force=None)``: the dynamics
+        :math:`Z = -B(B^T\\Omega B)^{-1}B^T(\\nabla H_{\\mathcal M} - (F, 0))`, from
+        :math:`\\omega_{\\mathcal M}(Z, Y) = dH_{\\mathcal M}(Y) - \\langle F, T\\tau(Y)\\rangle` for every
+        :math:`Y \\in \\mathcal H` under a generalised force :math:`F(q)` (shape ``(..., n)``; none: the free
+        motion), vectorised over leading axes."""
         H = self.structure.hamiltonian
         out = dict(
             self._compile(
@@ -125,12 +128,18 @@ class BatesSniatycki(Derived, NumericCache):
             )
         )
 
-        def field(z: Any) -> np.ndarray:
+        n = self.system.n
+
+        def field(z: Any, force: Any = None) -> np.ndarray:
             z = np.asarray(z, dtype=float)
             B, W = out["B"](z), out["form"](z)
             BT = np.swapaxes(B, -1, -2)
             restricted = BT @ W @ B
-            rhs = BT @ out["gradH"](z)
+            dH = out["gradH"](z)
+            if force is not None:
+                dH = dH.copy()
+                dH[..., :n, 0] -= np.asarray(force, dtype=float)
+            rhs = BT @ dH
             return -(B @ np.linalg.solve(restricted, rhs))[..., 0]
 
         out["field"] = field

@@ -160,9 +160,12 @@ class FullAlmostPoisson(Derived, NumericCache):
         ]
 
     def numeric(self, parameters: dict | None = None) -> dict:
-        """Compiled ``J(z)``, ``gradH(z)``, ``C(z)`` (the constraint), ``gradC(z)`` (its Jacobian), ``K(z)`` and
-        ``p(z)`` (the canonical momentum), and ``field(z)``: the constrained vector field with its multiplier, and
-        ``multiplier(z)``, both from the compiled pieces."""
+        """Compiled ``J(z)``, ``gradH(z)``, ``C(z)`` (the constraint), ``gradC(z)`` (its Jacobian), ``K(z)``,
+        ``p(z)`` (the canonical momentum), ``W(z)`` and ``pt(q, qdot) = W^T M qdot``, and ``field(z, force=None)``:
+        the constrained vector field with its multiplier, and ``multiplier(z, force=None)``, both from the compiled
+        pieces. A generalised force :math:`F(q)` (shape ``(..., n)``) adds :math:`W^TF` to the momenta's rates
+        (:math:`\\dot p = -\\partial H/\\partial q + F + A^T\\lambda` in canonical coordinates) and enters the
+        multiplier."""
         z = self.z
         H = self.hamiltonian
         C = sp.Matrix(self.constraint)
@@ -176,28 +179,38 @@ class FullAlmostPoisson(Derived, NumericCache):
                     "gradC": C.jacobian(z),
                     "K": self.coupling,
                     "p": self.momentum,
+                    "W": self.W,
                 },
                 z,
             )
         )
-        n, c = self.system.n, self.system.c
+        s = self.system
+        pt = self.W.T * sp.Matrix(s.mass_matrix) * sp.Matrix(s.qdot)
+        out.update(self._compile(parameters, {"pt": pt}, list(s.q) + list(s.qdot)))
+        n, c = s.n, s.c
 
-        def unconstrained(y: Any) -> np.ndarray:
+        def unconstrained(y: Any, force: Any = None) -> np.ndarray:
             y = np.asarray(y, dtype=float)
-            return np.einsum("...ij,...j->...i", out["J"](y), out["gradH"](y)[..., 0])
+            f = np.einsum("...ij,...j->...i", out["J"](y), out["gradH"](y)[..., 0])
+            if force is not None:
+                f[..., n:] += np.einsum("...ia,...i->...a", out["W"](y), np.asarray(force, dtype=float))
+            return f
 
-        def multiplier(y: Any) -> np.ndarray:
-            # d/dt C = gradC . (J gradH + (0, 0, K lam)) = 0
-            y = np.asarray(y, dtype=float)
+        def solved(y: np.ndarray, free: np.ndarray) -> np.ndarray:
+            # d/dt C = gradC . (free + (0, 0, K lam)) = 0, free = J gradH + (0, W^T F)
             gC = out["gradC"](y)
-            rhs = np.einsum("...ij,...j->...i", gC, unconstrained(y))
+            rhs = np.einsum("...ij,...j->...i", gC, free)
             lhs = gC[..., :, 2 * n - c :] @ out["K"](y)
             return -np.linalg.solve(lhs, rhs[..., None])[..., 0]
 
-        def field(y: Any) -> np.ndarray:
+        def multiplier(y: Any, force: Any = None) -> np.ndarray:
             y = np.asarray(y, dtype=float)
-            f = unconstrained(y)
-            f[..., 2 * n - c :] += np.einsum("...ij,...j->...i", out["K"](y), multiplier(y))
+            return solved(y, unconstrained(y, force))
+
+        def field(y: Any, force: Any = None) -> np.ndarray:
+            y = np.asarray(y, dtype=float)
+            f = unconstrained(y, force)
+            f[..., 2 * n - c :] += np.einsum("...ij,...j->...i", out["K"](y), solved(y, f))
             return f
 
         out.update(unconstrained=unconstrained, multiplier=multiplier, field=field)

@@ -18,6 +18,9 @@ References (short keys as in the docstrings):
 - [SA] the Serret-Andoyer paper (seeds/000), section 8.
 - [KM] Koon & Marsden, The geometric structure of nonholonomic mechanics (seeds/004).
 - [CM] Cortes & Martinez, Non-holonomic integrators, Nonlinearity 14 (2001).
+- [VM] van der Schaft & Maschke, On the Hamiltonian formulation of nonholonomic mechanical systems, Rep. Math.
+  Phys. 34 (1994); [BS] Bates & Sniatycki, Nonholonomic reduction, Rep. Math. Phys. 32 (1993).
+- [BRM] Bou-Rabee & Marsden, Hamilton-Pontryagin integrators on Lie groups, Found. Comput. Math. 9 (2009).
 - [DP] Dormand & Prince, A family of embedded Runge-Kutta formulae, J. Comput. Appl. Math. 6 (1980).
 - [MK] Munthe-Kaas, High order Runge-Kutta methods on manifolds, Appl. Numer. Math. 29 (1999).
 - [CG] Crouch & Grossman, Numerical integration of ordinary differential equations on manifolds, J. Nonlinear
@@ -36,7 +39,7 @@ from ._composition import COMPOSITION_TABLES, Composition, composition_weights
 from ._embedded import DormandPrince, EmbeddedPair, embedded_pair
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._group import RKMK, RKMK4
-from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert
+from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, NonholonomicHamilton
 from ._lie_poisson import (
     CrouchGrossman,
     LieGroupVariational,
@@ -77,6 +80,7 @@ __all__ = [
     "LagrangeDAlembert",
     "BKMM",
     "DiscreteLagrangeDAlembert",
+    "NonholonomicHamilton",
     "RKMK",
     "RKMK4",
     "REGISTRY",
@@ -122,7 +126,11 @@ REGISTRY: dict[str, Method] = {
         Quadrature(),
         LagrangeDAlembert(),
         BKMM(),
+        NonholonomicHamilton(form="almost_poisson"),
+        NonholonomicHamilton(form="bates_sniatycki"),
+        NonholonomicHamilton(form="full"),
         DiscreteLagrangeDAlembert(),
+        DiscreteLagrangeDAlembert("group"),
         RKMK(),
         RKMK4(),
     )

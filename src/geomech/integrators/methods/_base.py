@@ -4,6 +4,7 @@ raised when a method does not fit a system."""
 from __future__ import annotations
 
 import enum
+import re
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -75,6 +76,16 @@ class Method:
         return type(self).__name__
 
     @property
+    def summary(self) -> str:
+        """What the method is, in one sentence: its docstring's first, joined and with the markup made plain
+        (a method with several variants words each)."""
+        doc = (type(self).__doc__ or "").strip().split("\n\n")[0]
+        text = " ".join(line.strip() for line in doc.splitlines())
+        text = re.sub(r":math:`([^`]*)`", r"`\1`", text).replace("``", "`")
+        m = re.match(r"(.+?\.)(\s|$)", text)
+        return (m.group(1) if m else text).rstrip(".")
+
+    @property
     def implicit(self) -> bool | None:
         return None if self.explicit is None else not self.explicit
 
@@ -95,5 +106,5 @@ class Method:
             "symplectic": self.symplectic,
             "symmetric": self.symmetric,
             "preserves_casimirs": self.preserves_casimirs,
-            "summary": (type(self).__doc__ or "").strip().splitlines()[0],
+            "summary": self.summary,
         }

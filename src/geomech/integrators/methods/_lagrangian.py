@@ -1,10 +1,13 @@
 """Methods for a Lagrangian system on Q = G x S with linear velocity constraints (a
 :class:`~geomech.systems.NonholonomicSystem`; no constraints: holonomic): the Lagrange-d'Alembert equations
-with multipliers, the reduced BKMM equations, and the discrete Lagrange-d'Alembert integrator.
+with multipliers, the reduced BKMM equations, Hamilton's equations on the constraint momentum submanifold in
+three forms, and the discrete Lagrange-d'Alembert integrator with two discrete Lagrangians.
 
 References: [KM] Koon & Marsden, The geometric structure of nonholonomic mechanics (the second seed), eqs.
-(1.1)-(1.3); [BKMM] Bloch, Krishnaprasad, Marsden & Murray, ARMA 136 (1996); [CM] Cortes & Martinez,
-Nonlinearity 14 (2001) (discrete Lagrange-d'Alembert); [HNW] II.5 (DOP853).
+(1.1)-(1.3) and section 1; [BKMM] Bloch, Krishnaprasad, Marsden & Murray, ARMA 136 (1996); [VM] van der Schaft &
+Maschke, Rep. Math. Phys. 34 (1994); [BS] Bates & Sniatycki, Rep. Math. Phys. 32 (1993); [CM] Cortes & Martinez,
+Nonlinearity 14 (2001) (discrete Lagrange-d'Alembert); [BRM] Bou-Rabee & Marsden, Found. Comput. Math. 9 (2009)
+(the discrete Lagrangian on a Lie group through the exponential); [HNW] II.5 (DOP853).
 """
 
 from __future__ import annotations
@@ -80,22 +83,115 @@ class BKMM(ScipyStepped):
         return "bkmm"
 
 
-@dataclass(frozen=True)
-class DiscreteLagrangeDAlembert(Method):
-    """The discrete Lagrange-d'Alembert integrator with the midpoint discrete Lagrangian.
+#: The forms of :class:`NonholonomicHamilton`, with their keys in the registry.
+HAMILTON_FORMS = {
+    "almost_poisson": "almost_poisson",
+    "bates_sniatycki": "bates_sniatycki",
+    "full": "full_almost_poisson",
+}
 
-    :math:`L_d(q_k, q_{k+1}) = h L\\bigl(\\tfrac{q_k + q_{k+1}}2, \\tfrac{q_{k+1} - q_k}h\\bigr)`, the discrete
-    equations :math:`D_2L_d(q_{k-1}, q_k) + D_1L_d(q_k, q_{k+1}) = A^T(q_k)\\lambda_k` with the constraint
-    imposed at the midpoints, solved by Newton (``newton_tol``, ``max_newton``). The velocity reported at
-    a node is the discrete Legendre transform projected on the constraint distribution. Kind: fixed step.
-    Order 2; implicit; symmetric; not symplectic (a nonholonomic flow is not). Structure: a Lagrangian
-    system on G x S with constraints. Cost per step: Newton on (free coordinates + constraints) unknowns,
-    each iteration the first and second derivatives of L and the constraint matrix (Python, not compiled).
-    Reference: [CM].
+#: The discrete Lagrangians of :class:`DiscreteLagrangeDAlembert`, with their keys in the registry.
+DISCRETIZATIONS = {"midpoint": "discrete_lagrange_dalembert", "group": "discrete_lagrange_dalembert_group"}
+
+
+@dataclass(frozen=True)
+class NonholonomicHamilton(ScipyStepped):
+    """Hamilton's equations on the constraint momentum submanifold, in one of three forms, solved by scipy.
+
+    The state is :math:`z = (q, \\tilde p)`, :math:`\\tilde p_\\alpha = \\langle p, X_\\alpha\\rangle` the momenta along
+    a basis :math:`X` of the constraint distribution :math:`\\mathcal D` (``basis``: "bkmm", the BKMM-adapted one,
+    or "nullspace"), and :math:`H_{\\mathcal M}` the Hamiltonian on :math:`\\mathcal M = \\mathbb FL(\\mathcal D)`.
+    ``form`` says which vector field is integrated ([KM] section 1):
+
+    * "almost_poisson": :math:`\\dot z = J_{\\mathcal M}\\nabla H_{\\mathcal M}`, van der Schaft and Maschke's truncated
+      bracket (:func:`~geomech.reduction.almost_poisson`);
+    * "bates_sniatycki": the section of :math:`\\mathcal H` with :math:`\\omega_{\\mathcal M}(Z, \\cdot) =
+      dH_{\\mathcal M}` on :math:`\\mathcal H`, the canonical form restricted to the constraint distribution
+      (:func:`~geomech.reduction.bates_sniatycki`); no Lie bracket of the basis enters;
+    * "full": the full tensor on :math:`T^*Q` in coordinates :math:`(q, \\tilde p_\\alpha, \\tilde p_a)` with a
+      kinetic-orthogonal complement, the multiplier solved at each evaluation so that
+      :math:`\\partial\\tilde H/\\partial\\tilde p_a` stays zero (:func:`~geomech.reduction.full_almost_poisson`);
+      the state leaves :math:`\\mathcal M` only by the solver's error, which the constraint residual shows.
+
+    The three are the Lagrange-d'Alembert flow; torques on the free shapes act as the force :math:`(0, \\tau)`.
+    Prescribed shapes (a gait) are a time-dependent constraint outside these forms: use :class:`BKMM` or
+    :class:`LagrangeDAlembert`. Kind: adaptive (``rtol``, ``atol``; default 1e-10, 1e-12). Order: that of
+    ``solver``. Not structure-preserving. Structure: a Lagrangian system on G x S with constraints. Cost per
+    evaluation: the compiled tensor (or forms) and one small dense solve; as many evaluations as the tolerances
+    require (Python, not compiled). Reference: [KM] section 1; [VM]; [BS].
+
+    Parameters
+    ----------
+    solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
+    form : {"almost_poisson", "bates_sniatycki", "full"}
+    basis : {"bkmm", "nullspace"}
     """
 
+    form: str = "almost_poisson"
+    basis: str = "bkmm"
+    structure: ClassVar[Structure] = Structure.LAGRANGIAN
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.form not in HAMILTON_FORMS:
+            raise InputError(f"Expected `form` to be one of {sorted(HAMILTON_FORMS)}, got {self.form!r}.")
+        if self.basis not in ("bkmm", "nullspace"):
+            raise InputError(f"Expected `basis` to be 'bkmm' or 'nullspace', got {self.basis!r}.")
+
+    @property
+    def key(self) -> str:
+        return HAMILTON_FORMS[self.form]
+
+    @property
+    def summary(self) -> str:
+        return {
+            "almost_poisson": "Hamilton's equations on FL(D) by van der Schaft and Maschke's almost-Poisson tensor",
+            "bates_sniatycki": "Hamilton's equations on FL(D) by the symplectic form restricted to H (Bates-Sniatycki)",
+            "full": "Hamilton's equations on T*Q by the full tensor with its multiplier, which keeps them on FL(D)",
+        }[self.form] + ", solved by scipy"
+
+
+@dataclass(frozen=True)
+class DiscreteLagrangeDAlembert(Method):
+    """The discrete Lagrange-d'Alembert integrator, with the midpoint or the group discrete Lagrangian.
+
+    The discrete equations :math:`D_2L_d(q_{k-1}, q_k) + D_1L_d(q_k, q_{k+1}) = A^T(q_k)\\lambda_k` with a discrete
+    constraint, solved by Newton (``newton_tol``, ``max_newton``), for one of two discrete Lagrangians
+    (``discretization``):
+
+    * "midpoint": :math:`L_d(q_k, q_{k+1}) = h L\\bigl(\\tfrac{q_k + q_{k+1}}2, \\tfrac{q_{k+1} - q_k}h\\bigr)` in
+      the coordinates, the constraint :math:`A(\\bar q)(q_{k+1} - q_k) = 0` at the midpoint [CM]. Not invariant
+      under the group where the chart is not (Euler angles on SO(3)): the discrete momentum map drifts at
+      :math:`O(h^2)` (Remark 10 of the Serret-Andoyer seed);
+    * "group": :math:`L_d = h\\,\\ell\\bigl(\\bar r, \\tfrac1h\\log(g_k^{-1}g_{k+1}),
+      \\tfrac{r_{k+1} - r_k}h\\bigr)` with :math:`\\ell` the reduced Lagrangian and the group's exponential [BRM],
+      the constraint in the body frame,
+      :math:`A_{\\rm body}(\\bar r)(\\log(g_k^{-1}g_{k+1}), r_{k+1} - r_k) = 0`. Invariant under the group in any
+      chart (Euler angles included): without constraints the discrete momentum map
+      :math:`\\mathrm{Ad}^*_{g_k^{-1}}\\,dexp^{-T}\\ell_\\xi` is conserved to the Newton tolerance (discrete Noether).
+
+    The velocity reported at a node is the discrete Legendre transform projected on the constraint distribution.
+    Kind: fixed step. Order 2; implicit; symmetric; not symplectic (a nonholonomic flow is not; without
+    constraints both are variational, hence symplectic). Structure: a Lagrangian system on G x S with
+    constraints. Cost per step: Newton on (free coordinates + constraints) unknowns, each iteration the first and
+    second derivatives of L and the constraint matrix (midpoint), or the reduced Lagrangian's first derivatives and
+    the group's log and Jacobians with a difference Jacobian (group) (Python, not compiled). Reference: [CM];
+    [MW]; [BRM].
+
+    Parameters
+    ----------
+    discretization : {"midpoint", "group"}
+    """
+
+    discretization: str = "midpoint"
     structure: ClassVar[Structure] = Structure.LAGRANGIAN
     symmetric: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if self.discretization not in DISCRETIZATIONS:
+            raise InputError(
+                f"Expected `discretization` to be one of {sorted(DISCRETIZATIONS)}, got {self.discretization!r}."
+            )
 
     @property
     def order(self) -> int:
@@ -103,4 +199,12 @@ class DiscreteLagrangeDAlembert(Method):
 
     @property
     def key(self) -> str:
-        return "discrete_lagrange_dalembert"
+        return DISCRETIZATIONS[self.discretization]
+
+    @property
+    def summary(self) -> str:
+        return {
+            "midpoint": "The discrete Lagrange-d'Alembert integrator with the midpoint discrete Lagrangian",
+            "group": "The discrete Lagrange-d'Alembert integrator with the group's discrete Lagrangian, invariant in "
+            "any chart",
+        }[self.discretization]

@@ -1,5 +1,5 @@
-r"""Lagrangian systems on G x S with velocity constraints through :func:`~geomech.solve`: three methods that
-agree as the step shrinks.
+r"""Lagrangian systems on G x S with velocity constraints through :func:`~geomech.solve`: methods that agree as
+the step shrinks.
 
 * :class:`~geomech.integrators.LagrangeDAlembert`: the Lagrange-d'Alembert equations in coordinates, the
   multipliers solved at every evaluation from the differentiated constraints (the index-reduced DAE
@@ -10,8 +10,12 @@ agree as the step shrinks.
   shape equations for :math:`(r, \dot r, p)` and the reconstruction :math:`\dot q_G = \Lambda(q_G)^{-1}\xi`;
   the velocity satisfies the constraints exactly at every instant. Compiled (``_compiled``: straight-line code
   generated for the system, run by the compiled Dormand-Prince loops) where the gait and torques are formulas.
+* :class:`~geomech.integrators.NonholonomicHamilton`: Hamilton's equations on :math:`\mathbb FL(\mathcal D)` in
+  the almost-Poisson, Bates-Sniatycki or full-tensor form of :mod:`geomech.reduction` (``_hamiltonian``), with
+  the torques as a generalised force, stepped by scipy.
 * :class:`~geomech.integrators.DiscreteLagrangeDAlembert`: a discrete Lagrange-d'Alembert integrator with the
-  midpoint discrete Lagrangian :math:`L_d(q_0, q_1) = hL\big(\tfrac{q_0+q_1}{2}, \tfrac{q_1-q_0}{h}\big)`,
+  midpoint discrete Lagrangian :math:`L_d(q_0, q_1) = hL\big(\tfrac{q_0+q_1}{2}, \tfrac{q_1-q_0}{h}\big)`
+  (or the group's, :math:`h\ell(\bar r, \log(g_0^{-1}g_1)/h, (r_1 - r_0)/h)`, invariant in any chart),
 
   .. math::
 

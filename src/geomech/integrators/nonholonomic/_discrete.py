@@ -1,5 +1,6 @@
-"""The discrete Lagrange-d'Alembert integrator (:class:`~geomech.integrators.DiscreteLagrangeDAlembert`, the
-midpoint discrete Lagrangian), the engine of :func:`~geomech.solve` for it."""
+"""The discrete Lagrange-d'Alembert integrator (:class:`~geomech.integrators.DiscreteLagrangeDAlembert`, with the
+midpoint discrete Lagrangian in the coordinates or the group's through its exponential), the engine of
+:func:`~geomech.solve` for it."""
 
 from __future__ import annotations
 
@@ -20,11 +21,13 @@ from ._trajectory import _accelerations, _Raw
 # --------------------------------------------------------------------------------------------------
 # (c) discrete Lagrange-d'Alembert
 # --------------------------------------------------------------------------------------------------
-class _DiscreteKernels:
-    """Compiled derivatives of L and A for the midpoint discrete Lagrangian."""
+class _Midpoint:
+    """The midpoint discrete Lagrangian in the coordinates, :math:`hL(\\bar q, (q_1 - q_0)/h)`, its constraint
+    :math:`A(\\bar q)(q_1 - q_0)`, and their exact derivatives in :math:`q_1` (from the second derivatives of L)."""
 
-    def __init__(self, system: NonholonomicSystem, parameters: Mapping | None):
+    def __init__(self, system: NonholonomicSystem, parameters: Mapping | None, h: float):
         s = system
+        self.h, self.n, self.c = h, s.n, s.c
         pv = s.parameter_values(parameters)
         L = s.lagrangian.subs(pv)
         q, v = list(s.q), list(s.qdot)
@@ -41,6 +44,116 @@ class _DiscreteKernels:
         dA = [[[sp.diff(A[a, i], qj) for qj in q] for i in range(s.n)] for a in range(s.c)]
         self.dA = compile_vector(dA, q) if s.c else None
 
+    def mid(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        return np.r_[(q0 + q1) / 2, (q1 - q0) / self.h]
+
+    def momentum(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """:math:`\\partial L/\\partial\\dot q`."""
+        return self.Lv(np.r_[q, qd])
+
+    def D1(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        x = self.mid(q0, q1)
+        return self.h / 2 * self.Lq(x) - self.Lv(x)
+
+    def D2(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        x = self.mid(q0, q1)
+        return self.h / 2 * self.Lq(x) + self.Lv(x)
+
+    #: Newton's Jacobian is exact and cheap: refreshed at every iteration
+    chord = False
+
+    def residual(self, q0: np.ndarray, q1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`D_1L_d(q_0, q_1)` and the discrete constraint."""
+        return self.D1(q0, q1), self.A((q0 + q1) / 2).reshape(self.c, self.n) @ (q1 - q0)
+
+    def jacobians(self, q0: np.ndarray, q1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`\\partial D_1L_d/\\partial q_1` (n x n) and the constraint's derivative in :math:`q_1` (c x n)."""
+        h, c, n = self.h, self.c, self.n
+        x = self.mid(q0, q1)
+        Lqq, Lqv, Lvv = self.Lqq(x), self.Lqv(x), self.Lvv(x)
+        JD = h / 2 * (Lqq / 2 + Lqv / h) - (Lqv.T / 2 + Lvv / h)
+        JC = np.zeros((c, n))
+        if self.dA is not None:
+            qm = (q0 + q1) / 2
+            JC = self.A(qm).reshape(c, n) + 0.5 * np.einsum("aij,i->aj", self.dA(qm).reshape(c, n, n), q1 - q0)
+        return JD, JC
+
+
+class _GroupLagrangian:
+    """The discrete Lagrangian through the group's exponential, :math:`h\\,\\ell(\\bar r, \\chi/h, (r_1 - r_0)/h)`
+    with :math:`\\chi = \\log(g_0^{-1}g_1)` and :math:`\\ell` the reduced (body) Lagrangian, and the constraint in
+    the body frame :math:`A_\\xi(\\bar r)\\chi + A_r(\\bar r)(r_1 - r_0)`: both invariant under :math:`g \\mapsto
+    \\eta g`, whatever the chart. With :math:`\\delta\\chi = J_r^{-1}(\\chi)\\Lambda(q_1)\\delta q_1 -
+    J_l^{-1}(\\chi)\\Lambda(q_0)\\delta q_0` (the group's Jacobians of exp; :math:`\\Lambda` the body-velocity
+    matrix of the chart),
+
+    .. math::
+
+        D_1L_d = \\bigl(-\\Lambda(q_0)^TJ_l^{-T}(\\chi)\\ell_\\xi,\\ \\tfrac h2\\ell_r - \\ell_{\\dot r}\\bigr),
+        \\qquad D_2L_d = \\bigl(\\Lambda(q_1)^TJ_r^{-T}(\\chi)\\ell_\\xi,\\ \\tfrac h2\\ell_r + \\ell_{\\dot r}\\bigr).
+
+    Their derivatives in :math:`q_1` (for Newton) are central differences."""
+
+    def __init__(self, system: NonholonomicSystem, parameters: Mapping | None, h: float):
+        s = system
+        self.h, self.n, self.c, self.k, self.sigma = h, s.n, s.c, s.k, s.sigma
+        self.group = s.group.numeric
+        coordinates = list(s.group.coordinates)
+        self._g = compile_vector(sp.Matrix(s.group.matrix).tolist(), coordinates)
+        self._ginv = compile_vector(sp.Matrix(s.group.inverse).tolist(), coordinates)
+        values = {p: sp.Float(v) for p, v in s.parameter_values(parameters).items()}
+        ell = s.body_lagrangian.xreplace(values)
+        x = list(s.shape) + list(s.xi) + list(s.qdot[s.k :])
+        self.grad = compile_vector([sp.diff(ell, v) for v in x], x)
+        Axi, Ar = s.body_constraints
+        self.A = compile_vector(
+            sp.Matrix.hstack(sp.Matrix(Axi), sp.Matrix(Ar)).xreplace(values).tolist(), list(s.shape)
+        )
+        self.Lam = compile_vector(sp.Matrix(s.group.body_velocity_matrix).tolist(), coordinates)
+        L = s.lagrangian.xreplace(values)
+        self.Lv = compile_vector([sp.diff(L, v) for v in s.qdot], list(s.q) + list(s.qdot))
+
+    def momentum(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """:math:`\\partial L/\\partial\\dot q`."""
+        return self.Lv(np.r_[q, qd])
+
+    #: Newton's Jacobian is a difference quotient: computed once a step (a chord iteration)
+    chord = True
+
+    def _parts(self, q0: np.ndarray, q1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:math:`\\chi = \\log(g_0^{-1}g_1)` and :math:`\\ell_r, \\ell_\\xi, \\ell_{\\dot r}` at the step."""
+        k, h = self.k, self.h
+        chi = self.group.log(self._ginv(q0[:k]) @ self._g(q1[:k]))
+        rbar, rd = (q0[k:] + q1[k:]) / 2, (q1[k:] - q0[k:]) / h
+        d = self.grad(np.r_[rbar, chi / h, rd])
+        return chi, d[: self.sigma], d[self.sigma : self.sigma + k], d[self.sigma + k :]
+
+    def _lam(self, qG: np.ndarray) -> np.ndarray:
+        return self.Lam(qG).reshape(self.k, self.k)
+
+    def D2(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        chi, lr, lxi, lrd = self._parts(q0, q1)
+        group = self._lam(q1[: self.k]).T @ (self.group.right_jacobian_inverse(chi).T @ lxi)
+        return np.r_[group, self.h / 2 * lr + lrd]
+
+    def residual(self, q0: np.ndarray, q1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`D_1L_d(q_0, q_1)` and the discrete constraint."""
+        k = self.k
+        chi, lr, lxi, lrd = self._parts(q0, q1)
+        group = -self._lam(q0[:k]).T @ (self.group.left_jacobian_inverse(chi).T @ lxi)
+        constraint = self.A((q0[k:] + q1[k:]) / 2).reshape(self.c, self.n) @ np.r_[chi, q1[k:] - q0[k:]]
+        return np.r_[group, self.h / 2 * lr - lrd], constraint
+
+    def jacobians(self, q0: np.ndarray, q1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n, c = self.n, self.c
+        JD, JC = np.empty((n, n)), np.empty((c, n))
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = 1e-6 * (1.0 + abs(q1[j]))
+            (Dp, Cp), (Dm, Cm) = self.residual(q0, q1 + e), self.residual(q0, q1 - e)
+            JD[:, j], JC[:, j] = (Dp - Dm) / (2 * e[j]), (Cp - Cm) / (2 * e[j])
+        return JD, JC
+
 
 def run_discrete(
     setup: _Setup,
@@ -52,69 +165,56 @@ def run_discrete(
     newton_tol: float,
     max_newton: int,
     parameters: Mapping[str, float] | None,
+    discretization: str = "midpoint",
 ) -> _Raw:
-    r"""The discrete Lagrange-d'Alembert integrator with the midpoint rule on the grid ``t0 + k h``, k = 0..nsteps.
+    r"""The discrete Lagrange-d'Alembert integrator with the ``discretization``'s discrete Lagrangian ("midpoint" or
+    "group") on the grid ``t0 + k h``, k = 0..nsteps.
 
     The velocity reported at a node is the discrete Legendre transform :math:`D_2L_d + \tfrac h2\bar F`,
-    projected on :math:`\mathcal D` with the kinetic metric; the work is
+    projected on :math:`\mathcal D` with the kinetic metric, the prescribed shapes' rates the gait's; the work is
     :math:`\sum_k h\,\tau_{k+1/2}\cdot(r_{k+1} - r_k)/h`. A Newton failure ends the run: the later nodes are
     NaN and the failure is returned as data.
     """
     system = s = setup.system
     tol, max_iter = newton_tol, max_newton
-    ker = _DiscreteKernels(system, parameters)
+    disc = (_GroupLagrangian if discretization == "group" else _Midpoint)(system, parameters, h)
+    lda = lagrange_dalembert(system).numeric(parameters)
     fr, pr = setup.free_coordinates(), setup.prescribed_coordinates()
     shape_free = [s.k + i for i in setup.free_shapes]
     nf, c, n = len(fr), s.c, s.n
-
-    def mid(q0_: np.ndarray, q1_: np.ndarray) -> np.ndarray:
-        return np.r_[(q0_ + q1_) / 2, (q1_ - q0_) / h]
-
-    def D1(q0_, q1_):
-        x = mid(q0_, q1_)
-        return h / 2 * ker.Lq(x) - ker.Lv(x)
-
-    def D2(q0_, q1_):
-        x = mid(q0_, q1_)
-        return h / 2 * ker.Lq(x) + ker.Lv(x)
+    D2 = disc.D2
 
     def forcing(t_mid: float, q0_, q1_) -> np.ndarray:
         F = np.zeros(n)
-        x = mid(q0_, q1_)
-        F[shape_free] = setup.torques(t_mid, x[:n], x[n:])
+        F[shape_free] = setup.torques(t_mid, (q0_ + q1_) / 2, (q1_ - q0_) / h)
         return F
-
-    def dD1_dq1(q0_, q1_):
-        x = mid(q0_, q1_)
-        Lqq, Lqv, Lvv = ker.Lqq(x), ker.Lqv(x), ker.Lvv(x)
-        return h / 2 * (Lqq / 2 + Lqv / h) - (Lqv.T / 2 + Lvv / h)
 
     def prescribed_at(t: float) -> np.ndarray:
         return setup.gait(t)[0]
 
     def newton(q0_, guess, base, t_next, lam_weight):
-        """Solve base + D1(q0, q1) + h/2 F(k+1/2) + lam_weight A(q0)^T lam = 0 (free rows), A(mid)(q1 - q0) = 0."""
+        """Solve base + D1(q0, q1) + h/2 F(k+1/2) + lam_weight A(q0)^T lam = 0 (free rows), C(q0, q1) = 0."""
         q1 = guess.copy()
         q1[pr] = prescribed_at(t_next)
         lam = np.zeros(c)
         dprev = 0.0
-        A0 = ker.A(q0_).reshape(c, n)
+        A0 = lda.constraint_matrix(q0_).reshape(c, n)
+        J = None
+        finishing = False
         for it in range(max_iter):
             tm = t_next - h / 2
-            R1 = base + D1(q0_, q1) + h / 2 * forcing(tm, q0_, q1) + lam_weight * A0.T @ lam
-            qm = (q0_ + q1) / 2
-            Am = ker.A(qm).reshape(c, n)
-            R2 = Am @ (q1 - q0_)
-            R = np.r_[R1[fr], R2]
+            D, C = disc.residual(q0_, q1)
+            R1 = base + D + h / 2 * forcing(tm, q0_, q1) + lam_weight * A0.T @ lam
+            R = np.r_[R1[fr], C]
             scale = 1.0 + np.abs(base).max(initial=0.0)
             if np.abs(R).max(initial=0.0) < tol * scale and it > 0:
                 return q1, lam
-            J = np.zeros((nf + c, nf + c))
-            J[:nf, :nf] = dD1_dq1(q0_, q1)[np.ix_(fr, fr)]
-            J[:nf, nf:] = lam_weight * A0.T[fr]
-            if c:
-                dA = ker.dA(qm).reshape(c, n, n)
-                J[nf:, :nf] = (Am + 0.5 * np.einsum("aij,i->aj", dA, q1 - q0_))[:, fr]
+            if J is None or not disc.chord:
+                JD, JC = disc.jacobians(q0_, q1)
+                J = np.zeros((nf + c, nf + c))
+                J[:nf, :nf] = JD[np.ix_(fr, fr)]
+                J[:nf, nf:] = lam_weight * A0.T[fr]
+                J[nf:, :nf] = JC[:, fr]
             try:
                 dz = np.linalg.solve(J, -R)
             except np.linalg.LinAlgError:
@@ -122,9 +222,15 @@ def run_discrete(
             q1 = q1.copy()
             q1[fr] += dz[:nf]
             lam = lam + dz[nf:]
+            if finishing:
+                return q1, lam
             dnorm = float(np.abs(dz).max(initial=0.0))
             if newton_done(dnorm, dprev, it, max(1.0, float(np.abs(q1).max())), tol):
-                return q1, lam
+                if not disc.chord:
+                    return q1, lam
+                # a chord iteration converges linearly: one more makes the residual (a momentum, dz's size
+                # times |D1| / h) round-off too, so that the discrete momentum map is kept to round-off
+                finishing = True
             dprev = dnorm
         raise _StepFailed(
             Status.NEWTON_FAILED,
@@ -132,11 +238,10 @@ def run_discrete(
             f"no convergence in {max_iter} iterations (step {h:.3g}); reduce h or raise max_newton",
         )
 
-    lda = lagrange_dalembert(system).numeric(parameters)
     times = t0 + h * np.arange(nsteps + 1)
     Q = np.full((nsteps + 1, n), np.nan)
     Q[0] = q_init
-    p_plus = ker.Lv(np.r_[q_init, qd_init])
+    p_plus = disc.momentum(q_init, qd_init)
     tau_mid = np.full((nsteps, s.sigma), np.nan)
     work = np.full(nsteps + 1, np.nan)
     work[0] = 0.0
@@ -159,17 +264,23 @@ def run_discrete(
             reached = k
             break
         Q[k + 1] = q1
-    # Node velocities from the discrete Legendre transform, projected on D; shape forces at midpoints.
+    # Node velocities from the discrete Legendre transform, projected on D: the momentum's free rows, the gait's
+    # rates for the prescribed shapes (whose rows hold the unknown force realising the gait: were they read from
+    # the momentum, the force's missing impulse h/2 tau would make the velocity, and the energy, O(h) wrong).
     QD = np.full_like(Q, np.nan)
     QD[0] = qd_init
     for k in range(1, reached + 1):
         pk = D2(Q[k - 1], Q[k]) + h / 2 * forcing(times[k] - h / 2, Q[k - 1], Q[k])
         M = lda.mass_matrix(Q[k])
         A = lda.constraint_matrix(Q[k]).reshape(c, n)
-        Kmat = np.block([[M, -A.T], [A, np.zeros((c, c))]])
-        QD[k] = np.linalg.solve(Kmat, np.r_[pk, np.zeros(c)])[:n]
+        qd = np.zeros(n)
+        qd[pr] = setup.gait(times[k])[1]
+        Kmat = np.block([[M[np.ix_(fr, fr)], -A.T[fr]], [A[:, fr], np.zeros((c, c))]])
+        rhs = np.r_[pk[fr] - M[np.ix_(fr, pr)] @ qd[pr], -A[:, pr] @ qd[pr]]
+        qd[fr] = np.linalg.solve(Kmat, rhs)[:nf]
+        QD[k] = qd
     for k in range(reached):
-        x = mid(Q[k], Q[k + 1])
+        x = np.r_[(Q[k] + Q[k + 1]) / 2, (Q[k + 1] - Q[k]) / h]
         tm = times[k] + h / 2
         tau_v = np.zeros(s.sigma)
         tau_v[setup.free_shapes] = setup.torques(tm, x[:n], x[n:])

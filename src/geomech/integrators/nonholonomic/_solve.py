@@ -18,11 +18,12 @@ from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
 from .._times import Times
-from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method
+from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
 from ._compiled import bkmm_module, compiled_pair, observe
 from ._continuous import run_bkmm, run_full, run_reduced
 from ._discrete import run_discrete
+from ._hamiltonian import run_hamiltonian
 from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state
 from ._trajectory import quantities, spatial_momentum
 
@@ -101,7 +102,9 @@ def solve_lagrangian(
     start = time.perf_counter()
     if isinstance(method, DiscreteLagrangeDAlembert):
         assert h is not None
-        raw = run_discrete(setup, q_init, qd_init, t0, h, times.n_steps, newton_tol, max_newton, parameters)
+        raw = run_discrete(
+            setup, q_init, qd_init, t0, h, times.n_steps, newton_tol, max_newton, parameters, method.discretization
+        )
         keep = times.kernel_steps() if times.k is None else times.k
         steps_done = raw.nfev
         raw.q, raw.qd, raw.tau, raw.work = raw.q[keep], raw.qd[keep], raw.tau[keep], raw.work[keep]
@@ -109,10 +112,12 @@ def solve_lagrangian(
             raw.residual = raw.residual[keep]
         n_rhs, internal = 0, steps_done
     else:
-        assert isinstance(method, (LagrangeDAlembert, BKMM)) and tolerances is not None
+        assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
+        budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
         if isinstance(method, LagrangeDAlembert):
-            budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
             raw = run_full(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
+        elif isinstance(method, NonholonomicHamilton):
+            raw = run_hamiltonian(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
         else:
             raw = run_reduced(
                 setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend

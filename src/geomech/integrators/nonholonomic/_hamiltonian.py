@@ -1,0 +1,87 @@
+"""Hamilton's equations on the constraint momentum submanifold (:class:`~geomech.integrators.NonholonomicHamilton`),
+the engine of :func:`~geomech.solve` for them: the almost-Poisson, Bates-Sniatycki or full-tensor vector field of
+:mod:`geomech.reduction`, with the torques on the free shapes as a generalised force, stepped by scipy."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ...errors import InputError
+from ...reduction import almost_poisson, bates_sniatycki, full_almost_poisson
+from .._adaptive import integrate_ivp
+from ._continuous import SINGULAR
+from ._inputs import _Setup
+from ._trajectory import _Raw
+
+
+def _field(system: Any, form: str, basis: str, parameters: Mapping[str, float] | None) -> tuple[Any, Any]:
+    """The vector field ``f(z, force)`` of ``form`` and the momenta ``pt(q, qdot)`` of its coordinates."""
+    values = None if parameters is None else dict(parameters)
+    if form == "full":
+        if system.c == 0:
+            raise InputError(
+                f"{system.name} has no constraints: its full and truncated tensors are the canonical one; integrate "
+                "it with NonholonomicHamilton(form='almost_poisson')."
+            )
+        num = full_almost_poisson(system, basis).numeric(values)
+        return num["field"], num["pt"]
+    structure = almost_poisson(system, basis)
+    pt = structure.numeric(values)["pt"]
+    if form == "bates_sniatycki":
+        return bates_sniatycki(system, basis).numeric(values)["field"], pt
+    return structure.numeric(values)["field"], pt
+
+
+def run_hamiltonian(
+    setup: _Setup,
+    q_init: np.ndarray,
+    qd_init: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    method: Any,
+    tolerances: tuple[float, float],
+    max_evaluations: Any,
+    parameters: Mapping[str, float] | None,
+) -> _Raw:
+    """Integrate ``z = (q, pt)`` (and the work of the torques) by ``method.solver``; the velocity at a saved state is
+    the field's q rows, :math:`\\dot q = \\partial H/\\partial p` (on :math:`\\mathcal M`, in :math:`\\mathcal D`)."""
+    system = setup.system
+    name = f"NonholonomicHamilton({method.form!r})"
+    if setup.prescribed:
+        shapes = [system.shape[i].name for i in setup.prescribed]
+        raise InputError(
+            f"{name} integrates a system with free shapes (driven by `tau` or by nothing); {system.name}'s shapes "
+            f"{shapes} have a prescribed gait, a time-dependent constraint outside the Hamiltonian forms. Use BKMM() "
+            "or LagrangeDAlembert(), or drive the shapes by torques."
+        )
+    field, pt = _field(system, method.form, method.basis, parameters)
+    n, k = system.n, system.k
+    shapes = [k + i for i in setup.free_shapes]
+
+    def force(t: float, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        tau = setup.torques(t, q, qd)
+        F = np.zeros(n)
+        F[shapes] = tau
+        return F, tau
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        z = y[:-1]
+        free = field(z)
+        F, tau = force(t, z[:n], free[:n])
+        f = field(z, F) if F.any() else free
+        return np.r_[f, tau @ free[shapes]]
+
+    y0 = np.r_[q_init, pt(np.r_[q_init, qd_init])[:, 0], 0.0]
+    Y, failure, nfev, n_steps = integrate_ivp(
+        name, rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR
+    )
+    N = len(times)
+    Q, QD, TAU = np.full((N, n), np.nan), np.full((N, n), np.nan), np.full((N, system.sigma), np.nan)
+    for i in np.flatnonzero(np.all(np.isfinite(Y), axis=1)):
+        z = Y[i, :-1]
+        Q[i], QD[i] = z[:n], field(z)[:n]
+        TAU[i] = force(times[i], Q[i], QD[i])[1]
+    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
