@@ -30,6 +30,8 @@ def test_rigid_body_json_summary(capsys):
     assert s["period_quadrature"]["relative_difference"] < 1e-9
     assert head["family"] == "major"
     np.testing.assert_allclose(np.linalg.norm(s["m_exact_final"]), np.linalg.norm([1, 0.3, 0.2]))
+    times = s["chart_switch_times"]
+    assert len(times) == s["chart_switches"] and times == sorted(times) and all(0 < t < 50 for t in times)
 
 
 def test_rigid_body_tensor_and_out_dir(capsys, tmp_path):

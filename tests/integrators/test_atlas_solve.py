@@ -42,10 +42,22 @@ def test_a_body_that_crosses_every_chart_agrees_with_eulers_equations_and_keeps_
     def euler(_t, m):  # dm/dt = m x grad H, integrated in m directly: an independent route
         return np.cross(m, system.gradient(m))
 
-    ref = solve_ivp(euler, (0.0, 40.0), m0, method="DOP853", rtol=1e-13, atol=1e-14, t_eval=sol.t)
+    ref = solve_ivp(euler, (0.0, 40.0), m0, method="DOP853", rtol=1e-13, atol=1e-14, t_eval=sol.t, dense_output=True)
     assert np.abs(sol.m - ref.y.T).max() < 1e-8
     assert np.abs(np.diff(sol.R, axis=0)).max() < 0.1  # a sample every 0.02: no jump at the switches
     assert sol.momentum_error.max() < 1e-9
+    # each switch located in time: there the momentum, from Euler's equations, has |m . e_from| = 0.9 G (the rule
+    # of the atlas), and the new axis is the one m is farthest from; the saved chart axes agree on either side
+    switches = sol.events["chart_switch"]
+    assert switches.shape == (sol.stats["chart_switches"], 4) and np.all(switches[:, 0] == 0)
+    t_s = switches[:, 1]
+    assert np.all(np.diff(t_s) > 0) and 0 < t_s[0] and t_s[-1] < 40.0
+    G = np.linalg.norm(m0)
+    for _, t, a, b in switches:
+        m = ref.sol(t)
+        assert abs(abs(m[int(a) - 1]) - 0.9 * G) < 1e-8 and int(b) - 1 == np.argmin(np.abs(m))
+        before, after = np.searchsorted(sol.t, t) - 1, np.searchsorted(sol.t, t)
+        assert sol.chart_axis[before] == a and sol.chart_axis[after] == b
 
 
 def test_it_needs_a_left_invariant_system_and_a_nonzero_momentum():

@@ -81,6 +81,7 @@ def run_rigid_body(
         "m_exact_final": m_exact.tolist(),
         "period_quadrature": quadrature,
         "chart_switches": traj.stats["chart_switches"],
+        "chart_switch_times": traj.events["chart_switch"][:, 1].tolist(),
         "rhs_evaluations": traj.stats["n_rhs"],
         "rtol": rtol,
     }

@@ -121,16 +121,17 @@ def run_atlas(
     INFO: np.ndarray,
     reasons: dict[int, str],
     reached: dict[int, float],
-) -> tuple[int, dict[str, np.ndarray]]:
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Each row of ``Y0`` on the Serret-Andoyer atlas; fills ``OUT`` and ``INFO`` as the loops do and returns
-    the chart switches and the (l, L, phi) and chart axis along each run."""
+    the chart switches, rows ``(trajectory, t, from axis, to axis)``, and the (l, L, phi) and chart axis along
+    each run."""
     from ..reduction.serret_andoyer import GeneralizedSerretAndoyer
     from ._atlas import run_atlas
 
     sa = GeneralizedSerretAndoyer(problem.core, switch_at=method.switch_at)
     B, n = Y0.shape[0], len(times)
     lLphi, axis = np.full((B, n, 3), np.nan), np.full((B, n), np.nan)
-    switches = 0
+    switches: list[tuple[float, float, float, float]] = []
     for b in range(B):
         m0 = Y0[b, :3]
         if not np.linalg.norm(m0) > 0:
@@ -143,11 +144,11 @@ def run_atlas(
             OUT[b, :, 3:] = run.R.reshape(n, 9)
         lLphi[b], axis[b] = run.lLphi, run.axis
         INFO[b, 4] = run.nfev
-        switches += len(run.switches)
+        switches += [(float(b), t, float(a), float(c)) for t, a, c in run.switches]
         if run.failure is not None:
             INFO[b, 0], INFO[b, 1], INFO[b, 2] = CODES[run.failure.kind], run.failure.step, np.nan
             reasons[b], reached[b] = run.failure.detail, run.failure.time
-    return switches, {"serret_andoyer": lLphi, "chart_axis": axis}
+    return np.array(switches, dtype=float).reshape(-1, 4), {"serret_andoyer": lLphi, "chart_axis": axis}
 
 
 def run_periodic(

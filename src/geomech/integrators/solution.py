@@ -182,6 +182,10 @@ class Solution:
     group_dim : int or None
         For the ``"qv"`` and ``"group"`` layouts: how many of the coordinates are the group's (the rest are
         shapes, or the element).
+    events : mapping of str to ndarray
+        What happened between the saved states, located in time, each a table of rows in time order:
+        ``chart_switch`` (the Serret-Andoyer atlas): ``(trajectory, t, from axis, to axis)``, the trajectory's
+        flat index in the batch (0 for one trajectory) and the axes 1-based, at the exact time of the switch.
     """
 
     t: np.ndarray
@@ -197,6 +201,7 @@ class Solution:
     stats: dict[str, Any] = field(default_factory=dict)
     parameters: Mapping[str, Any] = field(default_factory=dict)
     group_dim: int | None = None
+    events: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "status", Status(self.status))

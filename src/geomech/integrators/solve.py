@@ -371,7 +371,7 @@ def solve(
     reasons: dict[int, str] = {}
     reached: dict[int, float] = {}
     along: dict[str, np.ndarray] = {}
-    switches = 0
+    switches = np.zeros((0, 4))
     if isinstance(method, SerretAndoyerAtlas):
         assert tolerances is not None
         switches, along = run_atlas(problem, method, Y0, t0, saved_t, tolerances, OUT, INFO, reasons, reached)
@@ -523,7 +523,9 @@ def solve(
             "steps in all)."
         )
     elif isinstance(method, SerretAndoyerAtlas):
-        message = f"{name}: {len(saved_t)} outputs from t = {t0:g} to {float(t_final):g}, {switches} chart switches."
+        message = (
+            f"{name}: {len(saved_t)} outputs from t = {t0:g} to {float(t_final):g}, {len(switches)} chart switches."
+        )
     else:
         message = f"{name}: {len(saved_t)} outputs from t = {t0:g} to {float(t_final):g}, {internal} internal steps."
     solution = Solution(
@@ -545,12 +547,13 @@ def solve(
             n_newton=int(INFO[:, 3].sum()),
             backend=used,
             compile_time=compile_time,
-            **({"chart_switches": switches} if isinstance(method, SerretAndoyerAtlas) else {}),
+            **({"chart_switches": len(switches)} if isinstance(method, SerretAndoyerAtlas) else {}),
         ),
         parameters={
             **dict(getattr(problem.core, "parameters", {}) or {}),
             **{k: v.reshape(batch_shape) for k, v in swept.items()},
         },
+        events={"chart_switch": switches} if isinstance(method, SerretAndoyerAtlas) else {},
     )
     return _finish(solution, raise_on_failure)
 
