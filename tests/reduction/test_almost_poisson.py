@@ -44,6 +44,20 @@ def test_jacobiator_is_nonzero_and_equals_the_curvature_formula_at_random_points
     np.testing.assert_allclose(vals[:, 0], vals[:, 1], atol=1e-10 * scale)
 
 
+def test_each_jacobiator_value_is_labelled_by_its_coordinates():
+    """A column of the values is nonzero exactly where the Jacobiator its label names is not identically zero."""
+    ap = almost_poisson(EXAMPLES["snakeboard_bkmm"]())
+    labels, vals = ap.jacobiator_labels, ap.jacobiator_values(points=2)[:, 0]
+    assert len(labels) == vals.shape[-1] == len(set(labels))
+    index = {v.name: i for i, v in enumerate(ap.z)}
+    scale = np.abs(vals).max()
+    for label, column in zip(labels, vals.T):
+        key = tuple(index[name] for name in label[4:-1].split(", "))
+        zero = simplify_expr(ap.jacobiator_direct[key]) == 0
+        assert zero == bool(np.abs(column).max() < 1e-12 * scale), label
+    assert sum(np.abs(vals).max(axis=0) > 1e-12 * scale) >= 2  # the test sees both kinds
+
+
 def test_jacobiators_not_listed_vanish_identically():
     """{q^i, q^j} = 0 and {q^i, pt} depends on q only: Jac(q, q, .) and Jac(q, pt) with two q's are zero."""
     ap = almost_poisson(EXAMPLES["chaplygin_sleigh"]())

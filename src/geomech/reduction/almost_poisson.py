@@ -280,9 +280,18 @@ class AlmostPoissonStructure(Derived, NumericCache):
             out[(n + a, n + b, n + c)] = -(p.T * cyc)[0, 0]
         return out
 
+    @property
+    def jacobiator_labels(self) -> tuple[str, ...]:
+        """What each column of :meth:`jacobiator_values` and :meth:`jacobiator_numeric` is, in their order:
+        ``"Jac(x, pt1, pt2)"`` with the names of the coordinates ``z = (q, pt)`` (the keys of
+        :attr:`jacobiator_direct`, by name)."""
+        names = [v.name for v in self.z]
+        return tuple(f"Jac({names[i]}, {names[j]}, {names[k]})" for i, j, k in self._keys())
+
     def jacobiator_values(self, points: int = 3, seed: int = 0, parameters: dict | None = None) -> np.ndarray:
         """Both Jacobiator forms at random points ``z`` (parameters random in [0.6, 1.7] unless given): an array
-        ``(points, 2, number of keys)``, ``[:, 0]`` direct and ``[:, 1]`` from the curvature."""
+        ``(points, 2, number of keys)``, ``[:, 0]`` direct and ``[:, 1]`` from the curvature; the last axis in the
+        order of :attr:`jacobiator_labels`."""
         s, keys = self.system, self._keys()
         rng = np.random.default_rng(seed)
         syms = self.z + list(s.parameter_symbols)
@@ -330,7 +339,8 @@ class AlmostPoissonStructure(Derived, NumericCache):
     def jacobiator_numeric(self, points: int = 3, seed: int = 0, parameters: dict | None = None) -> np.ndarray:
         r"""The Jacobiators of coordinate functions (keys of :attr:`jacobiator_direct`) at random points, computed
         from :math:`J_{\mathcal M}` alone: :math:`\sum_l J^{il}\partial_l J^{jk} + \text{cyclic}` with the
-        derivatives of the compiled tensor by complex step (exact to round-off). Shape ``(points, number of keys)``.
+        derivatives of the compiled tensor by complex step (exact to round-off). Shape ``(points, number of keys)``,
+        the columns in the order of :attr:`jacobiator_labels`.
         """
         s, keys, z = self.system, self._keys(), self.z
         rng = np.random.default_rng(seed)
