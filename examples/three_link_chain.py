@@ -39,7 +39,7 @@ from geomech import solve
 from geomech.analysis import Gait, geometric_phase
 from geomech.plot import curvature_map
 from geomech.reduction import bkmm_reduction
-from geomech.systems.holonomic_examples import three_link_chain
+from geomech.systems.holonomic_examples import three_link_chain, three_link_positions
 
 PERIOD = 2.0
 #: (label, centre, semi-axes, tilt, counterclockwise) of the elliptic joint loops
@@ -49,22 +49,6 @@ LOOPS = [
     ("C", (0.0, 0.0), (0.9, 0.9), 0.0, True),
     ("D", (2.2, -1.2), (0.8, 1.6), 0.0, False),
 ]
-
-
-def chain_points(q: np.ndarray, lengths=(1.0, 1.0, 1.0), masses=(1.0, 1.0, 1.0)) -> np.ndarray:
-    """The four ends of the links ``(..., 4, 2)`` in the plane at coordinates ``q = (x, y, theta, alpha1, alpha2)``
-    of ``three_link_chain(origin="com")``: the links point along ``theta - alpha1``, ``theta``, ``theta + alpha2``
-    and ``(x, y)`` is their centre of mass (for drawing)."""
-    q = np.asarray(q, dtype=float)
-    l1, l2, l3 = lengths
-    angles = np.stack([q[..., 2] - q[..., 3], q[..., 2], q[..., 2] + q[..., 4]], -1)
-    e = np.stack([np.cos(angles), np.sin(angles)], -1)
-    p1 = -0.5 * l2 * e[..., 1, :]
-    p2 = 0.5 * l2 * e[..., 1, :]
-    ends = np.stack([p1 - l1 * e[..., 0, :], p1, p2, p2 + l3 * e[..., 2, :]], -2)
-    centres = 0.5 * (ends[..., :-1, :] + ends[..., 1:, :])
-    com = np.einsum("i,...ik->...k", np.asarray(masses), centres) / np.sum(masses)
-    return ends - com[..., None, :] + q[..., None, :2]
 
 
 def ellipse_curvature_integral(curvature, centre, radii, tilt) -> tuple[float, float]:
@@ -153,8 +137,8 @@ def main(out: Path | None = None) -> dict:
     q = first["sim"].q
     frames = np.linspace(0, len(t) - 1, 5).astype(int)
     shift = np.arange(len(frames))[:, None] * np.array([spacing, 0.0])  # each instant drawn to the right
-    shots = chain_points(q[frames]) + shift[:, None, :]
-    start = chain_points(q[0]) + shift[-1]  # the start, drawn under the end
+    shots = three_link_positions(chain, q[frames]) + shift[:, None, :]
+    start = three_link_positions(chain, q[0]) + shift[-1]  # the start, drawn under the end
     ax_body.plot(start[:, 0], start[:, 1], "-", color="0.6", alpha=0.5, lw=6, solid_capstyle="round")
     for pts in shots:
         for a, b, color in ((0, 2, "C0"), (1, 3, "C3"), (2, 4, "C0")):

@@ -12,6 +12,7 @@ from geomech.systems import (
     planar_point_positions,
     spacecraft_with_rotors,
     three_link_chain,
+    three_link_positions,
     two_pinned_bodies,
 )
 
@@ -79,6 +80,29 @@ def test_three_link_chain_straight_is_a_rod():
     # With the middle link held, alpha1' = 1 turns link 1 (centre at (-1, 0)) at -1 rad/s: its centre moves
     # at (0, 1/2), momentum (0, 1/2), angular momentum -1/2 - J1 = -7/12; alpha2' = 1 mirrors it.
     np.testing.assert_allclose(IA, [[0.0, 0.0], [0.5, 0.5], [-7 / 12, 7 / 12]], atol=1e-12)
+
+
+@pytest.mark.parametrize("origin", ["com", "middle"])
+def test_three_link_positions_are_the_chain_the_coordinates_say(origin, rng):
+    """Links of the given lengths, joint angles and heading read back from the points, and (x, y) the centre of
+    mass or of the middle link, at random states of a chain with unequal links (vectorised over states)."""
+    masses, lengths = np.array([1.0, 2.0, 0.5]), np.array([0.7, 1.2, 0.9])
+    s = three_link_chain(masses, lengths, origin=origin)
+    q = rng.uniform(-2, 2, (4, 5))
+    P = three_link_positions(s, q)
+    assert P.shape == (4, 4, 2)
+    links = np.diff(P, axis=1)
+    np.testing.assert_allclose(np.linalg.norm(links, axis=-1), np.broadcast_to(lengths, (4, 3)), atol=1e-12)
+    heading = np.arctan2(links[..., 1], links[..., 0])
+    wrap = lambda a: np.angle(np.exp(1j * a))  # noqa: E731
+    np.testing.assert_allclose(wrap(heading[:, 1] - q[:, 2]), 0, atol=1e-12)
+    np.testing.assert_allclose(wrap(heading[:, 1] - heading[:, 0] - q[:, 3]), 0, atol=1e-12)
+    np.testing.assert_allclose(wrap(heading[:, 2] - heading[:, 1] - q[:, 4]), 0, atol=1e-12)
+    centres = (P[:, :-1] + P[:, 1:]) / 2
+    origin_point = masses @ centres / masses.sum() if origin == "com" else centres[:, 1]
+    np.testing.assert_allclose(origin_point, q[:, :2], atol=1e-12)
+    with pytest.raises(InputError, match="three_link_chain"):
+        three_link_positions(two_pinned_bodies(), np.zeros(4))
 
 
 def test_spacecraft_reduced_mass_matrix():

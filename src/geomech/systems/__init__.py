@@ -12,6 +12,7 @@ from .holonomic_examples import (
     planar_point_positions,
     spacecraft_with_rotors,
     three_link_chain,
+    three_link_positions,
     two_pinned_bodies,
 )
 from .left_invariant import LeftInvariantSystem, as_left_invariant
@@ -39,5 +40,6 @@ __all__ = [
     "planar_point_positions",
     "spacecraft_with_rotors",
     "three_link_chain",
+    "three_link_positions",
     "two_pinned_bodies",
 ]

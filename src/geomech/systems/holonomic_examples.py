@@ -26,6 +26,7 @@ __all__ = [
     "planar_point_masses",
     "planar_point_positions",
     "three_link_chain",
+    "three_link_positions",
     "spacecraft_with_rotors",
 ]
 
@@ -149,6 +150,50 @@ def planar_point_positions(system: HolonomicSystem, q: Any) -> np.ndarray:
     return f(q)
 
 
+def _chain_geometry(q: Sequence[sp.Expr], m: Sequence[sp.Expr], lengths: Sequence[sp.Expr], origin: str) -> tuple:
+    """The three links' centres and the chain's four points (tail, joint 1, joint 2, head), as 2-vectors in the
+    coordinates ``q = (x, y, theta, alpha1, alpha2)`` of :func:`three_link_chain` with ``origin``."""
+    x, y, th, a1, a2 = q
+    angles = [th - a1, th, th + a2]
+
+    def e(a):
+        return sp.Matrix([sp.cos(a), sp.sin(a)])
+
+    # centres relative to the middle link's centre
+    rel = [
+        -(lengths[1] / 2) * e(angles[1]) - (lengths[0] / 2) * e(angles[0]),
+        sp.zeros(2, 1),
+        (lengths[1] / 2) * e(angles[1]) + (lengths[2] / 2) * e(angles[2]),
+    ]
+    base = sp.Matrix([x, y])
+    if origin == "com":
+        base = base - sum((mi * ri for mi, ri in zip(m, rel)), sp.zeros(2, 1)) / sum(m)
+    centres = [base + ri for ri in rel]
+    half = [lengths[i] / 2 * e(angles[i]) for i in range(3)]
+    points = [centres[0] - half[0], centres[1] - half[1], centres[1] + half[1], centres[2] + half[2]]
+    return centres, points
+
+
+def three_link_positions(system: HolonomicSystem, q: Any) -> np.ndarray:
+    """The four points of a :func:`three_link_chain` (its tail, the two joints and its head, in order along the
+    chain) at coordinates ``q`` ``(..., 5)``: inertial positions ``(..., 4, 2)``, link ``i`` from point ``i`` to
+    point ``i + 1``. For drawing and animating the chain, and for its head's path."""
+    origin = {"three-link chain (com frame)": "com", "three-link chain (middle frame)": "middle"}.get(system.name)
+    if origin is None:
+        raise InputError(f"Expected a system made by three_link_chain(), got {system.name!r}.")
+    q = np.asarray(q, dtype=float)
+    key = "_positions_kernel"
+    f = system.__dict__.get(key)
+    if f is None:
+        by_name = {p.name: p for p in system.parameter_symbols}
+        m = [by_name[f"m{i + 1}"] for i in range(3)]  # the system's own parameter symbols
+        lengths = [by_name[f"l{i + 1}"] for i in range(3)]
+        _, points = _chain_geometry(list(system.q), m, lengths, origin)
+        f = system.compile(sp.Matrix.hstack(*points).T, system.q)
+        object.__setattr__(system, key, f)  # cache on the frozen instance
+    return f(q)
+
+
 def three_link_chain(
     masses: Sequence[float] = (1.0, 1.0, 1.0),
     lengths: Sequence[float] = (1.0, 1.0, 1.0),
@@ -179,22 +224,7 @@ def three_link_chain(
     J = sp.symbols("J1:4", positive=True)
     x, y, th, a1, a2 = sp.symbols("x y theta alpha1 alpha2", real=True)
     angles = [th - a1, th, th + a2]
-
-    def e(a):
-        return sp.Matrix([sp.cos(a), sp.sin(a)])
-
-    # centres relative to the middle link's centre
-    rel = [
-        -(lsym[1] / 2) * e(angles[1]) - (lsym[0] / 2) * e(angles[0]),
-        sp.zeros(2, 1),
-        (lsym[1] / 2) * e(angles[1]) + (lsym[2] / 2) * e(angles[2]),
-    ]
-    base = sp.Matrix([x, y])
-    if origin == "com":
-        com_rel = sum((mi * ri for mi, ri in zip(m, rel)), sp.zeros(2, 1)) / sum(m)
-        centres = [base + ri - com_rel for ri in rel]
-    else:
-        centres = [base + ri for ri in rel]
+    centres, _ = _chain_geometry([x, y, th, a1, a2], m, lsym, origin)
     q = [x, y, th, a1, a2]
     qd = {s: sp.Symbol(f"{s}_dot", real=True) for s in q}
 
