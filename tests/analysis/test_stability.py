@@ -229,9 +229,14 @@ def test_stability_map_linear_control_matches_theorem5():
     lam2s = np.linspace(1.15, 2.85, 7)
     seen: list[int] = []
     ds = stability_map(
-        control.family(), ("k", ks), ("lambda2", lam2s), closed_form=theorem5_margin(control), progress=seen.append
+        control.family(),
+        ("k", ks),
+        ("lambda2", lam2s),
+        closed_form=theorem5_margin(control),
+        progress=seen.append,
+        chunk=ks.size,
     )
-    # the points done as blocks (rows) complete: from none to all, never backwards
+    # the points done as blocks (here rows) complete: from none to all, never backwards
     assert seen[0] == 0 and seen[-1] == 70 and seen == sorted(seen) and len(seen) == 8
     margin = ks[None, :] - (1 - 1.0 / lam2s[:, None])
     np.testing.assert_allclose(ds["closed_form_margin"].values, margin, atol=1e-14)

@@ -236,11 +236,26 @@ class EquilibriumSet:
     def __getitem__(self, k: int) -> Equilibrium:
         return self.equilibria[k]
 
-    def nearest(self, m: Any) -> Equilibrium:
-        """The equilibrium closest to ``m``."""
+    def nearest(self, m: Any, prefer: Any = None) -> Equilibrium:
+        """The equilibrium closest to ``m``. Several as close (to 1e-9 G: mirror images under a symmetry of H) are
+        told apart by their distance to ``prefer`` (e.g. the previous choice along a parameter), then by their
+        components, largest first: the choice does not depend on the order in which they were found."""
         m = V.exact_shape(m, "m", (3,))
-        d = [np.linalg.norm(e.m - m) for e in self.equilibria]
-        return self.equilibria[int(np.argmin(d))]
+        ms = np.array([e.m for e in self.equilibria])
+        return self.equilibria[nearest_index(ms, m, self.G, None if prefer is None else np.asarray(prefer, float))]
+
+
+def nearest_index(ms: np.ndarray, m: np.ndarray, G: float, prefer: np.ndarray | None = None) -> int:
+    """The index of the row of ``ms`` closest to ``m``, ties (to 1e-9 G) broken as :meth:`EquilibriumSet.nearest`."""
+    d = np.linalg.norm(ms - m, axis=-1)
+    tied = np.nonzero(d <= d.min() + 1e-9 * G)[0]
+    if tied.size == 1:
+        return int(tied[0])
+    keys = [
+        (0.0 if prefer is None else float(np.linalg.norm(ms[j] - prefer)), -ms[j, 0], -ms[j, 1], -ms[j, 2], j)
+        for j in tied
+    ]
+    return int(min(keys)[-1])
 
 
 def find_equilibria(system: Any, G: float = 1.0, *, n_points: int = 1500, tol: float = 1e-12) -> EquilibriumSet:

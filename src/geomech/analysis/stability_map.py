@@ -18,8 +18,8 @@ import numpy as np
 
 from .. import _validate as V
 from .._version import __version__
-from ..errors import ConvergenceError, InputError
-from .equilibria import continue_equilibria, find_equilibria
+from ..errors import ConvergenceError, InputError, NumericalError
+from .equilibria import continue_equilibria, fibonacci_sphere, find_equilibria
 from .stability import VERDICT_CODES, _ec_determinant, assess
 
 __all__ = ["stability_map", "theorem5_margin"]
@@ -48,14 +48,21 @@ def stability_map(
     description: str = "",
     n_points: int = 600,
     progress: Callable[[int], None] | None = None,
-    max_points: int = 10_000,
+    max_points: int | None = None,
     out: Any = None,
     resume: bool = False,
     scheduler: Any = None,
     chunk: int | None = None,
     model: Mapping[str, Any] | None = None,
+    backend: str = "auto",
 ):
     """The three verdicts on the relative equilibrium near ``near`` over a grid of two parameters.
+
+    A family given by a formula (``control.family()`` for a control whose :math:`H_c` has a closed form, or
+    ``system.family()`` for a :class:`~geomech.LeftInvariantSystem` from an expression) is compiled once with numba:
+    the search and the verdicts of every point then run in one compiled call per block, with the same starting
+    points, iterations, tolerances and thresholds as the Python search (:func:`~geomech.analysis.find_equilibria`,
+    :func:`~geomech.analysis.assess`), whose verdicts they reproduce. Any other family runs point by point in Python.
 
     The grid runs as a study (:func:`~geomech.analysis.sweep`): blocks of whole rows (``chunk`` points, default one
     row), each one task on dask (every core of this machine, or the cluster of ``scheduler``), written to the Zarr
@@ -69,7 +76,8 @@ def stability_map(
         :math:`(l, L) = (0, 0)`). At each grid point the equilibrium assessed is the one nearest to ``near``
         among the relative equilibria found. They are continued from grid point to grid point along a block's
         rows, with Newton also started from ``near``, and searched afresh
-        (:func:`~geomech.analysis.find_equilibria`) at a block's first point, wherever the continued set fails
+        (:func:`~geomech.analysis.find_equilibria`) at a row's first point (so that the map does not depend on the
+        blocks), wherever the continued set fails
         the Poincare-Hopf check, and wherever the start from ``near`` finds an equilibrium the previous point did
         not have (a pair born in a fold between grid points, which Poincare-Hopf cannot see). A pair born far
         from ``near`` and from every continued branch can still be missed until a fresh search; ``chunk=1``
@@ -79,22 +87,25 @@ def stability_map(
         :func:`theorem5_margin`); stored as ``closed_form_margin``.
     progress : optional ``progress(n)``, called with the number of grid points done as blocks complete, from 0 to
         the grid's size (a progress bar; the command line draws one on a terminal).
-    max_points : int
-        A larger grid (10-15 ms a point) is refused before any work; raise it to run one.
+    max_points : int, optional
+        A larger grid is refused before any work; raise it to run one. Default 10,000 points in Python (10-15 ms a
+        point) and 1,000,000 compiled (about 10-20 microseconds a point on one core).
     out, resume, scheduler, chunk :
         The study's store, its resumption, where it runs and the points per task (:func:`~geomech.analysis.sweep`).
     model : mapping, optional
         What identifies the family in its store (its JSON: the command line gives the model's); default the
         family's own ``to_json()`` where it has one (a control's family does), else its function's name and source
         with ``description``.
+    backend : ``"auto"`` (compiled where the family has a formula and numba is available), ``"numba"`` (compiled,
+        or an error saying why not) or ``"python"``.
 
     Returns
     -------
     xarray.Dataset
         Variables ``verdict``, ``lagrange_dirichlet``, ``energy_casimir``, ``linearisation`` (int8 codes),
         ``m`` (the equilibrium assessed), ``branch_jump`` (1 where it is not the continuation of the previous
-        point's along the block's row, i.e. the nearest equilibrium changed identity; never at a block's first
-        point, which has no previous one), ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``,
+        point's along the row, i.e. the nearest equilibrium changed identity; never at a row's first point, which
+        has no previous one), ``complete`` (Poincare-Hopf check passed), ``hessian_eigenvalues``,
         ``growth_rate`` (largest real part of the linearisation eigenvalues), ``ec_determinant``, ``status`` (the
         study's: 1 where the assessment raised) and optionally ``closed_form_margin``.
     """
@@ -104,13 +115,16 @@ def stability_map(
     yname, ys = _axis_values(y, "y")
     if xname == yname:
         raise InputError(f"Expected two different parameters for `x` and `y`, got {xname!r} twice.")
+    compiled = _compiled_backend(family, backend)
+    if max_points is None:
+        max_points = 1_000_000 if compiled else 10_000
     V.work_budget(
         float(xs.size) * ys.size,
         float(max_points),
         f"The grid ({xs.size} x {ys.size} points)",
         "max_points",
         "take fewer points",
-        seconds_each=0.015,
+        seconds_each=2e-5 if compiled else 0.015,
     )
     G = V.positive_scalar(G, "G")
     near = np.array([0.0, G, 0.0]) if near is None else V.exact_shape(near, "near", (3,))
@@ -128,8 +142,11 @@ def stability_map(
         "n_points": int(n_points),
         "closed_form": None if closed_form is None else _family_identity(closed_form),
     }
-    study = functools.partial(_assess_points, family, xname, yname, fixed, G, near, closed_form, int(n_points))
-    per_task = xs.size if chunk is None else chunk
+    study = functools.partial(
+        _assess_points, family, xname, yname, fixed, G, near, closed_form, int(n_points), compiled
+    )
+    # compiled, a row is too little work for a task: blocks of about 4,096 points (whole rows)
+    per_task = (xs.size * max(1, 4096 // xs.size) if compiled else xs.size) if chunk is None else chunk
     per_block = math.prod(_block_shape((ys.size, xs.size), per_task))
     report = None if progress is None else (lambda done, total: progress(min(done * per_block, xs.size * ys.size)))
     axes: dict[str, Any] = {yname: ys, xname: xs}
@@ -191,6 +208,119 @@ def stability_map(
     )
 
 
+_BACKENDS = ("auto", "numba", "python")
+
+
+def _compiled_backend(family: Any, backend: str) -> bool:
+    """Whether the map runs compiled: ``backend`` checked against what the family and the machine allow."""
+    from ..integrators._codegen import numba_available
+
+    if backend not in _BACKENDS:
+        raise InputError(f"Expected `backend` to be one of {list(_BACKENDS)}, got {backend!r}.")
+    if backend == "python":
+        return False
+    system = _formula_system(family)
+    if system is not None and numba_available():
+        return True
+    if backend == "numba":
+        why = (
+            "numba is not available"
+            if system is not None
+            else "the family has no formula (a control's family whose H_c has a closed form, or system.family() "
+            "of a LeftInvariantSystem built from an expression, has one)"
+        )
+        raise InputError(f"backend='numba' needs a family given by a formula and numba; {why}.")
+    return False
+
+
+def _formula_system(family: Any) -> Any:
+    """The family's formula (a LeftInvariantSystem with an expression), or None."""
+    get = getattr(family, "formula_system", None)
+    system = get() if callable(get) else None
+    return system if getattr(system, "expression", None) is not None else None
+
+
+@functools.lru_cache(maxsize=8)
+def _mesh(n: int, G: float) -> tuple[np.ndarray, np.ndarray]:
+    """The quasi-uniform points of the fresh search (:func:`~geomech.analysis.find_equilibria`) and each one's
+    8 nearest neighbours (itself first)."""
+    from scipy.spatial import cKDTree
+
+    pts = np.ascontiguousarray(fibonacci_sphere(n, G))
+    _, nbr = cKDTree(pts).query(pts, k=9)
+    return pts, np.ascontiguousarray(nbr, dtype=np.int64)
+
+
+@functools.cache
+def _kernels() -> Any:
+    from pathlib import Path
+
+    from ..integrators._codegen import template_module
+
+    return template_module(Path(__file__).with_name("_k_equilibria.py"), "eq")
+
+
+def _assess_compiled(
+    family: Any,
+    values: Mapping[str, np.ndarray],
+    G: float,
+    near: np.ndarray,
+    n_points: int,
+    restart: np.ndarray,
+    out: dict[str, np.ndarray],
+) -> None:
+    """``_assess_points``' outputs for the points ``values`` (name -> array) in one compiled call."""
+    from ..integrators._problem import make_problem
+
+    system = _formula_system(family)
+    family.check_values(values)  # the errors family(**point) raises
+    problem = make_problem(system, attitude=False)
+    module, _ = problem.module(frozenset(), "numba")
+    n = restart.size
+    names = set(problem.parameter_names)
+    given = {k: np.broadcast_to(np.asarray(v, dtype=float), (n,)) for k, v in values.items() if k in names}
+    rows = problem.parameter_rows(given)
+    rows = np.ascontiguousarray(np.broadcast_to(rows, (n, rows.shape[1])))
+    pts1, nbr1 = _mesh(n_points, G)
+    pts2, nbr2 = _mesh(6 * n_points, G)
+    codes = np.full((n, 4), VERDICT_CODES["none"], dtype=np.int8)
+    info = np.zeros(2, dtype=np.int64)
+    _kernels().stability_points(
+        module.addresses(("ghess3",)),
+        rows,
+        G,
+        np.ascontiguousarray(near, dtype=float),
+        restart.astype(np.int8),
+        1e-12,
+        pts1,
+        nbr1,
+        pts2,
+        nbr2,
+        codes,
+        out["m"],
+        out["hessian_eigenvalues"],
+        out["growth_rate"],
+        out["ec_determinant"],
+        out["branch_jump"],
+        out["complete"],
+        info,
+    )
+    for j, name in enumerate(("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")):
+        out[name][:] = codes[:, j]
+    if info[0] != 0:
+        where = {k: float(np.broadcast_to(v, (n,))[info[1]]) for k, v in values.items()}
+        raise NumericalError(
+            f"At {where}: "
+            + (
+                "|m x grad H| has too many local minima over the sphere: H is not resolved in double precision "
+                "there (parameters spanning too many orders of magnitude?)."
+                if info[0] == 1
+                else "the Hessian of h_p at an equilibrium is not finite (an overflow: parameter values too large "
+                "for double precision?)."
+            )
+        )
+
+
 def _family_identity(f: Any) -> dict[str, Any]:
     from .sweep import _identity
 
@@ -206,13 +336,17 @@ def _assess_points(
     near: np.ndarray,
     closed_form: Callable[[Mapping[str, float]], float] | None,
     n_points: int,
+    compiled: bool,
     **values: np.ndarray,
 ) -> dict[str, np.ndarray]:
     """The verdicts at the points ``values[xname][i], values[yname][i]``, in their order: all equilibria continued
-    from the previous point's (searched afresh at the first point and where the continued set is not complete by
-    Poincare-Hopf), the one nearest to ``near`` assessed."""
+    from the previous point's (searched afresh at a row's first point and where the continued set is not complete
+    by Poincare-Hopf), the one nearest to ``near`` assessed."""
     xs, ys = values[xname], values[yname]
     n = xs.size
+    # a row starts where x does not increase
+    restart = np.ones(n, dtype=bool)
+    restart[1:] = xs[1:] <= xs[:-1]
     codes = {
         k: np.full(n, VERDICT_CODES["none"], dtype=np.int8)
         for k in ("verdict", "lagrange_dirichlet", "energy_casimir", "linearisation")
@@ -224,12 +358,28 @@ def _assess_points(
     margin = np.full(n, np.nan)
     jumped = np.zeros(n, dtype=np.int8)
     complete = np.zeros(n, dtype=np.int8)
+    if closed_form is not None:
+        for i in range(n):
+            margin[i] = float(closed_form({**fixed, xname: float(xs[i]), yname: float(ys[i])}))
+    outputs = {
+        **codes,
+        "m": m_all,
+        "hessian_eigenvalues": hev,
+        "branch_jump": jumped,
+        "complete": complete,
+        "growth_rate": growth,
+        "ec_determinant": ecdet,
+        "closed_form_margin": margin,
+    }
+    if compiled:
+        _assess_compiled(family, {**fixed, xname: xs, yname: ys}, G, near, n_points, restart, outputs)
+        return outputs
     prev = None
     last: np.ndarray | None = None
     for i in range(n):
+        if restart[i]:
+            prev, last = None, None
         point = {**fixed, xname: float(xs[i]), yname: float(ys[i])}
-        if closed_form is not None:
-            margin[i] = float(closed_form(point))
         system = family(**point)
         # All equilibria, continued from the previous point's, with Newton also started from `near` (a full search
         # when the continued set is not complete by Poincare-Hopf, or when that start finds an equilibrium the
@@ -247,7 +397,7 @@ def _assess_points(
         if len(eqs) == 0:
             prev = None
             continue
-        eq = eqs.nearest(near)
+        eq = eqs.nearest(near, prefer=last)
         # A step to a far point means the nearest equilibrium changed identity (its branch ended in a fold, or
         # another came nearer): flagged, since the verdict then belongs to another branch.
         jumped[i] = last is not None and np.linalg.norm(eq.m - last) > 0.25 * G
@@ -262,16 +412,7 @@ def _assess_points(
         hev[i] = np.linalg.eigvalsh(eq.hessian)
         growth[i] = float(np.max(np.real(rep.linearisation.eigenvalues)))
         ecdet[i] = _ec_determinant(system, eq.m)
-    return {
-        **codes,
-        "m": m_all,
-        "hessian_eigenvalues": hev,
-        "branch_jump": jumped,
-        "complete": complete,
-        "growth_rate": growth,
-        "ec_determinant": ecdet,
-        "closed_form_margin": margin,
-    }
+    return outputs
 
 
 def theorem5_margin(control: Any) -> Callable[[Mapping[str, float]], float]:

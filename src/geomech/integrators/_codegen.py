@@ -54,6 +54,7 @@ __all__ = [
     "python_header",
     "python_module",
     "rhs_address",
+    "template_module",
 ]
 
 _TEMPLATES = (
@@ -208,6 +209,26 @@ def compiled_module(model_src: str, tag: str) -> Any:
         )
         module = _load(source, tag)
         _BY_MODEL[(tag, model_src)] = module
+        return module
+
+
+def template_module(path: Path, tag: str) -> Any:
+    """Import (generating once) the numba module of a kernel template outside the integrator loops (``path``, with
+    a preamble like theirs): compiled after the loops' shared helpers (status codes, the model functions' indices
+    ``F_*``, ``call_model4``), it calls a model's functions through their addresses, so that it compiles once for
+    every model. Kept in memory for the process; the generated file and numba's cache persist across runs."""
+    text = path.read_text()
+    start, end = text.index(_PREAMBLE_START), text.index(_PREAMBLE_END)
+    body = text[:start] + text[text.index("\n", end) + 1 :]
+    known = _BY_MODEL.get((tag, body))
+    if known is not None:
+        return known
+    shared_src, _, names = _template_split()
+    with _LOCK:
+        shared = _load(_HEADER_NUMBA + shared_src, "k")
+        imports = "".join(f"{name} = _shared.{name}\n" for name in names)
+        module = _load(_HEADER_NUMBA + f"import {shared.__name__} as _shared\n\n{imports}\n\n" + body, tag)
+        _BY_MODEL[(tag, body)] = module
         return module
 
 

@@ -29,12 +29,15 @@ differentiation at random points) and by Gauss-Legendre quadrature otherwise.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
+from .. import _validate as V
 from ..errors import InputError
 from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector
 from ..symbolic.integrals import integral_from_zero
@@ -270,13 +273,71 @@ class ClosedLoopFamily:
         self.control = control
         self.names = control._names
 
+    @functools.cached_property
+    def _formula(self) -> LeftInvariantSystem | None:
+        c = self.control
+        if not c.hamiltonian_is_closed_form:
+            return None
+        names = {str(s) for s in c.H_c.free_symbols}
+        params = {k: v for k, v in c.parameters.items() if k in names}
+        return LeftInvariantSystem.from_expression(c.H_c, params, name="closed loop H_c")
+
+    def formula_system(self) -> LeftInvariantSystem | None:
+        """The closed loop as one formula in :math:`m` and every parameter (at the control's values), for analyses
+        that compile it once and sweep the parameters; None when :math:`H_c` has no closed form."""
+        return self._formula
+
+    @functools.cached_property
+    def _condition_everywhere(self) -> bool:
+        r"""Whether the existence condition holds for every value of the parameters: rotors on principal axes of a
+        diagonal :math:`\Lambda` under a separable :math:`\varphi` (:math:`\Lambda^{-1}A\,D\varphi` is diagonal),
+        or an asymmetry that sympy simplifies to 0 with the parameters as symbols."""
+        c = self.control
+        if c._separable and c.body.is_principal:
+            return True
+        if c.phi_expression is None:
+            return False
+        M = c._lam_inv_sym * c._A_sym * c.phi_expression.jacobian(sp.Matrix(M_SYMBOLS))
+        for i in range(3):
+            for j in range(i + 1, 3):
+                d = M[i, j] - M[j, i]
+                if d != 0 and (sp.count_ops(d) > _SIMPLIFY_MAX_OPS or sp.simplify(d) != 0):
+                    return False
+        return True
+
+    def check_values(self, values: Mapping[str, Any]) -> None:
+        """Raise the :class:`InputError` that ``family(**point)`` raises, for any point of ``values`` (name ->
+        array of the points' values, or one value for all): an unknown name, a value that is not finite, a
+        nonpositive inertia, or a point where no closed-loop Hamiltonian exists."""
+        c = self.control
+        columns = {str(k): np.atleast_1d(V.finite(v, str(k))).ravel() for k, v in values.items()}
+        if not columns:
+            return
+        n = max(col.size for col in columns.values())
+        columns = {k: np.broadcast_to(col, (n,)) for k, col in columns.items()}
+
+        def point(i: int) -> dict[str, float]:
+            return {k: float(col[i]) for k, col in columns.items()}
+
+        c.theta(point(0))  # every name known
+        for s in c._lam_syms or ():
+            col = columns.get(str(s))
+            if col is not None and np.any(col <= 0):
+                c._model(c.theta(point(int(np.argmax(col <= 0)))))  # raises, naming the inertias
+        if not self._condition_everywhere:
+            for i in range(n):
+                self._require_condition(point(i), c.theta(point(i)))
+
+    def _require_condition(self, values: Mapping[str, float], theta: np.ndarray) -> None:
+        cond = existence_condition(self.control, theta)
+        if not cond.holds:
+            raise InputError(f"For {dict(values)} this phi has no closed-loop Hamiltonian: {cond.detail}")
+
     def __call__(self, **values: float) -> LeftInvariantSystem:
         c = self.control
         theta = c.theta(values)
-        if values:
-            cond = existence_condition(c, theta)
-            if not cond.holds:
-                raise InputError(f"For {values} this phi has no closed-loop Hamiltonian: {cond.detail}")
+        if values and not self._condition_everywhere:
+            self._require_condition(values, theta)
         label = ", ".join(f"{k}={v:g}" for k, v in zip(c._names, theta))
         lam_inv, p = c._model(theta)
         Ap, A, axes = p @ c.body.axes, c.body.A, c.body.axes

@@ -577,12 +577,9 @@ class StructurePreservingControl:
         ``GeneralizedSerretAndoyer(...).h_p()`` is :math:`h_p = H_c\\circ U_p`); otherwise
         from callables: :math:`H_c` by quadrature, its gradient :math:`F` and Hessian :math:`DF` exact.
         """
-        if self.hamiltonian_is_closed_form:
-            expr = self.H_c
-            names = {str(s) for s in expr.free_symbols} - {str(s) for s in M_SYMBOLS}
-            params = {k: v for k, v in self.parameters.items() if k in names}
-            return LeftInvariantSystem.from_expression(expr, params, name="closed loop H_c")
-        return self.family()()
+        family = self.family()
+        formula = family.formula_system()
+        return family() if formula is None else formula
 
     def family(self) -> ClosedLoopFamily:
         """The closed loop as a function of the parameters (for sweeps: nothing symbolic per call)."""

@@ -26,7 +26,7 @@ from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS, bind_expression, compile_scalar, compile_vector
 from ._hyperregularity import HyperregularityReport, hamiltonian_hyperregularity
 
-__all__ = ["LeftInvariantSystem", "as_left_invariant"]
+__all__ = ["LeftInvariantSystem", "ParameterFamily", "as_left_invariant"]
 
 ArrayFn = Callable[[np.ndarray], np.ndarray]
 
@@ -144,6 +144,16 @@ class LeftInvariantSystem:
             )
         merged = {**self.parameters, **V.parameter_update(values, self.parameters, self.name)}
         return LeftInvariantSystem.from_expression(self.expression, merged, name=self.name)
+
+    def family(self) -> ParameterFamily:
+        """The system as a function of its parameters, ``family(**values)`` (for sweeps and stability maps:
+        :func:`~geomech.analysis.stability_map` compiles the formula once for every point)."""
+        if self.expression is None:
+            raise InputError(
+                f"{self.name} was built from Python callables and has no named parameters to sweep; build it with "
+                "LeftInvariantSystem.from_expression."
+            )
+        return ParameterFamily(self)
 
     # -- the Hamiltonian and its derivatives ----------------------------------------------------
     def hamiltonian(self, m: Any) -> np.ndarray:
@@ -290,6 +300,32 @@ class LeftInvariantSystem:
             "latex": None if self.expression is None else sp.latex(self.expression),
             "parameters": dict(self.parameters),
         }
+
+
+class ParameterFamily:
+    """A left-invariant system given by a formula, as a function of its parameters: ``family(**values)`` is
+    ``system.with_parameters(**values)``. Analyses that compile the formula read :meth:`formula_system`."""
+
+    def __init__(self, system: LeftInvariantSystem):
+        self.system = system
+
+    def __call__(self, **values: float) -> LeftInvariantSystem:
+        return self.system.with_parameters(**values) if values else self.system
+
+    def formula_system(self) -> LeftInvariantSystem:
+        """The formula in :math:`m` and every parameter, at the system's values."""
+        return self.system
+
+    def check_values(self, values: Mapping[str, Any]) -> None:
+        """Raise the :class:`InputError` that ``family(**point)`` raises, for any point of ``values`` (name ->
+        array of the points' values): an unknown name or a value that is not finite."""
+        for k, v in values.items():
+            V.finite(v, str(k))
+        first = {k: float(np.ravel(v)[0]) for k, v in values.items()}
+        V.parameter_update(first, self.system.parameters, self.system.name)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"hamiltonian": str(self.system.expression), "parameters": dict(self.system.parameters)}
 
 
 def as_left_invariant(system: Any) -> LeftInvariantSystem:
