@@ -143,6 +143,22 @@ def test_a_member_that_raises_is_its_own_status(tmp_path):
     assert len(failures) == 2 and all("no convergence" in v for v in failures.values())
 
 
+def test_a_study_without_a_store_is_the_study_with_one(tmp_path):
+    """Without `out` the blocks fill arrays in memory: the same Dataset (data, units, status, failures, provenance)
+    as the store's, to the last bit."""
+    a, b = np.linspace(0.0, 1.0, 11), np.array([1.0, 2.0])
+    kw = dict(a=a, chunk=4, units={"y": "m", "a": "rad"})
+    stored, memory = sweep(touchy, out=tmp_path / "t.zarr", **kw), sweep(touchy, **kw)
+    assert memory.identical(stored)
+    assert json.loads(memory.attrs["failures"]) == json.loads(stored.attrs["failures"]) != {}
+    assert memory["status"].attrs["flag_meanings"] == "not_computed done study_raised"
+    grid = sweep(trig, a=a, b=b, chunk=3, fixed={"scale": 2.0}, out=tmp_path / "g.zarr")
+    assert sweep(trig, a=a, b=b, chunk=3, fixed={"scale": 2.0}).identical(grid)
+    samples = dict(I1=("normal", 2.6, 0.05), I2=("uniform", 1.9, 2.1))
+    drawn = monte_carlo(spin_up, 9, seed=5, chunk=4, out=tmp_path / "m.zarr", **samples)
+    assert monte_carlo(spin_up, 9, seed=5, chunk=4, **samples).identical(drawn)
+
+
 def test_bad_studies_are_refused_before_the_work():
     with pytest.raises(InputError, match="at least one axis"):
         sweep(trig)

@@ -181,28 +181,29 @@ def eq_abs_max2(J):
 
 
 @kernel
-def eq_refine(FP, prm, m0, G, tol, max_iter, m_out, lL_out, hess_out):
+def eq_refine(FP, prm, m0, G, tol, max_iter, m_out, lL_out, hess_out, W):
     """``refine_equilibrium``: Newton (Levenberg-Marquardt) on grad h_p = 0 from ``m0`` projected to |m| = G.
     Returns the chart of the result (0-2; the seed's chart about axis 3 unless the point is near its poles) with
-    the equilibrium in ``m_out``, its (l, L) and Hessian of h_p there, or -1 when none is reached."""
-    m = np.empty(3)
+    the equilibrium in ``m_out``, its (l, L) and Hessian of h_p there, or -1 when none is reached. ``W`` is work
+    space (42 numbers), distinct from the other arguments."""
+    m = W[0:3]
     nm = math.sqrt(m0[0] * m0[0] + m0[1] * m0[1] + m0[2] * m0[2])
     if nm == 0.0:
         return -1
     for k in range(3):
         m[k] = G * m0[k] / nm
-    lL = np.empty(2)
-    r = np.empty(2)
-    J = np.empty((2, 2))
-    g = np.empty(3)
-    D2 = np.empty((3, 3))
-    grad = np.empty(2)
-    hess = np.empty((2, 2))
-    m_new = np.empty(3)
-    lL_new = np.empty(2)
-    r_new = np.empty(2)
-    J_new = np.empty((2, 2))
-    new = np.empty(2)
+    lL = W[3:5]
+    r = W[5:7]
+    g = W[7:10]
+    grad = W[10:12]
+    m_new = W[12:15]
+    lL_new = W[15:17]
+    r_new = W[17:19]
+    new = W[19:21]
+    J = W[21:25].reshape((2, 2))
+    J_new = W[25:29].reshape((2, 2))
+    hess = W[29:33].reshape((2, 2))
+    D2 = W[33:42].reshape((3, 3))
     axis = eq_best_axis(m)
     scale = eq_state(FP, prm, m, axis, G, lL, r, J, g, D2, grad, hess)
     if scale < 0.0:
@@ -270,10 +271,10 @@ def eq_distance(a, b):
 
 
 @kernel
-def eq_add(FP, prm, start, G, tol, max_iter, n, EM, EA, EL, EH, m_out, lL_out, hess_out):
+def eq_add(FP, prm, start, G, tol, max_iter, n, EM, EA, EL, EH, m_out, lL_out, hess_out, W):
     """Refine ``start`` and append the equilibrium to the set (``EM`` momenta, ``EA`` charts, ``EL`` (l, L), ``EH``
     Hessians; ``n`` members) unless one within 1e-7 G is there; returns the new count."""
-    axis = eq_refine(FP, prm, start, G, tol, max_iter, m_out, lL_out, hess_out)
+    axis = eq_refine(FP, prm, start, G, tol, max_iter, m_out, lL_out, hess_out, W)
     if axis < 0:
         return n
     for j in range(n):
@@ -309,16 +310,16 @@ def eq_check(EH, n):
 
 
 @kernel
-def eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r):
+def eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r, W):
     """``find_equilibria``: Newton from the six points +-G e_k and from the local minima of |m x grad H| over the
     quasi-uniform ``pts1`` (compared with their neighbours ``nbr1``), then, if Poincare-Hopf fails, from those of the
-    six times denser ``pts2``. Returns (members, complete, error)."""
-    g = np.empty(3)
-    D2 = np.empty((3, 3))
-    start = np.empty(3)
-    m_out = np.empty(3)
-    lL_out = np.empty(2)
-    hess_out = np.empty((2, 2))
+    six times denser ``pts2``. Returns (members, complete, error). ``W``: work space of 72 numbers."""
+    m_out = W[42:45]
+    lL_out = W[45:47]
+    hess_out = W[47:51].reshape((2, 2))
+    g = W[51:54]
+    start = W[54:57]
+    D2 = W[57:66].reshape((3, 3))
     n = 0
     complete = False
     for stage in range(2):
@@ -353,7 +354,7 @@ def eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r):
                         if eq_distance(start, EM[j]) < 1e-9 * G:
                             near_one = True
                     if not near_one:
-                        n = eq_add(FP, prm, start, G, tol, 80, n, EM, EA, EL, EH, m_out, lL_out, hess_out)
+                        n = eq_add(FP, prm, start, G, tol, 80, n, EM, EA, EL, EH, m_out, lL_out, hess_out, W)
         for k in range(npts):
             low = math.inf
             for j in range(1, nbr.shape[1]):
@@ -365,7 +366,7 @@ def eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r):
                 if eq_distance(pts[k], EM[j]) < 1e-9 * G:
                     near_one = True
             if not near_one:
-                n = eq_add(FP, prm, pts[k], G, tol, 80, n, EM, EA, EL, EH, m_out, lL_out, hess_out)
+                n = eq_add(FP, prm, pts[k], G, tol, 80, n, EM, EA, EL, EH, m_out, lL_out, hess_out, W)
         complete, err = eq_check(EH, n)
         if err != EQ_OK:
             return n, False, err
@@ -375,17 +376,17 @@ def eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r):
 
 
 @kernel
-def eq_continue(FP, prm, G, tol, near, PM, n_prev, EM, EA, EL, EH):
+def eq_continue(FP, prm, G, tol, near, PM, n_prev, EM, EA, EL, EH, W):
     """``continue_equilibria`` without its fallback: Newton (12 iterations at most) from each previous equilibrium
-    ``PM[:n_prev]`` and from ``near``. Returns (members, complete, error)."""
-    m_out = np.empty(3)
-    lL_out = np.empty(2)
-    hess_out = np.empty((2, 2))
+    ``PM[:n_prev]`` and from ``near``. Returns (members, complete, error). ``W``: work space of 72 numbers."""
+    m_out = W[42:45]
+    lL_out = W[45:47]
+    hess_out = W[47:51].reshape((2, 2))
     n = 0
     for j in range(n_prev):
-        n = eq_add(FP, prm, PM[j], G, tol, 12, n, EM, EA, EL, EH, m_out, lL_out, hess_out)
+        n = eq_add(FP, prm, PM[j], G, tol, 12, n, EM, EA, EL, EH, m_out, lL_out, hess_out, W)
     if near[0] != 0.0 or near[1] != 0.0 or near[2] != 0.0:
-        n = eq_add(FP, prm, near, G, tol, 12, n, EM, EA, EL, EH, m_out, lL_out, hess_out)
+        n = eq_add(FP, prm, near, G, tol, 12, n, EM, EA, EL, EH, m_out, lL_out, hess_out, W)
     complete, err = eq_check(EH, n)
     return n, complete, err
 
@@ -471,6 +472,7 @@ def stability_points(
     EL = np.empty((cap, 2))
     EH = np.empty((cap, 2, 2))
     r = np.empty(pts2.shape[0])
+    W = np.empty(72)
     g = np.empty(3)
     D2 = np.empty((3, 3))
     last = np.empty(3)
@@ -484,11 +486,11 @@ def stability_points(
             n_prev = -1
             have_last = False
         if n_prev < 0:
-            n, complete, err = eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r)
+            n, complete, err = eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r, W)
         else:
-            n, complete, err = eq_continue(FP, prm, G, tol, near, PM, n_prev, EM, EA, EL, EH)
+            n, complete, err = eq_continue(FP, prm, G, tol, near, PM, n_prev, EM, EA, EL, EH, W)
             if err == EQ_OK and not (complete and n == n_prev):
-                n, complete, err = eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r)
+                n, complete, err = eq_find(FP, prm, G, tol, pts1, nbr1, pts2, nbr2, EM, EA, EL, EH, r, W)
         if err != EQ_OK:
             INFO[0] = err
             INFO[1] = i

@@ -262,7 +262,7 @@ def _kernels() -> Any:
 
 def _assess_compiled(
     family: Any,
-    values: Mapping[str, np.ndarray],
+    values: Mapping[str, Any],
     G: float,
     near: np.ndarray,
     n_points: int,

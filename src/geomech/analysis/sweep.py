@@ -5,7 +5,8 @@ A study is a function of named parameters that takes one array per parameter (th
 same length) and returns a mapping of output arrays whose first axis is the members: one call is one ensemble
 (``solve`` with ``parameters`` arrays runs a batch in one compiled call), never one simulation. The grid or the
 samples are cut into blocks of about ``chunk`` members; each block is one dask task, which calls the study and
-writes its outputs into a Zarr store (``out``) at the block's place, then marks the block done. On the local
+writes its outputs into a Zarr store (``out``; arrays in memory without one) at the block's place, then marks the
+block done. On the local
 machine the tasks run on dask's threaded scheduler over every core (the compiled loops release the GIL); given a
 ``dask.distributed.Client`` or a scheduler's address they run on that cluster, where dask reschedules the tasks of
 a lost worker (a block written twice is written the same). The result is an :class:`xarray.Dataset` with one
@@ -24,13 +25,13 @@ resumption. A store of another study, or an existing store without ``resume``, i
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 import json
 import math
 import os
 import platform
-import shutil
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -199,8 +200,8 @@ def sweep(
         accepts ``threads``, it is told how many threads a task may use (the cores of its worker over the tasks
         the worker runs at once).
     out : path, optional
-        The Zarr store the blocks are written to as they complete (a temporary directory, removed once the
-        result is loaded in memory, when not given: nothing to resume then).
+        The Zarr store the blocks are written to as they complete. Without it the blocks fill arrays in memory
+        (the same data, without the store's cost: tens of milliseconds a block; nothing to resume then).
     resume : bool
         Continue the study in ``out``: only the blocks not marked done are computed. Without it an existing
         ``out`` is an error.
@@ -373,9 +374,46 @@ def _threads_per_task() -> int:
         return 1  # dask's threaded scheduler runs one task per core
 
 
-def _compute_block(plan: _Plan, path: str, index: tuple[int, ...], schema: Mapping[str, Any]) -> dict[str, Any]:
-    """One task: the study on block ``index``, written into the store at its place, then marked done. A block on
-    which the study raises is run member by member: the members it raises on get the status 1 and NaN outputs."""
+class _Memory:
+    """The outputs of a study without a store (``out`` not given, on this machine): one array per output, filled
+    by the blocks in place, with the attributes a store would hold. Nothing to resume, nothing written to disk."""
+
+    def __init__(self, plan: _Plan, schema: Mapping[str, Any]):
+        self.arrays: dict[str, np.ndarray] = {}
+        for name, spec in schema.items():
+            dtype = np.dtype(spec["dtype"])
+            self.arrays[name] = np.full(plan.shape + tuple(spec["shape"]), _fill(dtype), dtype=dtype)
+        for name in plan.distributions:
+            self.arrays[name] = np.full(plan.shape, np.nan)
+        self.arrays["status"] = np.full(plan.shape, -1, dtype=np.int8)
+        self.arrays["_done"] = np.zeros(plan.grid, dtype=np.int8)
+        self.attrs = _store_attributes(plan, schema)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.arrays[name]
+
+    def dataset(self, plan: _Plan, schema: Mapping[str, Any]) -> Any:
+        """The Dataset a store of the same study opens as."""
+        import xarray as xr
+
+        variables = {}
+        for name, spec in schema.items():
+            extra = tuple(f"{name}_dim{i}" for i in range(len(spec["shape"])))
+            variables[name] = (plan.dims + extra, self.arrays[name], _units(plan, name))
+        for name in plan.distributions:
+            variables[name] = (plan.dims, self.arrays[name], _units(plan, name))
+        variables["status"] = (plan.dims, self.arrays["status"], _STATUS_ATTRIBUTES)
+        coords = {d: (d, plan.coords[d], _units(plan, d)) for d in plan.dims}
+        return xr.Dataset(variables, coords=coords, attrs=self.attrs)
+
+
+_STATUS_ATTRIBUTES = {"flag_values": [-1, 0, 1], "flag_meanings": "not_computed done study_raised"}
+
+
+def _compute_block(plan: _Plan, path: Any, index: tuple[int, ...], schema: Mapping[str, Any]) -> dict[str, Any]:
+    """One task: the study on block ``index``, written into the store at its place (``path``, or a :class:`_Memory`),
+    then marked done. A block on which the study raises is run member by member: the members it raises on get the
+    status 1 and NaN outputs."""
     import zarr
 
     values = plan.values(index)
@@ -398,7 +436,7 @@ def _compute_block(plan: _Plan, path: str, index: tuple[int, ...], schema: Mappi
                 continue
             for name in schema:
                 outputs[name][i] = one[name][0]
-    root: Any = zarr.open_group(path, mode="r+")
+    root: Any = zarr.open_group(path, mode="r+") if isinstance(path, str) else path
     for name in plan.distributions:  # the samples, beside the outputs
         root[name][where] = values[name]
     for name, spec in schema.items():
@@ -415,6 +453,12 @@ def _compute_block(plan: _Plan, path: str, index: tuple[int, ...], schema: Mappi
 # the store and the run
 # --------------------------------------------------------------------------------------------------
 def _versions() -> dict[str, str]:
+    return dict(_package_versions())
+
+
+@functools.cache
+def _package_versions() -> tuple[tuple[str, str], ...]:
+    """Read once per process: the packages' metadata take tens of milliseconds to read, a compiled block less."""
     import importlib.metadata as md
 
     out = {"geomech": __version__, "python": platform.python_version()}
@@ -423,7 +467,7 @@ def _versions() -> dict[str, str]:
             out[name] = md.version(name)
         except md.PackageNotFoundError:
             pass
-    return out
+    return tuple(out.items())
 
 
 def _schema(plan: _Plan) -> dict[str, Any]:
@@ -473,7 +517,7 @@ def _create(plan: _Plan, path: Path, schema: Mapping[str, Any]) -> None:
         dtype=np.int8,
         fill_value=-1,
         dimension_names=plan.dims,
-        attributes={"flag_values": [-1, 0, 1], "flag_meanings": "not_computed done study_raised"},
+        attributes=_STATUS_ATTRIBUTES,
     )
     # one marker per block, written after its data: what a resumption skips
     root.create_array(
@@ -484,15 +528,18 @@ def _create(plan: _Plan, path: Path, schema: Mapping[str, Any]) -> None:
         fill_value=0,
         dimension_names=tuple(f"_block_{d}" for d in plan.dims),
     )
-    root.attrs.update(
-        {
-            "geomech_study": plan.identity,
-            "geomech_fingerprint": plan.fingerprint,
-            "geomech_schema": dict(schema),
-            "provenance": _provenance(plan),
-            "versions": _versions(),
-        }
-    )
+    root.attrs.update(_store_attributes(plan, schema))
+
+
+def _store_attributes(plan: _Plan, schema: Mapping[str, Any]) -> dict[str, Any]:
+    """What identifies a study and its data: held by its store, and by the Dataset it returns."""
+    return {
+        "geomech_study": plan.identity,
+        "geomech_fingerprint": plan.fingerprint,
+        "geomech_schema": dict(schema),
+        "provenance": _provenance(plan),
+        "versions": _versions(),
+    }
 
 
 def _units(plan: _Plan, name: str) -> dict[str, Any]:
@@ -551,58 +598,66 @@ def _client(scheduler: Any) -> Any:
 
 
 def _run(plan: _Plan, out: Any, resume: bool, scheduler: Any, progress: Callable[[int, int], None] | None):
-    import tempfile
-
     import xarray as xr
     import zarr
 
-    temporary = out is None
-    if temporary:
+    if out is None:
         if resume:
             raise InputError("`resume` continues a study in its store: give `out`.")
         if scheduler is not None:
             raise InputError("A study on a cluster writes to `out`, a path every worker can reach: give it.")
-        path = Path(tempfile.mkdtemp(prefix="geomech-study-")) / "study.zarr"
+        # no store: the blocks fill arrays in memory (the study's data are the same; nothing to resume)
+        schema = _schema(plan)
+        memory = _Memory(plan, schema)
+        reports = _execute(plan, memory, _pending(memory["_done"]), schema, None, progress, 0, memory["_done"].size)
+        memory.attrs.update(_failures(reports, {}))
+        return _json_attributes(memory.dataset(plan, schema))
+    path = Path(os.fspath(out)).expanduser().absolute()
+    if path.exists():
+        root = _open_existing(plan, path, resume)
+        schema = dict(root.attrs["geomech_schema"])
     else:
-        path = Path(os.fspath(out)).expanduser().absolute()
-    try:
-        if path.exists():
-            root = _open_existing(plan, path, resume)
-            schema = dict(root.attrs["geomech_schema"])
-        else:
-            if not path.parent.is_dir():
-                raise InputError(f"The directory of `out` ({path.parent}) does not exist; create it first.")
-            schema = _schema(plan)
-            _create(plan, path, schema)
-            root = zarr.open_group(str(path), mode="r+")
-        done = np.asarray(root["_done"][...]) != 0
-        pending = [tuple(int(i) for i in ix) for ix in np.argwhere(~done)]
-        total = int(done.size)
-        reports = _execute(plan, str(path), pending, schema, scheduler, progress, total - len(pending), total)
-        failures = {}
-        for report in reports:
-            for i, message in report["failures"].items():
-                failures[f"block {tuple(report['index'])} member {i}"] = message
-        if failures:
-            log = dict(root.attrs.get("failures", {}))
-            log.update(failures)
-            root.attrs["failures"] = log
-        # no dask arrays (zarr's, read as indexed): reading needs no scheduler, whose pool would not survive a fork
-        ds = xr.open_zarr(str(path), consolidated=False, zarr_format=3, chunks=None).drop_vars("_done")
-        if temporary:
-            ds = ds.load()
-        # mappings as JSON text, so that the Dataset writes to NetCDF as it is
-        return ds.assign_attrs(
-            {k: json.dumps(v, sort_keys=True) for k, v in ds.attrs.items() if isinstance(v, (dict, list))}
-        )
-    finally:
-        if temporary:
-            shutil.rmtree(path.parent, ignore_errors=True)
+        if not path.parent.is_dir():
+            raise InputError(f"The directory of `out` ({path.parent}) does not exist; create it first.")
+        schema = _schema(plan)
+        _create(plan, path, schema)
+        root = zarr.open_group(str(path), mode="r+")
+    done = np.asarray(root["_done"][...])
+    pending = _pending(done)
+    reports = _execute(plan, str(path), pending, schema, scheduler, progress, done.size - len(pending), done.size)
+    failures = _failures(reports, root.attrs)
+    if failures:
+        root.attrs.update(failures)
+    # no dask arrays (zarr's, read as indexed): reading needs no scheduler, whose pool would not survive a fork
+    ds = xr.open_zarr(str(path), consolidated=False, zarr_format=3, chunks=None).drop_vars("_done")
+    return _json_attributes(ds)
+
+
+def _pending(done: np.ndarray) -> list[tuple[int, ...]]:
+    return [tuple(int(i) for i in ix) for ix in np.argwhere(done == 0)]
+
+
+def _failures(reports: list[dict[str, Any]], attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``failures`` attribute with the members that raised in ``reports`` added (empty if none raised)."""
+    failures = {}
+    for report in reports:
+        for i, message in report["failures"].items():
+            failures[f"block {tuple(report['index'])} member {i}"] = message
+    if not failures:
+        return {}
+    return {"failures": {**dict(attrs.get("failures", {})), **failures}}
+
+
+def _json_attributes(ds: Any) -> Any:
+    """Mappings as JSON text, so that the Dataset writes to NetCDF as it is."""
+    return ds.assign_attrs(
+        {k: json.dumps(v, sort_keys=True) for k, v in ds.attrs.items() if isinstance(v, (dict, list))}
+    )
 
 
 def _execute(
     plan: _Plan,
-    path: str,
+    path: Any,
     pending: list[tuple[int, ...]],
     schema: Mapping[str, Any],
     scheduler: Any,
