@@ -10,7 +10,9 @@ Not part of the test suite. The problems (issue 18, item 5; issue 16, item 4):
 - ``stability_map``: one rotor on axis 3 of the body diag(3, 2, 1) under phi(v) = k v + a v^3 with p = 0.1 (no
   closed-form boundary), G = 1, over k in [0.05, 0.95] and a in [-0.9, 0.9]: at each point every relative
   equilibrium is found (continued along a block's row, searched afresh where Poincare-Hopf fails) and the one
-  nearest to the intermediate-axis spin is assessed three ways. One task is one row.
+  nearest to the intermediate-axis spin is assessed three ways. One task is one row. The map runs point by point
+  in Python (``backend="python"``, the path of a family without a formula); compiled it takes half a second
+  (``benchmarks/stability_map.py``).
 - ``gait_ensemble``: the snakeboard (m = 1, r = 0.5, J = 0.18, J0 = 0.05, J1 = 0.01) from rest over five periods
   of psi = a sin(2 pi t), phi = b sin(2 pi t + c), a in [0.5, 1.5], b in [0.2, 0.8], c in [0, 2 pi): the net
   displacement and momentum change of each gait (``GaitSweep``, BKMM compiled, rtol 1e-10); one task is a
@@ -63,6 +65,7 @@ def run_map(n: int, where: Any, store: Path) -> tuple[float, Any]:
         out=store,
         scheduler=where,
         max_points=10**7,
+        backend="python",  # point by point in Python: work for a cluster (compiled: benchmarks/stability_map.py)
     ).load()
     return time.perf_counter() - t, ds
 
