@@ -79,11 +79,11 @@ def main(out: Path | None = None) -> dict:
 
     body = gm.RotorBody.one_rotor(LAMBDA1, LAMBDA2, I3)
 
-    # phi = k v: Theorem 5's closed form. The grids are small because each point continues every relative
-    # equilibrium on the sphere (6 here, 10 for the cubic feedback) by Newton's method.
+    # phi = k v: Theorem 5's closed form. Each point continues every relative equilibrium on the sphere (6 here, 10
+    # for the cubic feedback) by Newton's method, compiled: a few thousand points take well under a second.
     linear = gm.StructurePreservingControl.one_rotor(body, "k*v", parameters={"k": 0.5}, probe_radius=G)
-    ks = np.linspace(0.0, 0.8, 11)
-    lambda2s = np.linspace(1.25, 2.75, 7)
+    ks = np.linspace(0.0, 0.8, 41)
+    lambda2s = np.linspace(1.25, 2.75, 31)
     ds_lin = stability_map(
         linear.family(), ("k", ks), ("lambda2", lambda2s), G=G, closed_form=theorem5_margin(linear),
         description="phi = k v",
@@ -94,8 +94,8 @@ def main(out: Path | None = None) -> dict:
     cubic = gm.StructurePreservingControl.one_rotor(
         body, "k*v + a*v**3", parameters={"k": 0.5, "a": 0.0}, p=P, probe_radius=G
     )
-    ks_nl = np.linspace(0.0, 0.8, 11)
-    a_nl = np.linspace(0.0, 2.1, 8)
+    ks_nl = np.linspace(0.0, 0.8, 41)
+    a_nl = np.linspace(0.0, 2.1, 36)
     ds_nl = stability_map(
         cubic.family(), ("k", ks_nl), ("a", a_nl), G=G, closed_form=meridian_margin,
         description=f"phi = k v + a v^3, p = {P}",
