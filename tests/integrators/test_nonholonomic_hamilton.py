@@ -79,3 +79,23 @@ def test_the_full_tensor_needs_constraints_and_bad_options_are_named():
         NonholonomicHamilton(form="vm")
     with pytest.raises(InputError, match="`basis`"):
         NonholonomicHamilton(basis="orthogonal")
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_the_force_response_is_the_field_under_a_force(form, rng):
+    """``field(z, F) = free + R F`` with ``(free, R) = response(z)``: the engine's one evaluation a step under torques
+    is the twin's field, at random states and forces, and ``R`` leaves the velocity rows alone."""
+    from geomech.integrators.nonholonomic._hamiltonian import _field
+
+    system = knife_edge_with_rotor()
+    field, response, _ = _field(system, form, "bkmm", None)
+    n = system.n
+    z = rng.normal(size=(5, 2 * n if form == "full" else n + system.n - system.c)) * 0.5
+    F = rng.normal(size=(5, n))
+    free, R = response(z)
+    np.testing.assert_allclose(free, field(z), rtol=1e-12, atol=1e-12)
+    expected = field(z, F)
+    np.testing.assert_allclose(
+        free + np.einsum("bij,bj->bi", R, F), expected, rtol=1e-10, atol=1e-10 * np.abs(expected).max()
+    )
+    assert np.abs(R[:, :n]).max() <= 1e-12 * np.abs(R).max()

@@ -404,7 +404,9 @@ class AlmostPoissonStructure(Derived, NumericCache):
     def numeric(self, parameters: dict | None = None) -> dict:
         r"""Compiled ``J(z)``, ``gradH(z)``, ``p(z)`` (the point of M), ``X(z)``, ``pt(q, qdot) = X^T M qdot``, and
         ``field(z, force=None)``: :math:`\dot z = J_{\mathcal M}\nabla H_{\mathcal M} + (0, X^TF)`, the
-        constrained motion under a generalised force :math:`F(q)` (shape ``(..., n)``; none: the free motion).
+        constrained motion under a generalised force :math:`F(q)` (shape ``(..., n)``; none: the free motion);
+        ``response(z)``: the free field and the matrix ``R`` (shape ``(..., dim z, n)``) with ``field(z, F) = free +
+        R F``, for a force that depends on the velocity (the field's q rows, which ``R`` leaves alone).
         Vectorised over leading axes."""
         s = self.system
         gH = sp.Matrix([sp.diff(self.hamiltonian, v) for v in self.z])
@@ -420,7 +422,14 @@ class AlmostPoissonStructure(Derived, NumericCache):
                 f[..., n:] += np.einsum("...ia,...i->...a", out["X"](z), np.asarray(force, dtype=float))
             return f
 
-        out["field"] = field
+        def response(z: Any) -> tuple[np.ndarray, np.ndarray]:
+            z = np.asarray(z, dtype=float)
+            free = field(z)
+            R = np.zeros(free.shape + (n,))
+            R[..., n:, :] = np.swapaxes(out["X"](z), -1, -2)
+            return free, R
+
+        out.update(field=field, response=response)
         return out
 
 

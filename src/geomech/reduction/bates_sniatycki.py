@@ -114,7 +114,8 @@ class BatesSniatycki(Derived, NumericCache):
         :math:`Z = -B(B^T\\Omega B)^{-1}B^T(\\nabla H_{\\mathcal M} - (F, 0))`, from
         :math:`\\omega_{\\mathcal M}(Z, Y) = dH_{\\mathcal M}(Y) - \\langle F, T\\tau(Y)\\rangle` for every
         :math:`Y \\in \\mathcal H` under a generalised force :math:`F(q)` (shape ``(..., n)``; none: the free
-        motion), vectorised over leading axes."""
+        motion), and ``response(z)``: the free field and ``R`` with ``field(z, F) = free + R F``; vectorised over
+        leading axes."""
         H = self.structure.hamiltonian
         out = dict(
             self._compile(
@@ -130,19 +131,31 @@ class BatesSniatycki(Derived, NumericCache):
 
         n = self.system.n
 
-        def field(z: Any, force: Any = None) -> np.ndarray:
-            z = np.asarray(z, dtype=float)
+        def solved(z: np.ndarray, dH: np.ndarray, force: bool) -> tuple[np.ndarray, np.ndarray | None]:
+            # -B (B^T W B)^-1 B^T dH, and with `force` the response B (B^T W B)^-1 B^T [I_n; 0] in the same solve
             B, W = out["B"](z), out["form"](z)
             BT = np.swapaxes(B, -1, -2)
-            restricted = BT @ W @ B
+            rhs = BT @ dH
+            if force:
+                rhs = np.concatenate([rhs, BT[..., :, :n]], axis=-1)
+            x = B @ np.linalg.solve(BT @ W @ B, rhs)
+            return -x[..., 0], (x[..., 1:] if force else None)
+
+        def field(z: Any, force: Any = None) -> np.ndarray:
+            z = np.asarray(z, dtype=float)
             dH = out["gradH"](z)
             if force is not None:
                 dH = dH.copy()
                 dH[..., :n, 0] -= np.asarray(force, dtype=float)
-            rhs = BT @ dH
-            return -(B @ np.linalg.solve(restricted, rhs))[..., 0]
+            return solved(z, dH, False)[0]
 
-        out["field"] = field
+        def response(z: Any) -> tuple[np.ndarray, np.ndarray]:
+            z = np.asarray(z, dtype=float)
+            free, R = solved(z, out["gradH"](z), True)
+            assert R is not None
+            return free, R
+
+        out.update(field=field, response=response)
         return out
 
 

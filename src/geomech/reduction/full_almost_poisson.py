@@ -165,7 +165,7 @@ class FullAlmostPoisson(Derived, NumericCache):
         the constrained vector field with its multiplier, and ``multiplier(z, force=None)``, both from the compiled
         pieces. A generalised force :math:`F(q)` (shape ``(..., n)``) adds :math:`W^TF` to the momenta's rates
         (:math:`\\dot p = -\\partial H/\\partial q + F + A^T\\lambda` in canonical coordinates) and enters the
-        multiplier."""
+        multiplier; ``response(z)`` gives the free field and ``R`` with ``field(z, F) = free + R F``."""
         z = self.z
         H = self.hamiltonian
         C = sp.Matrix(self.constraint)
@@ -213,7 +213,20 @@ class FullAlmostPoisson(Derived, NumericCache):
             f[..., 2 * n - c :] += np.einsum("...ij,...j->...i", out["K"](y), solved(y, f))
             return f
 
-        out.update(unconstrained=unconstrained, multiplier=multiplier, field=field)
+        def response(y: Any) -> tuple[np.ndarray, np.ndarray]:
+            # the constrained field is linear in the unconstrained one, u -> u + (0, K lam(u)): applied to the free
+            # field and to the columns (0, W^T e_i) of the force's
+            y = np.asarray(y, dtype=float)
+            free = unconstrained(y)
+            U = np.zeros(free.shape + (n,))
+            U[..., n:, :] = np.swapaxes(out["W"](y), -1, -2)
+            both = np.concatenate([free[..., None], U], axis=-1)
+            gC, K = out["gradC"](y), out["K"](y)
+            lam = -np.linalg.solve(gC[..., :, 2 * n - c :] @ K, gC @ both)
+            both[..., 2 * n - c :, :] += K @ lam
+            return both[..., 0], both[..., 1:]
+
+        out.update(unconstrained=unconstrained, multiplier=multiplier, field=field, response=response)
         return out
 
 

@@ -17,8 +17,9 @@ from ._inputs import _Setup
 from ._trajectory import _Raw
 
 
-def _field(system: Any, form: str, basis: str, parameters: Mapping[str, float] | None) -> tuple[Any, Any]:
-    """The vector field ``f(z, force)`` of ``form`` and the momenta ``pt(q, qdot)`` of its coordinates."""
+def _field(system: Any, form: str, basis: str, parameters: Mapping[str, float] | None) -> tuple[Any, Any, Any]:
+    """The vector field ``f(z, force)`` of ``form``, its ``response(z)`` (the free field and ``R``: ``f(z, F) = free
+    + R F``) and the momenta ``pt(q, qdot)`` of its coordinates."""
     values = None if parameters is None else dict(parameters)
     if form == "full":
         if system.c == 0:
@@ -27,12 +28,11 @@ def _field(system: Any, form: str, basis: str, parameters: Mapping[str, float] |
                 "it with NonholonomicHamilton(form='almost_poisson')."
             )
         num = full_almost_poisson(system, basis).numeric(values)
-        return num["field"], num["pt"]
+        return num["field"], num["response"], num["pt"]
     structure = almost_poisson(system, basis)
     pt = structure.numeric(values)["pt"]
-    if form == "bates_sniatycki":
-        return bates_sniatycki(system, basis).numeric(values)["field"], pt
-    return structure.numeric(values)["field"], pt
+    num = bates_sniatycki(system, basis).numeric(values) if form == "bates_sniatycki" else structure.numeric(values)
+    return num["field"], num["response"], pt
 
 
 def run_hamiltonian(
@@ -57,7 +57,8 @@ def run_hamiltonian(
             f"{shapes} have a prescribed gait, a time-dependent constraint outside the Hamiltonian forms. Use BKMM() "
             "or LagrangeDAlembert(), or drive the shapes by torques."
         )
-    field, pt = _field(system, method.form, method.basis, parameters)
+    field, response, pt = _field(system, method.form, method.basis, parameters)
+    driven = any(fn is not None for fn in setup.torques.fns)
     n, k = system.n, system.k
     shapes = [k + i for i in setup.free_shapes]
 
@@ -69,10 +70,12 @@ def run_hamiltonian(
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         z = y[:-1]
-        free = field(z)
+        if not driven:
+            return np.r_[field(z), 0.0]
+        # the torques read the velocity, the field's q rows, which the force leaves alone: one evaluation
+        free, R = response(z)
         F, tau = force(t, z[:n], free[:n])
-        f = field(z, F) if F.any() else free
-        return np.r_[f, tau @ free[shapes]]
+        return np.r_[free + R @ F, tau @ free[shapes]]
 
     y0 = np.r_[q_init, pt(np.r_[q_init, qd_init])[:, 0], 0.0]
     Y, failure, nfev, n_steps = integrate_ivp(
