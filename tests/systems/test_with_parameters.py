@@ -89,3 +89,17 @@ def test_every_kind_of_system_takes_with_parameters():
         other = s.with_parameters(**{name: value * 1.1})
         assert other.parameters[name] == pytest.approx(value * 1.1)
         assert s.parameters[name] == value
+
+
+def test_a_canonical_system_takes_its_coordinates_by_name():
+    import sympy as sp
+
+    from geomech import CanonicalSystem
+    from geomech.errors import InputError
+
+    q, p = sp.symbols("q p", real=True)
+    by_name = CanonicalSystem.from_expression("p**2/2 + q**4/4", ["q"], ["p"])
+    by_symbol = CanonicalSystem.from_expression(p**2 / 2 + q**4 / 4, [q], [p])
+    assert by_name.expression == by_symbol.expression
+    with pytest.raises(InputError, match="q_symbols"):
+        CanonicalSystem.from_expression("p**2/2", ["q x"], ["p"])

@@ -1,6 +1,7 @@
 """Simulation: ``solve(system, method, ...)``, the integrators (compiled: the fixed-step ones and the Dormand-Prince
 pairs), and exact propagation of one-degree-of-freedom systems by quadrature."""
 
+from ._events import Event
 from ._one_dof import CriticalPoint, OrbitIntegral
 from .methods import (
     BKMM,
@@ -46,6 +47,7 @@ __all__ = [
     "BKMM",
     "DEFAULT_SAVEAT",
     "DiscreteLagrangeDAlembert",
+    "Event",
     "Kind",
     "LagrangeDAlembert",
     "QUANTITIES",

@@ -48,6 +48,8 @@ MODEL_ARRAYS = {
     "gf_all": (1, 1, 2, 1, 2),
     "gf_grads": (1, 1, 1),
     "ghess3": (1, 1, 2),
+    # the event functions g(y) of a run, their values in the first entries of the output (the others ignored)
+    "event": (1, 1),
 }
 MODEL_FUNCTIONS = tuple(MODEL_ARRAYS)
 F_RHS = 0
@@ -57,6 +59,7 @@ F_GHESS = 3
 F_GF_ALL = 4
 F_GF_GRADS = 5
 F_GHESS3 = 6
+F_EVENT = 7
 
 
 @kernel

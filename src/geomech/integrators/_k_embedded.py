@@ -1,6 +1,7 @@
 """Loop template: the adaptive loop of the embedded Runge-Kutta pairs (Dormand-Prince 8(5,3) and 5(4)), with
-error control, outputs by the continuous extension and the exit of the system's chart; the stages, error norms
-and extensions it uses are in ``_k_explicit.py``.
+error control, outputs by the continuous extension, the exit of the system's chart and the events (zeros of
+functions of the state, located on the continuous extension); the stages, error norms and extensions it uses are
+in ``_k_explicit.py``.
 
 See ``_k_common.py`` for the template mechanism.
 """
@@ -64,7 +65,7 @@ EK_H0 = 14  # the first step's probe and Hairer's d1
 EK_D1 = 15
 EK_NONFINITE = 16  # the last attempt was not finite
 EK_LEFT = 17  # ... and outside the chart
-EK_PHASE = 18  # why the extension is computed: 1 the chart's exit, 2 an output inside the step
+EK_PHASE = 18  # why the extension is computed: 1 the chart's exit, 2 an output inside the step, 3 an event
 EK_SIZE = 19
 # W[...]: the work vectors
 EW_Y = 0
@@ -73,6 +74,11 @@ EW_DY = 2
 EW_COMP = 3
 EW_TMP = 4
 EW_OUT = 5
+EW_GOLD = 6  # the event functions at the start of the step
+EW_GNEW = 7  # ... at its end
+EW_GMID = 8  # ... inside it (the root search)
+EW_THETA = 9  # where each event function's zero is in the step (2 where it has none)
+ST_TERMINAL = 9  # the status of a run ended by a terminal event (reported as a success)
 
 
 @kernel
@@ -154,8 +160,9 @@ def erk_outputs(b, TS, OUT, INFO, max_evals, ns, dop853, K, F, W, S):
     t_stop = S[EK_TSTOP]
     tnew = S[EK_TNEW]
     left = S[EK_STATUS] == 6
+    stopped = left or S[EK_STATUS] == ST_TERMINAL
     while k < n and direction * (TS[k] - t_stop) <= 0.0 and not (left and TS[k] == t_stop):
-        if TS[k] == tnew:
+        if TS[k] == tnew and not stopped:
             store(OUT, b, k, W[EW_YNEW])
         else:
             if not S[EK_EXTENDED]:
@@ -166,12 +173,13 @@ def erk_outputs(b, TS, OUT, INFO, max_evals, ns, dop853, K, F, W, S):
             store(OUT, b, k, W[EW_OUT])
         k += 1
     S[EK_K] = k
-    if left:
+    if stopped:
         S[EK_T] = t_stop
     else:
         for i in range(W.shape[1]):
             W[EW_COMP, i] = (W[EW_Y, i] - W[EW_YNEW, i]) + W[EW_DY, i]
             W[EW_Y, i] = W[EW_YNEW, i]
+            W[EW_GOLD, i] = W[EW_GNEW, i]
             K[0, i] = K[ns, i]  # first same as last: f(ynew) starts the next step
         S[EK_T] = tnew
         S[EK_STEPS] += 1
@@ -181,7 +189,105 @@ def erk_outputs(b, TS, OUT, INFO, max_evals, ns, dop853, K, F, W, S):
 
 
 @kernel
-def erk_after(action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns, q, dop853, CH, K, F, W, S):
+def erk_crossed(g0, g1, direction):
+    """Whether an event function went from g0 to g1 through zero in its direction (+1 rising, -1 falling, 0 both):
+    from a nonzero value to zero or past it (a zero at the start of a step is the previous step's)."""
+    rising = g0 < 0.0 and g1 >= 0.0
+    falling = g0 > 0.0 and g1 <= 0.0
+    return (rising and direction >= 0.0) or (falling and direction <= 0.0)
+
+
+@kernel
+def erk_events(b, h, dop853, F, W, S, efp, EDIR, ETERM, EVT, ECOUNT, prm):
+    """The events of the accepted step: each event function's zero on the continuous extension (bisection to the
+    resolution of doubles), recorded in time order in EVT[b] (event, t, state) up to and including the first
+    terminal one; returns the fraction of the step where a terminal event stops the run, or 2 (none)."""
+    ne = EDIR.shape[0]
+    for j in range(ne):
+        W[EW_THETA, j] = 2.0
+        if not erk_crossed(W[EW_GOLD, j], W[EW_GNEW, j], EDIR[j]):
+            continue
+        lo = 0.0
+        hi = 1.0
+        below = W[EW_GOLD, j] < 0.0
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            dense_value(W[EW_Y], F, mid, dop853, W[EW_OUT])
+            call_model(efp, W[EW_OUT], W[EW_GMID], prm)
+            g = W[EW_GMID, j]
+            if (g < 0.0) == below and g != 0.0:
+                lo = mid
+            else:
+                hi = mid
+        W[EW_THETA, j] = hi
+    stop = 2.0
+    for j in range(ne):
+        if ETERM[j] != 0.0 and W[EW_THETA, j] < stop:
+            stop = W[EW_THETA, j]
+    # record in time order, those at or before the stop
+    last = -1.0
+    while True:
+        pick = -1
+        for j in range(ne):
+            th = W[EW_THETA, j]
+            if th <= 1.0 and th > last and th <= stop and (pick < 0 or th < W[EW_THETA, pick]):
+                pick = j
+        if pick < 0:
+            break
+        th = W[EW_THETA, pick]
+        c = int(ECOUNT[b])
+        if c < EVT.shape[1]:
+            EVT[b, c, 0] = pick
+            EVT[b, c, 1] = S[EK_T] + th * h
+            dense_value(W[EW_Y], F, th, dop853, W[EW_OUT])
+            for i in range(W.shape[1]):
+                EVT[b, c, 2 + i] = W[EW_OUT, i]
+        ECOUNT[b] = c + 1
+        # events at the same fraction: each once
+        for j in range(ne):
+            if W[EW_THETA, j] == th and j != pick and th <= stop:
+                c = int(ECOUNT[b])
+                if c < EVT.shape[1]:
+                    EVT[b, c, 0] = j
+                    EVT[b, c, 1] = S[EK_T] + th * h
+                    for i in range(W.shape[1]):
+                        EVT[b, c, 2 + i] = W[EW_OUT, i]
+                ECOUNT[b] = c + 1
+        last = th
+    return stop
+
+
+@kernel
+def erk_after(
+    action,
+    b,
+    t0,
+    TS,
+    OUT,
+    INFO,
+    rtol,
+    atol,
+    max_evals,
+    E,
+    E2,
+    D,
+    ns,
+    q,
+    dop853,
+    CH,
+    K,
+    F,
+    W,
+    S,
+    efp,
+    EDIR,
+    ETERM,
+    EVT,
+    ECOUNT,
+    prm,
+):
     """The control logic after the evaluation ``action``: returns what to evaluate next (ERK_DONE at the end
     of the trajectory, INFO then filled)."""
     n = TS.shape[0]
@@ -224,6 +330,12 @@ def erk_after(action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns,
             # the step leaves the chart: end the run where its continuous extension crosses the bound
             S[EK_PHASE] = 1
             return ERK_EXTEND
+        if EDIR.shape[0] > 0:
+            call_model(efp, W[EW_YNEW], W[EW_GNEW], prm)
+            for j in range(EDIR.shape[0]):
+                if erk_crossed(W[EW_GOLD, j], W[EW_GNEW, j], EDIR[j]):
+                    S[EK_PHASE] = 3
+                    return ERK_EXTEND
         return erk_outputs(b, TS, OUT, INFO, max_evals, ns, dop853, K, F, W, S)
     # ERK_EXTEND: the continuous extension of the step
     S[EK_NFEV] += K.shape[0] - ns - 1
@@ -232,17 +344,50 @@ def erk_after(action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns,
     if S[EK_PHASE] == 1:
         S[EK_TSTOP] = S[EK_T] + chart_exit(W[EW_Y], F, dop853, CH, W[EW_OUT]) * h
         S[EK_STATUS] = 6
+    elif S[EK_PHASE] == 3:
+        stop = erk_events(b, h, dop853, F, W, S, efp, EDIR, ETERM, EVT, ECOUNT, prm)
+        if stop <= 1.0:
+            S[EK_TSTOP] = S[EK_T] + stop * h
+            S[EK_STATUS] = ST_TERMINAL
     return erk_outputs(b, TS, OUT, INFO, max_evals, ns, dop853, K, F, W, S)
 
 
 @kernel
-def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns, q, dop853, CH, PRM):
+def erk_run(
+    fp,
+    Y0,
+    t0,
+    TS,
+    OUT,
+    INFO,
+    rtol,
+    atol,
+    max_evals,
+    A,
+    B,
+    E,
+    E2,
+    D,
+    ns,
+    q,
+    dop853,
+    CH,
+    efp,
+    EDIR,
+    ETERM,
+    EVT,
+    ECOUNT,
+    PRM,
+):
     """Integrate each row of Y0 from t0 by the embedded pair (A, B; error weights E, E2 on the stages and
     f(y1); continuous extension D, its extra stages the rows of A past ns), saving at the times TS (monotone,
     away from t0) by the continuous extension, or exactly where a step ends on one. ``q`` is the order of the
     error estimate; ``dop853`` selects DOP853's blended error estimate and nested continuous extension. A
     state that leaves the chart CH (rows: component, lower, upper bound; none: shape (0, 3)) ends the run
-    where the continuous extension crosses the bound (status 6), the outputs before it kept.
+    where the continuous extension crosses the bound (status 6), the outputs before it kept. The event functions
+    at the address ``efp`` (their directions EDIR and terminal flags ETERM; none: length 0) are located on the
+    continuous extension of each accepted step and recorded in EVT[b] (event, t, state), counted in ECOUNT[b]
+    (beyond EVT's capacity, counted only); a terminal event ends the run there (status 9), the outputs after it NaN.
 
     INFO[b]: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation budget spent), the
     index of the first time of TS not reached, NaN, 0, evaluations of f, the time reached, accepted and
@@ -251,11 +396,14 @@ def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns
     nb, d = Y0.shape
     K = np.empty((A.shape[0], d))
     F = np.empty((D.shape[0], d))
-    W = np.empty((6, d))
+    W = np.empty((10, d))
     S = np.empty(EK_SIZE)
     for b in range(nb):
         prm = param_row(PRM, b)
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)
+        ECOUNT[b] = 0.0
+        if EDIR.shape[0] > 0:
+            call_model(efp, W[EW_Y], W[EW_GOLD], prm)
         while action != ERK_DONE:
             if action == ERK_F0:
                 call_model(fp, W[EW_Y], K[0], prm)
@@ -268,5 +416,30 @@ def erk_run(fp, Y0, t0, TS, OUT, INFO, rtol, atol, max_evals, A, B, E, E2, D, ns
             else:
                 erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], ns + 1, A.shape[0], prm)
             action = erk_after(
-                action, b, t0, TS, OUT, INFO, rtol, atol, max_evals, E, E2, D, ns, q, dop853, CH, K, F, W, S
+                action,
+                b,
+                t0,
+                TS,
+                OUT,
+                INFO,
+                rtol,
+                atol,
+                max_evals,
+                E,
+                E2,
+                D,
+                ns,
+                q,
+                dop853,
+                CH,
+                K,
+                F,
+                W,
+                S,
+                efp,
+                EDIR,
+                ETERM,
+                EVT,
+                ECOUNT,
+                prm,
             )

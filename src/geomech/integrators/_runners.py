@@ -207,10 +207,17 @@ def run_embedded(
     reasons: dict[int, str],
     reached: dict[int, float],
     threads: int,
-) -> tuple[int, float]:
+    events: Any = None,
+    max_events: int = 0,
+) -> tuple[int, float, np.ndarray, np.ndarray]:
     """Each row of ``Y0`` by the compiled Dormand-Prince loop, stopped where it leaves the chart of
-    ``problem_system`` (its ``chart``: component, lower and upper bound); returns (accepted steps, compile
-    time)."""
+    ``problem_system`` (its ``chart``: component, lower and upper bound) or at a terminal event; returns (accepted
+    steps, compile time, the events recorded (B, max_events, 2 + d), their counts (B,))."""
+    from ._events import CompiledEvents
+
+    ev = CompiledEvents.none() if events is None else events
+    EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
+    ECOUNT = np.zeros(Y0.shape[0])
     pair = method.tableau()
     rtol, atol = tolerances
     budget = float(max_evaluations)
@@ -235,15 +242,38 @@ def run_embedded(
             atol,
             1.0,
             *args,
+            0,
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros((1, 0, 2 + Y0.shape[1])),
+            np.zeros(1),
             PRM[:1],
         )
         compile_time = time.perf_counter() - start
+    event_args = (ev.address, ev.directions, ev.terminal)
 
     def call(a: int, b: int) -> None:
-        module.erk_run(fp, Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args, rows(PRM, a, b))
+        module.erk_run(
+            fp,
+            Y0[a:b],
+            t0,
+            times,
+            OUT[a:b],
+            INFO[a:b],
+            rtol,
+            atol,
+            budget,
+            *args,
+            *event_args,
+            EVT[a:b],
+            ECOUNT[a:b],
+            rows(PRM, a, b),
+        )
 
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
         _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
+    stopped = INFO[:, 0] == 9  # by a terminal event: a success, the outputs after it NaN
+    INFO[stopped, 0] = 0
     for row in np.flatnonzero(INFO[:, 0] != 0):
         b = int(row)
         reached[b] = float(INFO[b, 5])
@@ -262,4 +292,4 @@ def run_embedded(
             reasons[b] = f"located by the continuous extension at t = {INFO[b, 5]:.12g}"
         else:
             reasons[b] = f"the state or its error estimate is not finite past t = {INFO[b, 5]:.6g} (a blow-up)"
-    return int(INFO[:, 6].sum()), compile_time
+    return int(INFO[:, 6].sum()), compile_time, EVT, ECOUNT

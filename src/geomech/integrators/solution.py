@@ -185,7 +185,9 @@ class Solution:
     events : mapping of str to ndarray
         What happened between the saved states, located in time, each a table of rows in time order:
         ``chart_switch`` (the Serret-Andoyer atlas): ``(trajectory, t, from axis, to axis)``, the trajectory's
-        flat index in the batch (0 for one trajectory) and the axes 1-based, at the exact time of the switch.
+        flat index in the batch (0 for one trajectory) and the axes 1-based, at the exact time of the switch; the
+        events given to :func:`~geomech.solve`, by their names: ``(trajectory, t, state...)``, the state in the
+        order of ``labels``.
     """
 
     t: np.ndarray

@@ -13,6 +13,7 @@ from ..errors import ConvergenceError, InputError, NumericalError
 from . import _codegen
 from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
 from ._batch import batch_index, initial_states, left_chart, parameter_batch
+from ._events import compile_events, event_table
 from ._problem import Problem, make_problem
 from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic
 from ._times import DEFAULT_SAVEAT, time_grid
@@ -108,6 +109,8 @@ def solve(
     backend: str = "auto",
     threads: int | None = None,
     sensitivities: Any = None,
+    events: Any = None,
+    max_events: int = 1000,
 ) -> Solution:
     """Integrate ``system`` with ``method`` from ``t0`` to ``t_final``.
 
@@ -205,6 +208,16 @@ def solve(
         (``(..., n_save, d, d)``), names of parameters add ``parameter_sensitivity``, ``dy(t)/dp``
         (``(..., n_save, d, k)``, a column per name in the given order). The error control of an adaptive method
         covers them too.
+    events : mapping of str to formula or :class:`~geomech.integrators.Event`, optional
+        Zeros of functions of the state to locate (``dop853`` or ``dopri5``, compiled; a canonical or left-invariant
+        system, or a body with rotors, given by formulas): each a formula in the state's components, by the names of
+        ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's parameters, e.g.
+        ``{"apex": Event("m1", direction=-1)}``. Each zero is found on the continuous extension of the step that
+        crosses it, to the accuracy of the run, and is reported in ``Solution.events[name]`` as a row
+        ``(trajectory, t, state...)``. A terminal event ends its trajectory at its first zero (the saved states
+        after it are NaN, the run a success).
+    max_events : int
+        Events recorded per trajectory (more is an error naming it).
 
     Returns
     -------
@@ -234,7 +247,7 @@ def solve(
         )
     if problem.kind == "group":
         given = (("y0", y0), ("m0", m0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0))
-        for name, value in given + (("shapes", shapes), ("tau", tau), ("parameters", parameters)):
+        for name, value in given + (("shapes", shapes), ("tau", tau), ("parameters", parameters), ("events", events)):
             if value is not None:
                 raise InputError(
                     f"{problem.name} is a body velocity on {system.group.name}: give its start as `g0` (an element or "
@@ -260,6 +273,11 @@ def solve(
                     f"{problem.name} is a Lagrangian system: give its initial state as `q0` with `qdot0`, or "
                     f"with `rdot0` and `p0`; not `{name}`."
                 )
+        if events is not None:
+            raise InputError(
+                f"`events` are located on the compiled continuous extension of a canonical or left-invariant system, "
+                f"or a body with rotors; {problem.name} is a Lagrangian system."
+            )
         from .nonholonomic._solve import solve_lagrangian
 
         solution = solve_lagrangian(
@@ -366,6 +384,26 @@ def solve(
         )
     # the parameter values: one row for all trajectories, or one per trajectory for a batch of them
     PRM = problem.parameter_rows(swept) if swept else np.ascontiguousarray(problem.prm[None, :])
+    compiled_events = None
+    event_rows: dict[str, np.ndarray] = {}
+    if events is not None:
+        if wrt is not None:
+            raise InputError("`events` and `sensitivities` are not taken together; run them apart.")
+        if not isinstance(method, DormandPrince):
+            raise IncompatibleMethodError(
+                f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, dopri5); "
+                f"{method!r} is not one."
+            )
+        if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) or max_events < 1:
+            raise InputError(f"Expected `max_events` to be a positive integer, got {max_events!r}.")
+        V.memory_budget(
+            float(B) * max_events * (d + 2),
+            float(memory_limit),
+            f"Recording {max_events} events of {B} trajectory(ies)",
+            "memory_limit",
+            "lower `max_events`",
+        )
+        compiled_events = compile_events(problem, events, used)
     compile_time = 0.0
     t_start = time.perf_counter()
     reasons: dict[int, str] = {}
@@ -384,7 +422,7 @@ def solve(
         assert tolerances is not None
         budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
         n_threads = threads if threads is not None else (os.cpu_count() or 1)
-        internal, compile_time = run_embedded(
+        internal, compile_time, EVT, ECOUNT = run_embedded(
             module,
             used,
             system,
@@ -400,8 +438,12 @@ def solve(
             reasons,
             reached,
             int(n_threads) if B > 1 else 1,
+            compiled_events,
+            max_events,
         )
         t_start += compile_time
+        if compiled_events is not None:
+            event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
     elif isinstance(method, AdaptiveAdams):
         assert tolerances is not None
         with np.errstate(all="ignore"):
@@ -553,7 +595,7 @@ def solve(
             **dict(getattr(problem.core, "parameters", {}) or {}),
             **{k: v.reshape(batch_shape) for k, v in swept.items()},
         },
-        events={"chart_switch": switches} if isinstance(method, SerretAndoyerAtlas) else {},
+        events={"chart_switch": switches} if isinstance(method, SerretAndoyerAtlas) else event_rows,
     )
     return _finish(solution, raise_on_failure)
 

@@ -14,6 +14,7 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
+from ..errors import InputError
 from ..symbolic.compile import compile_scalar, compile_vector
 from ..symbolic.formula import to_expression
 
@@ -61,7 +62,9 @@ class CanonicalSystem:
         chart: Sequence[tuple[int, float, float]] = (),
         substitutions: Mapping[sp.Symbol, Any] | None = None,
     ) -> CanonicalSystem:
-        """Build from a sympy Hamiltonian; gradient and Hessian are exact (differentiated symbolically)."""
+        """Build from a sympy Hamiltonian (or a formula as text); gradient and Hessian are exact (differentiated
+        symbolically). The coordinates and momenta are symbols, or names (``["q"], ["p"]``)."""
+        q_symbols, p_symbols = _symbols(q_symbols, "q_symbols"), _symbols(p_symbols, "p_symbols")
         names = {s.name: s for s in (*q_symbols, *p_symbols)}
         given = to_expression(expression, "expression", names)
         subs = dict(substitutions or {})
@@ -126,3 +129,18 @@ def _is_number(value: Any) -> bool:
         return bool(np.isfinite(float(value)))
     except (TypeError, ValueError):
         return False
+
+
+def _symbols(values: Any, argname: str) -> tuple[sp.Symbol, ...]:
+    """Symbols, or names made into real symbols; anything else named in the error."""
+    if isinstance(values, (str, sp.Symbol)):
+        values = [values]
+    out = []
+    for v in values:
+        if isinstance(v, str) and v.isidentifier():
+            out.append(sp.Symbol(v, real=True))
+        elif isinstance(v, sp.Symbol):
+            out.append(v)
+        else:
+            raise InputError(f"Expected `{argname}` to hold sympy symbols or names, got {v!r}.")
+    return tuple(out)

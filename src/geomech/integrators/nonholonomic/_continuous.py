@@ -258,7 +258,7 @@ def run_bkmm(
         why: dict[int, str] = {}
         when: dict[int, float] = {}
         rows = PRM if PRM.shape[0] == 1 else PRM[members]
-        n, seconds = run_embedded(
+        n, seconds, _, _ = run_embedded(
             module, "numba", None, rows, pair, Y0[members], t0, times, tolerances, budget, out, info, why, when, threads
         )
         OUT[members], INFO[members] = out, info

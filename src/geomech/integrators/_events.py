@@ -1,0 +1,146 @@
+"""User events of an adaptive run: zeros of functions of the state, located by the continuous extension of the
+compiled embedded pairs (``erk_run`` of ``_k_embedded.py``).
+
+An event is a formula in the state's components, by the names of ``Solution.labels`` (and ``t`` where the time is
+part of the state, as for a torque law that reads it) and the system's parameters; text is parsed by the formula
+whitelist. Its zeros are found on each accepted step's continuous extension by bisection, to the resolution of
+doubles in the step: their error is the method's, at the tolerances of the run. The event functions are compiled
+into one model function ``event`` of their own, called through its address, so that the loop compiles once for
+every model and event set.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..errors import InputError
+from ..symbolic.compile import M_SYMBOLS, FunctionSpec, kernel_source
+from ..symbolic.formula import to_expression
+from . import _codegen
+from ._k_common import F_EVENT
+from ._model_source import R_SYMBOLS
+
+__all__ = ["Event", "CompiledEvents", "compile_events", "event_table"]
+
+
+@dataclass(frozen=True)
+class Event:
+    """A zero of ``expression`` (a formula in the state's components, by the names of the solution's ``labels``, and
+    the system's parameters), crossed in ``direction`` (+1 rising, -1 falling, 0 either); a ``terminal`` event ends
+    the trajectory at its first occurrence (the saved states after it are NaN)."""
+
+    expression: Any
+    direction: int = 0
+    terminal: bool = False
+
+    def __post_init__(self) -> None:
+        if self.direction not in (-1, 0, 1) or isinstance(self.direction, bool):
+            raise InputError(f"Expected an event's `direction` to be -1, 0 or 1, got {self.direction!r}.")
+        if not isinstance(self.terminal, bool):
+            raise InputError(f"Expected an event's `terminal` to be True or False, got {self.terminal!r}.")
+
+
+@dataclass(frozen=True)
+class CompiledEvents:
+    """The events of a run as the loop takes them: the address of their function, directions, terminal flags."""
+
+    names: tuple[str, ...]
+    address: int
+    directions: np.ndarray
+    terminal: np.ndarray
+
+    @classmethod
+    def none(cls) -> CompiledEvents:
+        return cls((), 0, np.zeros(0), np.zeros(0))
+
+
+def _specs(events: Any) -> dict[str, Event]:
+    if not isinstance(events, Mapping) or not events:
+        raise InputError(
+            "Expected `events` to be a mapping name -> formula (or Event(formula, direction, terminal)), e.g. "
+            f"{{'apex': Event('m1', direction=-1)}}; got {events!r}."
+        )
+    out = {}
+    for name, spec in events.items():
+        if not isinstance(name, str) or not name.isidentifier():
+            raise InputError(f"Expected each event's name to be an identifier, got {name!r}.")
+        out[name] = spec if isinstance(spec, Event) else Event(spec)
+    return out
+
+
+def _state_symbols(problem: Any) -> tuple[sp.Symbol, ...]:
+    if problem.kind == "lie_poisson":
+        return tuple(M_SYMBOLS) + (tuple(R_SYMBOLS) if problem.layout == "mR" else ())
+    return tuple(problem.variables)
+
+
+def compile_events(problem: Any, events: Any, backend: str) -> CompiledEvents:
+    """The events of ``events`` (name -> formula or :class:`Event`) compiled for ``problem``'s state; raises
+    :class:`InputError` naming what does not fit."""
+    specs = _specs(events)
+    if problem.kind not in ("canonical", "lie_poisson", "rotor") or problem.model_expression is None:
+        raise InputError(
+            f"`events` are located on the compiled continuous extension of a system given by formulas (canonical, "
+            f"left-invariant, or a body with rotors under a torque law given by formulas); {problem.name} is not one."
+        )
+    if backend == "python" or not _codegen.numba_available():
+        raise InputError("`events` are located in the compiled loops: they need numba (backend 'auto' or 'numba').")
+    state = _state_symbols(problem)
+    if len(specs) > len(state):
+        raise InputError(f"At most {len(state)} events (the state's dimension) in one run, got {len(specs)}.")
+    labels = list(problem.labels) + (["t"] if problem.timed else [])
+    names: dict[str, sp.Symbol] = dict(zip(labels, state))
+    params = tuple(problem.parameter_symbols)
+    inverse: dict[sp.Symbol, sp.Expr] = {}
+    for sym, (name, is_inverse) in zip(params, problem.parameter_recipe):
+        plain = sp.Symbol(name, real=True)
+        if is_inverse:
+            inverse.setdefault(plain, 1 / sym)
+        else:
+            inverse[plain] = sym
+        names.setdefault(name, plain)
+    outputs = []
+    for key, spec in specs.items():
+        expr = to_expression(spec.expression, f"events[{key!r}]", names).xreplace(inverse)
+        unknown = sorted(str(s) for s in expr.free_symbols - set(state) - set(params))
+        if unknown:
+            raise InputError(
+                f"`events[{key!r}]` reads {unknown}, which are neither components of the state ({labels}) nor "
+                f"parameters of {problem.name}."
+            )
+        outputs.append(expr)
+    outputs += [sp.Integer(0)] * (len(state) - len(outputs))
+    source = kernel_source([FunctionSpec("event", (outputs,), state, parameters=params)])
+    module = _codegen.compiled_module(source, "ev")
+    return CompiledEvents(
+        tuple(specs),
+        int(module.addresses(("event",))[F_EVENT]),
+        np.array([float(s.direction) for s in specs.values()]),
+        np.array([float(s.terminal) for s in specs.values()]),
+    )
+
+
+def event_table(
+    events: CompiledEvents, EVT: np.ndarray, ECOUNT: np.ndarray, timed: bool, max_events: int
+) -> dict[str, np.ndarray]:
+    """Solution.events for the recorded rows: for each event a table of rows ``(trajectory, t, state...)`` in time
+    order; raises when a trajectory had more events than ``max_events``."""
+    counts = ECOUNT.astype(int)
+    if counts.size and counts.max() > max_events:
+        b = int(np.argmax(counts))
+        raise InputError(
+            f"Trajectory {b} had {counts[b]} events, more than `max_events` = {max_events}; raise it, or make the "
+            "events rarer (a direction, a terminal event)."
+        )
+    rows: dict[str, list[np.ndarray]] = {name: [] for name in events.names}
+    for b, c in enumerate(counts):
+        for r in EVT[b, :c]:
+            state = r[2:-1] if timed else r[2:]
+            rows[events.names[int(r[0])]].append(np.r_[b, r[1], state])
+    width = EVT.shape[2] - (1 if timed else 0)
+    return {k: (np.array(v) if v else np.zeros((0, width))) for k, v in rows.items()}

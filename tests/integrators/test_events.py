@@ -1,0 +1,112 @@
+"""Events located by the continuous extension of the compiled embedded pairs (``solve(..., events=...)``), against
+the exact solutions they should land on: the free body's elliptic functions and the pendulum's period."""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.special import ellipk
+
+import geomech as gm
+from geomech.errors import InputError
+from geomech.integrators import Event, IncompatibleMethodError
+
+BODY = gm.RigidBody([3.0, 2.0, 1.0])
+M0 = np.array([1.0, 0.3, 0.2])
+
+
+def exact_zeros(f, t_end, n=4000):
+    """The zeros of f on [0, t_end] (sign changes on a fine grid, each refined by Brent's method)."""
+    t = np.linspace(0.0, t_end, n)
+    v = np.array([f(s) for s in t])
+    return np.array(
+        [brentq(f, t[i], t[i + 1], xtol=1e-15) for i in np.flatnonzero(np.sign(v[:-1]) * np.sign(v[1:]) < 0)]
+    )
+
+
+@pytest.fixture(scope="module")
+def exact():
+    return BODY.exact_solution(M0)
+
+
+def test_the_zeros_of_a_component_are_the_exact_solutions(exact):
+    sol = gm.solve(BODY, "dop853", m0=M0, t_final=40.0, rtol=1e-12, atol=1e-12, events={"m2_zero": "m2"})
+    rows = sol.events["m2_zero"]
+    expected = exact_zeros(lambda s: exact.momentum(np.array([s]))[0, 1], 40.0)
+    assert len(rows) == len(expected) >= 4
+    assert np.all(rows[:, 0] == 0)  # one trajectory
+    # the times to the accuracy of the run: |dm2/dt| is of order 0.3 here, the state error of order 1e-11
+    np.testing.assert_allclose(rows[:, 1], expected, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rows[:, 3], 0.0, atol=1e-12)  # the state at the event: m2 = 0
+    np.testing.assert_allclose(rows[:, 2:], exact.momentum(rows[:, 1]), rtol=0, atol=1e-9)
+
+
+def test_a_direction_keeps_one_kind_of_crossing_and_a_terminal_event_ends_the_run(exact):
+    both = gm.solve(BODY, "dop853", m0=M0, t_final=40.0, rtol=1e-11, atol=1e-12, events={"z": "m3"}).events["z"]
+    falling = gm.solve(
+        BODY, "dop853", m0=M0, t_final=40.0, rtol=1e-11, atol=1e-12, events={"z": Event("m3", direction=-1)}
+    ).events["z"]
+    velocity = np.cross(falling[:, 2:], falling[:, 2:] / [3.0, 2.0, 1.0])[:, 2]  # m x grad H
+    assert len(falling) < len(both) and np.all(velocity < 0)
+    np.testing.assert_allclose(falling[:, 1], both[1::2, 1] if both[0, 4] > 0 else both[::2, 1], rtol=0, atol=1e-9)
+    sol = gm.solve(
+        BODY,
+        "dop853",
+        m0=M0,
+        t_final=40.0,
+        saveat=81,
+        rtol=1e-11,
+        atol=1e-12,
+        events={"stop": Event("m3", direction=-1, terminal=True), "m2_zero": "m2"},
+    )
+    stop = sol.events["stop"]
+    assert sol.status == "success" and len(stop) == 1
+    np.testing.assert_allclose(stop[0, 1], falling[0, 1], rtol=0, atol=1e-12)
+    after = sol.t > stop[0, 1]
+    assert np.isnan(sol.m[after]).all() and np.isfinite(sol.m[~after]).all()
+    np.testing.assert_allclose(sol.m[~after], exact.momentum(sol.t[~after]), rtol=0, atol=1e-9)
+    # the other events up to the stop only
+    assert np.all(sol.events["m2_zero"][:, 1] <= stop[0, 1])
+
+
+def test_the_pendulum_crosses_its_bottom_once_a_period():
+    """H = p^2/2 - cos q from (q, p) = (a, 0): q = 0 is crossed upwards every T = 4 K(sin^2(a/2))."""
+    pendulum = gm.CanonicalSystem.from_expression("p**2/2 - cos(q)", ["q"], ["p"])
+    a = 2.0
+    sol = gm.solve(
+        pendulum, "dopri5", y0=[a, 0.0], t_final=60.0, rtol=1e-11, atol=1e-12, events={"up": Event("q", direction=1)}
+    )
+    times = sol.events["up"][:, 1]
+    T = 4.0 * ellipk(np.sin(a / 2) ** 2)
+    assert len(times) >= 5
+    np.testing.assert_allclose(np.diff(times), T, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(sol.events["up"][:, 3], np.sqrt(2 * (1 - np.cos(a))), rtol=1e-9)  # p at the bottom
+
+
+def test_a_batch_reports_each_trajectory_and_events_read_parameters():
+    m0 = np.array([[1.0, 0.3, 0.2], [0.2, 0.3, 1.0]])
+    sol = gm.solve(
+        BODY, "dop853", m0=m0, t_final=20.0, rtol=1e-10, atol=1e-12, events={"energy_level": "m1**2/I1 - 0.3"}
+    )
+    rows = sol.events["energy_level"]
+    assert set(rows[:, 0]) <= {0.0, 1.0} and (rows[:, 0] == 0).any()
+    np.testing.assert_allclose(rows[:, 2] ** 2 / 3.0, 0.3, rtol=1e-9)
+    for b in (0, 1):
+        assert np.all(np.diff(rows[rows[:, 0] == b, 1]) > 0)  # time order within a trajectory
+
+
+def test_bad_events_are_named():
+    run = dict(m0=M0, t_final=5.0, rtol=1e-10, atol=1e-12)
+    with pytest.raises(InputError, match="x9"):
+        gm.solve(BODY, "dop853", events={"e": "m1 - x9"}, **run)
+    with pytest.raises(IncompatibleMethodError, match="dop853"):
+        gm.solve(BODY, "rk4", m0=M0, t_final=1.0, h=0.1, events={"e": "m1"})
+    with pytest.raises(InputError, match="direction"):
+        Event("m1", direction=2)
+    with pytest.raises(InputError, match="mapping"):
+        gm.solve(BODY, "dop853", events="m1", **run)
+    with pytest.raises(InputError, match="max_events"):
+        gm.solve(BODY, "dop853", events={"e": "m2"}, max_events=1, **{**run, "t_final": 40.0})
+    with pytest.raises(InputError, match="Lagrangian"):
+        from geomech.systems.nonholonomic_examples import chaplygin_sleigh
+
+        gm.solve(chaplygin_sleigh(), "bkmm", q0=[0.0, 0.0, 0.0], p0=[1.0], t_final=1.0, rtol=1e-8, events={"e": "x"})
