@@ -106,7 +106,43 @@ def test_bad_events_are_named():
         gm.solve(BODY, "dop853", events="m1", **run)
     with pytest.raises(InputError, match="max_events"):
         gm.solve(BODY, "dop853", events={"e": "m2"}, max_events=1, **{**run, "t_final": 40.0})
-    with pytest.raises(InputError, match="Lagrangian"):
-        from geomech.systems.nonholonomic_examples import chaplygin_sleigh
 
-        gm.solve(chaplygin_sleigh(), "bkmm", q0=[0.0, 0.0, 0.0], p0=[1.0], t_final=1.0, rtol=1e-8, events={"e": "x"})
+
+SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+GAIT = {"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+
+
+def test_a_gait_returning_to_its_start_and_a_group_coordinate_crossing_a_value():
+    """The snakeboard under a periodic gait: psi (prescribed) returns to 0 rising at every whole period; the heading
+    theta (integrated) reaches a value where a run stopped at that time ends on it."""
+    from geomech.systems.nonholonomic_examples import snakeboard
+
+    board = snakeboard(**SNAKE)
+    run = dict(t_final=3.5, shapes=GAIT, parameters={"a": 1.0}, rtol=1e-11, atol=1e-12)
+    sol = gm.solve(
+        board, "bkmm", events={"period": Event("psi", direction=1), "turn": Event("theta - 0.2", terminal=True)}, **run
+    )
+    period, turn = sol.events["period"], sol.events["turn"]
+    assert sol.status == "success" and len(turn) == 1
+    t_turn = turn[0, 1]
+    whole = np.arange(1.0, np.floor(t_turn) + 1)
+    np.testing.assert_allclose(period[:, 1], whole, rtol=0, atol=1e-12)  # the gait's zeros, exactly
+    labels = list(sol.labels)
+    np.testing.assert_allclose(turn[0, 2 + labels.index("theta")], 0.2, atol=1e-12)
+    # a second route: the run that ends at that time ends where the event row says
+    again = gm.solve(board, "bkmm", **{**run, "t_final": t_turn})
+    np.testing.assert_allclose(turn[0, 2:], again.states[-1], rtol=0, atol=1e-8)
+    after = sol.t > t_turn
+    assert np.isnan(sol.states[after]).all() and np.isfinite(sol.states[~after]).all()
+    # a batch over the gait's amplitude: each member's events, in its own rows
+    batch = gm.solve(
+        board,
+        "bkmm",
+        events={"period": Event("psi", direction=1)},
+        **{**run, "parameters": {"a": np.array([0.8, 1.2])}},
+    )
+    rows = batch.events["period"]
+    for b in (0, 1):
+        np.testing.assert_allclose(rows[rows[:, 0] == b, 1], [1.0, 2.0, 3.0], rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match="BKMM"):
+        gm.solve(board, "lagrange_dalembert", events={"e": "x"}, **run)

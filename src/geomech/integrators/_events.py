@@ -25,7 +25,7 @@ from . import _codegen
 from ._k_common import F_EVENT
 from ._model_source import R_SYMBOLS
 
-__all__ = ["Event", "CompiledEvents", "compile_events", "event_table"]
+__all__ = ["Event", "CompiledEvents", "compile_bkmm_events", "compile_events", "event_table", "events_need_compiled"]
 
 
 @dataclass(frozen=True)
@@ -116,6 +116,79 @@ def compile_events(problem: Any, events: Any, backend: str) -> CompiledEvents:
         outputs.append(expr)
     outputs += [sp.Integer(0)] * (len(state) - len(outputs))
     source = kernel_source([FunctionSpec("event", (outputs,), state, parameters=params)])
+    module = _codegen.compiled_module(source, "ev")
+    return CompiledEvents(
+        tuple(specs),
+        int(module.addresses(("event",))[F_EVENT]),
+        np.array([float(s.direction) for s in specs.values()]),
+        np.array([float(s.terminal) for s in specs.values()]),
+    )
+
+
+def events_need_compiled(name: str) -> str:
+    return (
+        f"`events` of {name} are located on the compiled continuous extension of BKMM: method BKMM with solver "
+        "'DOP853' or 'RK45', the gait and torques as formulas, numba installed, backend 'auto' or 'numba'."
+    )
+
+
+def compile_bkmm_events(setup: Any, made: Any, m: int, events: Any) -> CompiledEvents:
+    """The events of a Lagrangian system run by the compiled BKMM loop, whose state is ``(g, r_F, rdot_F, p, W, t)``
+    (group coordinates, free shapes and their rates, the nonholonomic momenta ``p0, p1, ...``, the work, the time)
+    and whose ``prm`` holds the system's parameters, the numbers of the gait and torques, then their coefficients:
+    formulas in the group coordinates, every shape and its rate (a prescribed shape's from its gait), the momenta,
+    ``t``, the parameters and the coefficients."""
+    from ..systems.gait import T_SYMBOL
+
+    specs = _specs(events)
+    system = setup.system
+    k, F = system.k, list(setup.free_shapes)
+    names: dict[str, Any] = {}
+    state: list[sp.Symbol] = []
+
+    def slot(name: str | None) -> sp.Symbol:
+        sym = sp.Symbol(f"_y{len(state)}", real=True)
+        state.append(sym)
+        if name is not None:
+            names[name] = sym
+        return sym
+
+    for q in system.q[:k]:
+        slot(q.name)
+    for i in F:
+        slot(system.q[k + i].name)
+    for i in F:
+        slot(system.qdot[k + i].name)
+    for i in range(m):
+        slot(f"p{i}")
+    slot(None)  # the work
+    t = slot("t")
+    n_state = len(state)
+    for j, i in enumerate(setup.prescribed):
+        form = setup.gait_forms[j].xreplace({T_SYMBOL: t})
+        names[system.q[k + i].name] = form
+        names[system.qdot[k + i].name] = sp.diff(form, t)
+    prm = [sp.Symbol(name, real=True) for name in made.parameters]
+    prm += [sp.Symbol(f"_constant{i}", real=True) for i in range(len(made.constants))]
+    prm += [sp.Symbol(name, real=True) for name in made.coefficients]
+    by_name = {s.name: s for s in prm if not s.name.startswith("_constant")}
+    outputs = []
+    for key, spec in specs.items():
+        parsed = to_expression(spec.expression, f"events[{key!r}]", {**by_name, **{n: sp.Symbol(n) for n in names}})
+        expr = parsed.xreplace({sp.Symbol(n): v for n, v in names.items()})
+        expr = expr.xreplace({s: by_name[s.name] for s in expr.free_symbols if s.name in by_name})
+        unknown = sorted(str(s) for s in expr.free_symbols - set(state) - set(prm))
+        if unknown:
+            raise InputError(
+                f"`events[{key!r}]` reads {unknown}, which are neither the BKMM state of {system.name} (the group "
+                f"coordinates, the shapes and their rates, the momenta p0, p1, ..., t) nor its parameters or the "
+                "gait's coefficients."
+            )
+        outputs.append(expr)
+    if len(outputs) > n_state:
+        raise InputError(f"At most {n_state} events (the state's dimension) in one run, got {len(outputs)}.")
+    outputs += [sp.Integer(0)] * (n_state - len(outputs))
+    source = kernel_source([FunctionSpec("event", (outputs,), tuple(state), parameters=tuple(prm))])
     module = _codegen.compiled_module(source, "ev")
     return CompiledEvents(
         tuple(specs),

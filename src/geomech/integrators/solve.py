@@ -212,7 +212,10 @@ def solve(
         Zeros of functions of the state to locate (``dop853`` or ``dopri5``, compiled; a canonical or left-invariant
         system, or a body with rotors, given by formulas): each a formula in the state's components, by the names of
         ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's parameters, e.g.
-        ``{"apex": Event("m1", direction=-1)}``. Each zero is found on the continuous extension of the step that
+        ``{"apex": Event("m1", direction=-1)}``. For a Lagrangian system, with ``BKMM`` compiled: formulas in the
+        group coordinates, the shapes and their rates (a prescribed shape's from its gait), the momenta ``p0, p1,
+        ...``, ``t``, the parameters and the gait's coefficients (``Event("psi", direction=1)``: the gait back at
+        its start). Each zero is found on the continuous extension of the step that
         crosses it, to the accuracy of the run, and is reported in ``Solution.events[name]`` as a row
         ``(trajectory, t, state...)``. A terminal event ends its trajectory at its first zero (the saved states
         after it are NaN, the run a success).
@@ -228,6 +231,8 @@ def solve(
         raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
     problem = make_problem(system, attitude=R0 is not None)
     _check_compatible(problem, method)
+    if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) or max_events < 1:
+        raise InputError(f"Expected `max_events` to be a positive integer, got {max_events!r}.")
     times = time_grid(method, t0, t_final, h, saveat, rtol, atol)
     t0 = float(t0)
     tol = V.positive_scalar(newton_tol, "newton_tol")
@@ -273,11 +278,6 @@ def solve(
                     f"{problem.name} is a Lagrangian system: give its initial state as `q0` with `qdot0`, or "
                     f"with `rdot0` and `p0`; not `{name}`."
                 )
-        if events is not None:
-            raise InputError(
-                f"`events` are located on the compiled continuous extension of a canonical or left-invariant system, "
-                f"or a body with rotors; {problem.name} is a Lagrangian system."
-            )
         from .nonholonomic._solve import solve_lagrangian
 
         solution = solve_lagrangian(
@@ -300,6 +300,8 @@ def solve(
             max_newton=int(max_newton),
             backend=backend,
             threads=threads,
+            events=events,
+            max_events=max_events,
         )
         return _finish(solution, raise_on_failure)
     for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):
@@ -394,8 +396,6 @@ def solve(
                 f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, dopri5); "
                 f"{method!r} is not one."
             )
-        if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) or max_events < 1:
-            raise InputError(f"Expected `max_events` to be a positive integer, got {max_events!r}.")
         V.memory_budget(
             float(B) * max_events * (d + 2),
             float(memory_limit),

@@ -91,6 +91,8 @@ class BKMMSource:
     coefficients: tuple[str, ...]
     #: the width of a row of :func:`observe`'s output: q, qdot, the shape forces, the energy, the constraints
     observed: int
+    #: the number of coordinates q (the observation starts with q and qdot)
+    n: int = 0
 
     def rows(self, values: Mapping[str, Any], B: int) -> np.ndarray:
         """The ``prm`` rows of a batch of ``B`` members (one row where no value is an array): each name's value,
@@ -173,6 +175,7 @@ def _source(setup: Any, reduction: Any) -> BKMMSource:
         np.array(list(table.values()), dtype=float),
         setup.coefficients,
         2 * system.n + system.sigma + 1 + system.c,
+        system.n,
     )
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -23,6 +23,7 @@ from .._adaptive import (
     integrate_ivp,
     projected_cost_error,
 )
+from .._events import compile_bkmm_events, event_table, events_need_compiled
 from .._runners import INFO_COLUMNS, run_embedded
 from ..solution import Failure, Status
 from ._compiled import COMPILED_SOLVERS, bkmm_module, compiled_pair, observe
@@ -99,6 +100,8 @@ def run_reduced(
     max_evaluations: Any,
     parameters: Mapping[str, float] | None,
     backend: str = "auto",
+    events: Any = None,
+    max_events: int = 0,
 ) -> _Raw:
     """The BKMM equations (1.1)-(1.3): momentum, shape and reconstruction; the state is
     ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`.
@@ -162,6 +165,8 @@ def run_reduced(
             + ("" if pair is None else ", and a gait or torque given as a Python callable")
             + "."
         )
+    if compiled is None and events is not None:
+        raise InputError(events_need_compiled(system.name))
     if compiled is not None:
         module, made = compiled
         run = run_bkmm(
@@ -175,6 +180,8 @@ def run_reduced(
             tolerances,
             max_evaluations,
             1,
+            None if events is None else compile_bkmm_events(setup, made, m, events),
+            max_events,
         )
         failure = run.failures[0][1] if run.failures else None
         return run.raw(setup, m, 0, failure)
@@ -197,6 +204,7 @@ class BKMMRun:
     steps: int
     compile_time: float
     loop_time: float
+    events: dict[str, np.ndarray] = field(default_factory=dict)
 
     def raw(self, setup: _Setup, m: int, b: int, failure: Failure | None) -> _Raw:
         """Member ``b`` as the engines' :class:`_Raw`, its quantities included."""
@@ -218,6 +226,7 @@ class BKMMRun:
             energy=w[:, 2 * n + sigma],
             momentum=y[:, k_p : k_p + m],
             residual=w[:, 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
+            events=self.events,
         )
 
 
@@ -232,11 +241,14 @@ def run_bkmm(
     tolerances: tuple[float, float],
     max_evaluations: Any,
     threads: int,
+    events: Any = None,
+    max_events: int = 0,
 ) -> BKMMRun:
     """The BKMM states ``Y0`` (rows ``(g, r_F, rdot_F, p, W)``, one per member; ``PRM`` one row for all or one per
     member) at ``times`` by the compiled pair of ``method.solver``, the time appended to the state (its rate 1), the
     members over ``threads``; each member's work bounded before it is done (a pilot of its first evaluations, its
-    pace projected to the end, as in Python), its failure its own."""
+    pace projected to the end, as in Python), its failure its own. ``events`` (compiled for this state) are located
+    and returned as rows ``(member, t, q, qdot)``."""
     limit = float(
         V.positive_scalar(MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations, "max_evaluations")
     )
@@ -258,10 +270,28 @@ def run_bkmm(
         why: dict[int, str] = {}
         when: dict[int, float] = {}
         rows = PRM if PRM.shape[0] == 1 else PRM[members]
-        n, seconds, _, _ = run_embedded(
-            module, "numba", None, rows, pair, Y0[members], t0, times, tolerances, budget, out, info, why, when, threads
+        n, seconds, evt, count = run_embedded(
+            module,
+            "numba",
+            None,
+            rows,
+            pair,
+            Y0[members],
+            t0,
+            times,
+            tolerances,
+            budget,
+            out,
+            info,
+            why,
+            when,
+            threads,
+            events,
+            max_events,
         )
         OUT[members], INFO[members] = out, info
+        if events is not None:
+            EVT[members], ECOUNT[members] = evt, count
         for i, b in enumerate(members.tolist()):
             reasons.pop(b, None)
             reached.pop(b, None)
@@ -272,6 +302,8 @@ def run_bkmm(
     # the work is bounded before it is done: a pilot of a few members (spread over the batch), their pace projected
     # to the end (as in Python); the members it finished are kept, the others run with the budget
     pilot = np.array(sorted({int(i) for i in np.linspace(0, B - 1, min(B, 8))}), dtype=int)
+    EVT = np.zeros((B, max_events if events is not None else 0, 2 + d))
+    ECOUNT = np.zeros(B)
     steps, compile_time = run(pilot, min(limit, PILOT))
     spent = pilot[INFO[pilot, 0] == 8] if limit > PILOT else np.zeros(0, dtype=int)
     if spent.size:
@@ -311,4 +343,17 @@ def run_bkmm(
         else:
             detail = reasons[b]
         failures.append((b, Failure(kind, (), int(INFO[b, 1]), float(INFO[b, 5]), float("nan"), detail)))
-    return BKMMRun(OUT[..., :-1], OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time)
+    table: dict[str, np.ndarray] = {}
+    if events is not None:
+        # each event's state (g, r_F, rdot_F, p, W, t) shown as the solution's (q, qdot)
+        table = event_table(events, EVT, ECOUNT, False, max_events)
+        n_q = 2 * made.n
+        for name, rows in table.items():
+            if rows.size:
+                Y = np.ascontiguousarray(rows[:, 2:])
+                per_member = PRM if PRM.shape[0] == 1 else PRM[rows[:, 0].astype(int)]
+                shown = observe(module, made, Y, np.ascontiguousarray(per_member), 1)[:, :n_q]
+                table[name] = np.concatenate([rows[:, :2], shown], axis=1)
+            else:
+                table[name] = np.zeros((0, 2 + n_q))
+    return BKMMRun(OUT[..., :-1], OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time, table)

@@ -17,6 +17,7 @@ from ...errors import InputError
 from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
+from .._events import compile_bkmm_events, events_need_compiled
 from .._times import Times
 from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
@@ -52,11 +53,15 @@ def solve_lagrangian(
     max_newton: int,
     backend: str = "auto",
     threads: int | None = None,
+    events: Any = None,
+    max_events: int = 1000,
 ) -> Solution:
     """Integrate a :class:`~geomech.systems.NonholonomicSystem` with one of the Lagrangian methods (internal:
     :func:`~geomech.solve` has checked the method and the times)."""
     setup = _setup(system, shapes, tau, parameters)
     check_parameter_names(setup, parameters)
+    if events is not None and not isinstance(method, BKMM):
+        raise InputError(events_need_compiled(system.name) + f" Got {method!r}.")
     shape = _batch_shape(parameters, q0, rdot0, p0)
     if shape is not None:
         return _solve_batch(
@@ -75,6 +80,8 @@ def solve_lagrangian(
             memory_limit=memory_limit,
             backend=backend,
             threads=threads,
+            events=events,
+            max_events=max_events,
         )
     q_init, qd_init = initial_state(
         system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
@@ -120,7 +127,18 @@ def solve_lagrangian(
             raw = run_hamiltonian(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
         else:
             raw = run_reduced(
-                setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend
+                setup,
+                q_init,
+                qd_init,
+                t0,
+                times.t,
+                method,
+                tolerances,
+                max_evaluations,
+                parameters,
+                backend,
+                events,
+                max_events,
             )
         n_rhs, internal = raw.nfev, raw.steps
     run_time = time.perf_counter() - start
@@ -158,6 +176,7 @@ def solve_lagrangian(
         ),
         parameters={k.name: float(v) for k, v in system.parameter_values(parameters).items()},
         group_dim=system.k,
+        events=raw.events,
     )
 
 
@@ -209,6 +228,8 @@ def _solve_batch(
     memory_limit: float,
     backend: str,
     threads: int | None,
+    events: Any = None,
+    max_events: int = 1000,
 ) -> Solution:
     """A batch of trajectories (over initial states, the system's parameters and the coefficients of the gait and
     torques) in one call of the compiled BKMM loop, across threads."""
@@ -262,7 +283,21 @@ def _solve_batch(
     start = observe(module, made, np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1), PRM, 1)
     _require_positive_kinetic_energy(system, start[:, : system.n], arrays, members=f" {shape}")
     n_threads = threads if threads is not None else (os.cpu_count() or 1)
-    run = run_bkmm(module, made, PRM, Y0, t0, times.t, method, tolerances, max_evaluations, int(n_threads))
+    compiled_events = None if events is None else compile_bkmm_events(setup, made, m, events)
+    run = run_bkmm(
+        module,
+        made,
+        PRM,
+        Y0,
+        t0,
+        times.t,
+        method,
+        tolerances,
+        max_evaluations,
+        int(n_threads),
+        compiled_events,
+        max_events,
+    )
     n, sigma, c = system.n, system.sigma, system.c
     W = run.observed
     k_p = k + 2 * len(F)
@@ -306,4 +341,5 @@ def _solve_batch(
         ),
         parameters={key: (v.reshape(shape) if v.ndim else float(v)) for key, v in arrays.items()},
         group_dim=system.k,
+        events=run.events,
     )

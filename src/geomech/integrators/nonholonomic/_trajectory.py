@@ -5,7 +5,7 @@ and constraint forces at one state."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -35,6 +35,7 @@ class _Raw:
     loop_time: float | None = None  # the compiled loop alone, where there is one
     energy: np.ndarray | None = None  # where the engine computed them (the compiled BKMM's observation)
     momentum: np.ndarray | None = None
+    events: dict[str, np.ndarray] = field(default_factory=dict)  # Solution.events (the compiled BKMM's)
 
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:
