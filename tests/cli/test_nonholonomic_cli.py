@@ -242,3 +242,26 @@ def test_derive_text_has_no_python_reprs_and_fits_a_terminal(capsys):
     assert "shape: psi, phi" in lines
     # a matrix row by row, its size said
     assert any(line.startswith("locked inertia I(r) = (") for line in lines)
+
+
+def test_simulate_lists_the_events_of_a_gait_and_of_a_hamiltonian(capsys):
+    """--event: the zeros of formulas in the state, with the reduced method of a model (the gait back at its start
+    every period) and with dop853 on a Hamiltonian (the free body's m2 = 0, as the library finds them)."""
+    code, out, err = _run(
+        capsys, "simulate", "snakeboard", *SNAKE_ARGS[:-2], "--method", "reduced", "--t-final", "2.25",
+        "--event", "back=psi", "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    back = json.loads(out)["events"]["back"]
+    # psi = sin(2 pi t): zero at every half period (t = 0 itself is the start, not a crossing)
+    np.testing.assert_allclose([e["t"] for e in back], [0.5, 1.0, 1.5, 2.0], atol=1e-9)
+    assert set(back[0]["state"]) >= {"x", "y", "theta", "psi", "phi", "psi_dot"}
+    code, out, err = _run(
+        capsys, "simulate", "--hamiltonian", "m1**2/6 + m2**2/4 + m3**2/2", "--momentum", "1", "0.3", "0.2",
+        "--method", "dop853", "--t-final", "25", "--event", "flip=m2", "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    flips = json.loads(out)["events"]["flip"]
+    assert len(flips) >= 2 and all(abs(e["state"]["m2"]) < 1e-10 for e in flips)
+    code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "full", "--event", "back=psi")
+    assert code == 2 and "BKMM" in err and len(err.strip().splitlines()) == 1

@@ -34,6 +34,7 @@ def simulate_hamiltonian(
     as_json: bool,
     out: Path | None,
     html: Path | None = None,
+    events: dict[str, Any] | None = None,
 ) -> None:
     """Integrate Euler's equation m' = m x grad H(m) (and R' = R hat(grad H) with ``attitude``) from ``momentum``
     by ``method`` (any key of geomech.solve that fits; ``geomech methods --hamiltonian ...`` lists them)."""
@@ -51,6 +52,8 @@ def simulate_hamiltonian(
     kw: dict[str, Any] = {"m0": np.asarray(momentum, dtype=float), "t_final": t_final, "raise_on_failure": False}
     if attitude:
         kw["R0"] = np.eye(3)
+    if events is not None:
+        kw["events"] = events
     if kind is Kind.FIXED_STEP:
         n = t_final / step
         if not abs(n - round(n)) <= 1e-9 * max(1.0, n):
@@ -87,6 +90,10 @@ def simulate_hamiltonian(
         "attitude": bool(attitude),
         "stats": {k: v for k, v in sol.stats.items() if isinstance(v, (int, float, str))},
     }
+    if events is not None:
+        from .nonholonomic import events_json
+
+        detail["events"] = events_json(sol)
     if attitude:
         R = np.asarray(sol.R)
         pi = np.einsum("nij,nj->ni", R, m)

@@ -306,6 +306,14 @@ def _plain(value: Any) -> str:
     show_default=True,
     help="Refuse discrete runs of more steps ((t_final) / h).",
 )
+@click.option(
+    "--event",
+    "event_specs",
+    multiple=True,
+    metavar="NAME=FORMULA",
+    help="Locate the zeros of FORMULA in the state (e.g. 'back=psi', 'east=x - 1') and list their times and states "
+    "(repeatable; --method reduced, or dop853/dopri5 with --hamiltonian).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @out_option("Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
 @html_option(
@@ -331,6 +339,7 @@ def simulate_cmd(
     samples,
     max_evaluations,
     max_steps,
+    event_specs,
     as_json,
     out,
     html,
@@ -345,6 +354,7 @@ def simulate_cmd(
     """
     from ..integrators import Kind, get_method, solve
 
+    events = _pairs(event_specs, "--event", False) or None
     if hamiltonian is not None:
         from .hamiltonian import simulate_hamiltonian
 
@@ -367,6 +377,7 @@ def simulate_cmd(
             as_json,
             out,
             html,
+            events,
         )
         return
     if method not in _MODEL_METHODS:
@@ -383,6 +394,8 @@ def simulate_cmd(
         rdot0=_pairs(rdot0s, "--rdot0", True),
         p0=None if p0 is None else list(p0),
     )
+    if events is not None:
+        kw["events"] = events
     require_values(system)
     if html is not None and system.group.name != "SE(2)":
         raise InputError(
@@ -426,6 +439,8 @@ def simulate_cmd(
         raise NumericalError(sol.message)
     label = _method_label(sol, step)
     detail = _summary(sol, label)
+    if events is not None:
+        detail["events"] = events_json(sol)
     head = {k: detail.pop(k) for k in _HEADLINE}
     doc = document("simulate", head, {"initial_state": start, **detail})
     outputs = None
@@ -485,6 +500,14 @@ def _method_label(sol, step: float) -> str:
         return f"Hamilton's equations on FL(D), {m.form.replace('_', '-')} form ({m.solver})"
     assert isinstance(m, DiscreteLagrangeDAlembert)
     return f"discrete Lagrange-d'Alembert ({m.discretization}, h = {step:.3g})"
+
+
+def events_json(sol) -> dict[str, list[dict[str, Any]]]:
+    """A run's events (one trajectory) as JSON: for each name, the times and the states (by label) in time order."""
+    return {
+        name: [{"t": float(r[1]), "state": {k: float(x) for k, x in zip(sol.labels, r[2:])}} for r in rows]
+        for name, rows in sol.events.items()
+    }
 
 
 def _summary(sol, label: str) -> dict[str, Any]:
