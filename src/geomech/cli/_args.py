@@ -373,3 +373,11 @@ def one_model(model: str | None, model_file: str | None) -> str:
 def is_model_file(model: str) -> bool:
     """Whether ``model`` names a model file rather than a built-in model."""
     return model.endswith(".py") or Path(model).is_file()
+
+
+def events_json(sol: Any) -> dict[str, list[dict[str, Any]]]:
+    """A run's events (one trajectory) as JSON: for each name, the times and the states (by label) in time order."""
+    return {
+        name: [{"t": float(r[1]), "state": {k: float(x) for k, x in zip(sol.labels, r[2:])}} for r in rows]
+        for name, rows in sol.events.items()
+    }

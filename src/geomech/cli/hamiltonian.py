@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InputError, NumericalError
 from ..symbolic.formula import parse_formula
-from ._args import Outputs, document, emit
+from ._args import Outputs, document, emit, events_json
 from ._progress import activity
 
 __all__ = ["simulate_hamiltonian"]
@@ -91,8 +91,6 @@ def simulate_hamiltonian(
         "stats": {k: v for k, v in sol.stats.items() if isinstance(v, (int, float, str))},
     }
     if events is not None:
-        from .nonholonomic import events_json
-
         detail["events"] = events_json(sol)
     if attitude:
         R = np.asarray(sol.R)

@@ -22,6 +22,7 @@ from ._args import (
     Outputs,
     document,
     emit,
+    events_json,
     html_option,
     is_model_file,
     model_argument,
@@ -500,14 +501,6 @@ def _method_label(sol, step: float) -> str:
         return f"Hamilton's equations on FL(D), {m.form.replace('_', '-')} form ({m.solver})"
     assert isinstance(m, DiscreteLagrangeDAlembert)
     return f"discrete Lagrange-d'Alembert ({m.discretization}, h = {step:.3g})"
-
-
-def events_json(sol) -> dict[str, list[dict[str, Any]]]:
-    """A run's events (one trajectory) as JSON: for each name, the times and the states (by label) in time order."""
-    return {
-        name: [{"t": float(r[1]), "state": {k: float(x) for k, x in zip(sol.labels, r[2:])}} for r in rows]
-        for name, rows in sol.events.items()
-    }
 
 
 def _summary(sol, label: str) -> dict[str, Any]:
