@@ -126,3 +126,6 @@ def test_backend_is_checked():
         stability_map(family, ("k", [0.1, 0.2]), ("a", [0.0, 0.1]), backend="fortran")
     with pytest.raises(InputError, match="no formula"):
         stability_map(lambda **v: family(**v), ("k", [0.1, 0.2]), ("a", [0.0, 0.1]), backend="numba")
+    callable_system = LeftInvariantSystem.from_callable(lambda m: 0.5 * (m * m).sum(-1), lambda m: m)
+    with pytest.raises(InputError, match="from_expression"):
+        callable_system.family()

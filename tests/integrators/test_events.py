@@ -146,3 +146,16 @@ def test_a_gait_returning_to_its_start_and_a_group_coordinate_crossing_a_value()
         np.testing.assert_allclose(rows[rows[:, 0] == b, 1], [1.0, 2.0, 3.0], rtol=0, atol=1e-12)
     with pytest.raises(InputError, match="BKMM"):
         gm.solve(board, "lagrange_dalembert", events={"e": "x"}, **run)
+
+
+def test_events_at_the_same_instant_are_each_recorded():
+    """Two formulas with the same zeros (m2 and -2 m2) cross in the same step at the same fraction: each is listed,
+    at the same time, and a terminal one stops both there."""
+    run = dict(m0=M0, t_final=25.0, rtol=1e-11, atol=1e-12)
+    sol = gm.solve(BODY, "dop853", events={"a": "m2", "b": "-2*m2"}, **run)
+    a, b = sol.events["a"], sol.events["b"]
+    assert len(a) == len(b) >= 2
+    np.testing.assert_array_equal(a[:, 1], b[:, 1])
+    stopped = gm.solve(BODY, "dop853", events={"a": "m2", "b": Event("-2*m2", terminal=True)}, **run)
+    assert len(stopped.events["a"]) == len(stopped.events["b"]) == 1
+    assert stopped.events["a"][0, 1] == stopped.events["b"][0, 1] == a[0, 1]

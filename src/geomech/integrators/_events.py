@@ -91,8 +91,6 @@ def compile_events(problem: Any, events: Any, backend: str) -> CompiledEvents:
     if backend == "python" or not _codegen.numba_available():
         raise InputError("`events` are located in the compiled loops: they need numba (backend 'auto' or 'numba').")
     state = _state_symbols(problem)
-    if len(specs) > len(state):
-        raise InputError(f"At most {len(state)} events (the state's dimension) in one run, got {len(specs)}.")
     labels = list(problem.labels) + (["t"] if problem.timed else [])
     names: dict[str, sp.Symbol] = dict(zip(labels, state))
     params = tuple(problem.parameter_symbols)
@@ -114,8 +112,16 @@ def compile_events(problem: Any, events: Any, backend: str) -> CompiledEvents:
                 f"parameters of {problem.name}."
             )
         outputs.append(expr)
-    outputs += [sp.Integer(0)] * (len(state) - len(outputs))
-    source = kernel_source([FunctionSpec("event", (outputs,), state, parameters=params)])
+    return _compiled(specs, outputs, state, params)
+
+
+def _compiled(specs: Mapping[str, Event], outputs: list, state: tuple, params: tuple) -> CompiledEvents:
+    """The event formulas ``outputs`` (one per spec, in the state's and the parameters' symbols) as one compiled
+    model function ``event`` (its output as long as the state: zeros past the events), and its address."""
+    if len(outputs) > len(state):
+        raise InputError(f"At most {len(state)} events (the state's dimension) in one run, got {len(outputs)}.")
+    outputs = list(outputs) + [sp.Integer(0)] * (len(state) - len(outputs))
+    source = kernel_source([FunctionSpec("event", (outputs,), tuple(state), parameters=tuple(params))])
     module = _codegen.compiled_module(source, "ev")
     return CompiledEvents(
         tuple(specs),
@@ -163,7 +169,6 @@ def compile_bkmm_events(setup: Any, made: Any, m: int, events: Any) -> CompiledE
         slot(f"p{i}")
     slot(None)  # the work
     t = slot("t")
-    n_state = len(state)
     for j, i in enumerate(setup.prescribed):
         form = setup.gait_forms[j].xreplace({T_SYMBOL: t})
         names[system.q[k + i].name] = form
@@ -185,17 +190,7 @@ def compile_bkmm_events(setup: Any, made: Any, m: int, events: Any) -> CompiledE
                 "gait's coefficients."
             )
         outputs.append(expr)
-    if len(outputs) > n_state:
-        raise InputError(f"At most {n_state} events (the state's dimension) in one run, got {len(outputs)}.")
-    outputs += [sp.Integer(0)] * (n_state - len(outputs))
-    source = kernel_source([FunctionSpec("event", (outputs,), tuple(state), parameters=tuple(prm))])
-    module = _codegen.compiled_module(source, "ev")
-    return CompiledEvents(
-        tuple(specs),
-        int(module.addresses(("event",))[F_EVENT]),
-        np.array([float(s.direction) for s in specs.values()]),
-        np.array([float(s.terminal) for s in specs.values()]),
-    )
+    return _compiled(specs, outputs, tuple(state), tuple(prm))
 
 
 def event_table(

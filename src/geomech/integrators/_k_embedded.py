@@ -226,28 +226,18 @@ def erk_events(b, h, dop853, F, W, S, efp, EDIR, ETERM, EVT, ECOUNT, prm):
     for j in range(ne):
         if ETERM[j] != 0.0 and W[EW_THETA, j] < stop:
             stop = W[EW_THETA, j]
-    # record in time order, those at or before the stop
+    # record in time order, those at or before the stop (events at the same fraction in their order)
     last = -1.0
     while True:
-        pick = -1
+        th = 2.0
         for j in range(ne):
-            th = W[EW_THETA, j]
-            if th <= 1.0 and th > last and th <= stop and (pick < 0 or th < W[EW_THETA, pick]):
-                pick = j
-        if pick < 0:
+            if last < W[EW_THETA, j] <= min(stop, 1.0) and W[EW_THETA, j] < th:
+                th = W[EW_THETA, j]
+        if th > 1.0:
             break
-        th = W[EW_THETA, pick]
-        c = int(ECOUNT[b])
-        if c < EVT.shape[1]:
-            EVT[b, c, 0] = pick
-            EVT[b, c, 1] = S[EK_T] + th * h
-            dense_value(W[EW_Y], F, th, dop853, W[EW_OUT])
-            for i in range(W.shape[1]):
-                EVT[b, c, 2 + i] = W[EW_OUT, i]
-        ECOUNT[b] = c + 1
-        # events at the same fraction: each once
+        dense_value(W[EW_Y], F, th, dop853, W[EW_OUT])
         for j in range(ne):
-            if W[EW_THETA, j] == th and j != pick and th <= stop:
+            if W[EW_THETA, j] == th:
                 c = int(ECOUNT[b])
                 if c < EVT.shape[1]:
                     EVT[b, c, 0] = j

@@ -131,15 +131,13 @@ class BatesSniatycki(Derived, NumericCache):
 
         n = self.system.n
 
-        def solved(z: np.ndarray, dH: np.ndarray, force: bool) -> tuple[np.ndarray, np.ndarray | None]:
-            # -B (B^T W B)^-1 B^T dH, and with `force` the response B (B^T W B)^-1 B^T [I_n; 0] in the same solve
+        def solved(z: np.ndarray, dH: np.ndarray, response: bool) -> np.ndarray:
+            # B (B^T W B)^-1 B^T applied to dH (the field is minus it) and, with `response`, to [I_n; 0] (the force's
+            # response) in the same solve
             B, W = out["B"](z), out["form"](z)
             BT = np.swapaxes(B, -1, -2)
-            rhs = BT @ dH
-            if force:
-                rhs = np.concatenate([rhs, BT[..., :, :n]], axis=-1)
-            x = B @ np.linalg.solve(BT @ W @ B, rhs)
-            return -x[..., 0], (x[..., 1:] if force else None)
+            rhs = np.concatenate([BT @ dH, BT[..., :, :n]], axis=-1) if response else BT @ dH
+            return B @ np.linalg.solve(BT @ W @ B, rhs)
 
         def field(z: Any, force: Any = None) -> np.ndarray:
             z = np.asarray(z, dtype=float)
@@ -147,13 +145,12 @@ class BatesSniatycki(Derived, NumericCache):
             if force is not None:
                 dH = dH.copy()
                 dH[..., :n, 0] -= np.asarray(force, dtype=float)
-            return solved(z, dH, False)[0]
+            return -solved(z, dH, False)[..., 0]
 
         def response(z: Any) -> tuple[np.ndarray, np.ndarray]:
             z = np.asarray(z, dtype=float)
-            free, R = solved(z, out["gradH"](z), True)
-            assert R is not None
-            return free, R
+            x = solved(z, out["gradH"](z), True)
+            return -x[..., 0], x[..., 1:]
 
         out.update(field=field, response=response)
         return out
