@@ -105,6 +105,19 @@ def test_the_solution_is_a_dataset_with_the_systems_names():
     assert sol.g.shape == (3, 3) and sol.r.shape == (3, 1)
 
 
+def test_the_discrete_map_of_a_new_system_compiles_to_the_python_steps():
+    """The compiled discrete Lagrange-d'Alembert map on this system, a constraint and a free shape under a torque
+    of the state: the Python engine's steps, to round-off."""
+    system = tilted_sleigh(0.3)
+    run = dict(q0={"s": 0.2}, rdot0={"s": 0.3}, p0=[0.4, 0.2], tau={"s": "-0.5*s"}, t_final=2.0, h=0.01, saveat=21)
+    a = gm.solve(system, DiscreteLagrangeDAlembert(), backend="python", **run)
+    b = gm.solve(system, DiscreteLagrangeDAlembert(), **run)
+    assert a.stats["backend"] == "python" and b.stats["backend"] == "numba"
+    for x, y in [(a.q, b.q), (a.qdot, b.qdot), (a.work, b.work), (a.constraint_residual, b.constraint_residual)]:
+        np.testing.assert_allclose(y, x, rtol=0, atol=1e-11 * max(1.0, float(np.abs(x).max())))
+    assert abs(a.work[-1]) > 1e-3
+
+
 # -- the same system as a user's model file, through the gait analysis and the command line ----------------
 MODEL = """
 from geomech.lie import SE2

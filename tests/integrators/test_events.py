@@ -144,8 +144,22 @@ def test_a_gait_returning_to_its_start_and_a_group_coordinate_crossing_a_value()
     rows = batch.events["period"]
     for b in (0, 1):
         np.testing.assert_allclose(rows[rows[:, 0] == b, 1], [1.0, 2.0, 3.0], rtol=0, atol=1e-12)
-    with pytest.raises(InputError, match="BKMM"):
-        gm.solve(board, "lagrange_dalembert", events={"e": "x"}, **run)
+    # the Lagrange-d'Alembert equations with multipliers, compiled: the same events, a second route to them
+    lda = gm.solve(
+        board,
+        "lagrange_dalembert",
+        events={"period": Event("psi", direction=1), "turn": Event("theta - 0.2", terminal=True)},
+        **run,
+    )
+    assert lda.stats["backend"] == "numba"
+    np.testing.assert_allclose(lda.events["period"][:, 1], whole, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lda.events["turn"][:, 1:], turn[:, 1:], rtol=0, atol=1e-8)
+    with pytest.raises(InputError, match="BKMM or LagrangeDAlembert"):
+        gm.solve(board, "discrete_lagrange_dalembert", h=0.01, events={"e": "x"}, **{**run, "rtol": None, "atol": None})
+    with pytest.raises(InputError, match="BKMM or LagrangeDAlembert"):
+        gm.solve(board, "lagrange_dalembert", backend="python", events={"e": "x"}, **run)
+    with pytest.raises(InputError, match=r"LagrangeDAlembert state of snakeboard .*theta_dot"):
+        gm.solve(board, "lagrange_dalembert", events={"e": "p0"}, **run)
 
 
 def test_events_at_the_same_instant_are_each_recorded():

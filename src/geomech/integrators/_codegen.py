@@ -52,6 +52,7 @@ __all__ = [
     "model_functions",
     "numba_available",
     "python_header",
+    "python_helpers",
     "python_module",
     "rhs_address",
     "template_module",
@@ -300,6 +301,16 @@ def model_functions(loop: str) -> tuple[str, ...]:
                 elif node.id in functions:
                     todo.append(node.id)
     return tuple(name for name in MODEL_FUNCTIONS if name in found)
+
+
+@functools.cache
+def python_helpers() -> dict[str, Any]:
+    """The loops' shared helpers (status codes, small solves, ...) as plain Python, for generated source run without
+    numba."""
+    shared_src, _, names = _template_split()
+    namespace: dict[str, Any] = {}
+    exec(compile(_HEADER_PYTHON + shared_src, "<geomech helpers>", "exec"), namespace)
+    return {name: namespace[name] for name in names}
 
 
 def python_header() -> str:

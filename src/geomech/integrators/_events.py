@@ -25,7 +25,14 @@ from . import _codegen
 from ._k_common import F_EVENT
 from ._model_source import R_SYMBOLS
 
-__all__ = ["Event", "CompiledEvents", "compile_bkmm_events", "compile_events", "event_table", "events_need_compiled"]
+__all__ = [
+    "CompiledEvents",
+    "Event",
+    "compile_events",
+    "compile_lagrangian_events",
+    "event_table",
+    "events_need_compiled",
+]
 
 
 @dataclass(frozen=True)
@@ -133,42 +140,26 @@ def _compiled(specs: Mapping[str, Event], outputs: list, state: tuple, params: t
 
 def events_need_compiled(name: str) -> str:
     return (
-        f"`events` of {name} are located on the compiled continuous extension of BKMM: method BKMM with solver "
-        "'DOP853' or 'RK45', the gait and torques as formulas, numba installed, backend 'auto' or 'numba'."
+        f"`events` of {name} are located on the compiled continuous extension of BKMM or LagrangeDAlembert: either "
+        "method with solver 'DOP853' or 'RK45', the gait and torques as formulas, numba installed, backend 'auto' or "
+        "'numba'."
     )
 
 
-def compile_bkmm_events(setup: Any, made: Any, m: int, events: Any) -> CompiledEvents:
-    """The events of a Lagrangian system run by the compiled BKMM loop, whose state is ``(g, r_F, rdot_F, p, W, t)``
-    (group coordinates, free shapes and their rates, the nonholonomic momenta ``p0, p1, ...``, the work, the time)
-    and whose ``prm`` holds the system's parameters, the numbers of the gait and torques, then their coefficients:
-    formulas in the group coordinates, every shape and its rate (a prescribed shape's from its gait), the momenta,
-    ``t``, the parameters and the coefficients."""
+def compile_lagrangian_events(setup: Any, made: Any, slots: list[str | None], events: Any) -> CompiledEvents:
+    """The events of a Lagrangian system run by a compiled loop (BKMM or Lagrange-d'Alembert), whose state's entries
+    are named by ``slots`` (None for one no formula reads: the work; "t" the time) and whose ``prm`` holds the
+    system's parameters, the numbers of the gait and torques, then their coefficients: formulas in the state's
+    entries, every shape and its rate (a prescribed shape's from its gait), ``t``, the parameters and the
+    coefficients."""
     from ..systems.gait import T_SYMBOL
 
     specs = _specs(events)
     system = setup.system
-    k, F = system.k, list(setup.free_shapes)
-    names: dict[str, Any] = {}
-    state: list[sp.Symbol] = []
-
-    def slot(name: str | None) -> sp.Symbol:
-        sym = sp.Symbol(f"_y{len(state)}", real=True)
-        state.append(sym)
-        if name is not None:
-            names[name] = sym
-        return sym
-
-    for q in system.q[:k]:
-        slot(q.name)
-    for i in F:
-        slot(system.q[k + i].name)
-    for i in F:
-        slot(system.qdot[k + i].name)
-    for i in range(m):
-        slot(f"p{i}")
-    slot(None)  # the work
-    t = slot("t")
+    state = tuple(sp.Symbol(f"_y{i}", real=True) for i in range(len(slots)))
+    names: dict[str, Any] = {name: sym for name, sym in zip(slots, state) if name is not None}
+    t = names["t"]
+    k = system.k
     for j, i in enumerate(setup.prescribed):
         form = setup.gait_forms[j].xreplace({T_SYMBOL: t})
         names[system.q[k + i].name] = form
@@ -185,12 +176,11 @@ def compile_bkmm_events(setup: Any, made: Any, m: int, events: Any) -> CompiledE
         unknown = sorted(str(s) for s in expr.free_symbols - set(state) - set(prm))
         if unknown:
             raise InputError(
-                f"`events[{key!r}]` reads {unknown}, which are neither the BKMM state of {system.name} (the group "
-                f"coordinates, the shapes and their rates, the momenta p0, p1, ..., t) nor its parameters or the "
-                "gait's coefficients."
+                f"`events[{key!r}]` reads {unknown}, which are neither the {made.equations} state of {system.name} "
+                f"({', '.join(sorted(names))}) nor its parameters or the gait's coefficients."
             )
         outputs.append(expr)
-    return _compiled(specs, outputs, tuple(state), tuple(prm))
+    return _compiled(specs, outputs, state, tuple(prm))
 
 
 def event_table(

@@ -206,3 +206,29 @@ def lu_solve(A, x, n):
             s -= A[k, j] * x[j]
         x[k] = s / A[k, k]
     return True
+
+
+@kernel
+def solve_checked(A, x, n, rcond):
+    """:func:`lu_solve`, and False also where the matrix is singular to working precision: a pivot of the
+    elimination below ``rcond`` times the largest entry of ``A`` (the generated equations of motion solve their
+    accelerations and multipliers with it, and report a singular state instead of an unbounded one)."""
+    amax = 0.0
+    for i in range(n):
+        for j in range(n):
+            a = abs(A[i, j])
+            if a > amax or a != a:
+                amax = a
+    if not math.isfinite(amax):
+        return False
+    if n == 2:
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        if not (abs(det) > rcond * amax * amax):
+            return False
+        return lu_solve(A, x, n)
+    if not lu_solve(A, x, n):
+        return False
+    for k in range(n):
+        if not (abs(A[k, k]) > rcond * amax):
+            return False
+    return True

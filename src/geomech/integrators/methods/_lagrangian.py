@@ -22,7 +22,7 @@ from ._general import ScipyStepped
 
 @dataclass(frozen=True)
 class LagrangeDAlembert(ScipyStepped):
-    """The Lagrange-d'Alembert equations with multipliers in coordinates, solved by an adaptive scipy solver.
+    """The Lagrange-d'Alembert equations with multipliers in coordinates, solved by an embedded Runge-Kutta pair.
 
     The index-reduced DAE :math:`M\\ddot q - A^T\\lambda = f`, :math:`A\\ddot q + \\dot A\\dot q = 0`, solved
     at each evaluation for the accelerations of the free coordinates, the multipliers and the forces that
@@ -30,9 +30,12 @@ class LagrangeDAlembert(ScipyStepped):
     Kind: adaptive (``rtol``, ``atol``; default 1e-10, 1e-12). Order: that of ``solver`` (DOP853: 8).
     Not structure-preserving: the constraint residual and the energy drift at the tolerance. Structure: a
     Lagrangian system on G x S with constraints. Cost per evaluation: one dense solve of size
-    (free coordinates + constraints + prescribed shapes) with the mass matrix, the constraint matrix and its
-    derivative evaluated; as many evaluations as the tolerances require (Python, not compiled).
-    Reference: [KM] section 1; [HNW] II.5.
+    (free coordinates + constraints) with the mass matrix, the constraint matrix and its derivative evaluated; as
+    many evaluations as the tolerances require. With ``solver`` "DOP853" or "RK45" and the gait and torques given
+    as formulas the equations are compiled (straight-line code for the system's sizes, the solve an elimination
+    with partial pivoting in the same function, the parameters and ``baumgarte`` read at run time) and stepped by
+    the compiled Dormand-Prince pairs of the same error control; otherwise, or with ``backend="python"``, they are
+    evaluated in Python and stepped by scipy. Reference: [KM] section 1; [HNW] II.5.
 
     Parameters
     ----------
@@ -175,8 +178,9 @@ class DiscreteLagrangeDAlembert(Method):
     constraints both are variational, hence symplectic). Structure: a Lagrangian system on G x S with
     constraints. Cost per step: Newton on (free coordinates + constraints) unknowns, each iteration the first and
     second derivatives of L and the constraint matrix (midpoint), or the reduced Lagrangian's first derivatives and
-    the group's log and Jacobians with a difference Jacobian (group) (Python, not compiled). Reference: [CM];
-    [MW]; [BRM].
+    the group's log and Jacobians with a difference Jacobian (group). The midpoint map runs compiled where the gait
+    and torques are formulas (the whole run, Newton included, in one numba call: the Python engine's steps, a
+    thousand times faster); the group's, and ``backend="python"``, run in Python. Reference: [CM]; [MW]; [BRM].
 
     Parameters
     ----------

@@ -15,6 +15,11 @@ of generating is that of writing the formulas. Where L, the locked inertia or th
 parameters are read from ``prm`` at run time (a sweep over them compiles once), and so are the gait's and the
 torques' numbers, each formula written ``c + s f`` (offset, scale, and the numbers inside f): the gaits of one
 form (``a sin(w t + phi)``, whatever a, w and phi) share one compilation.
+
+The Lagrange-d'Alembert equations with multipliers (:func:`lda_module`) compile the same way, at the state ``y =
+(q_free, qdot_free, W, t)``: the mass matrix, the forces, the constraints and their drift entry by entry, the free
+accelerations and the multipliers solved numerically in the function (their matrix is as large as the free
+coordinates and the constraints together; inverting it symbolically would cost more than the run).
 """
 
 from __future__ import annotations
@@ -28,13 +33,25 @@ import numpy as np
 import sympy as sp
 
 from ...errors import SymbolicError
+from ...reduction.lagrange_dalembert import lagrange_dalembert
 from ...reduction.reduced_numeric import reduction_data
 from ...symbolic.compile import StraightLine, number_form
 from ...systems.gait import T_SYMBOL
 from .. import _codegen
 from ..methods import DormandPrince
 
-__all__ = ["BKMMSource", "COMPILED_SOLVERS", "bkmm_module", "bkmm_source", "compiled_pair", "observe"]
+__all__ = [
+    "COMPILED_SOLVERS",
+    "LagrangianSource",
+    "bkmm_module",
+    "bkmm_slots",
+    "bkmm_source",
+    "compiled_pair",
+    "lda_module",
+    "lda_slots",
+    "lda_source",
+    "observe",
+]
 
 #: scipy's solvers of the BKMM method that have a compiled twin: the same pairs, the same error control
 COMPILED_SOLVERS = {"DOP853": "DOP853", "RK45": "DOPRI5"}
@@ -81,9 +98,10 @@ _TIME = sp.Symbol("_t")
 
 
 @dataclass(frozen=True)
-class BKMMSource:
-    """The generated module's source and what each entry of its ``prm`` is: the system's parameters (by name), then
-    the numbers of the gait's and the torques' formulas (values), then their named coefficients (by name)."""
+class LagrangianSource:
+    """The generated module's source (the BKMM equations or the Lagrange-d'Alembert equations) and what each entry
+    of its ``prm`` is: the system's parameters (by name), then the numbers of the gait's and the torques' formulas
+    (values), then their named coefficients (by name)."""
 
     source: str
     parameters: tuple[str, ...]
@@ -93,6 +111,9 @@ class BKMMSource:
     observed: int
     #: the number of coordinates q (the observation starts with q and qdot)
     n: int = 0
+    #: the method whose equations these are, and what is singular where the derivative is NaN
+    equations: str = "BKMM"
+    singular: str = "the BKMM equations are singular (the locked inertia or the constraints)"
 
     def rows(self, values: Mapping[str, Any], B: int) -> np.ndarray:
         """The ``prm`` rows of a batch of ``B`` members (one row where no value is an array): each name's value,
@@ -110,34 +131,60 @@ class BKMMSource:
         return out
 
 
-def bkmm_source(setup: Any, reduction: Any) -> BKMMSource | None:
+def bkmm_source(setup: Any, reduction: Any) -> LagrangianSource | None:
     """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and its observation, and
     the layout of the values they read, or None where the gait or a torque is a Python callable. Generated once per
     system, basis and form of the gait and torques."""
+    basis = sp.ImmutableMatrix(reduction.basis)
+    return _made(
+        setup,
+        ("bkmm", basis),
+        (),
+        lambda gait, torques, n_prm, extra: _generate(setup, reduction, gait, torques, n_prm),
+    )
+
+
+def lda_source(setup: Any, baumgarte: float) -> LagrangianSource | None:
+    """The compiled right-hand side of ``setup``'s Lagrange-d'Alembert equations with multipliers (system, gait,
+    torques, the Baumgarte rate ``baumgarte`` read at run time) and its observation, and the layout of the values
+    they read, or None where the gait or a torque is a Python callable. Generated once per system and form of the
+    gait and torques."""
+    return _made(
+        setup,
+        ("lda",),
+        (float(baumgarte),),
+        lambda gait, torques, n_prm, extra: _generate_lda(setup, gait, torques, n_prm, extra[0]),
+    )
+
+
+_MADE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _made(setup: Any, kind: tuple, numbers: tuple[float, ...], generate: Any) -> LagrangianSource | None:
+    """The source of one kind of equations (``kind``: a tag and what else decides the source) for ``setup``, its
+    run-time ``numbers`` (appended to the gait's and torques' numbers, the symbols the generator reads), cached by
+    system."""
     gait_forms, torques = setup.gait_forms, setup.torques
     if torques.expressions is None or (setup.prescribed and gait_forms is None):
         return None
-    system = setup.system
     given = (
-        sp.ImmutableMatrix(reduction.basis),
+        kind,
+        numbers,
         tuple(gait_forms or ()),
         tuple(torques.expressions),
         tuple(setup.free_shapes),
         tuple(setup.prescribed),
         setup.coefficients,
     )
-    made = _MADE.setdefault(system, {})
+    made = _MADE.setdefault(setup.system, {})
     if given not in made:
         if len(made) >= 64:
             made.pop(next(iter(made)))
-        made[given] = _source(setup, reduction)
+        made[given] = _source(setup, kind, numbers, generate)
     return made[given]
 
 
-_MADE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _source(setup: Any, reduction: Any) -> BKMMSource:
+def _source(setup: Any, kind: tuple, numbers: tuple[float, ...], generate: Any) -> LagrangianSource:
     gait_forms, torques, system = setup.gait_forms, setup.torques, setup.system
     own = {q.name: sp.Symbol(f"_p{i}") for i, q in enumerate(system.parameter_symbols)}
     first = len(own)
@@ -154,29 +201,41 @@ def _source(setup: Any, reduction: Any) -> BKMMSource:
     table: dict[sp.Symbol, float] = {}
     gait_forms = tuple(number_form(named(e).xreplace({T_SYMBOL: _TIME}), table, first) for e in gait_forms or ())
     torque_forms = tuple(number_form(named(e), table, first) for e in torques.expressions)
+    extra = []
+    for x in numbers:
+        extra.append(sp.Symbol(f"_p{first + len(table)}"))
+        table[extra[-1]] = x
     slots = {
         sp.Symbol(f"_c_{name}"): sp.Symbol(f"_p{first + len(table) + j}") for j, name in enumerate(setup.coefficients)
     }
     gait_forms = tuple(e.xreplace(slots) for e in gait_forms)
     torque_forms = tuple(e.xreplace(slots) for e in torque_forms)
-    key = (
-        sp.ImmutableMatrix(reduction.basis),
-        gait_forms,
-        torque_forms,
-        tuple(setup.free_shapes),
-        tuple(setup.prescribed),
-    )
+    key = (kind, gait_forms, torque_forms, tuple(setup.free_shapes), tuple(setup.prescribed))
     known = _SOURCES.setdefault(system, {})
     if key not in known:
-        known[key] = _generate(setup, reduction, gait_forms, torque_forms, first + len(table) + len(slots))
-    return BKMMSource(
+        known[key] = generate(gait_forms, torque_forms, first + len(table) + len(slots), tuple(extra))
+    return LagrangianSource(
         known[key],
         tuple(own),
         np.array(list(table.values()), dtype=float),
         setup.coefficients,
         2 * system.n + system.sigma + 1 + system.c,
         system.n,
+        *_NAMES[kind[0]],
     )
+
+
+_NAMES = {
+    "bkmm": ("BKMM", "the BKMM equations are singular (the locked inertia or the constraints)"),
+    "lda": (
+        "LagrangeDAlembert",
+        "the Lagrange-d'Alembert equations are singular (the matrix of the accelerations and multipliers)",
+    ),
+    "dlda": (
+        "DiscreteLagrangeDAlembert",
+        "the discrete Lagrange-d'Alembert equations are singular (Newton's matrix)",
+    ),
+}
 
 
 def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int) -> str:
@@ -326,7 +385,11 @@ def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple
     )
     values = code.values(outputs)
     code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(values)))
-    body = code.body()
+    return _module_text(code.body(), seen.body())
+
+
+def _module_text(body: str, seen: str) -> str:
+    """The generated module of a right-hand side's ``body`` and its observation ``seen``."""
     # the C twin the compiled loops call (geomech.integrators._fptr) is this body on the pointers, compiled once;
     # rhs, the same body on arrays, compiles only if a loop calls it by name
     c_twin = (
@@ -342,9 +405,106 @@ def _generate(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple
         + c_twin
         + body
         + "\n\n@kernel\ndef observe(y, out, prm):\n"
-        + seen.body()
+        + seen
         + _OBSERVE_ALL
     )
+
+
+#: Below this ratio of a pivot to the largest entry, the matrix of the accelerations and multipliers is singular.
+RCOND_MIN = 1e-13
+
+
+def _generate_lda(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int, baumgarte: sp.Symbol) -> str:
+    """The Lagrange-d'Alembert equations with multipliers, index-reduced, at the state ``y = (q_free, qdot_free, W,
+    t)`` (the coordinates not prescribed by the gait, their rates, the work of the shape forces, the time):
+    :math:`\\mathbb M\\ddot q - A^T\\lambda = f + B\\tau`, :math:`A\\ddot q = -\\dot A\\dot q - 2\\beta A\\dot q`,
+    the prescribed shapes' accelerations given by the gait. The mass matrix, the forces, the constraints and their
+    drift are written entry by entry; the free accelerations and the multipliers are solved numerically
+    (elimination with partial pivoting, ``solve_checked``: NaN where the matrix is singular), the forces that keep
+    the gait follow from the prescribed shapes' rows."""
+    system = setup.system
+    lda = lagrange_dalembert(system)
+    n, k, c, sigma = system.n, system.k, system.c, system.sigma
+    pr = [k + j for j in setup.prescribed]
+    fr = [i for i in range(n) if i not in pr]
+    nf = len(fr)
+    code = StraightLine()
+    t = _TIME
+    q: list[Any] = [None] * n
+    qd: list[Any] = [None] * n
+    reads = [f"_t = y[{2 * nf + 1}]"]
+    for ii, i in enumerate(fr):
+        q[i], qd[i] = sp.Symbol(f"_q{i}"), sp.Symbol(f"_qd{i}")
+        reads += [f"_q{i} = y[{ii}]", f"_qd{i} = y[{nf + ii}]"]
+    reads += [f"_p{i} = prm[{i}]" for i in range(n_prm)]
+    code.line("\n".join(reads))
+    rdd: dict[int, Any] = {}
+    for jj, i in enumerate(pr):
+        e = gait_forms[jj]
+        q[i], qd[i] = code.value(e), code.value(e.diff(t))
+        rdd[i] = code.value(e.diff(t, 2))
+    params = {p: sp.Symbol(f"_p{i}") for i, p in enumerate(system.parameter_symbols)}
+    at = {T_SYMBOL: t, **dict(zip(system.q, q)), **dict(zip(system.qdot, qd))}
+
+    def values(X: Any) -> sp.Matrix:
+        return code.matrix(sp.Matrix(X).xreplace(at).xreplace(params))
+
+    M, f = values(lda.mass_matrix), values(lda.forces)
+    A, drift = (values(lda.constraint_matrix), values(lda.constraint_drift)) if c else (sp.zeros(0, n), sp.zeros(0, 1))
+    tau_f = [code.value(e.xreplace(at).xreplace(params)) for e in torque_forms]
+    F = list(f)
+    for jj, j in enumerate(setup.free_shapes):
+        F[k + j] += tau_f[jj]
+    # the free accelerations and the multipliers: [[M_ff, -A_f^T], [A_f, 0]] z = b
+    N = nf + c
+    K = sp.zeros(N, N)
+    b: list[Any] = []
+    for ii, i in enumerate(fr):
+        for jj, j in enumerate(fr):
+            K[ii, jj] = M[i, j]
+        for a in range(c):
+            K[ii, nf + a] = -A[a, i]
+        b.append(F[i] - sum(M[i, j] * rdd[j] for j in pr))
+    for a in range(c):
+        for jj, j in enumerate(fr):
+            K[nf + a, jj] = A[a, j]
+        stab = 2 * baumgarte * sum(A[a, j] * qd[j] for j in range(n))
+        b.append(-drift[a] - sum(A[a, j] * rdd[j] for j in pr) - stab)
+    K, b = code.matrix(K), code.values(b)
+    z: list[Any] = []
+    if N:
+        fill = [f"_K[{i}, {j}] = {code.code(K[i, j])}" for i in range(N) for j in range(N) if K[i, j] != 0]
+        code.line(
+            f"_K = np.zeros(({N}, {N}))\n_b = np.empty({N})\n"
+            + "\n".join(fill + [f"_b[{i}] = {code.code(b[i])}" for i in range(N)])
+            + f"\nif not solve_checked(_K, _b, {N}, {RCOND_MIN!r}):  # the accelerations' matrix singular\n"
+            "    for _i in range(out.shape[0]):\n"
+            "        out[_i] = np.nan\n"
+            "    return\n" + "\n".join(f"_z{i} = _b[{i}]" for i in range(N))
+        )
+        z = [sp.Symbol(f"_z{i}") for i in range(N)]
+    qdd: list[Any] = [None] * n
+    for ii, i in enumerate(fr):
+        qdd[i] = z[ii]
+    for i in pr:
+        qdd[i] = rdd[i]
+    lam = z[nf:]
+    tau_v: list[Any] = [0] * sigma
+    for jj, j in enumerate(setup.free_shapes):
+        tau_v[j] = tau_f[jj]
+    for i in pr:  # the prescribed rows: tau = (M qdd)_i - f_i - (A^T lambda)_i
+        tau_v[i - k] = code.value(
+            sum(M[i, j] * qdd[j] for j in range(n)) - f[i] - sum(A[a, i] * lam[a] for a in range(c))
+        )
+    seen = code.copy()
+    energy = sp.sympify(system.energy).xreplace(at).xreplace(params)
+    residual = [sum(A[a, j] * qd[j] for j in range(n)) for a in range(c)]
+    observed = seen.values(q + qd + tau_v + [energy] + residual)
+    seen.line("\n".join(f"out[{i}] = {seen.code(v)}" for i, v in enumerate(observed)))
+    outputs = [qd[i] for i in fr] + [qdd[i] for i in fr] + [sum(tau_v[j] * qd[k + j] for j in range(sigma)), 1]
+    out = code.values(outputs)
+    code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(out)))
+    return _module_text(code.body(), seen.body())
 
 
 # the observation of saved states: rows of Y (n_members x n_saved, flattened), member i // per's parameters
@@ -371,7 +531,7 @@ PYTHON_ROWS = 4000
 _PYTHON: dict[str, Any] = {}
 
 
-def observe(module: Any, made: BKMMSource, Y: np.ndarray, PRM: np.ndarray, per: int) -> np.ndarray:
+def observe(module: Any, made: LagrangianSource, Y: np.ndarray, PRM: np.ndarray, per: int) -> np.ndarray:
     """What the states ``Y`` (rows of ``(g, r_F, rdot_F, p, W, t)``) show, ``(rows, made.observed)``: q, qdot, the
     shape forces, the energy, the constraints; NaN for a state that is not finite. Row i reads the parameters of
     member ``i // per`` (a batch's saved states, member by member)."""
@@ -381,7 +541,7 @@ def observe(module: Any, made: BKMMSource, Y: np.ndarray, PRM: np.ndarray, per: 
     if Y.shape[0] <= PYTHON_ROWS and not observe_all.signatures:
         namespace = _PYTHON.get(made.source)
         if namespace is None:  # the same source as plain Python
-            namespace = {}
+            namespace = dict(_codegen.python_helpers())
             exec(compile(_codegen.python_header() + made.source, "<geomech BKMM>", "exec"), namespace)
             if len(_PYTHON) >= 32:
                 _PYTHON.pop(next(iter(_PYTHON)))
@@ -391,17 +551,46 @@ def observe(module: Any, made: BKMMSource, Y: np.ndarray, PRM: np.ndarray, per: 
     return OUT
 
 
-def bkmm_module(setup: Any, reduction: Any) -> tuple[Any, BKMMSource] | None:
+def bkmm_slots(setup: Any, m: int) -> list[str | None]:
+    """The names of the BKMM state's entries ``(g, r_F, rdot_F, p, W, t)`` (None for the work)."""
+    s, F = setup.system, setup.free_shapes
+    return (
+        [q.name for q in s.q[: s.k]]
+        + [s.q[s.k + i].name for i in F]
+        + [s.qdot[s.k + i].name for i in F]
+        + [f"p{i}" for i in range(m)]
+        + [None, "t"]
+    )
+
+
+def lda_slots(setup: Any) -> list[str | None]:
+    """The names of the Lagrange-d'Alembert state's entries ``(q_F, qdot_F, W, t)`` (None for the work)."""
+    s, fr = setup.system, setup.free_coordinates()
+    return [s.q[i].name for i in fr] + [s.qdot[i].name for i in fr] + [None, "t"]
+
+
+def bkmm_module(setup: Any, reduction: Any) -> tuple[Any, LagrangianSource] | None:
     """The compiled module of ``setup``'s BKMM equations and the layout of the values ``prm`` it reads (the
     system's parameters, the gait's and the torques' numbers, their coefficients), or None where they cannot be
     compiled (numba missing, a callable gait or torque, a function numba lacks)."""
+    return _module(lambda: bkmm_source(setup, reduction), "bk")
+
+
+def lda_module(setup: Any, baumgarte: float) -> tuple[Any, LagrangianSource] | None:
+    """The compiled module of ``setup``'s Lagrange-d'Alembert equations with multipliers (Baumgarte rate
+    ``baumgarte``) and the layout of the values ``prm`` it reads, or None where they cannot be compiled (numba
+    missing, a callable gait or torque, a function numba lacks)."""
+    return _module(lambda: lda_source(setup, baumgarte), "ld")
+
+
+def _module(source: Any, tag: str) -> tuple[Any, LagrangianSource] | None:
     if not _codegen.numba_available():
         return None
     try:
-        made = bkmm_source(setup, reduction)
+        made = source()
     except (NotImplementedError, SymbolicError):
         # a function numba lacks, or a matrix singular for every shape: the Python equations say where and why
         return None
     if made is None:
         return None
-    return _codegen.compiled_module(made.source, "bk"), made
+    return _codegen.compiled_module(made.source, tag), made

@@ -23,10 +23,10 @@ from .._adaptive import (
     integrate_ivp,
     projected_cost_error,
 )
-from .._events import compile_bkmm_events, event_table, events_need_compiled
+from .._events import compile_lagrangian_events, event_table, events_need_compiled
 from .._runners import INFO_COLUMNS, run_embedded
 from ..solution import Failure, Status
-from ._compiled import COMPILED_SOLVERS, bkmm_module, compiled_pair, observe
+from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots, observe
 from ._inputs import _group_rates, _Setup
 from ._trajectory import _accelerations, _Raw
 
@@ -57,9 +57,33 @@ def run_full(
     tolerances: tuple[float, float],
     max_evaluations: Any,
     parameters: Mapping[str, float] | None,
+    backend: str = "auto",
+    events: Any = None,
+    max_events: int = 0,
 ) -> _Raw:
-    """The Lagrange-d'Alembert equations with multipliers (the index-reduced DAE), by ``method.solver``."""
+    """The Lagrange-d'Alembert equations with multipliers (the index-reduced DAE), by ``method.solver``: compiled
+    (the Dormand-Prince loops) where the solver has a compiled twin and the gait and torques are formulas, unless
+    ``backend`` is "python"; otherwise stepped by scipy with the equations in Python."""
     system = setup.system
+    compiled = _compiled_or_refused(system, method, backend, events, lambda: lda_module(setup, float(method.baumgarte)))
+    if compiled is not None:
+        module, made = compiled
+        fr = setup.free_coordinates()
+        run = run_compiled(
+            module,
+            made,
+            made.rows({**system.parameters, **dict(parameters or {})}, 1),
+            np.r_[q_init[fr], qd_init[fr], 0.0][None],
+            t0,
+            times,
+            method,
+            tolerances,
+            max_evaluations,
+            1,
+            None if events is None else compile_lagrangian_events(setup, made, lda_slots(setup), events),
+            max_events,
+        )
+        return run.raw(setup, None, 0, run.failures[0][1] if run.failures else None)
     funcs = lagrange_dalembert(system).numeric(parameters).funcs
     fr, pr = setup.free_coordinates(), setup.prescribed_coordinates()
     nf = len(fr)
@@ -82,8 +106,9 @@ def run_full(
         return q, qd, _accelerations(setup, funcs, t, q, qd, rdd_p, baumgarte)[2]
 
     y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
+    budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
     Y, failure, nfev, n_steps = integrate_ivp(
-        "LagrangeDAlembert", rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR
+        "LagrangeDAlembert", rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR
     )
     Q, QD, TAU = _rows(setup, times, Y, evaluate)
     return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
@@ -156,20 +181,10 @@ def run_reduced(
 
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
-    pair = compiled_pair(method.solver) if backend != "python" else None
-    compiled = bkmm_module(setup, red) if pair is not None else None
-    if compiled is None and backend == "numba":
-        raise InputError(
-            f"backend='numba' runs BKMM with the solvers {sorted(COMPILED_SOLVERS)} on a gait and torques given as "
-            f"formulas (and numba installed); got solver {method.solver!r}"
-            + ("" if pair is None else ", and a gait or torque given as a Python callable")
-            + "."
-        )
-    if compiled is None and events is not None:
-        raise InputError(events_need_compiled(system.name))
+    compiled = _compiled_or_refused(system, method, backend, events, lambda: bkmm_module(setup, red))
     if compiled is not None:
         module, made = compiled
-        run = run_bkmm(
+        run = run_compiled(
             module,
             made,
             made.rows({**system.parameters, **dict(parameters or {})}, 1),
@@ -180,7 +195,7 @@ def run_reduced(
             tolerances,
             max_evaluations,
             1,
-            None if events is None else compile_bkmm_events(setup, made, m, events),
+            None if events is None else compile_lagrangian_events(setup, made, bkmm_slots(setup, m), events),
             max_events,
         )
         failure = run.failures[0][1] if run.failures else None
@@ -191,10 +206,29 @@ def run_reduced(
     return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
 
 
+def _compiled_or_refused(system: Any, method: Any, backend: str, events: Any, module: Callable) -> Any:
+    """The compiled module and source of a run (``module()``) where the method's solver has a compiled twin and
+    ``backend`` is not "python", or None; raises where ``backend`` is "numba" or ``events`` are asked for and the run
+    cannot be compiled."""
+    pair = compiled_pair(method.solver) if backend != "python" else None
+    compiled = module() if pair is not None else None
+    if compiled is None and backend == "numba":
+        raise InputError(
+            f"backend='numba' runs {type(method).__name__} with the solvers {sorted(COMPILED_SOLVERS)} on a gait and "
+            f"torques given as formulas (and numba installed); got solver {method.solver!r}"
+            + ("" if pair is None else ", and a gait or torque given as a Python callable")
+            + "."
+        )
+    if compiled is None and events is not None:
+        raise InputError(events_need_compiled(system.name))
+    return compiled
+
+
 @dataclass
-class BKMMRun:
-    """A compiled BKMM run of a batch: the states ``(B, n_saved, d)`` (``(g, r_F, rdot_F, p, W)``), what they show
-    ``(B, n_saved, w)`` (:class:`~._compiled.BKMMSource`'s observation: q, qdot, shape forces, energy, constraints),
+class CompiledRun:
+    """A compiled run of a batch (BKMM or Lagrange-d'Alembert): the states ``(B, n_saved, d)`` (``(g, r_F, rdot_F,
+    p, W)`` or ``(q_F, qdot_F, W)``), what they show ``(B, n_saved, w)`` (:class:`~._compiled.LagrangianSource`'s
+    observation: q, qdot, shape forces, energy, constraints),
     the failures by member, the evaluations and accepted steps in all, and the compile and loop times."""
 
     states: np.ndarray
@@ -206,8 +240,9 @@ class BKMMRun:
     loop_time: float
     events: dict[str, np.ndarray] = field(default_factory=dict)
 
-    def raw(self, setup: _Setup, m: int, b: int, failure: Failure | None) -> _Raw:
-        """Member ``b`` as the engines' :class:`_Raw`, its quantities included."""
+    def raw(self, setup: _Setup, m: int | None, b: int, failure: Failure | None) -> _Raw:
+        """Member ``b`` as the engines' :class:`_Raw`, its quantities included (the momentum where the state holds
+        it: ``m`` momenta after the group coordinates and the free shapes and their rates; None for none)."""
         s = setup.system
         n, sigma, c = s.n, s.sigma, s.c
         k_p = s.k + 2 * len(setup.free_shapes)
@@ -224,13 +259,13 @@ class BKMMRun:
             compile_time=self.compile_time,
             loop_time=self.loop_time,
             energy=w[:, 2 * n + sigma],
-            momentum=y[:, k_p : k_p + m],
+            momentum=None if m is None else y[:, k_p : k_p + m],
             residual=w[:, 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
             events=self.events,
         )
 
 
-def run_bkmm(
+def run_compiled(
     module: Any,
     made: Any,
     PRM: np.ndarray,
@@ -243,10 +278,11 @@ def run_bkmm(
     threads: int,
     events: Any = None,
     max_events: int = 0,
-) -> BKMMRun:
-    """The BKMM states ``Y0`` (rows ``(g, r_F, rdot_F, p, W)``, one per member; ``PRM`` one row for all or one per
-    member) at ``times`` by the compiled pair of ``method.solver``, the time appended to the state (its rate 1), the
-    members over ``threads``; each member's work bounded before it is done (a pilot of its first evaluations, its
+) -> CompiledRun:
+    """The states ``Y0`` of ``module``'s equations (rows ``(g, r_F, rdot_F, p, W)`` for BKMM, ``(q_F, qdot_F, W)``
+    for Lagrange-d'Alembert, one per member; ``PRM`` one row for all or one per member) at ``times`` by the
+    compiled pair of ``method.solver``, the time appended to the state (its rate 1), the members over ``threads``;
+    each member's work bounded before it is done (a pilot of its first evaluations, its
     pace projected to the end, as in Python), its failure its own. ``events`` (compiled for this state) are located
     and returned as rows ``(member, t, q, qdot)``."""
     limit = float(
@@ -314,7 +350,7 @@ def run_bkmm(
         if projected[worst] > 2.0 * limit:
             b = int(spent[worst])
             raise projected_cost_error(
-                "BKMM" + (f" (member {b} of the batch)" if B > 1 else ""),
+                made.equations + (f" (member {b} of the batch)" if B > 1 else ""),
                 int(INFO[b, 4]),
                 float(t_far[worst]),
                 t_end,
@@ -336,10 +372,7 @@ def run_bkmm(
         if kind is Status.BUDGET_EXHAUSTED:
             detail = budget_spent(int(INFO[b, 4]), t_end)
         elif kind is SINGULAR:
-            detail = (
-                f"the BKMM equations are singular (the locked inertia or the constraints), or the state is not "
-                f"finite, past t = {INFO[b, 5]:.6g}"
-            )
+            detail = f"{made.singular}, or the state is not finite, past t = {INFO[b, 5]:.6g}"
         else:
             detail = reasons[b]
         failures.append((b, Failure(kind, (), int(INFO[b, 1]), float(INFO[b, 5]), float("nan"), detail)))
@@ -356,4 +389,4 @@ def run_bkmm(
                 table[name] = np.concatenate([rows[:, :2], shown], axis=1)
             else:
                 table[name] = np.zeros((0, 2 + n_q))
-    return BKMMRun(OUT[..., :-1], OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time, table)
+    return CompiledRun(OUT[..., :-1], OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time, table)

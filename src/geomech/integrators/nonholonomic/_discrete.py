@@ -5,15 +5,18 @@ midpoint discrete Lagrangian in the coordinates or the group's through its expon
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import sympy as sp
 
+from ...errors import InputError
 from ...reduction import lagrange_dalembert
 from ...symbolic.compile import compile_vector
 from ...systems.nonholonomic import NonholonomicSystem
 from .._k_common import newton_done
 from ..solution import Failure, Status
+from ._compiled_discrete import dlda_module, run_compiled_discrete
 from ._inputs import _Setup
 from ._trajectory import _accelerations, _Raw
 
@@ -166,16 +169,28 @@ def run_discrete(
     max_newton: int,
     parameters: Mapping[str, float] | None,
     discretization: str = "midpoint",
+    backend: str = "auto",
 ) -> _Raw:
     r"""The discrete Lagrange-d'Alembert integrator with the ``discretization``'s discrete Lagrangian ("midpoint" or
     "group") on the grid ``t0 + k h``, k = 0..nsteps.
 
     The velocity reported at a node is the discrete Legendre transform :math:`D_2L_d + \tfrac h2\bar F`,
     projected on :math:`\mathcal D` with the kinetic metric, the prescribed shapes' rates the gait's; the work is
-    :math:`\sum_k h\,\tau_{k+1/2}\cdot(r_{k+1} - r_k)/h`. A Newton failure ends the run: the later nodes are
-    NaN and the failure is returned as data.
+    :math:`\sum_k h\,\tau_{k+1/2}\cdot(r_{k+1} - r_k)/h`, the shape forces :math:`\tau_{k+1/2}` those of the
+    continuous equations at the midpoint (the free coordinates' midpoint and difference quotient, the gait at
+    :math:`t_{k+1/2}`). A Newton failure ends the run: the later nodes are NaN and the failure is returned as data.
+    The midpoint map runs compiled (:mod:`._compiled_discrete`) where the gait and torques are formulas, unless
+    ``backend`` is "python".
     """
     system = s = setup.system
+    compiled = dlda_module(setup) if discretization == "midpoint" and backend != "python" else None
+    if compiled is None and backend == "numba":
+        raise InputError(
+            "backend='numba' runs the discrete Lagrange-d'Alembert map with the midpoint discretization, the gait "
+            "and torques given as formulas (and numba installed)."
+        )
+    if compiled is not None:
+        return _compiled_run(setup, compiled, q_init, qd_init, t0, h, nsteps, newton_tol, max_newton, parameters)
     tol, max_iter = newton_tol, max_newton
     disc = (_GroupLagrangian if discretization == "group" else _Midpoint)(system, parameters, h)
     lda = lagrange_dalembert(system).numeric(parameters)
@@ -280,27 +295,76 @@ def run_discrete(
         qd[fr] = np.linalg.solve(Kmat, rhs)[:nf]
         QD[k] = qd
     for k in range(reached):
+        # the midpoint state: the free coordinates' midpoint and difference quotient, the gait at t_k+1/2
         x = np.r_[(Q[k] + Q[k + 1]) / 2, (Q[k + 1] - Q[k]) / h]
         tm = times[k] + h / 2
+        r_p, rd_p, rdd_p = setup.gait(tm)
+        x[pr], x[[n + i for i in pr]] = r_p, rd_p
         tau_v = np.zeros(s.sigma)
         tau_v[setup.free_shapes] = setup.torques(tm, x[:n], x[n:])
         if pr:
             # Forces realising the gait, from the continuous equations at the midpoint state (O(h^2) accurate).
-            _, _, rdd_p = setup.gait(tm)
             _, _, tau_full = _accelerations(setup, lda.funcs, tm, x[:n], x[n:], rdd_p)
             tau_v[setup.prescribed] = tau_full[setup.prescribed]
         tau_mid[k] = tau_v
         work[k + 1] = work[k] + tau_v @ (Q[k + 1, s.k :] - Q[k, s.k :])
-    TAU = np.vstack([tau_mid, tau_mid[-1:]]) if nsteps else np.zeros((1, s.sigma))
-    # The projected node velocities satisfy the constraints exactly; the honest residual of the scheme is that of
-    # the centred difference quotient, A(q_k)(q_{k+1} - q_{k-1}) / 2h = O(h^2) (one-sided at the ends).
-    residual = np.full((nsteps + 1, c), np.nan)
+    residual = _residual(lda, Q, QD, times, reached)
+    return _Raw(Q, QD, _node_forces(tau_mid, nsteps, s.sigma), work, failure, reached, residual)
+
+
+def _node_forces(tau_mid: np.ndarray, nsteps: int, sigma: int) -> np.ndarray:
+    """The shape forces of the steps' midpoints as a row per node (the last repeated)."""
+    return np.vstack([tau_mid[:nsteps], tau_mid[nsteps - 1 : nsteps]]) if nsteps else np.zeros((1, sigma))
+
+
+def _residual(lda: Any, Q: np.ndarray, QD: np.ndarray, times: np.ndarray, reached: int) -> np.ndarray:
+    """The projected node velocities satisfy the constraints exactly; the honest residual of the scheme is that of
+    the centred difference quotient, A(q_k)(q_{k+1} - q_{k-1}) / 2h = O(h^2) (one-sided at the ends)."""
+    N, c = len(Q), lda.system.c
+    residual = np.full((N, c), np.nan)
     if reached >= 2:
         V_fd = np.gradient(Q[: reached + 1], times[: reached + 1], axis=0, edge_order=2)
         residual[: reached + 1] = lda.constraint_residual(Q[: reached + 1], V_fd).reshape(reached + 1, c)
     elif reached >= 0:
         residual[: reached + 1] = lda.constraint_residual(Q[: reached + 1], QD[: reached + 1]).reshape(-1, c)
-    return _Raw(Q, QD, TAU, work, failure, reached, residual)
+    return residual
+
+
+#: The compiled loop's status codes (_k_common's ST_*) as the failures' kinds.
+_STATUS = {1: Status.NEWTON_FAILED, 2: Status.NONFINITE, 3: Status.SINGULAR_JACOBIAN}
+
+
+def _compiled_run(
+    setup: _Setup,
+    compiled: tuple[Any, Any],
+    q_init: np.ndarray,
+    qd_init: np.ndarray,
+    t0: float,
+    h: float,
+    nsteps: int,
+    newton_tol: float,
+    max_newton: int,
+    parameters: Mapping[str, float] | None,
+) -> _Raw:
+    module, made = compiled
+    Q, QD, TAU, WORK, INFO, reached, compile_time, loop_time = run_compiled_discrete(
+        module, made, setup, q_init, qd_init, t0, h, nsteps, newton_tol, max_newton, parameters
+    )
+    failure = None
+    if reached < nsteps:
+        kind = _STATUS.get(int(INFO[0]), Status.NEWTON_FAILED)
+        detail = (
+            f"no convergence in {max_newton} iterations (step {h:.3g}); reduce h or raise max_newton"
+            if kind is Status.NEWTON_FAILED
+            else ""
+        )
+        failure = Failure(kind, (), int(INFO[1]), float(t0 + h * reached), float(INFO[2]), detail)
+    times = t0 + h * np.arange(nsteps + 1)
+    lda = lagrange_dalembert(setup.system).numeric(parameters)
+    raw = _Raw(Q, QD, _node_forces(TAU, nsteps, setup.system.sigma), WORK, failure, reached)
+    raw.residual = _residual(lda, Q, QD, times, reached)
+    raw.backend, raw.compile_time, raw.loop_time = "numba", compile_time, loop_time
+    return raw
 
 
 class _StepFailed(Exception):

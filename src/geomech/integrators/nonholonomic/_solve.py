@@ -17,12 +17,12 @@ from ...errors import InputError
 from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
-from .._events import compile_bkmm_events, events_need_compiled
+from .._events import compile_lagrangian_events, events_need_compiled
 from .._times import Times
 from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
-from ._compiled import bkmm_module, compiled_pair, observe
-from ._continuous import run_bkmm, run_full, run_reduced
+from ._compiled import bkmm_module, bkmm_slots, compiled_pair, observe
+from ._continuous import run_compiled, run_full, run_reduced
 from ._discrete import run_discrete
 from ._hamiltonian import run_hamiltonian
 from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state
@@ -60,7 +60,7 @@ def solve_lagrangian(
     :func:`~geomech.solve` has checked the method and the times)."""
     setup = _setup(system, shapes, tau, parameters)
     check_parameter_names(setup, parameters)
-    if events is not None and not isinstance(method, BKMM):
+    if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert)):
         raise InputError(events_need_compiled(system.name) + f" Got {method!r}.")
     shape = _batch_shape(parameters, q0, rdot0, p0)
     if shape is not None:
@@ -110,7 +110,17 @@ def solve_lagrangian(
     if isinstance(method, DiscreteLagrangeDAlembert):
         assert h is not None
         raw = run_discrete(
-            setup, q_init, qd_init, t0, h, times.n_steps, newton_tol, max_newton, parameters, method.discretization
+            setup,
+            q_init,
+            qd_init,
+            t0,
+            h,
+            times.n_steps,
+            newton_tol,
+            max_newton,
+            parameters,
+            method.discretization,
+            backend,
         )
         keep = times.kernel_steps() if times.k is None else times.k
         steps_done = raw.nfev
@@ -122,7 +132,20 @@ def solve_lagrangian(
         assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
         if isinstance(method, LagrangeDAlembert):
-            raw = run_full(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
+            raw = run_full(
+                setup,
+                q_init,
+                qd_init,
+                t0,
+                times.t,
+                method,
+                tolerances,
+                max_evaluations,
+                parameters,
+                backend,
+                events,
+                max_events,
+            )
         elif isinstance(method, NonholonomicHamilton):
             raw = run_hamiltonian(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
         else:
@@ -283,8 +306,8 @@ def _solve_batch(
     start = observe(module, made, np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1), PRM, 1)
     _require_positive_kinetic_energy(system, start[:, : system.n], arrays, members=f" {shape}")
     n_threads = threads if threads is not None else (os.cpu_count() or 1)
-    compiled_events = None if events is None else compile_bkmm_events(setup, made, m, events)
-    run = run_bkmm(
+    compiled_events = None if events is None else compile_lagrangian_events(setup, made, bkmm_slots(setup, m), events)
+    run = run_compiled(
         module,
         made,
         PRM,

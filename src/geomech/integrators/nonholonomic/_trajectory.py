@@ -33,9 +33,9 @@ class _Raw:
     backend: str = "python"
     compile_time: float = 0.0
     loop_time: float | None = None  # the compiled loop alone, where there is one
-    energy: np.ndarray | None = None  # where the engine computed them (the compiled BKMM's observation)
+    energy: np.ndarray | None = None  # where the engine computed them (a compiled run's observation)
     momentum: np.ndarray | None = None
-    events: dict[str, np.ndarray] = field(default_factory=dict)  # Solution.events (the compiled BKMM's)
+    events: dict[str, np.ndarray] = field(default_factory=dict)  # Solution.events (a compiled run's)
 
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:

@@ -1,14 +1,15 @@
-"""The BKMM equations compiled (straight-line code for the system's sizes, run by the compiled Dormand-Prince
-loops) against the same equations evaluated in Python by scipy's DOP853: two implementations of the linear
-algebra (loops over named values; numpy on arrays) and two drivers. The compiled path is also the default of
-the other nonholonomic tests, where it meets exact solutions and the Lagrange-d'Alembert equations."""
+"""The BKMM equations and the Lagrange-d'Alembert equations with multipliers compiled (straight-line code for the
+system's sizes, run by the compiled Dormand-Prince loops) against the same equations evaluated in Python by scipy's
+DOP853: two implementations of the linear algebra (loops over named values, or an elimination in the compiled
+function; numpy on arrays) and two drivers. The compiled paths are also the default of the other nonholonomic tests,
+where they meet exact solutions and each other."""
 
 import numpy as np
 import pytest
 
 from geomech import Gait, solve
 from geomech.errors import InputError
-from geomech.integrators import BKMM, Status
+from geomech.integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Status
 from geomech.systems.nonholonomic_examples import (
     chaplygin_sleigh,
     kinematic_car,
@@ -41,12 +42,20 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("name", list(CASES))
-def test_compiled_and_python_equations_agree(name):
+METHODS = {"bkmm": BKMM(), "lda": LagrangeDAlembert(), "lda_baumgarte": LagrangeDAlembert(baumgarte=5.0)}
+
+
+@pytest.mark.parametrize(
+    "name, method",
+    [(name, "bkmm") for name in CASES]
+    + [(name, "lda") for name in ("roller_racer", "bicycle", "chaplygin_sleigh")]
+    + [("rolling_disk", "lda_baumgarte")],
+)
+def test_compiled_and_python_equations_agree(name, method):
     build, kw = CASES[name]
     s = build()
-    a = solve(s, BKMM(), t_final=3.0, saveat=31, backend="python", rtol=1e-11, atol=1e-12, **kw)
-    b = solve(s, BKMM(), t_final=3.0, saveat=31, rtol=1e-11, atol=1e-12, **kw)
+    a = solve(s, METHODS[method], t_final=3.0, saveat=31, backend="python", rtol=1e-11, atol=1e-12, **kw)
+    b = solve(s, METHODS[method], t_final=3.0, saveat=31, rtol=1e-11, atol=1e-12, **kw)
     assert a.stats["backend"] == "python" and b.stats["backend"] == "numba"
     scale = max(1.0, float(np.abs(a.q).max()))
     # the two runs take different steps to the same tolerance: they agree to it, not to round-off
@@ -54,6 +63,11 @@ def test_compiled_and_python_equations_agree(name):
     np.testing.assert_allclose(b.qdot, a.qdot, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.qdot).max())))
     np.testing.assert_allclose(b.p, a.p, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.p).max())))
     np.testing.assert_allclose(b.work, a.work, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.energy).max())))
+    np.testing.assert_allclose(b.energy, a.energy, rtol=0, atol=1e-8 * max(1.0, float(np.abs(a.energy).max())))
+    tau_a, tau_b = a.quantities["tau"], b.quantities["tau"]
+    np.testing.assert_allclose(tau_b, tau_a, rtol=0, atol=1e-7 * max(1.0, float(np.abs(tau_a).max(initial=0.0))))
+    residual = b.quantities["constraint_residual"]
+    assert np.abs(residual).max(initial=0.0) <= 1e-8 * max(1.0, float(np.abs(a.qdot).max()))
     assert abs(b.stats["n_internal_steps"] - a.stats["n_internal_steps"]) <= 0.05 * a.stats["n_internal_steps"] + 2
 
 
@@ -75,10 +89,11 @@ def test_parameter_values_and_gait_numbers_share_one_compilation():
     np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-8)
 
 
-def test_a_singular_shape_is_a_failure_where_it_is():
+@pytest.mark.parametrize("method", ["bkmm", "lda"])
+def test_a_singular_shape_is_a_failure_where_it_is(method):
     # the kinematic car's steering reaches pi/2 at t = pi/2: its constraints are singular there
     car = kinematic_car(m=1.0, I=0.2, R=0.3, ell=1.0, J=0.1, K=0.1)
-    sol = solve(car, BKMM(), t_final=3.0, shapes={"psi": "t", "phi": "t"}, saveat=31, raise_on_failure=False)
+    sol = solve(car, METHODS[method], t_final=3.0, shapes={"psi": "t", "phi": "t"}, saveat=31, raise_on_failure=False)
     assert sol.stats["backend"] == "numba" and sol.status is Status.ADAPTIVE_FAILED
     assert abs(sol.failures[0].time - np.pi / 2) < 1e-6 and "singularity" in sol.message
     reached = sol.t < np.pi / 2
@@ -113,3 +128,56 @@ def test_torques_given_as_a_gait_of_formulas_compile():
     assert as_gait.stats["backend"] == "numba"
     np.testing.assert_allclose(as_gait.q, as_mapping.q, rtol=0, atol=1e-8)
     assert abs(as_gait.work[-1]) > 1e-3
+
+
+def test_the_checked_solve_refuses_a_matrix_singular_to_working_precision():
+    """The elimination the compiled Lagrange-d'Alembert equations solve with: the solution where the matrix is
+    regular, and a refusal (a NaN derivative in the equations) where a pivot is below 1e-13 of the largest entry."""
+    from geomech.integrators._codegen import python_helpers
+
+    solve_checked = python_helpers()["solve_checked"]
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 5):
+        A = rng.normal(size=(n, n)) + 3 * np.eye(n)
+        b = rng.normal(size=n)
+        x = b.copy()
+        assert solve_checked(A.copy(), x, n, 1e-13)
+        np.testing.assert_allclose(A @ x, b, rtol=0, atol=1e-12 * np.abs(b).max())
+        S = A.copy()
+        S[-1] = S[0] * (1 + 1e-15) if n > 1 else 0.0  # rows equal to round-off, or a zero
+        assert not solve_checked(S, b.copy(), n, 1e-13)
+        N = A.copy()
+        N[0, 0] = np.nan
+        assert not solve_checked(N, b.copy(), n, 1e-13)
+
+
+@pytest.mark.parametrize("name", ["snakeboard", "roller_racer", "bicycle", "chaplygin_sleigh"])
+def test_the_compiled_discrete_map_takes_the_python_steps(name):
+    """The discrete Lagrange-d'Alembert map (midpoint) compiled takes the steps of the Python engine: the same
+    guesses, residuals, Newton's tests and node velocities, so that the two agree to round-off, not to a tolerance
+    (gaits, torques on free shapes, a potential, no shape; a system written in the tests in
+    test_a_new_system_through_solve.py)."""
+    build, kw = CASES[name]
+    s = build()
+    run = dict(t_final=2.0, h=0.01, saveat=21, **kw)
+    a = solve(s, "discrete_lagrange_dalembert", backend="python", **run)
+    b = solve(s, "discrete_lagrange_dalembert", **run)
+    assert a.stats["backend"] == "python" and b.stats["backend"] == "numba"
+    for x, y in [(a.q, b.q), (a.qdot, b.qdot), (a.work, b.work), (a.quantities["tau"], b.quantities["tau"])]:
+        np.testing.assert_allclose(y, x, rtol=0, atol=1e-11 * max(1.0, float(np.abs(x).max(initial=0.0))))
+    # and the compiled map is the scheme of second order: h / 2 is four times closer to the adaptive solution
+    fine = solve(s, "discrete_lagrange_dalembert", **{**run, "h": 0.005})
+    exact = solve(s, BKMM(), t_final=2.0, saveat=21, rtol=1e-12, atol=1e-13, **kw)
+    e1, e2 = (np.abs(x.q[-1] - exact.q[-1]).max() for x in (b, fine))
+    assert 3.0 < e1 / e2 < 5.0
+
+
+def test_the_compiled_discrete_map_reports_a_failed_step():
+    s = snakeboard(**SNAKE)
+    run = dict(t_final=1.0, h=0.05, shapes=GAIT, max_newton=1, raise_on_failure=False)
+    a, b = (solve(s, "discrete_lagrange_dalembert", backend=k, **run) for k in ("python", "numba"))
+    assert a.status == b.status == Status.NEWTON_FAILED
+    assert a.failures[0].step == b.failures[0].step and a.failures[0].time == b.failures[0].time
+    assert np.isnan(b.q[-1]).all()
+    with pytest.raises(InputError, match="backend='numba'"):
+        solve(s, DiscreteLagrangeDAlembert("group"), t_final=0.1, h=0.05, shapes=GAIT, backend="numba")

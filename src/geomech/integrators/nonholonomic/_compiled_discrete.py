@@ -1,0 +1,351 @@
+"""The discrete Lagrange-d'Alembert map with the midpoint discrete Lagrangian
+(:class:`~geomech.integrators.DiscreteLagrangeDAlembert`, ``discretization="midpoint"``), compiled: the whole run,
+Newton's iteration of every step included, in one numba call.
+
+The module holds the compiled Lagrange-d'Alembert equations of :mod:`._compiled` (their observation gives the
+forces that realise the gait at a step's midpoint) and, generated for the system's sizes as straight-line code,
+
+- ``disc(q0, q1, h, tm, prm, D1, D2, JD, C, JC)``: :math:`D_1L_d + \\tfrac h2 F` and :math:`D_2L_d + \\tfrac h2 F`
+  of :math:`L_d = hL(\\bar q, (q_1 - q_0)/h)` (F the torques on the free shapes at the midpoint), the derivative
+  of :math:`D_1L_d` in :math:`q_1` (from the second derivatives of L), the discrete constraint
+  :math:`A(\\bar q)(q_1 - q_0)` and its derivative in :math:`q_1`;
+- ``momentum(q, qd, out, prm)``: :math:`\\partial L/\\partial\\dot q`;
+- ``mass_constraints(q, M, A, prm)``: the mass matrix and the constraints at a node;
+- ``gait_nodes(t, qp, qdp, prm)``: the prescribed shapes and their rates at a node,
+
+and the loop ``dlda_run``, the same steps as the Python engine (:func:`._discrete.run_discrete`): the same
+initial guesses, residuals, Newton's stopping tests, node velocities (the discrete Legendre transform projected on
+D) and work. The system's parameters, the gait's and the torques' numbers are read from ``prm`` at run time.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ...symbolic.compile import StraightLine
+from ...systems.gait import T_SYMBOL
+from ._compiled import _TIME, LagrangianSource, _generate_lda, _made, _module
+
+__all__ = ["dlda_module", "run_compiled_discrete"]
+
+
+def dlda_module(setup: Any) -> tuple[Any, LagrangianSource] | None:
+    """The compiled discrete Lagrange-d'Alembert map (midpoint) of ``setup`` and the layout of the values ``prm`` it
+    reads, or None where it cannot be compiled (numba missing, a callable gait or torque, a function numba
+    lacks)."""
+
+    def generate(gait: tuple, torques: tuple, n_prm: int, extra: tuple) -> str:
+        return _generate_lda(setup, gait, torques, n_prm, sp.Integer(0)) + _generate_discrete(
+            setup, gait, torques, n_prm
+        )
+
+    return _module(lambda: _made(setup, ("dlda",), (), generate), "dl")
+
+
+def _reads(n_prm: int) -> str:
+    return "\n".join(f"_p{i} = prm[{i}]" for i in range(n_prm))
+
+
+def _function(name: str, args: str, code: StraightLine) -> str:
+    return f"@kernel\ndef {name}({args}):\n" + code.body()
+
+
+def _generate_discrete(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int) -> str:
+    system = setup.system
+    n, k, c = system.n, system.k, system.c
+    params = {p: sp.Symbol(f"_p{i}") for i, p in enumerate(system.parameter_symbols)}
+    L = sp.sympify(system.lagrangian).xreplace(params)
+    q, v = list(system.q), list(system.qdot)
+    Lq = [sp.diff(L, a) for a in q]
+    Lv = [sp.diff(L, a) for a in v]
+    A = sp.Matrix(system.constraint_matrix).xreplace(params) if c else sp.zeros(0, n)
+    h, tm = sp.Symbol("_h"), sp.Symbol("_tm")
+    parts = []
+
+    # disc: the discrete Lagrangian's derivatives and the discrete constraint at a step (q0, q1)
+    code = StraightLine()
+    a_ = [sp.Symbol(f"_a{i}") for i in range(n)]
+    b_ = [sp.Symbol(f"_b{i}") for i in range(n)]
+    code.line(
+        "\n".join([f"_a{i} = q0[{i}]\n_b{i} = q1[{i}]" for i in range(n)] + ["_h = h", "_tm = tm", _reads(n_prm)])
+    )
+    qbar = [code.value((a_[i] + b_[i]) / 2) for i in range(n)]
+    vel = [code.value((b_[i] - a_[i]) / h) for i in range(n)]
+    at = {T_SYMBOL: tm, **dict(zip(q, qbar)), **dict(zip(v, vel))}
+    lq = code.values([e.xreplace(at) for e in Lq])
+    lv = code.values([e.xreplace(at) for e in Lv])
+    F = [sp.Integer(0)] * n
+    for jj, j in enumerate(setup.free_shapes):
+        F[k + j] = code.value(torque_forms[jj].xreplace(at).xreplace(params))
+    D1 = code.values([h / 2 * (lq[i] + F[i]) - lv[i] for i in range(n)])
+    D2 = code.values([h / 2 * (lq[i] + F[i]) + lv[i] for i in range(n)])
+    JD = []
+    for i in range(n):
+        row = []
+        for j in range(n):
+            lqq = sp.diff(Lq[i], q[j]).xreplace(at)
+            lqv = sp.diff(Lq[i], v[j]).xreplace(at)
+            lvq = sp.diff(Lv[i], q[j]).xreplace(at)  # = d Lq[j] / d v[i]
+            lvv = sp.diff(Lv[i], v[j]).xreplace(at)
+            row.append(code.value(h / 2 * (lqq / 2 + lqv / h) - (lvq / 2 + lvv / h)))
+        JD.append(row)
+    dq = [b_[i] - a_[i] for i in range(n)]
+    Abar = A.xreplace(at) if c else A
+    C = code.values([sum(Abar[r, i] * dq[i] for i in range(n)) for r in range(c)])
+    JC = [
+        [
+            code.value(Abar[r, j] + sum(sp.diff(A[r, i], q[j]).xreplace(at) * dq[i] for i in range(n)) / 2)
+            for j in range(n)
+        ]
+        for r in range(c)
+    ]
+    stores = [f"D1[{i}] = {code.code(D1[i])}\nD2[{i}] = {code.code(D2[i])}" for i in range(n)]
+    stores += [f"JD[{i}, {j}] = {code.code(JD[i][j])}" for i in range(n) for j in range(n)]
+    stores += [f"C[{r}] = {code.code(C[r])}" for r in range(c)]
+    stores += [f"JC[{r}, {j}] = {code.code(JC[r][j])}" for r in range(c) for j in range(n)]
+    code.line("\n".join(stores) or "pass")
+    parts.append(_function("disc", "q0, q1, h, tm, prm, D1, D2, JD, C, JC", code))
+
+    # momentum: dL/dqdot at (q, qd)
+    code = StraightLine()
+    code.line("\n".join([f"_q{i} = x[{i}]\n_w{i} = xd[{i}]" for i in range(n)] + [_reads(n_prm)]))
+    node = {**{q[i]: sp.Symbol(f"_q{i}") for i in range(n)}, **{v[i]: sp.Symbol(f"_w{i}") for i in range(n)}}
+    p = code.values([e.xreplace(node) for e in Lv])
+    code.line("\n".join(f"out[{i}] = {code.code(p[i])}" for i in range(n)))
+    parts.append(_function("momentum", "x, xd, out, prm", code))
+
+    # mass_constraints: M(q) and A(q) at a node
+    code = StraightLine()
+    code.line("\n".join([f"_q{i} = x[{i}]" for i in range(n)] + [_reads(n_prm)]))
+    M = sp.Matrix(system.mass_matrix).xreplace(params).xreplace(node)
+    Mv, Av = code.matrix(M), code.matrix(A.xreplace(node)) if c else sp.zeros(0, n)
+    code.line(
+        "\n".join(
+            [f"M[{i}, {j}] = {code.code(Mv[i, j])}" for i in range(n) for j in range(n)]
+            + [f"A[{r}, {j}] = {code.code(Av[r, j])}" for r in range(c) for j in range(n)]
+        )
+    )
+    parts.append(_function("mass_constraints", "x, M, A, prm", code))
+
+    # gait_nodes: the prescribed shapes and their rates at t
+    code = StraightLine()
+    code.line("_t = t\n" + _reads(n_prm))
+    values = code.values(list(gait_forms) + [e.diff(_TIME) for e in gait_forms])
+    npr = len(gait_forms)
+    code.line(
+        "\n".join([f"qp[{j}] = {code.code(values[j])}\nqdp[{j}] = {code.code(values[npr + j])}" for j in range(npr)])
+        or "pass"
+    )
+    parts.append(_function("gait_nodes", "t, qp, qdp, prm", code))
+    return "\n\n\n" + "\n\n\n".join(parts) + _LOOP.replace("NC", str(c))
+
+
+_LOOP = '''
+
+
+@kernel
+def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, Q, QD, TAU, WORK, INFO):
+    """The discrete Lagrange-d'Alembert run: nodes Q, node velocities QD, the shape forces at the midpoints TAU, the
+    work; INFO = (status, failing step, residual). Returns the number of steps done."""
+    n = q_init.shape[0]
+    nf = FR.shape[0]
+    npr = PR.shape[0]
+    c = NC
+    sigma = TAU.shape[1]
+    kg = n - sigma
+    m = nf + c
+    D1 = np.empty(n)
+    D2 = np.empty(n)
+    JD = np.empty((n, n))
+    C = np.empty(c)
+    JC = np.empty((c, n))
+    M = np.empty((n, n))
+    A0 = np.empty((c, n))
+    base = np.empty(n)
+    q1 = np.empty(n)
+    lam = np.zeros(c)
+    R = np.empty(m)
+    J = np.empty((m, m))
+    qp = np.empty(npr)
+    qdp = np.empty(npr)
+    y = np.empty(2 * nf + 2)
+    obs = np.empty(2 * n + sigma + 1 + c)
+    for i in range(n):
+        Q[0, i] = q_init[i]
+        QD[0, i] = qd_init[i]
+    WORK[0] = 0.0
+    # the first step: the continuous momentum stands for D2 L_d of a previous step, with half the impulse
+    momentum(q_init, qd_init, base, prm)
+    lamw = h / 2
+    for k in range(nsteps):
+        t_next = t0 + (k + 1) * h
+        tm = t_next - h / 2
+        gait_nodes(t_next, qp, qdp, prm)
+        for i in range(n):
+            q1[i] = Q[k, i] + h * qd_init[i] if k == 0 else 2 * Q[k, i] - Q[k - 1, i]
+        for j in range(npr):
+            q1[PR[j]] = qp[j]
+        for a in range(c):
+            lam[a] = 0.0
+        mass_constraints(Q[k], M, A0, prm)
+        scale = 1.0 + max_abs(base)
+        dprev = 0.0
+        status = ST_NEWTON
+        rmax = np.inf
+        for it in range(maxit):
+            disc(Q[k], q1, h, tm, prm, D1, D2, JD, C, JC)
+            for ii in range(nf):
+                i = FR[ii]
+                r = base[i] + D1[i]
+                for a in range(c):
+                    r += lamw * A0[a, i] * lam[a]
+                R[ii] = -r
+            for a in range(c):
+                R[nf + a] = -C[a]
+            rmax = max_abs(R)
+            if it > 0 and rmax < tol * scale:
+                status = ST_OK
+                break
+            for ii in range(nf):
+                for jj in range(nf):
+                    J[ii, jj] = JD[FR[ii], FR[jj]]
+                for a in range(c):
+                    J[ii, nf + a] = lamw * A0[a, FR[ii]]
+            for a in range(c):
+                for jj in range(nf):
+                    J[nf + a, jj] = JC[a, FR[jj]]
+                for b in range(c):
+                    J[nf + a, nf + b] = 0.0
+            if not lu_solve(J, R, m):
+                status = ST_SINGULAR
+                break
+            for ii in range(nf):
+                q1[FR[ii]] += R[ii]
+            for a in range(c):
+                lam[a] += R[nf + a]
+            dn = max_abs(R)
+            if not math.isfinite(dn):
+                status = ST_NONFINITE
+                break
+            if newton_done(dn, dprev, it, max(1.0, max_abs(q1)), tol):
+                status = ST_OK
+                break
+            dprev = dn
+        if status == ST_OK and not math.isfinite(max_abs(q1)):
+            status = ST_NONFINITE
+        if status != ST_OK:
+            INFO[0] = status
+            INFO[1] = k + 1
+            INFO[2] = rmax
+            return k
+        for i in range(n):
+            Q[k + 1, i] = q1[i]
+        # the next step's base, D2 L_d + h/2 F of this one, is the momentum at the node
+        disc(Q[k], q1, h, tm, prm, D1, D2, JD, C, JC)
+        for i in range(n):
+            base[i] = D2[i]
+        lamw = h
+        # the node velocity: the momentum projected on D with the kinetic metric, the gait's rates
+        mass_constraints(q1, M, A0, prm)
+        for ii in range(nf):
+            i = FR[ii]
+            r = base[i]
+            for jj in range(npr):
+                r -= M[i, PR[jj]] * qdp[jj]
+            R[ii] = r
+            for jj in range(nf):
+                J[ii, jj] = M[i, FR[jj]]
+            for a in range(c):
+                J[ii, nf + a] = -A0[a, i]
+        for a in range(c):
+            r = 0.0
+            for jj in range(npr):
+                r -= A0[a, PR[jj]] * qdp[jj]
+            R[nf + a] = r
+            for jj in range(nf):
+                J[nf + a, jj] = A0[a, FR[jj]]
+            for b in range(c):
+                J[nf + a, nf + b] = 0.0
+        if not lu_solve(J, R, m):
+            INFO[0] = ST_SINGULAR
+            INFO[1] = k + 1
+            INFO[2] = np.nan
+            return k
+        for ii in range(nf):
+            QD[k + 1, FR[ii]] = R[ii]
+        for jj in range(npr):
+            QD[k + 1, PR[jj]] = qdp[jj]
+        # the shape forces at the midpoint (the continuous equations there) and their work
+        for ii in range(nf):
+            i = FR[ii]
+            y[ii] = (Q[k, i] + q1[i]) / 2
+            y[nf + ii] = (q1[i] - Q[k, i]) / h
+        y[2 * nf] = 0.0
+        y[2 * nf + 1] = tm
+        observe(y, obs, prm)
+        w = 0.0
+        for j in range(sigma):
+            TAU[k, j] = obs[2 * n + j]
+            w += TAU[k, j] * (q1[kg + j] - Q[k, kg + j])
+        WORK[k + 1] = WORK[k] + w
+    return nsteps
+'''
+
+
+def run_compiled_discrete(
+    module: Any,
+    made: LagrangianSource,
+    setup: Any,
+    q_init: np.ndarray,
+    qd_init: np.ndarray,
+    t0: float,
+    h: float,
+    nsteps: int,
+    newton_tol: float,
+    max_newton: int,
+    parameters: Any,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
+    """The nodes, node velocities, midpoint shape forces (``nsteps`` rows), work and INFO of a compiled run, the
+    number of steps done, the compile time and the loop's time."""
+    system = setup.system
+    n, sigma = system.n, system.sigma
+    Q = np.full((nsteps + 1, n), np.nan)
+    QD = np.full((nsteps + 1, n), np.nan)
+    TAU = np.full((max(nsteps, 1), sigma), np.nan)
+    WORK = np.full(nsteps + 1, np.nan)
+    INFO = np.zeros(3)
+    prm = made.rows({**system.parameters, **dict(parameters or {})}, 1)[0]
+    FR = np.asarray(setup.free_coordinates(), dtype=np.int64)
+    PR = np.asarray(setup.prescribed_coordinates(), dtype=np.int64)
+    q0 = np.ascontiguousarray(q_init, dtype=float)
+    qd0 = np.ascontiguousarray(qd_init, dtype=float)
+    compile_time = 0.0
+    if not module.dlda_run.signatures:  # compiled (or loaded from numba's cache) by a run of no step, timed apart
+        start = time.perf_counter()
+        module.dlda_run(
+            q0, qd0, 0.0, 1.0, 0, 1.0, 1, FR, PR, prm, Q[:1].copy(), QD[:1].copy(), TAU, WORK[:1].copy(), INFO
+        )
+        compile_time = time.perf_counter() - start
+    start = time.perf_counter()
+    done = module.dlda_run(
+        q0,
+        qd0,
+        float(t0),
+        float(h),
+        int(nsteps),
+        float(newton_tol),
+        int(max_newton),
+        FR,
+        PR,
+        prm,
+        Q,
+        QD,
+        TAU,
+        WORK,
+        INFO,
+    )
+    return Q, QD, TAU, WORK, INFO, int(done), compile_time, time.perf_counter() - start
