@@ -1,5 +1,5 @@
-"""Nonholonomic systems driven by a gait or coasting: geomech's BKMM equations (compiled, and in Python) beside
-heyoka's Taylor integrator on the same reduced equations.
+"""Nonholonomic systems driven by a gait or coasting: geomech's BKMM equations (compiled, and in Python) and its
+Lagrange-d'Alembert equations with multipliers (compiled) beside heyoka's Taylor integrator on the reduced equations.
 
     PYTHONPATH=src python benchmarks/nonholonomic.py          # about 30 seconds
     PYTHONPATH=src python benchmarks/nonholonomic.py --quick  # fewer tolerances
@@ -22,7 +22,9 @@ the connection solved and simplified by sympy, a different route from the compil
 precision (real128, tolerance 1e-32), cross-checked against heyoka in long double.
 
 Measured, in one run: the max-norm error of (g, p) at the end against the wall time, best of several repeats:
-``solve(s, BKMM(), ...)`` from the Python call to the Solution (compiled and Python equations), the compiled loop
+``solve(s, BKMM(), ...)`` and ``solve(s, LagrangeDAlembert(), ...)`` from the Python call to the Solution
+(compiled; BKMM also in Python), the compiled discrete Lagrange-d'Alembert map (midpoint) at fixed steps, the
+compiled loop
 alone (``stats["loop_time"]``), and heyoka's ``propagate_until`` from a reset state (its construction and JIT
 compilation apart, as geomech's compilation is). Writes ``results/nonholonomic.json`` and
 ``results/nonholonomic.md``.
@@ -31,6 +33,7 @@ compilation apart, as geomech's compilation is). Writes ``results/nonholonomic.j
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import platform
 import sys
@@ -46,7 +49,7 @@ from work_precision import (  # the harness of the work-precision benchmark (thi
 )
 
 import geomech as gm
-from geomech.integrators import BKMM, solve
+from geomech.integrators import BKMM, LagrangeDAlembert, solve
 from geomech.reduction import bkmm_reduction
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, roller_racer, snakeboard
 
@@ -81,6 +84,10 @@ CASES = {
 TOLS = [1e-6, 1e-8, 1e-10, 1e-12, 1e-13]
 TOLS_QUICK = [1e-8, 1e-12]
 PYTHON_TOLS = [1e-8, 1e-12]
+#: the steps of the discrete Lagrange-d'Alembert map (second order, fixed step: the "tolerance" column is h)
+DISCRETE_STEPS = [1e-2, 1e-3]
+#: the compiled equations: the reduced ones, and those in coordinates with multipliers
+COMPILED = {"BKMM": BKMM(), "LagrangeDAlembert": LagrangeDAlembert()}
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 
 
@@ -121,14 +128,14 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
         return float(np.abs(np.r_[sol.q[-1, :k], sol.p[-1]] - ref).max())
 
     rows: list[dict[str, Any]] = []
-    for tol in TOLS_QUICK if quick else TOLS:
+    for (label, method), tol in itertools.product(COMPILED.items(), TOLS_QUICK if quick else TOLS):
         kw = dict(rtol=tol, atol=tol * 1e-2, **common)
-        first = solve(s, BKMM(), **kw)  # compiles (or loads the disk cache)
-        wall, sol = best_of(lambda kw=kw: solve(s, BKMM(), **kw), repeats)
-        loop = min(solve(s, BKMM(), **kw).stats["loop_time"] for _ in range(repeats))
+        first = solve(s, method, **kw)  # compiles (or loads the disk cache)
+        wall, sol = best_of(lambda kw=kw, method=method: solve(s, method, **kw), repeats)
+        loop = min(solve(s, method, **kw).stats["loop_time"] for _ in range(repeats))
         rows.append(
             dict(
-                who="geomech BKMM compiled (DOP853)",
+                who=f"geomech {label} compiled (DOP853)",
                 tol=tol,
                 error=error(sol),
                 wall_ms=wall * 1e3,
@@ -147,6 +154,21 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
                 error=error(sol),
                 wall_ms=wall * 1e3,
                 n_rhs=sol.stats["n_rhs"],
+            )
+        )
+    for h in DISCRETE_STEPS[1:] if quick else DISCRETE_STEPS:
+        kw = dict(h=h, **common)
+        first = solve(s, "discrete_lagrange_dalembert", **kw)
+        wall, sol = best_of(lambda kw=kw: solve(s, "discrete_lagrange_dalembert", **kw), repeats)
+        loop = min(solve(s, "discrete_lagrange_dalembert", **kw).stats["loop_time"] for _ in range(repeats))
+        rows.append(
+            dict(
+                who=f"geomech discrete Lagrange-d'Alembert compiled (midpoint, h = {h:g})",
+                tol=h,
+                error=error(sol),
+                wall_ms=wall * 1e3,
+                loop_ms=loop * 1e3,
+                compile_s=first.stats["compile_time"],
             )
         )
     rows += heyoka_rows(hy, sys_hy, y0, T, ref, HEYOKA_TOLS[1::2] if quick else HEYOKA_TOLS, repeats)
