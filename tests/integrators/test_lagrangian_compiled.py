@@ -172,12 +172,21 @@ def test_the_compiled_discrete_map_takes_the_python_steps(name):
     assert 3.0 < e1 / e2 < 5.0
 
 
-def test_the_compiled_discrete_map_reports_a_failed_step():
+@pytest.mark.parametrize("max_newton", [1, 2])
+def test_the_compiled_discrete_map_reports_a_failed_step(max_newton):
+    """A Newton failure at the first or the second step (the end of the constraint residual's stencil), with saved
+    times of the user's: the compiled run keeps the saved nodes only, and they are the Python run's."""
     s = snakeboard(**SNAKE)
-    run = dict(t_final=1.0, h=0.05, shapes=GAIT, max_newton=1, raise_on_failure=False)
+    run = dict(t_final=1.0, h=0.05, shapes=GAIT, max_newton=max_newton, raise_on_failure=False)
+    run["saveat"] = [0.0, 0.05, 0.1, 0.5, 1.0]
     a, b = (solve(s, "discrete_lagrange_dalembert", backend=k, **run) for k in ("python", "numba"))
     assert a.status == b.status == Status.NEWTON_FAILED
-    assert a.failures[0].step == b.failures[0].step and a.failures[0].time == b.failures[0].time
-    assert np.isnan(b.q[-1]).all()
+    assert a.failures[0].step == b.failures[0].step == max_newton
+    assert a.failures[0].time == b.failures[0].time
+    for key in ("energy", "momentum", "tau", "work", "constraint_residual"):
+        x, y = a.quantities[key], b.quantities[key]
+        assert np.array_equal(np.isnan(x), np.isnan(y)), key
+        np.testing.assert_allclose(y[np.isfinite(y)], x[np.isfinite(x)], rtol=0, atol=1e-12)
+    assert np.isnan(b.q[-1]).all() and np.isfinite(b.q[max_newton - 1]).all()
     with pytest.raises(InputError, match="backend='numba'"):
         solve(s, DiscreteLagrangeDAlembert("group"), t_final=0.1, h=0.05, shapes=GAIT, backend="numba")

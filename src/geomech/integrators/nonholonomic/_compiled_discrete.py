@@ -144,13 +144,25 @@ def _generate_discrete(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm
     return "\n\n\n" + "\n\n\n".join(parts) + _LOOP.replace("NC", str(c))
 
 
-_LOOP = '''
+_LOOP = """
 
 
 @kernel
-def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, Q, QD, TAU, WORK, INFO):
-    """The discrete Lagrange-d'Alembert run: nodes Q, node velocities QD, the shape forces at the midpoints TAU, the
-    work; INFO = (status, failing step, residual). Returns the number of steps done."""
+def constraint_rate(A, x0, x1, x2, w0, w1, w2, h, out):
+    # A (w0 x0 + w1 x1 + w2 x2) / (2 h): the constraints on a difference quotient of three nodes
+    for a in range(A.shape[0]):
+        r = 0.0
+        for j in range(A.shape[1]):
+            r += A[a, j] * (w0 * x0[j] + w1 * x1[j] + w2 * x2[j])
+        out[a] = r / (2.0 * h)
+
+
+@kernel
+def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, QD, TAU, WORK, RES, INFO):
+    # The discrete Lagrange-d'Alembert run, keeping the nodes KEEP (sorted step indices) only: their nodes Q,
+    # velocities QD, the shape forces TAU of the step that starts there (the last node: of the last step), the
+    # work, and the constraints on the centred difference quotient RES (one-sided at the ends, as numpy's gradient
+    # with edge_order 2); INFO = (status, failing step, residual). Returns the number of steps done.
     n = q_init.shape[0]
     nf = FR.shape[0]
     npr = PR.shape[0]
@@ -165,7 +177,11 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, Q, QD, TAU
     JC = np.empty((c, n))
     M = np.empty((n, n))
     A0 = np.empty((c, n))
+    Afirst = np.empty((c, n))
     base = np.empty(n)
+    prev2 = np.empty(n)
+    prev = np.empty(n)
+    cur = np.empty(n)
     q1 = np.empty(n)
     lam = np.zeros(c)
     R = np.empty(m)
@@ -174,30 +190,52 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, Q, QD, TAU
     qdp = np.empty(npr)
     y = np.empty(2 * nf + 2)
     obs = np.empty(2 * n + sigma + 1 + c)
+    qd_cur = np.empty(n)
+    res = np.empty(c)
+    tau_last = np.full(sigma, np.nan)
     for i in range(n):
-        Q[0, i] = q_init[i]
-        QD[0, i] = qd_init[i]
-    WORK[0] = 0.0
+        cur[i] = q_init[i]
+        prev[i] = q_init[i]
+        prev2[i] = q_init[i]
+        qd_cur[i] = qd_init[i]
+    work = 0.0
+    nkeep = KEEP.shape[0]
+    ik = 0  # the next entry of KEEP
+    row_cur = -1  # the rows of node k and of node 0 (-1: not kept)
+    row_first = -1
+    if ik < nkeep and KEEP[ik] == 0:
+        row_cur = 0
+        row_first = 0
+        ik += 1
+        for i in range(n):
+            Q[0, i] = q_init[i]
+            QD[0, i] = qd_init[i]
+        WORK[0] = 0.0
     # the first step: the continuous momentum stands for D2 L_d of a previous step, with half the impulse
     momentum(q_init, qd_init, base, prm)
     lamw = h / 2
+    done = nsteps
     for k in range(nsteps):
         t_next = t0 + (k + 1) * h
         tm = t_next - h / 2
         gait_nodes(t_next, qp, qdp, prm)
         for i in range(n):
-            q1[i] = Q[k, i] + h * qd_init[i] if k == 0 else 2 * Q[k, i] - Q[k - 1, i]
+            q1[i] = cur[i] + h * qd_init[i] if k == 0 else 2 * cur[i] - prev[i]
         for j in range(npr):
             q1[PR[j]] = qp[j]
         for a in range(c):
             lam[a] = 0.0
-        mass_constraints(Q[k], M, A0, prm)
+        mass_constraints(cur, M, A0, prm)
+        if k == 0:
+            for a in range(c):
+                for j in range(n):
+                    Afirst[a, j] = A0[a, j]
         scale = 1.0 + max_abs(base)
         dprev = 0.0
         status = ST_NEWTON
         rmax = np.inf
         for it in range(maxit):
-            disc(Q[k], q1, h, tm, prm, D1, D2, JD, C, JC)
+            disc(cur, q1, h, tm, prm, D1, D2, JD, C, JC)
             for ii in range(nf):
                 i = FR[ii]
                 r = base[i] + D1[i]
@@ -241,11 +279,34 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, Q, QD, TAU
             INFO[0] = status
             INFO[1] = k + 1
             INFO[2] = rmax
-            return k
-        for i in range(n):
-            Q[k + 1, i] = q1[i]
+            done = k
+            break
+        # the shape forces at the midpoint (the continuous equations there) and their work
+        for ii in range(nf):
+            i = FR[ii]
+            y[ii] = (cur[i] + q1[i]) / 2
+            y[nf + ii] = (q1[i] - cur[i]) / h
+        y[2 * nf] = 0.0
+        y[2 * nf + 1] = tm
+        observe(y, obs, prm)
+        w = 0.0
+        for j in range(sigma):
+            tau_last[j] = obs[2 * n + j]
+            w += tau_last[j] * (q1[kg + j] - cur[kg + j])
+            if row_cur >= 0:
+                TAU[row_cur, j] = tau_last[j]
+        work += w
+        # the constraints on the centred difference quotient at node k, and at node 0 the one-sided one
+        if k >= 1 and row_cur >= 0:
+            constraint_rate(A0, prev, cur, q1, -1.0, 0.0, 1.0, h, res)
+            for a in range(c):
+                RES[row_cur, a] = res[a]
+        if k == 1 and row_first >= 0:
+            constraint_rate(Afirst, prev, cur, q1, -3.0, 4.0, -1.0, h, res)
+            for a in range(c):
+                RES[row_first, a] = res[a]
         # the next step's base, D2 L_d + h/2 F of this one, is the momentum at the node
-        disc(Q[k], q1, h, tm, prm, D1, D2, JD, C, JC)
+        disc(cur, q1, h, tm, prm, D1, D2, JD, C, JC)
         for i in range(n):
             base[i] = D2[i]
         lamw = h
@@ -274,26 +335,49 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, Q, QD, TAU
             INFO[0] = ST_SINGULAR
             INFO[1] = k + 1
             INFO[2] = np.nan
-            return k
+            done = k
+            break
         for ii in range(nf):
-            QD[k + 1, FR[ii]] = R[ii]
+            qd_cur[FR[ii]] = R[ii]
         for jj in range(npr):
-            QD[k + 1, PR[jj]] = qdp[jj]
-        # the shape forces at the midpoint (the continuous equations there) and their work
-        for ii in range(nf):
-            i = FR[ii]
-            y[ii] = (Q[k, i] + q1[i]) / 2
-            y[nf + ii] = (q1[i] - Q[k, i]) / h
-        y[2 * nf] = 0.0
-        y[2 * nf + 1] = tm
-        observe(y, obs, prm)
-        w = 0.0
-        for j in range(sigma):
-            TAU[k, j] = obs[2 * n + j]
-            w += TAU[k, j] * (q1[kg + j] - Q[k, kg + j])
-        WORK[k + 1] = WORK[k] + w
-    return nsteps
-'''
+            qd_cur[PR[jj]] = qdp[jj]
+        # node k + 1 is reached
+        for i in range(n):
+            prev2[i] = prev[i]
+            prev[i] = cur[i]
+            cur[i] = q1[i]
+        row_cur = -1
+        if ik < nkeep and KEEP[ik] == k + 1:
+            row_cur = ik
+            ik += 1
+            for i in range(n):
+                Q[row_cur, i] = cur[i]
+                QD[row_cur, i] = qd_cur[i]
+            WORK[row_cur] = work
+            if k + 1 == nsteps:
+                for j in range(sigma):
+                    TAU[row_cur, j] = tau_last[j]
+    # the last node reached: the one-sided quotient (from three nodes on), else the node velocities' constraints
+    if row_cur >= 0:
+        mass_constraints(cur, M, A0, prm)
+        if done >= 2:
+            constraint_rate(A0, prev2, prev, cur, 1.0, -4.0, 3.0, h, res)
+        else:
+            for a in range(c):
+                r = 0.0
+                for j in range(n):
+                    r += A0[a, j] * qd_cur[j]
+                res[a] = r
+        for a in range(c):
+            RES[row_cur, a] = res[a]
+    if done == 1 and row_first >= 0:
+        for a in range(c):
+            r = 0.0
+            for j in range(n):
+                r += Afirst[a, j] * qd_init[j]
+            RES[row_first, a] = r
+    return done
+"""
 
 
 def run_compiled_discrete(
@@ -305,47 +389,39 @@ def run_compiled_discrete(
     t0: float,
     h: float,
     nsteps: int,
+    keep: np.ndarray,
     newton_tol: float,
     max_newton: int,
     parameters: Any,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
-    """The nodes, node velocities, midpoint shape forces (``nsteps`` rows), work and INFO of a compiled run, the
-    number of steps done, the compile time and the loop's time."""
+) -> tuple[dict[str, np.ndarray], np.ndarray, int, float, float]:
+    """The nodes ``keep`` (sorted step indices) of a compiled run: their nodes ``q``, velocities ``qd``, shape
+    forces ``tau``, ``work`` and constraint ``residual`` (NaN past a failure); INFO; the number of steps done; the
+    compile time and the loop's time."""
     system = setup.system
-    n, sigma = system.n, system.sigma
-    Q = np.full((nsteps + 1, n), np.nan)
-    QD = np.full((nsteps + 1, n), np.nan)
-    TAU = np.full((max(nsteps, 1), sigma), np.nan)
-    WORK = np.full(nsteps + 1, np.nan)
+    n, sigma, c = system.n, system.sigma, system.c
+    N = len(keep)
+    out = {
+        "q": np.full((N, n), np.nan),
+        "qd": np.full((N, n), np.nan),
+        "tau": np.full((N, sigma), np.nan),
+        "work": np.full(N, np.nan),
+        "residual": np.full((N, c), np.nan),
+    }
     INFO = np.zeros(3)
     prm = made.rows({**system.parameters, **dict(parameters or {})}, 1)[0]
     FR = np.asarray(setup.free_coordinates(), dtype=np.int64)
     PR = np.asarray(setup.prescribed_coordinates(), dtype=np.int64)
+    KEEP = np.ascontiguousarray(keep, dtype=np.int64)
     q0 = np.ascontiguousarray(q_init, dtype=float)
     qd0 = np.ascontiguousarray(qd_init, dtype=float)
+    arrays = (out["q"], out["qd"], out["tau"], out["work"], out["residual"], INFO)
     compile_time = 0.0
     if not module.dlda_run.signatures:  # compiled (or loaded from numba's cache) by a run of no step, timed apart
         start = time.perf_counter()
-        module.dlda_run(
-            q0, qd0, 0.0, 1.0, 0, 1.0, 1, FR, PR, prm, Q[:1].copy(), QD[:1].copy(), TAU, WORK[:1].copy(), INFO
-        )
+        module.dlda_run(q0, qd0, 0.0, 1.0, 0, 1.0, 1, FR, PR, prm, KEEP[:0], *[a.copy() for a in arrays])
         compile_time = time.perf_counter() - start
     start = time.perf_counter()
     done = module.dlda_run(
-        q0,
-        qd0,
-        float(t0),
-        float(h),
-        int(nsteps),
-        float(newton_tol),
-        int(max_newton),
-        FR,
-        PR,
-        prm,
-        Q,
-        QD,
-        TAU,
-        WORK,
-        INFO,
+        q0, qd0, float(t0), float(h), int(nsteps), float(newton_tol), int(max_newton), FR, PR, prm, KEEP, *arrays
     )
-    return Q, QD, TAU, WORK, INFO, int(done), compile_time, time.perf_counter() - start
+    return out, INFO, int(done), compile_time, time.perf_counter() - start

@@ -170,6 +170,7 @@ def run_discrete(
     parameters: Mapping[str, float] | None,
     discretization: str = "midpoint",
     backend: str = "auto",
+    keep: np.ndarray | None = None,
 ) -> _Raw:
     r"""The discrete Lagrange-d'Alembert integrator with the ``discretization``'s discrete Lagrangian ("midpoint" or
     "group") on the grid ``t0 + k h``, k = 0..nsteps.
@@ -189,8 +190,9 @@ def run_discrete(
             "backend='numba' runs the discrete Lagrange-d'Alembert map with the midpoint discretization, the gait "
             "and torques given as formulas (and numba installed)."
         )
+    keep = np.arange(nsteps + 1) if keep is None else np.asarray(keep, dtype=int)
     if compiled is not None:
-        return _compiled_run(setup, compiled, q_init, qd_init, t0, h, nsteps, newton_tol, max_newton, parameters)
+        return _compiled_run(setup, compiled, q_init, qd_init, t0, h, nsteps, keep, newton_tol, max_newton, parameters)
     tol, max_iter = newton_tol, max_newton
     disc = (_GroupLagrangian if discretization == "group" else _Midpoint)(system, parameters, h)
     lda = lagrange_dalembert(system).numeric(parameters)
@@ -309,7 +311,8 @@ def run_discrete(
         tau_mid[k] = tau_v
         work[k + 1] = work[k] + tau_v @ (Q[k + 1, s.k :] - Q[k, s.k :])
     residual = _residual(lda, Q, QD, times, reached)
-    return _Raw(Q, QD, _node_forces(tau_mid, nsteps, s.sigma), work, failure, reached, residual)
+    TAU = _node_forces(tau_mid, nsteps, s.sigma)
+    return _Raw(Q[keep], QD[keep], TAU[keep], work[keep], failure, reached, residual[keep])
 
 
 def _node_forces(tau_mid: np.ndarray, nsteps: int, sigma: int) -> np.ndarray:
@@ -342,13 +345,14 @@ def _compiled_run(
     t0: float,
     h: float,
     nsteps: int,
+    keep: np.ndarray,
     newton_tol: float,
     max_newton: int,
     parameters: Mapping[str, float] | None,
 ) -> _Raw:
     module, made = compiled
-    Q, QD, TAU, WORK, INFO, reached, compile_time, loop_time = run_compiled_discrete(
-        module, made, setup, q_init, qd_init, t0, h, nsteps, newton_tol, max_newton, parameters
+    out, INFO, reached, compile_time, loop_time = run_compiled_discrete(
+        module, made, setup, q_init, qd_init, t0, h, nsteps, keep, newton_tol, max_newton, parameters
     )
     failure = None
     if reached < nsteps:
@@ -359,10 +363,7 @@ def _compiled_run(
             else ""
         )
         failure = Failure(kind, (), int(INFO[1]), float(t0 + h * reached), float(INFO[2]), detail)
-    times = t0 + h * np.arange(nsteps + 1)
-    lda = lagrange_dalembert(setup.system).numeric(parameters)
-    raw = _Raw(Q, QD, _node_forces(TAU, nsteps, setup.system.sigma), WORK, failure, reached)
-    raw.residual = _residual(lda, Q, QD, times, reached)
+    raw = _Raw(out["q"], out["qd"], out["tau"], out["work"], failure, reached, out["residual"])
     raw.backend, raw.compile_time, raw.loop_time = "numba", compile_time, loop_time
     return raw
 

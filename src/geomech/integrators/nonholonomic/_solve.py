@@ -121,13 +121,9 @@ def solve_lagrangian(
             parameters,
             method.discretization,
             backend,
+            times.kernel_steps() if times.k is None else times.k,
         )
-        keep = times.kernel_steps() if times.k is None else times.k
-        steps_done = raw.nfev
-        raw.q, raw.qd, raw.tau, raw.work = raw.q[keep], raw.qd[keep], raw.tau[keep], raw.work[keep]
-        if raw.residual is not None:
-            raw.residual = raw.residual[keep]
-        n_rhs, internal = 0, steps_done
+        n_rhs, internal = 0, raw.nfev
     else:
         assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
