@@ -38,6 +38,9 @@ from .solution import STATUS, Failure, Solution, Status, run_stats
 
 __all__ = ["solve", "compatible_methods", "methods_for", "DEFAULT_SAVEAT"]
 
+#: The cores a batch is spread over by default (read once: ``os.cpu_count`` reads the system's files each time).
+CORES = os.cpu_count() or 1
+
 
 def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
     """Keys of the registered methods that can integrate ``system``."""
@@ -421,7 +424,7 @@ def solve(
     elif isinstance(method, DormandPrince):
         assert tolerances is not None
         budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
-        n_threads = threads if threads is not None else (os.cpu_count() or 1)
+        n_threads = threads if threads is not None else (CORES if B > 1 else 1)
         internal, compile_time, EVT, ECOUNT = run_embedded(
             module,
             used,
@@ -486,8 +489,8 @@ def solve(
                 FP = module.addresses(calls)
             compile_time = time.perf_counter() - t_start
             t_start = time.perf_counter()
-        n_threads = threads if threads is not None else (os.cpu_count() or 1)
-        if used != "numba" or B * nsteps < 20_000:
+        n_threads = threads if threads is not None else CORES
+        if used != "numba" or B < 2 or B * nsteps < 20_000:
             n_threads = 1
         with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
             run_compiled(
