@@ -162,7 +162,8 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
     # The discrete Lagrange-d'Alembert run, keeping the nodes KEEP (sorted step indices) only: their nodes Q,
     # velocities QD, the shape forces TAU of the step that starts there (the last node: of the last step), the
     # work, and the constraints on the centred difference quotient RES (one-sided at the ends, as numpy's gradient
-    # with edge_order 2); INFO = (status, failing step, residual). Returns the number of steps done.
+    # with edge_order 2); INFO = (status, failing step, residual, Newton's linear solves). Returns the number of
+    # steps done.
     n = q_init.shape[0]
     nf = FR.shape[0]
     npr = PR.shape[0]
@@ -261,6 +262,7 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
             if not lu_solve(J, R, m):
                 status = ST_SINGULAR
                 break
+            INFO[3] += 1.0
             for ii in range(nf):
                 q1[FR[ii]] += R[ii]
             for a in range(c):
@@ -407,7 +409,7 @@ def run_compiled_discrete(
         "work": np.full(N, np.nan),
         "residual": np.full((N, c), np.nan),
     }
-    INFO = np.zeros(3)
+    INFO = np.zeros(4)
     prm = made.rows({**system.parameters, **dict(parameters or {})}, 1)[0]
     FR = np.asarray(setup.free_coordinates(), dtype=np.int64)
     PR = np.asarray(setup.prescribed_coordinates(), dtype=np.int64)

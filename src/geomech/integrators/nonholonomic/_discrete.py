@@ -209,8 +209,11 @@ def run_discrete(
     def prescribed_at(t: float) -> np.ndarray:
         return setup.gait(t)[0]
 
+    iterations = 0  # Newton's linear solves, over the run
+
     def newton(q0_, guess, base, t_next, lam_weight):
         """Solve base + D1(q0, q1) + h/2 F(k+1/2) + lam_weight A(q0)^T lam = 0 (free rows), C(q0, q1) = 0."""
+        nonlocal iterations
         q1 = guess.copy()
         q1[pr] = prescribed_at(t_next)
         lam = np.zeros(c)
@@ -234,6 +237,7 @@ def run_discrete(
                 J[nf:, :nf] = JC[:, fr]
             try:
                 dz = np.linalg.solve(J, -R)
+                iterations += 1
             except np.linalg.LinAlgError:
                 raise _StepFailed(Status.SINGULAR_JACOBIAN, float(np.abs(R).max()), "") from None
             q1 = q1.copy()
@@ -312,7 +316,9 @@ def run_discrete(
         work[k + 1] = work[k] + tau_v @ (Q[k + 1, s.k :] - Q[k, s.k :])
     residual = _residual(lda, Q, QD, times, reached)
     TAU = _node_forces(tau_mid, nsteps, s.sigma)
-    return _Raw(Q[keep], QD[keep], TAU[keep], work[keep], failure, reached, residual[keep])
+    raw = _Raw(Q[keep], QD[keep], TAU[keep], work[keep], failure, reached, residual[keep])
+    raw.newton = iterations
+    return raw
 
 
 def _node_forces(tau_mid: np.ndarray, nsteps: int, sigma: int) -> np.ndarray:
@@ -365,6 +371,7 @@ def _compiled_run(
         failure = Failure(kind, (), int(INFO[1]), float(t0 + h * reached), float(INFO[2]), detail)
     raw = _Raw(out["q"], out["qd"], out["tau"], out["work"], failure, reached, out["residual"])
     raw.backend, raw.compile_time, raw.loop_time = "numba", compile_time, loop_time
+    raw.newton = int(INFO[3])
     return raw
 
 

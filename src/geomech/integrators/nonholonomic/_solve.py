@@ -189,6 +189,7 @@ def solve_lagrangian(
             internal,
             n_rhs,
             run_time - raw.compile_time,
+            n_newton=raw.newton,
             backend=raw.backend,
             compile_time=raw.compile_time,
             **extra,

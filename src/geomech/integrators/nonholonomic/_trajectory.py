@@ -36,6 +36,7 @@ class _Raw:
     energy: np.ndarray | None = None  # where the engine computed them (a compiled run's observation)
     momentum: np.ndarray | None = None
     events: dict[str, np.ndarray] = field(default_factory=dict)  # Solution.events (a compiled run's)
+    newton: int = 0  # Newton's iterations (the discrete map's linear solves), over the run
 
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:
