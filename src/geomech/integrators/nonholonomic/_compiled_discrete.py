@@ -28,9 +28,11 @@ import sympy as sp
 
 from ...symbolic.compile import StraightLine
 from ...systems.gait import T_SYMBOL
+from ..solution import Failure, Status
 from ._compiled import _TIME, LagrangianSource, _generate_lda, _made, _module
+from ._trajectory import _Raw
 
-__all__ = ["dlda_module", "run_compiled_discrete"]
+__all__ = ["dlda_module", "no_convergence", "run_compiled_discrete"]
 
 
 def dlda_module(setup: Any) -> tuple[Any, LagrangianSource] | None:
@@ -395,10 +397,10 @@ def run_compiled_discrete(
     newton_tol: float,
     max_newton: int,
     parameters: Any,
-) -> tuple[dict[str, np.ndarray], np.ndarray, int, float, float]:
-    """The nodes ``keep`` (sorted step indices) of a compiled run: their nodes ``q``, velocities ``qd``, shape
-    forces ``tau``, ``work`` and constraint ``residual`` (NaN past a failure); INFO; the number of steps done; the
-    compile time and the loop's time."""
+) -> _Raw:
+    """The nodes ``keep`` (sorted step indices) of a compiled run, as the engines' :class:`_Raw`: their nodes,
+    velocities, shape forces, work and constraint residual (NaN past a failure, which it holds), the steps done,
+    Newton's iterations, the compile time and the loop's time."""
     system = setup.system
     n, sigma, c = system.n, system.sigma, system.c
     N = len(keep)
@@ -426,4 +428,22 @@ def run_compiled_discrete(
     done = module.dlda_run(
         q0, qd0, float(t0), float(h), int(nsteps), float(newton_tol), int(max_newton), FR, PR, prm, KEEP, *arrays
     )
-    return out, INFO, int(done), compile_time, time.perf_counter() - start
+    loop_time = time.perf_counter() - start
+    failure = None
+    if done < nsteps:
+        kind = _STATUS.get(int(INFO[0]), Status.NEWTON_FAILED)
+        detail = no_convergence(max_newton, h) if kind is Status.NEWTON_FAILED else ""
+        failure = Failure(kind, (), int(INFO[1]), float(t0 + h * done), float(INFO[2]), detail)
+    raw = _Raw(out["q"], out["qd"], out["tau"], out["work"], failure, int(done), out["residual"])
+    raw.backend, raw.compile_time, raw.loop_time = "numba", compile_time, loop_time
+    raw.newton = int(INFO[3])
+    return raw
+
+
+#: The compiled loop's status codes (_k_common's ST_*) as the failures' kinds.
+_STATUS = {1: Status.NEWTON_FAILED, 2: Status.NONFINITE, 3: Status.SINGULAR_JACOBIAN}
+
+
+def no_convergence(max_newton: int, h: float) -> str:
+    """The detail of a step whose Newton iteration did not converge (both engines)."""
+    return f"no convergence in {max_newton} iterations (step {h:.3g}); reduce h or raise max_newton"

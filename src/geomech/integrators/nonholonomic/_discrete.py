@@ -16,7 +16,7 @@ from ...symbolic.compile import compile_vector
 from ...systems.nonholonomic import NonholonomicSystem
 from .._k_common import newton_done
 from ..solution import Failure, Status
-from ._compiled_discrete import dlda_module, run_compiled_discrete
+from ._compiled_discrete import dlda_module, no_convergence, run_compiled_discrete
 from ._inputs import _Setup
 from ._trajectory import _accelerations, _Raw
 
@@ -192,7 +192,10 @@ def run_discrete(
         )
     keep = np.arange(nsteps + 1) if keep is None else np.asarray(keep, dtype=int)
     if compiled is not None:
-        return _compiled_run(setup, compiled, q_init, qd_init, t0, h, nsteps, keep, newton_tol, max_newton, parameters)
+        module, made = compiled
+        return run_compiled_discrete(
+            module, made, setup, q_init, qd_init, t0, h, nsteps, keep, newton_tol, max_newton, parameters
+        )
     tol, max_iter = newton_tol, max_newton
     disc = (_GroupLagrangian if discretization == "group" else _Midpoint)(system, parameters, h)
     lda = lagrange_dalembert(system).numeric(parameters)
@@ -256,7 +259,7 @@ def run_discrete(
         raise _StepFailed(
             Status.NEWTON_FAILED,
             float(np.abs(R).max()),
-            f"no convergence in {max_iter} iterations (step {h:.3g}); reduce h or raise max_newton",
+            no_convergence(max_iter, h),
         )
 
     times = t0 + h * np.arange(nsteps + 1)
@@ -337,42 +340,6 @@ def _residual(lda: Any, Q: np.ndarray, QD: np.ndarray, times: np.ndarray, reache
     elif reached >= 0:
         residual[: reached + 1] = lda.constraint_residual(Q[: reached + 1], QD[: reached + 1]).reshape(-1, c)
     return residual
-
-
-#: The compiled loop's status codes (_k_common's ST_*) as the failures' kinds.
-_STATUS = {1: Status.NEWTON_FAILED, 2: Status.NONFINITE, 3: Status.SINGULAR_JACOBIAN}
-
-
-def _compiled_run(
-    setup: _Setup,
-    compiled: tuple[Any, Any],
-    q_init: np.ndarray,
-    qd_init: np.ndarray,
-    t0: float,
-    h: float,
-    nsteps: int,
-    keep: np.ndarray,
-    newton_tol: float,
-    max_newton: int,
-    parameters: Mapping[str, float] | None,
-) -> _Raw:
-    module, made = compiled
-    out, INFO, reached, compile_time, loop_time = run_compiled_discrete(
-        module, made, setup, q_init, qd_init, t0, h, nsteps, keep, newton_tol, max_newton, parameters
-    )
-    failure = None
-    if reached < nsteps:
-        kind = _STATUS.get(int(INFO[0]), Status.NEWTON_FAILED)
-        detail = (
-            f"no convergence in {max_newton} iterations (step {h:.3g}); reduce h or raise max_newton"
-            if kind is Status.NEWTON_FAILED
-            else ""
-        )
-        failure = Failure(kind, (), int(INFO[1]), float(t0 + h * reached), float(INFO[2]), detail)
-    raw = _Raw(out["q"], out["qd"], out["tau"], out["work"], failure, reached, out["residual"])
-    raw.backend, raw.compile_time, raw.loop_time = "numba", compile_time, loop_time
-    raw.newton = int(INFO[3])
-    return raw
 
 
 class _StepFailed(Exception):

@@ -127,25 +127,11 @@ def solve_lagrangian(
     else:
         assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-        if isinstance(method, LagrangeDAlembert):
-            raw = run_full(
-                setup,
-                q_init,
-                qd_init,
-                t0,
-                times.t,
-                method,
-                tolerances,
-                max_evaluations,
-                parameters,
-                backend,
-                events,
-                max_events,
-            )
-        elif isinstance(method, NonholonomicHamilton):
+        if isinstance(method, NonholonomicHamilton):
             raw = run_hamiltonian(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
-        else:
-            raw = run_reduced(
+        else:  # the two that run compiled: the equations with multipliers, or BKMM's
+            engine = run_full if isinstance(method, LagrangeDAlembert) else run_reduced
+            raw = engine(
                 setup,
                 q_init,
                 qd_init,
