@@ -8,7 +8,7 @@ from scipy.special import ellipk
 
 import geomech as gm
 from geomech.errors import InputError
-from geomech.integrators import Event, IncompatibleMethodError
+from geomech.integrators import BKMM, Event, IncompatibleMethodError
 
 BODY = gm.RigidBody([3.0, 2.0, 1.0])
 M0 = np.array([1.0, 0.3, 0.2])
@@ -154,6 +154,25 @@ def test_a_gait_returning_to_its_start_and_a_group_coordinate_crossing_a_value()
     assert lda.stats["backend"] == "numba"
     np.testing.assert_allclose(lda.events["period"][:, 1], whole, rtol=0, atol=1e-12)
     np.testing.assert_allclose(lda.events["turn"][:, 1:], turn[:, 1:], rtol=0, atol=1e-8)
+    # Taylor's method on the BKMM equations: the events on its steps' polynomials, one member and a batch
+    taylor = gm.solve(
+        board,
+        BKMM(solver="taylor"),
+        events={"period": Event("psi", direction=1), "turn": Event("theta - 0.2", terminal=True)},
+        **run,
+    )
+    assert taylor.status == "success"
+    np.testing.assert_allclose(taylor.events["period"][:, 1], whole, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(taylor.events["turn"][:, 1:], turn[:, 1:], rtol=0, atol=1e-8)
+    assert np.isnan(taylor.states[after]).all() and np.isfinite(taylor.states[~after]).all()
+    rows = gm.solve(
+        board,
+        BKMM(solver="taylor"),
+        events={"period": Event("psi", direction=1)},
+        **{**run, "parameters": {"a": np.array([0.8, 1.2])}},
+    ).events["period"]
+    for b in (0, 1):
+        np.testing.assert_allclose(rows[rows[:, 0] == b, 1], [1.0, 2.0, 3.0], rtol=0, atol=1e-12)
     with pytest.raises(InputError, match="BKMM or LagrangeDAlembert"):
         gm.solve(board, "discrete_lagrange_dalembert", h=0.01, events={"e": "x"}, **{**run, "rtol": None, "atol": None})
     with pytest.raises(InputError, match="BKMM or LagrangeDAlembert"):

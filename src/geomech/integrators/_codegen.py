@@ -65,6 +65,7 @@ _TEMPLATES = (
     "_k_implicit.py",
     "_k_canonical.py",
     "_k_liepoisson.py",
+    "_k_taylor.py",
 )
 _PREAMBLE_START = "# >>> template preamble"
 _PREAMBLE_END = "# <<< template preamble"

@@ -27,10 +27,13 @@ that keep the structure: Gauss-Legendre collocation up to s = 6 stages (order 12
 compositions `Composition(order, scheme, stages)` of the midpoint rule (`midpoint_s9_6`, `midpoint_s17_8`,
 `midpoint_s35_10`) or of Gauss-Legendre steps, and the Lie-Poisson splitting composed to order 10
 (`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Adaptive Adams wraps
-scipy's VODE/LSODA, the Lagrangian methods scipy's solve_ivp solvers; the
-Runge-Kutta-Munthe-Kaas methods step on the group in exponential coordinates about a moving centre. The
-exact propagators give the state of a one-degree-of-freedom system at any time from one period, at a cost
-that does not grow with t. Speed and accuracy beside scipy and heyoka: `benchmarks/README.md`.
+scipy's VODE/LSODA. The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run
+compiled where the gait and torques are formulas, BKMM also by Taylor's method (`BKMM(solver="taylor")`: the
+Taylor coefficients generated from the equations' straight-line code, `geomech.symbolic.taylor`), and otherwise
+under scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in exponential
+coordinates about a moving centre. The exact propagators give the state of a one-degree-of-freedom system at any
+time from one period, at a cost that does not grow with t. Speed and accuracy beside scipy and heyoka:
+`benchmarks/README.md`.
 
 Ensembles and sensitivities: the leading axes of the initial state are a batch, and so are those of
 `parameters={name: array}` (the named parameters of a system built from a formula: each trajectory reads its

@@ -284,6 +284,8 @@ class StraightLine:
 
     def __init__(self, prefix: str = "_v"):
         self.lines: list[str] = []
+        #: every assignment printed so far, in order (the Taylor-mode code of :mod:`.taylor` replays them)
+        self.assignments: list[tuple[sp.Symbol, sp.Expr]] = []
         self._queue: list[tuple[sp.Symbol, sp.Expr]] = []
         self._pending: set[sp.Symbol] = set()
         self._prefix = prefix
@@ -323,10 +325,9 @@ class StraightLine:
         temps = sp.numbered_symbols(f"{self._prefix}c{self._cse}_")
         self._cse += 1
         replacements, reduced = sp.cse(list(exprs), symbols=temps, order="none")
-        for sym, e in replacements:
+        for sym, e in [*replacements, *zip(names, reduced)]:
             self.lines.append(f"{sym} = {self.code(e)}")
-        for sym, e in zip(names, reduced):
-            self.lines.append(f"{sym} = {self.code(e)}")
+            self.assignments.append((sym, e))
 
     def code(self, expr: Any) -> str:
         text = self._printer.doprint(sp.sympify(expr))
@@ -347,6 +348,7 @@ class StraightLine:
         self.flush()
         other = StraightLine(self._prefix)
         other.lines, other._count, other._cse = list(self.lines), self._count, self._cse
+        other.assignments = list(self.assignments)
         return other
 
 

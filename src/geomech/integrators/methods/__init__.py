@@ -39,7 +39,7 @@ from ._composition import COMPOSITION_TABLES, Composition, composition_weights
 from ._embedded import DormandPrince, EmbeddedPair, embedded_pair
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._group import RKMK, RKMK4
-from ._lagrangian import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, NonholonomicHamilton
+from ._lagrangian import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, NonholonomicHamilton
 from ._lie_poisson import (
     CrouchGrossman,
     LieGroupVariational,
@@ -79,6 +79,7 @@ __all__ = [
     "SerretAndoyerAtlas",
     "LagrangeDAlembert",
     "BKMM",
+    "TAYLOR",
     "DiscreteLagrangeDAlembert",
     "NonholonomicHamilton",
     "RKMK",

@@ -58,6 +58,10 @@ class LagrangeDAlembert(ScipyStepped):
         return "lagrange_dalembert"
 
 
+#: The ``solver`` of :class:`BKMM` that is Taylor's method (compiled only).
+TAYLOR = "taylor"
+
+
 @dataclass(frozen=True)
 class BKMM(ScipyStepped):
     """The reduced equations of Bloch, Krishnaprasad, Marsden and Murray, solved by an embedded Runge-Kutta pair.
@@ -72,14 +76,36 @@ class BKMM(ScipyStepped):
     and the gait and torques given as formulas the equations are compiled (straight-line code for the system's
     sizes, its parameters read at run time) and stepped by the compiled Dormand-Prince pairs of the same error
     control; otherwise, or with ``backend="python"``, they are evaluated in Python and stepped by scipy.
-    Reference: [KM] eqs. (1.1)-(1.3); [BKMM].
+    With ``solver="taylor"`` (compiled only) they are stepped by Taylor's method: the Taylor coefficients of the
+    solution generated from the reduction's closed forms (reconstruction, momentum equation, shape mass and forces)
+    by the recurrences of their elementary operations, the order ``ceil(-ln(eps) / 2) + 1`` (4 to 40) from the
+    smaller tolerance eps (15 at 1e-12), the step from the last two coefficients (Jorba & Zou), the saved states
+    and the events by the step's polynomial: a few dozen steps where DOP853 takes hundreds, for smooth motions at
+    tight tolerances.
+    Reference: [KM] eqs. (1.1)-(1.3); [BKMM]; [JZ] Jorba & Zou, Experiment. Math. 14 (2005).
 
     Parameters
     ----------
-    solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
+    solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA", "taylor"}
     """
 
     structure: ClassVar[Structure] = Structure.LAGRANGIAN
+
+    def __post_init__(self) -> None:
+        if self.solver != TAYLOR:
+            super().__post_init__()
+
+    @property
+    def explicit(self) -> bool:  # type: ignore[override]
+        return self.solver == TAYLOR or super().explicit
+
+    @property
+    def order(self) -> int:
+        return 40 if self.solver == TAYLOR else super().order  # Taylor's: its largest (chosen from the tolerances)
+
+    @property
+    def variable_order(self) -> bool:  # type: ignore[override]
+        return self.solver == TAYLOR or super().variable_order
 
     @property
     def key(self) -> str:

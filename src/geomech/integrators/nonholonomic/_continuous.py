@@ -5,6 +5,7 @@ run and their failures returned as data with the states reached."""
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -15,6 +16,7 @@ import numpy as np
 from ... import _validate as V
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
+from ...symbolic.taylor import TAYLOR_FUNCTIONS
 from .._adaptive import (
     MAX_EVALUATIONS,
     MAX_EVALUATIONS_COMPILED,
@@ -24,7 +26,8 @@ from .._adaptive import (
     projected_cost_error,
 )
 from .._events import compile_lagrangian_events, event_table, events_need_compiled
-from .._runners import INFO_COLUMNS, run_embedded
+from .._runners import INFO_COLUMNS, run_embedded, run_taylor
+from ..methods import TAYLOR
 from ..solution import Failure, Status
 from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots, observe
 from ._inputs import _group_rates, _Setup
@@ -181,7 +184,8 @@ def run_reduced(
 
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
-    compiled = _compiled_or_refused(system, method, backend, events, lambda: bkmm_module(setup, red))
+    taylor = method.solver == TAYLOR
+    compiled = _compiled_or_refused(system, method, backend, events, lambda: bkmm_module(setup, red, taylor))
     if compiled is not None:
         module, made = compiled
         run = run_compiled(
@@ -210,6 +214,8 @@ def _compiled_or_refused(system: Any, method: Any, backend: str, events: Any, mo
     """The compiled module and source of a run (``module()``) where the method's solver has a compiled twin and
     ``backend`` is not "python", or None; raises where ``backend`` is "numba" or ``events`` are asked for and the run
     cannot be compiled."""
+    if method.solver == TAYLOR:
+        return _taylor_or_refused(system, method, backend, module)
     pair = compiled_pair(method.solver) if backend != "python" else None
     compiled = module() if pair is not None else None
     if compiled is None and backend == "numba":
@@ -221,6 +227,22 @@ def _compiled_or_refused(system: Any, method: Any, backend: str, events: Any, mo
         )
     if compiled is None and events is not None:
         raise InputError(events_need_compiled(system.name))
+    return compiled
+
+
+def _taylor_or_refused(system: Any, method: Any, backend: str, module: Callable) -> Any:
+    """The compiled module of a run by Taylor's method, which runs compiled only, or the reason it cannot."""
+    name = type(method).__name__
+    if backend == "python":
+        raise InputError(
+            f"{name}(solver='taylor') runs compiled only; use backend='auto' or 'numba', or another solver."
+        )
+    compiled = module()
+    if compiled is None:
+        raise InputError(
+            f"{name}(solver='taylor') needs numba, the gait and torques of {system.name} as formulas, and functions "
+            f"with a Taylor recurrence ({', '.join(TAYLOR_FUNCTIONS)}); use solver='DOP853'."
+        )
     return compiled
 
 
@@ -289,7 +311,7 @@ def run_compiled(
         V.positive_scalar(MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations, "max_evaluations")
     )
     pair = compiled_pair(method.solver)
-    assert pair is not None
+    assert pair is not None or method.solver == TAYLOR
     Y0 = np.ascontiguousarray(np.concatenate([Y0, np.full((Y0.shape[0], 1), float(t0))], axis=1))
     B, d = Y0.shape
     t_end = float(times[-1])
@@ -306,24 +328,14 @@ def run_compiled(
         why: dict[int, str] = {}
         when: dict[int, float] = {}
         rows = PRM if PRM.shape[0] == 1 else PRM[members]
-        n, seconds, evt, count = run_embedded(
-            module,
-            "numba",
-            None,
-            rows,
-            pair,
-            Y0[members],
-            t0,
-            times,
-            tolerances,
-            budget,
-            out,
-            info,
-            why,
-            when,
-            threads,
-            events,
-            max_events,
+        # Taylor's loop, or the embedded pair's: the same arguments after the module's
+        engine = (
+            functools.partial(run_taylor, module, rows)
+            if pair is None
+            else functools.partial(run_embedded, module, "numba", None, rows, pair)
+        )
+        n, seconds, evt, count = engine(
+            Y0[members], t0, times, tolerances, budget, out, info, why, when, threads, events, max_events
         )
         OUT[members], INFO[members] = out, info
         if events is not None:

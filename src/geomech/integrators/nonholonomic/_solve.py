@@ -19,7 +19,7 @@ from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
 from .._events import compile_lagrangian_events, events_need_compiled
 from .._times import Times
-from ..methods import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
+from ..methods import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
 from ._compiled import bkmm_module, bkmm_slots, compiled_pair, observe
 from ._continuous import run_compiled, run_full, run_reduced
@@ -241,13 +241,15 @@ def _solve_batch(
     torques) in one call of the compiled BKMM loop, across threads."""
     system = setup.system
     compiled = None
-    if isinstance(method, BKMM) and backend != "python" and compiled_pair(method.solver) is not None:
+    taylor = isinstance(method, BKMM) and method.solver == TAYLOR
+    if isinstance(method, BKMM) and backend != "python" and (taylor or compiled_pair(method.solver) is not None):
         red = bkmm_reduction(system)
-        compiled = bkmm_module(setup, red)
+        compiled = bkmm_module(setup, red, taylor)
     if compiled is None:
         raise InputError(
             f"A batch (arrays in `parameters`, or initial states with leading axes) of {system.name} runs in the "
-            f"compiled BKMM loop: method BKMM with solver 'DOP853' or 'RK45', the gait and torques as formulas, numba "
+            f"compiled BKMM loops: method BKMM with solver 'DOP853', 'RK45' or 'taylor', the gait and torques as "
+            "formulas, numba "
             f"installed, backend 'auto' or 'numba'; got {method!r} with backend {backend!r}. Give one value each, or "
             "loop over the members."
         )

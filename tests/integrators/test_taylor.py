@@ -1,0 +1,166 @@
+"""Taylor's method: the Taylor coefficients generated from straight-line code (symbolic/taylor.py) against the
+repeated Lie derivatives of the same right-hand side by sympy (a second route to every coefficient), and the
+compiled Taylor loop of the BKMM equations against the compiled DOP853 on the same equations at a tighter
+tolerance, its convergence in the tolerance, and the energy of a coasting Chaplygin sleigh."""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from geomech import solve
+from geomech.errors import InputError
+from geomech.integrators import BKMM, Status
+from geomech.integrators._codegen import python_header, python_helpers
+from geomech.integrators._runners import taylor_order
+from geomech.symbolic.compile import StraightLine
+from geomech.symbolic.taylor import taylor_source
+from geomech.systems.nonholonomic_examples import chaplygin_sleigh, roller_racer, simplified_bicycle, snakeboard
+
+x, y, t, a = sp.symbols("x y t a", real=True)
+
+# right-hand sides that use every function and power the Taylor code knows, with a parameter a (read from prm)
+FIELDS = {
+    "trigonometric": (
+        sp.sin(x) * y + sp.exp(-t) / (1 + y**2) - sp.tan(x / 3),
+        sp.sqrt(2 + x**2) * sp.cos(t) - sp.atan(x) + a * sp.tanh(y) + (1 + x**2) ** sp.Rational(-3, 2),
+    ),
+    "inverse and hyperbolic": (
+        sp.asin(x / 3) * sp.cosh(y) - sp.acos(y / 4) + sp.asinh(x * y) + sp.acosh(1 + y**2) - sp.atanh(x / 2),
+        sp.log(2 + x**2) * sp.sinh(y) + y**3 / (2 + sp.cos(x)) + x**5 + sp.coth(y) - sp.acot(x),
+    ),
+    "reciprocal trigonometric": (sp.cot(x) * sp.sec(y), sp.csc(x + t) - y),
+    "powers": (
+        (2 + x**2) ** a - y ** sp.Rational(5, 2) + 3 ** (x * t),
+        x ** (-2) * y + sp.exp(a * x) / y**3 + (x + y) ** sp.Rational(1, 3),
+    ),
+}
+POINT = {x: 0.7, y: 1.3, t: 0.4, a: 0.8}
+
+
+def _coefficients(fields, order):
+    """The generated Taylor coefficients of (x, y, t)' = (f, g, 1) at POINT, run as Python."""
+    code = StraightLine()
+    values = code.values(fields)
+    code.flush()
+    source, rows = taylor_source("coeffs", code.assignments, [x, y, t], [*values, 1], [a])
+    namespace = dict(python_helpers())
+    exec(compile(python_header() + source, "<taylor>", "exec"), namespace)
+    X = np.zeros((3, order + 1))
+    X[:, 0] = [POINT[x], POINT[y], POINT[t]]
+    namespace["coeffs"](X, np.zeros((max(rows, 1), order + 1)), order, np.array([POINT[a]]))
+    return X
+
+
+@pytest.mark.parametrize("name", FIELDS)
+def test_generated_coefficients_are_the_lie_derivatives(name):
+    f, g = FIELDS[name]
+    order = 5
+    X = _coefficients((f, g), order)
+    # x^[k] = (L^(k-1) f)(point) / k!, L the derivative along the field
+    for i, h in enumerate((f, g)):
+        for k in range(1, order + 1):
+            exact = float(h.subs(POINT).evalf(30)) / math.factorial(k)
+            assert abs(X[i, k] - exact) <= 1e-12 * max(1.0, abs(exact)), (name, i, k)
+            h = sp.diff(h, x) * f + sp.diff(h, y) * g + sp.diff(h, t)
+    np.testing.assert_array_equal(X[2, 1:], [1.0] + [0.0] * (order - 1))
+
+
+def test_a_function_without_a_recurrence_is_refused_by_name():
+    code = StraightLine()
+    values = code.values([sp.Abs(x), y])
+    code.flush()
+    with pytest.raises(NotImplementedError, match="Abs"):
+        taylor_source("coeffs", code.assignments, [x, y], values, [])
+
+
+def test_the_order_follows_the_tolerance():
+    assert taylor_order((1e-10, 1e-12)) == 15  # ceil(-ln(1e-12) / 2) + 1
+    assert taylor_order((1e-16, 1e-16)) == 20
+    assert taylor_order((1e-2, 1e-2)) == 4  # the least
+    assert taylor_order((1e-300, 1e-300)) == 40  # the most
+
+
+SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+GAIT = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+RACER = dict(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6)
+
+
+@pytest.mark.parametrize(
+    "build, kw",
+    [
+        (lambda: snakeboard(**SNAKE), dict(shapes=GAIT)),
+        # a free shape under a torque of the state
+        (lambda: roller_racer(**RACER), dict(tau={"phi": "0.3*sin(3*t) - 0.05*phi_dot"}, q0={"phi": 0.2})),
+        # one shape prescribed, one free (the lean), a potential, and a momentum
+        (
+            lambda: simplified_bicycle(m=1.0, h=0.8, c=0.3, b=1.0, g=9.81, J_s=0.05),
+            dict(shapes={"sigma": "0.05*sin(2*t)"}, q0={"phi": 0.02}, p0=[1.0]),
+        ),
+    ],
+    ids=["snakeboard", "roller_racer", "bicycle"],
+)
+def test_taylor_and_dop853_agree_and_taylor_converges_in_its_tolerance(build, kw):
+    s = build()
+    common = dict(t_final=3.0, saveat=13, **kw)
+    ref = solve(s, BKMM(), rtol=1e-13, atol=1e-15, **common)
+    errors = []
+    for tol in (1e-6, 1e-9, 1e-12):
+        sol = solve(s, BKMM(solver="taylor"), rtol=tol, atol=tol * 1e-2, **common)
+        assert sol.stats["backend"] == "numba" and sol.status is Status.SUCCESS
+        scale = max(1.0, float(np.abs(ref.q).max()))
+        errors.append(float(np.abs(sol.q - ref.q).max()) / scale)
+        # every saved state (by the step's polynomial, between the steps) to the tolerance's scale
+        assert errors[-1] <= 100 * tol
+        for name in ("p", "work", "energy"):
+            r = getattr(ref, name)
+            assert np.abs(getattr(sol, name) - r).max() <= 100 * tol * max(1.0, float(np.abs(r).max())), name
+    assert errors[2] < 1e-3 * errors[0]
+    # a few dozen steps of high order where DOP853 takes hundreds
+    dop = solve(s, BKMM(), rtol=1e-12, atol=1e-14, **common)
+    assert sol.stats["n_internal_steps"] < dop.stats["n_internal_steps"] / 2
+
+
+def test_the_coasting_sleigh_keeps_its_energy_and_meets_dop853():
+    # no shape: the momentum equation is the whole dynamics, its energy a first integral
+    s = chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6)
+    common = dict(t_final=10.0, saveat=21, p0=[0.3, 0.5])
+    ref = solve(s, BKMM(), rtol=1e-13, atol=1e-15, **common)
+    sol = solve(s, BKMM(solver="taylor"), rtol=1e-12, atol=1e-14, **common)
+    np.testing.assert_allclose(sol.q, ref.q, rtol=0, atol=1e-10 * max(1.0, float(np.abs(ref.q).max())))
+    np.testing.assert_allclose(sol.p, ref.p, rtol=0, atol=1e-10)
+    assert np.ptp(sol.energy) <= 1e-11 * abs(sol.energy[0])
+
+
+def test_a_batch_by_taylor_is_each_member_alone():
+    s = snakeboard(**SNAKE)
+    gait = {"psi": "a*sin(2*pi*t)", "phi": "b*sin(2*pi*t)"}
+    amplitudes = np.array([0.6, 1.0, 1.4])
+    kw = dict(t_final=2.0, saveat=5, rtol=1e-11, atol=1e-13)
+    batch = solve(s, BKMM(solver="taylor"), shapes=gait, parameters={"a": amplitudes, "b": 0.5}, threads=2, **kw)
+    assert batch.batch_shape == (3,) and batch.status is Status.SUCCESS
+    for i, amp in enumerate(amplitudes):
+        one = solve(s, BKMM(solver="taylor"), shapes={"psi": f"{amp}*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **kw)
+        np.testing.assert_allclose(batch.q[i], one.q, rtol=0, atol=1e-9)
+
+
+def test_what_taylor_cannot_do_is_refused_by_name():
+    s = snakeboard(**SNAKE)
+    with pytest.raises(InputError, match="runs compiled only"):
+        solve(s, BKMM(solver="taylor"), t_final=1.0, shapes=GAIT, backend="python")
+    racer = roller_racer(**RACER)
+    with pytest.raises(InputError, match="Taylor recurrence"):
+        solve(racer, BKMM(solver="taylor"), t_final=1.0, tau={"phi": "0.3*abs(sin(3*t))"})
+    with pytest.raises(InputError, match="solver"):
+        BKMM(solver="taylr")
+
+
+def test_a_run_past_its_budget_stops_with_the_states_reached():
+    s = snakeboard(**SNAKE)
+    sol = solve(
+        s, BKMM(solver="taylor"), t_final=5.0, saveat=11, shapes=GAIT, max_evaluations=200, raise_on_failure=False
+    )
+    assert sol.status is Status.BUDGET_EXHAUSTED and "evaluations" in sol.message
+    reached = sol.t <= sol.failures[0].time
+    assert reached.sum() >= 1 and np.all(np.isfinite(sol.q[reached])) and np.all(np.isnan(sol.q[~reached]))
