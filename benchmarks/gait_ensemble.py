@@ -9,8 +9,9 @@ Not part of the test suite; needs heyoka (``pip install "heyoka>=7,<8"``, the ``
 The problem (issue 16, item 4): the snakeboard of ``nonholonomic.py`` (m = 1, r = 0.5, J = 0.18, J0 = 0.05,
 J1 = 0.01) from rest, five periods (t = 5), on the gaits psi = a sin(2 pi t), phi = b sin(2 pi t + c) with
 a in [0.5, 1.5] (25 values), b in [0.2, 0.8] (20), c in [0, 2 pi) (20): 10,000 members. geomech:
-``solve(s, BKMM(), shapes=..., parameters={"a": ..., "b": ..., "c": ...}, threads=2)``, one call from Python to
-the Solution (the final states, energies and shape forces of every member). heyoka: the reduced equations in closed
+``solve(s, BKMM(), shapes=..., parameters={"a": ..., "b": ..., "c": ...}, threads=2)`` (DOP853) and the same with
+``BKMM(solver="taylor")``, one call from Python to the Solution (the final states, energies and shape forces of
+every member). heyoka: the reduced equations in closed
 form of ``nonholonomic.py`` with a, b, c as its run-time parameters (``par[0..2]``), a ``taylor_adaptive_batch`` of
 the recommended SIMD width per thread, each thread propagating its half of the members batch by batch (the state
 and time reset, the parameters set), 1 and 2 threads. The error is the max-norm error of (x, y, theta, p) at t = 5
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import itertools
 import json
 import os
 import platform
@@ -45,6 +47,8 @@ A, B, C = sp.symbols("a b c", real=True)
 FORMULAS = {"psi": A * sp.sin(2 * sp.pi * T_SYMBOL), "phi": B * sp.sin(2 * sp.pi * T_SYMBOL + C)}
 GAIT = {"psi": "a*sin(2*pi*t)", "phi": "b*sin(2*pi*t + c)"}
 GEOMECH_TOLS = [1e-8, 1e-10, 1e-12]
+#: the compiled BKMM equations by the embedded pair and by Taylor's method
+METHODS = {"DOP853": BKMM(), "Taylor": BKMM(solver="taylor")}
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 
 
@@ -125,15 +129,15 @@ def main(argv: list[str] | None = None) -> int:
 
     rows: list[dict[str, Any]] = []
     k = s.k
-    for tol in GEOMECH_TOLS:
+    for (label, method), tol in itertools.product(METHODS.items(), GEOMECH_TOLS):
         kw = dict(t_final=T, saveat=[T], shapes=GAIT, parameters=values, rtol=tol, atol=tol * 1e-2, threads=threads)
-        first = solve(s, BKMM(), **kw)  # compiles (or loads the disk cache)
-        wall, sol = best_of(lambda kw=kw: solve(s, BKMM(), **kw), 3, budget=30.0)
-        loop = min(solve(s, BKMM(), **kw).stats["loop_time"] for _ in range(2))
+        first = solve(s, method, **kw)  # compiles (or loads the disk cache)
+        wall, sol = best_of(lambda kw=kw, method=method: solve(s, method, **kw), 3, budget=30.0)
+        loop = min(solve(s, method, **kw).stats["loop_time"] for _ in range(2))
         final = np.concatenate([sol.q[:, -1, :k], sol.p[:, -1]], axis=1)
         rows.append(
             dict(
-                who=f"geomech BKMM compiled (DOP853), {threads} threads",
+                who=f"geomech BKMM compiled ({label}), {threads} threads",
                 tol=tol,
                 error=error(final),
                 wall_s=wall,

@@ -1,5 +1,6 @@
-"""Nonholonomic systems driven by a gait or coasting: geomech's BKMM equations (compiled, and in Python) and its
-Lagrange-d'Alembert equations with multipliers (compiled) beside heyoka's Taylor integrator on the reduced equations.
+"""Nonholonomic systems driven by a gait or coasting: geomech's BKMM equations (compiled, by DOP853 and by Taylor's
+method, and in Python) and its Lagrange-d'Alembert equations with multipliers (compiled) beside heyoka's Taylor
+integrator on the reduced equations.
 
     PYTHONPATH=src python benchmarks/nonholonomic.py          # about 30 seconds
     PYTHONPATH=src python benchmarks/nonholonomic.py --quick  # fewer tolerances
@@ -22,12 +23,11 @@ the connection solved and simplified by sympy, a different route from the compil
 precision (real128, tolerance 1e-32), cross-checked against heyoka in long double.
 
 Measured, in one run: the max-norm error of (g, p) at the end against the wall time, best of several repeats:
-``solve(s, BKMM(), ...)`` and ``solve(s, LagrangeDAlembert(), ...)`` from the Python call to the Solution
-(compiled; BKMM also in Python), the compiled discrete Lagrange-d'Alembert map (midpoint) at fixed steps, the
-compiled loop
-alone (``stats["loop_time"]``), and heyoka's ``propagate_until`` from a reset state (its construction and JIT
-compilation apart, as geomech's compilation is). Writes ``results/nonholonomic.json`` and
-``results/nonholonomic.md``.
+``solve(s, BKMM(), ...)``, ``solve(s, BKMM(solver="taylor"), ...)`` and ``solve(s, LagrangeDAlembert(), ...)``
+from the Python call to the Solution (compiled; BKMM also in Python), the compiled discrete Lagrange-d'Alembert
+map (midpoint) at fixed steps, the compiled loop alone (``stats["loop_time"]``), and heyoka's ``propagate_until``
+from a reset state (its construction and JIT compilation apart, as geomech's compilation is). Writes
+``results/nonholonomic.json`` and ``results/nonholonomic.md``.
 """
 
 from __future__ import annotations
@@ -87,7 +87,11 @@ PYTHON_TOLS = [1e-8, 1e-12]
 #: the steps of the discrete Lagrange-d'Alembert map (second order, fixed step: the "tolerance" column is h)
 DISCRETE_STEPS = [1e-2, 1e-3]
 #: the compiled equations: the reduced ones, and those in coordinates with multipliers
-COMPILED = {"BKMM": BKMM(), "LagrangeDAlembert": LagrangeDAlembert()}
+COMPILED = {
+    "BKMM": BKMM(),
+    "LagrangeDAlembert": LagrangeDAlembert(),
+    "BKMM Taylor": BKMM(solver="taylor"),
+}
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 
 
@@ -135,7 +139,7 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
         loop = min(solve(s, method, **kw).stats["loop_time"] for _ in range(repeats))
         rows.append(
             dict(
-                who=f"geomech {label} compiled (DOP853)",
+                who=f"geomech {label} compiled" + ("" if method.solver == "taylor" else " (DOP853)"),
                 tol=tol,
                 error=error(sol),
                 wall_ms=wall * 1e3,
