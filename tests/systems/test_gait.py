@@ -24,6 +24,11 @@ def test_derivatives_are_exact_and_T_is_the_period():
     assert (r[1], rd[1], rdd[1]) == pytest.approx((0.045, 0.3, 1.0), rel=1e-14)
     with pytest.raises(InputError, match="`T` is the period: give `period`"):
         gm.Gait.from_expressions({"psi": "sin(2*pi*t/T)"})
+    # a corner has no acceleration: refused where the gait is made, by name
+    with pytest.raises(InputError, match=r"shapes\['phi'\].*no second derivative.*smooth formula"):
+        gm.Gait.from_expressions({"psi": "sin(t)", "phi": "abs(sin(2*pi*t))"})
+    with pytest.raises(InputError, match="no second derivative"):
+        gm.solve(snakeboard(**SNAKE), "bkmm", t_final=1.0, shapes={"psi": "sign(t - 0.5)", "phi": "0"})
 
 
 def test_a_gait_without_period_drives_a_simulation_but_is_not_a_loop():

@@ -139,6 +139,13 @@ class Gait:
         if names is not None and len(names) != len(exprs):
             raise ShapeError(f"Expected {len(exprs)} names for the {len(exprs)} formulas, got {list(names)}.")
         derivs = [[sp.diff(ex, T_SYMBOL, k) for ex in exprs] for k in range(3)]
+        for i, ex in enumerate(derivs[2]):
+            if ex.has(sp.DiracDelta, sp.Derivative):
+                label = f"shapes[{names[i]!r}]" if names is not None and i < len(names) else f"shapes[{i}]"
+                raise InputError(
+                    f"The gait of {label}, {exprs[i]}, has no second derivative in t where it has a corner (abs, "
+                    "sign, min, max): the equations of motion read the shapes' accelerations; write a smooth formula."
+                )
         funcs = (_time_function(derivs[0]), _time_function(derivs[1]), _time_function(derivs[2]))
         together = _time_function(derivs[0] + derivs[1] + derivs[2]) if exprs else None
         n = len(exprs)
