@@ -75,6 +75,17 @@ def test_simulate_text_and_other_methods(capsys):
         "--json",
     )
     assert code == 0 and json.loads(out)["work_by_shape_inputs"] == 0.0
+    # the BKMM equations by Taylor's method: the DOP853 run's final configuration, its events
+    finals = {}
+    for method in ("reduced", "reduced-taylor"):
+        code, out, err = _run(
+            capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", method, "--event", "back=psi", "--json"
+        )
+        assert code == 0, err
+        data = json.loads(out)
+        finals[method] = np.array(list(data["summary"]["final_configuration"].values()))
+    assert "reduced (taylor)" in json.dumps(data)
+    np.testing.assert_allclose(finals["reduced-taylor"], finals["reduced"], rtol=0, atol=1e-8)
 
 
 def test_simulate_by_hamiltons_equations_and_the_group_discretisation(capsys):

@@ -277,7 +277,8 @@ def _plain(value: Any) -> str:
     "--method",
     default="full",
     show_default=True,
-    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3; discrete: midpoint DLA; "
+    help="full: Lagrange-d'Alembert with multipliers; reduced: BKMM eqs. 1.1-1.3 (DOP853); reduced-taylor: the "
+    "same by Taylor's method (compiled); discrete: midpoint DLA; "
     "discrete-group: DLA with the group's discrete Lagrangian; almost-poisson, bates-sniatycki, full-tensor: "
     "Hamilton's equations on FL(D) (free shapes: --tau, not --shape). With "
     "--hamiltonian any method of geomech.solve that fits (`geomech methods --hamiltonian ...`); full: the "
@@ -313,7 +314,7 @@ def _plain(value: Any) -> str:
     multiple=True,
     metavar="NAME=FORMULA",
     help="Locate the zeros of FORMULA in the state (e.g. 'back=psi', 'east=x - 1') and list their times and states "
-    "(repeatable; --method reduced or full, or dop853/dopri5 with --hamiltonian).",
+    "(repeatable; --method reduced, reduced-taylor or full, or dop853/dopri5 with --hamiltonian).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @out_option("Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
@@ -353,7 +354,7 @@ def simulate_cmd(
     the constraints (constraints on the shape velocities) it starts with nonholonomic momentum 0 instead,
     and the summary says so.
     """
-    from ..integrators import Kind, get_method, solve
+    from ..integrators import BKMM, TAYLOR, Kind, get_method, solve
 
     events = _pairs(event_specs, "--event", False) or None
     if hamiltonian is not None:
@@ -415,7 +416,7 @@ def simulate_cmd(
                 raise
             start = "nonholonomic momentum 0 (rest violates the constraints)"
     with activity(f"simulating {system.name} ({method}) to t = {t_final:g}"):
-        integrator = get_method(_MODEL_METHODS[method])
+        integrator = BKMM(solver=TAYLOR) if method == "reduced-taylor" else get_method(_MODEL_METHODS[method])
         if integrator.kind is Kind.FIXED_STEP:
             sol = solve(
                 system,
@@ -477,6 +478,7 @@ def simulate_cmd(
 _MODEL_METHODS = {
     "full": "lagrange_dalembert",
     "reduced": "bkmm",
+    "reduced-taylor": "bkmm",  # BKMM(solver="taylor")
     "discrete": "discrete_lagrange_dalembert",
     "discrete-group": "discrete_lagrange_dalembert_group",
     "almost-poisson": "almost_poisson",
