@@ -39,7 +39,9 @@ Ensembles and sensitivities: the leading axes of the initial state are a batch, 
 `parameters={name: array}` (the named parameters of a system built from a formula: each trajectory reads its
 own values in the same compiled call); `sensitivities=True` integrates the variational equations with an
 explicit method and returns the state transition matrix `dy(t)/dy(t0)` as the quantity `stm`, and
-`sensitivities=("I1", ...)` adds `parameter_sensitivity`, `dy(t)/dp`:
+`sensitivities=("I1", ...)` adds `parameter_sensitivity`, `dy(t)/dp` (for a Lagrangian system, with BKMM
+compiled: its state's, to the system's parameters and the gait's and torques' coefficients;
+`docs/nonholonomic.md`):
 
 ```python
 import numpy as np

@@ -210,7 +210,10 @@ def solve(
         ``solve_ivp``): True gives the state transition matrix ``dy(t)/dy(t0)`` as the quantity ``stm``
         (``(..., n_save, d, d)``), names of parameters add ``parameter_sensitivity``, ``dy(t)/dp``
         (``(..., n_save, d, k)``, a column per name in the given order). The error control of an adaptive method
-        covers them too.
+        covers them too. For a Lagrangian system, with ``BKMM`` compiled (DOP853 or RK45): d is that of the BKMM
+        state ``(g, r_F, rdot_F, p, W)`` (group coordinates, free shapes and their rates, momenta, work), and the
+        names are the system's parameters and the gait's and torques' coefficients (the derivatives of the
+        generated equations by forward differentiation of their straight-line code).
     events : mapping of str to formula or :class:`~geomech.integrators.Event`, optional
         Zeros of functions of the state to locate (``dop853`` or ``dopri5``, compiled; a canonical or left-invariant
         system, or a body with rotors, given by formulas): each a formula in the state's components, by the names of
@@ -305,6 +308,7 @@ def solve(
             threads=threads,
             events=events,
             max_events=max_events,
+            sensitivities=sensitivities,
         )
         return _finish(solution, raise_on_failure)
     for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0), ("shapes", shapes)):

@@ -24,6 +24,7 @@ coordinates and the constraints together; inverting it symbolically would cost m
 
 from __future__ import annotations
 
+import dataclasses
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -115,6 +116,9 @@ class LagrangianSource:
     #: the method whose equations these are, and what is singular where the derivative is NaN
     equations: str = "BKMM"
     singular: str = "the BKMM equations are singular (the locked inertia or the constraints)"
+    #: with variational equations: the width of the state before Phi and S (its sensitivities' names in ``wrt``)
+    core: int = 0
+    wrt: tuple[str, ...] = ()
 
     def rows(self, values: Mapping[str, Any], B: int) -> np.ndarray:
         """The ``prm`` rows of a batch of ``B`` members (one row where no value is an array): each name's value,
@@ -132,18 +136,35 @@ class LagrangianSource:
         return out
 
 
-def bkmm_source(setup: Any, reduction: Any, taylor: bool = False) -> LagrangianSource | None:
+def bkmm_source(
+    setup: Any, reduction: Any, taylor: bool = False, wrt: tuple[str, ...] | None = None
+) -> LagrangianSource | None:
     """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and its observation, and
     the layout of the values they read, or None where the gait or a torque is a Python callable. Generated once per
     system, basis and form of the gait and torques. With ``taylor``, the module also has the Taylor coefficients of
-    the equations' solution (``taylor_coeffs``, its work array's rows ``TAYLOR_ROWS``) for Taylor's method."""
+    the equations' solution (``taylor_coeffs``, its work array's rows ``TAYLOR_ROWS``) for Taylor's method; with
+    ``wrt`` (names of the system's parameters and the gait's and torques' coefficients), its right-hand side is
+    that of the state and its variational equations (the state transition matrix and the sensitivities to them)."""
     basis = sp.ImmutableMatrix(reduction.basis)
-    return _made(
-        setup,
-        ("bkmm", basis, "taylor") if taylor else ("bkmm", basis),
-        (),
-        lambda gait, torques, n_prm, extra: _generate(setup, reduction, gait, torques, n_prm, taylor),
-    )
+    own = [q.name for q in setup.system.parameter_symbols]
+    coefficients = list(setup.coefficients)
+
+    def generate(gait: tuple, torques: tuple, n_prm: int, extra: tuple) -> str:
+        at = None
+        if wrt is not None:  # prm: the system's parameters first, the coefficients last
+            at = tuple(own.index(n) if n in own else n_prm - len(coefficients) + coefficients.index(n) for n in wrt)
+        return _generate(setup, reduction, gait, torques, n_prm, taylor, at)
+
+    kind: tuple = ("bkmm", basis)
+    if taylor:
+        kind += ("taylor",)
+    if wrt is not None:
+        kind += (("wrt", *wrt),)
+    made = _made(setup, kind, (), generate)
+    if made is None or wrt is None:
+        return made
+    core = setup.system.k + 2 * len(setup.free_shapes) + reduction.m + 1
+    return dataclasses.replace(made, core=core, wrt=tuple(wrt))
 
 
 def lda_source(setup: Any, baumgarte: float) -> LagrangianSource | None:
@@ -241,12 +262,23 @@ _NAMES = {
 
 
 def _generate(
-    setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int, taylor: bool = False
+    setup: Any,
+    reduction: Any,
+    gait_forms: tuple,
+    torque_forms: tuple,
+    n_prm: int,
+    taylor: bool = False,
+    wrt: tuple[int, ...] | None = None,
 ) -> str:
+    """The module of the BKMM equations (``rhs``, ``observe``), of the state ``(g, r_F, rdot_F, p, W, t)``; with
+    ``wrt`` (indices into ``prm``), of the state and its variational equations ``(y, Phi, S, t)`` (:func:`_forward`),
+    the time last as always; with ``taylor``, Taylor's coefficients too (:func:`_taylor_closed`)."""
     system = setup.system
     k, s, m, c = system.k, system.sigma, reduction.m, system.c
     F, P = list(setup.free_shapes), list(setup.prescribed)
     nF = len(F)
+    d = k + 2 * nF + m + 1
+    t_index = d if wrt is None else d * (1 + d + len(wrt))
     code = StraightLine()
     # the state, the parameters (the system's, then the gait's and torques' numbers), and the time
     t = _TIME
@@ -254,7 +286,7 @@ def _generate(
     p = sp.Matrix(m, 1, [sp.Symbol(f"_m{i}") for i in range(m)])
     r: list[Any] = [None] * s
     rd: list[Any] = [None] * s
-    reads = [f"_t = y[{k + 2 * nF + m + 1}]"] + [f"_g{a} = y[{a}]" for a in range(k)]
+    reads = [f"_t = y[{t_index}]"] + [f"_g{a} = y[{a}]" for a in range(k)]
     for jj, j in enumerate(F):
         r[j], rd[j] = sp.Symbol(f"_r{j}"), sp.Symbol(f"_rd{j}")
         reads += [f"_r{j} = y[{k + jj}]", f"_rd{j} = y[{k + nF + jj}]"]
@@ -375,9 +407,56 @@ def _generate(
         + [sp.Integer(1)]
     )
     values = code.values(outputs)
+    if wrt is not None:  # the state's derivative, then Phi's and S's, then the time's
+        state = list(g) + [r[j] for j in F] + [rd[j] for j in F] + list(p) + [None]
+        values = values[:-1] + _forward(code, state, wrt, values[:-1]) + values[-1:]
     code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(values)))
     series = _taylor_closed(setup, reduction, gait_forms, torque_forms, n_prm) if taylor else ""
     return _module_text(code.body(), seen.body()) + series
+
+
+def _forward(code: StraightLine, state: list, wrt: tuple[int, ...], f: list) -> list:
+    """The variational equations of ``y' = f(y, prm)`` by forward differentiation of the straight-line code so far:
+    the derivatives of Phi = dy/dy0 (row-major, d x d) and S = dy/dprm[wrt] (d x len(wrt)), read from ``y`` after
+    the state (``state[i]`` the symbol of y_i, None where f does not read it). Each assignment ``v = e(a, b, ...)``
+    carries its tangents ``dv = sum_a de/da da`` in every direction (the d initial values, then the parameters),
+    structural zeros dropped: Phi' = f_y Phi, S' = f_y S + f_p."""
+    d, nw = len(state), len(wrt)
+    nd = d + nw
+    tangents: dict[sp.Symbol, list[Any]] = {}
+    reads = []
+    for i, sym in enumerate(state):
+        if sym is None:
+            continue
+        row = []
+        for j in range(nd):
+            name = sp.Symbol(f"_dy{i}_{j}")
+            at = d + i * d + j if j < d else d + d * d + i * nw + (j - d)
+            reads.append(f"{name} = y[{at}]")
+            row.append(name)
+        tangents[sym] = row
+    for l, index in enumerate(wrt):
+        seed: list[Any] = [None] * nd
+        seed[d + l] = sp.Integer(1)
+        tangents[sp.Symbol(f"_p{index}")] = seed
+    if reads:
+        code.line("\n".join(reads))
+    for v, e in list(code.assignments):
+        dep = [a for a in e.free_symbols if a in tangents]
+        if not dep:
+            continue
+        partial = {a: e.diff(a) for a in dep}
+        row = []
+        for j in range(nd):
+            terms = [partial[a] * tangents[a][j] for a in dep if tangents[a][j] is not None]
+            row.append(code.value(sp.Add(*terms)) if terms else None)
+        if any(x is not None for x in row):
+            tangents[v] = row
+    zero: list[Any] = [None] * nd
+    of_f = [tangents.get(e, zero) if isinstance(e, sp.Symbol) else zero for e in f[:d]]
+    # Phi's rows, then S's (each row-major)
+    columns = [range(d), range(d, nd)]
+    return [sp.Integer(0) if t[j] is None else t[j] for cols in columns for t in of_f for j in cols]
 
 
 def _shape_solve(
@@ -648,12 +727,14 @@ def lda_slots(setup: Any) -> list[str | None]:
     return [s.q[i].name for i in fr] + [s.qdot[i].name for i in fr] + [None, "t"]
 
 
-def bkmm_module(setup: Any, reduction: Any, taylor: bool = False) -> tuple[Any, LagrangianSource] | None:
-    """The compiled module of ``setup``'s BKMM equations and the layout of the values ``prm`` it reads (the
-    system's parameters, the gait's and the torques' numbers, their coefficients), or None where they cannot be
-    compiled (numba missing, a callable gait or torque, a function numba lacks; with ``taylor``, a function with
-    no Taylor recurrence)."""
-    return _module(lambda: bkmm_source(setup, reduction, taylor), "bk")
+def bkmm_module(
+    setup: Any, reduction: Any, taylor: bool = False, wrt: tuple[str, ...] | None = None
+) -> tuple[Any, LagrangianSource] | None:
+    """The compiled module of ``setup``'s BKMM equations (with ``wrt``, and their variational equations; see
+    :func:`bkmm_source`) and the layout of the values ``prm`` it reads (the system's parameters, the gait's and the
+    torques' numbers, their coefficients), or None where they cannot be compiled (numba missing, a callable gait or
+    torque, a function numba lacks; with ``taylor``, a function with no Taylor recurrence)."""
+    return _module(lambda: bkmm_source(setup, reduction, taylor, wrt), "bkv" if wrt is not None else "bk")
 
 
 def lda_module(setup: Any, baumgarte: float) -> tuple[Any, LagrangianSource] | None:

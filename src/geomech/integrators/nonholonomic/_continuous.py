@@ -27,11 +27,18 @@ from .._adaptive import (
 )
 from .._events import compile_lagrangian_events, event_table, events_need_compiled
 from .._runners import INFO_COLUMNS, run_embedded, run_taylor
+from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
 from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots, observe
 from ._inputs import _group_rates, _Setup
 from ._trajectory import _accelerations, _Raw
+
+#: What the variational equations of a Lagrangian system need.
+VARIATIONAL_NEEDS = (
+    "`sensitivities` of a Lagrangian system integrate the variational equations of its BKMM equations, compiled: "
+    "method BKMM with solver 'DOP853' or 'RK45', the gait and torques as formulas, numba installed, no `events`."
+)
 
 #: A NumericalError raised by the equations of a Lagrangian run: they became singular.
 SINGULAR = Status.SINGULAR_CONSTRAINTS
@@ -130,6 +137,7 @@ def run_reduced(
     backend: str = "auto",
     events: Any = None,
     max_events: int = 0,
+    sensitivities: tuple[str, ...] | None = None,
 ) -> _Raw:
     """The BKMM equations (1.1)-(1.3): momentum, shape and reconstruction; the state is
     ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`.
@@ -185,14 +193,18 @@ def run_reduced(
     p_init = rn.momentum(q_init, qd_init)
     y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
     taylor = method.solver == TAYLOR
-    compiled = _compiled_or_refused(system, method, backend, events, lambda: bkmm_module(setup, red, taylor))
+    compiled = _compiled_or_refused(
+        system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities)
+    )
+    if compiled is None and sensitivities is not None:
+        raise InputError(VARIATIONAL_NEEDS)
     if compiled is not None:
         module, made = compiled
         run = run_compiled(
             module,
             made,
             made.rows({**system.parameters, **dict(parameters or {})}, 1),
-            y0[None],
+            y0[None] if sensitivities is None else augment(y0[None], len(sensitivities)),
             t0,
             times,
             method,
@@ -261,6 +273,8 @@ class CompiledRun:
     compile_time: float
     loop_time: float
     events: dict[str, np.ndarray] = field(default_factory=dict)
+    #: with variational equations: ``stm`` (B, n_saved, d, d) and ``parameter_sensitivity`` (B, n_saved, d, k)
+    variational: dict[str, np.ndarray] = field(default_factory=dict)
 
     def raw(self, setup: _Setup, m: int | None, b: int, failure: Failure | None) -> _Raw:
         """Member ``b`` as the engines' :class:`_Raw`, its quantities included (the momentum where the state holds
@@ -284,6 +298,7 @@ class CompiledRun:
             momentum=None if m is None else y[:, k_p : k_p + m],
             residual=w[:, 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
             events=self.events,
+            variational={key: v[b] for key, v in self.variational.items()},
         )
 
 
@@ -401,4 +416,12 @@ def run_compiled(
                 table[name] = np.concatenate([rows[:, :2], shown], axis=1)
             else:
                 table[name] = np.zeros((0, 2 + n_q))
-    return CompiledRun(OUT[..., :-1], OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time, table)
+    states = OUT[..., :-1]
+    variational: dict[str, np.ndarray] = {}
+    if made.core:  # the state, then Phi (d x d) and S (d x k), row-major
+        d0, k = made.core, len(made.wrt)
+        variational["stm"] = states[..., d0 : d0 + d0 * d0].reshape(B, n, d0, d0)
+        if k:
+            variational["parameter_sensitivity"] = states[..., d0 + d0 * d0 :].reshape(B, n, d0, k)
+        states = states[..., :d0]
+    return CompiledRun(states, OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time, table, variational)

@@ -19,10 +19,11 @@ from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
 from .._events import compile_lagrangian_events, events_need_compiled
 from .._times import Times
+from .._variational import augment
 from ..methods import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
-from ._compiled import bkmm_module, bkmm_slots, compiled_pair, observe
-from ._continuous import run_compiled, run_full, run_reduced
+from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, observe
+from ._continuous import VARIATIONAL_NEEDS, run_compiled, run_full, run_reduced
 from ._discrete import run_discrete
 from ._hamiltonian import run_hamiltonian
 from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state
@@ -55,11 +56,13 @@ def solve_lagrangian(
     threads: int | None = None,
     events: Any = None,
     max_events: int = 1000,
+    sensitivities: Any = None,
 ) -> Solution:
     """Integrate a :class:`~geomech.systems.NonholonomicSystem` with one of the Lagrangian methods (internal:
     :func:`~geomech.solve` has checked the method and the times)."""
     setup = _setup(system, shapes, tau, parameters)
     check_parameter_names(setup, parameters)
+    wrt = _sensitivity_names(setup, method, backend, events, sensitivities)
     if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert)):
         raise InputError(events_need_compiled(system.name) + f" Got {method!r}.")
     shape = _batch_shape(parameters, q0, rdot0, p0)
@@ -82,6 +85,7 @@ def solve_lagrangian(
             threads=threads,
             events=events,
             max_events=max_events,
+            wrt=wrt,
         )
     q_init, qd_init = initial_state(
         system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
@@ -130,21 +134,11 @@ def solve_lagrangian(
         if isinstance(method, NonholonomicHamilton):
             raw = run_hamiltonian(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
         else:  # the two that run compiled: the equations with multipliers, or BKMM's
-            engine = run_full if isinstance(method, LagrangeDAlembert) else run_reduced
-            raw = engine(
-                setup,
-                q_init,
-                qd_init,
-                t0,
-                times.t,
-                method,
-                tolerances,
-                max_evaluations,
-                parameters,
-                backend,
-                events,
-                max_events,
-            )
+            args = (setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend)
+            if isinstance(method, LagrangeDAlembert):
+                raw = run_full(*args, events, max_events)
+            else:
+                raw = run_reduced(*args, events, max_events, wrt)
         n_rhs, internal = raw.nfev, raw.steps
     run_time = time.perf_counter() - start
     extra: dict[str, Any] = {} if raw.loop_time is None else {"loop_time": raw.loop_time}
@@ -184,6 +178,31 @@ def solve_lagrangian(
         group_dim=system.k,
         events=raw.events,
     )
+
+
+def _sensitivity_names(setup: Any, method: Method, backend: str, events: Any, sensitivities: Any) -> tuple | None:
+    """The names of ``sensitivities`` (True: the initial state only), checked against what can be differentiated:
+    the system's parameters and the gait's and torques' coefficients; None for no variational equations."""
+    if sensitivities is None or sensitivities is False:
+        return None
+    if (
+        not isinstance(method, BKMM)
+        or method.solver not in COMPILED_SOLVERS
+        or backend == "python"
+        or events is not None
+    ):
+        raise InputError(VARIATIONAL_NEEDS + f" Got {method!r} with backend {backend!r}.")
+    if sensitivities is True:
+        return ()
+    known = [q.name for q in setup.system.parameter_symbols] + list(setup.coefficients)
+    names = (sensitivities,) if isinstance(sensitivities, str) else tuple(sensitivities)
+    unknown = [n for n in names if not isinstance(n, str) or n not in known]
+    if unknown or len(set(names)) != len(names):
+        raise InputError(
+            f"Expected `sensitivities` to be True (the initial state) or distinct names of the parameters of "
+            f"{setup.system.name} and of its gait's and torques' coefficients ({known}), got {sensitivities!r}."
+        )
+    return names
 
 
 def _batch_shape(parameters: Mapping[str, Any] | None, q0: Any, rdot0: Any, p0: Any) -> tuple[int, ...] | None:
@@ -236,15 +255,16 @@ def _solve_batch(
     threads: int | None,
     events: Any = None,
     max_events: int = 1000,
+    wrt: tuple[str, ...] | None = None,
 ) -> Solution:
     """A batch of trajectories (over initial states, the system's parameters and the coefficients of the gait and
-    torques) in one call of the compiled BKMM loop, across threads."""
+    torques) in one call of the compiled BKMM loop, across threads (with ``wrt``, their variational equations)."""
     system = setup.system
     compiled = None
     taylor = isinstance(method, BKMM) and method.solver == TAYLOR
     if isinstance(method, BKMM) and backend != "python" and (taylor or compiled_pair(method.solver) is not None):
         red = bkmm_reduction(system)
-        compiled = bkmm_module(setup, red, taylor)
+        compiled = bkmm_module(setup, red, taylor, wrt)
     if compiled is None:
         raise InputError(
             f"A batch (arrays in `parameters`, or initial states with leading axes) of {system.name} runs in the "
@@ -287,6 +307,8 @@ def _solve_batch(
     if P is None:
         raise InputError(f"Expected `p0` as numbers or an array (..., {m}), got a mapping.")
     Y0 = np.concatenate([Q[:, :k], Q[:, [k + j for j in F]], RD[:, F], P, np.zeros((B, 1))], axis=1)
+    if wrt is not None:
+        Y0 = augment(Y0, len(wrt))  # Phi = I, S = 0
     # each member's configuration at t0 (its prescribed shapes from its gait), checked as one trajectory is
     start = observe(module, made, np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1), PRM, 1)
     _require_positive_kinetic_energy(system, start[:, : system.n], arrays, members=f" {shape}")
@@ -315,6 +337,7 @@ def _solve_batch(
         "tau": W[..., 2 * n : 2 * n + sigma],
         "work": run.states[..., -1],
         "constraint_residual": W[..., 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
+        **run.variational,
     }
     if c == 0:
         quantities["spatial_momentum"] = spatial_momentum(system, W[..., :n], quantities["momentum"])

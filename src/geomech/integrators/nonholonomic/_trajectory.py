@@ -37,6 +37,7 @@ class _Raw:
     momentum: np.ndarray | None = None
     events: dict[str, np.ndarray] = field(default_factory=dict)  # Solution.events (a compiled run's)
     newton: int = 0  # Newton's iterations (the discrete map's linear solves), over the run
+    variational: dict[str, np.ndarray] = field(default_factory=dict)  # a compiled run's stm and sensitivities
 
 
 def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str, np.ndarray]:
@@ -75,6 +76,7 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
         "work": raw.work,
         "constraint_residual": residual,
         **({"spatial_momentum": spatial} if s.c == 0 else {}),
+        **raw.variational,
     }
 
 
