@@ -48,6 +48,7 @@ def reference():
     [
         ("dop853", {"rtol": 1e-12, "atol": 1e-12}, 1e-9),
         ("dopri5", {"rtol": 1e-11, "atol": 1e-11}, 1e-8),
+        ("taylor", {"rtol": 1e-12, "atol": 1e-12}, 1e-9),
         ("rk4", {"h": 0.01}, 1e-8),
         ("gauss_legendre_3", {"h": 0.05}, 1e-9),
         ("implicit_midpoint", {"h": 0.002}, 1e-5),

@@ -59,6 +59,8 @@ def test_registry_traits_are_those_of_the_theory():
     # VODE's Adams correctors are implicit (fixed-point iteration) and its order varies from 1 to 12
     assert REGISTRY["adams"].variable_order and not REGISTRY["adams"].explicit
     assert not any(m.variable_order for k, m in REGISTRY.items() if k != "adams")
+    # Taylor's method: its order is that of the tolerances, fixed along a run (15 at the defaults)
+    assert REGISTRY["taylor"].order == 15 and REGISTRY["taylor"].explicit
     # the kinds: fixed step, adaptive (told rtol/atol), exact propagators (told neither)
     assert REGISTRY["rk4"].kind is Kind.FIXED_STEP and REGISTRY["adams"].kind is Kind.ADAPTIVE
     assert REGISTRY["periodic_orbit"].kind is REGISTRY["quadrature"].kind is Kind.EXACT

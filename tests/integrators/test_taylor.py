@@ -8,12 +8,14 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
+from scipy.special import ellipk
 
+import geomech as gm
 from geomech import solve
 from geomech.errors import InputError
-from geomech.integrators import BKMM, Status
+from geomech.integrators import BKMM, Event, Status
 from geomech.integrators._codegen import python_header, python_helpers
-from geomech.integrators._runners import taylor_order
+from geomech.integrators.methods import taylor_order
 from geomech.symbolic.compile import StraightLine
 from geomech.symbolic.taylor import taylor_source
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, roller_racer, simplified_bicycle, snakeboard
@@ -164,3 +166,64 @@ def test_a_run_past_its_budget_stops_with_the_states_reached():
     assert sol.status is Status.BUDGET_EXHAUSTED and "evaluations" in sol.message
     reached = sol.t <= sol.failures[0].time
     assert reached.sum() >= 1 and np.all(np.isfinite(sol.q[reached])) and np.all(np.isnan(sol.q[~reached]))
+
+
+# -- Taylor's method for any system given by formulas (`"taylor"`) -------------------------------------------------
+BODY = gm.RigidBody([3.0, 2.0, 1.0])
+M0 = np.array([1.0, 0.3, 0.2])
+
+
+def test_the_free_body_meets_its_elliptic_solution_in_a_few_hundred_steps():
+    t = np.linspace(0.0, 100.0, 21)
+    sol = gm.solve(BODY, "taylor", m0=M0, saveat=t, t_final=100.0, rtol=1e-13, atol=1e-15)
+    exact = BODY.exact_solution(M0).momentum(t)
+    np.testing.assert_allclose(sol.m, exact, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(np.linalg.norm(sol.m, axis=1), np.linalg.norm(M0), rtol=0, atol=1e-12)
+    dop = gm.solve(BODY, "dop853", m0=M0, saveat=t, t_final=100.0, rtol=1e-13, atol=1e-15)
+    assert sol.stats["n_internal_steps"] < dop.stats["n_internal_steps"] / 3
+
+
+def test_the_pendulums_period_from_events_on_the_steps_polynomials():
+    """H = p^2/2 - cos q from (q, p) = (a, 0): q = 0 is crossed upwards every T = 4 K(sin^2(a/2))."""
+    pendulum = gm.CanonicalSystem.from_expression("p**2/2 - cos(q)", ["q"], ["p"])
+    a = 2.0
+    sol = gm.solve(
+        pendulum, "taylor", y0=[a, 0.0], t_final=60.0, rtol=1e-12, atol=1e-13, events={"up": Event("q", direction=1)}
+    )
+    times = sol.events["up"][:, 1]
+    assert len(times) >= 5
+    np.testing.assert_allclose(np.diff(times), 4.0 * ellipk(np.sin(a / 2) ** 2), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(sol.events["up"][:, 3], np.sqrt(2 * (1 - np.cos(a))), rtol=1e-10)
+    # a terminal event ends the run there
+    stop = gm.solve(
+        pendulum,
+        "taylor",
+        y0=[a, 0.0],
+        t_final=60.0,
+        saveat=61,
+        rtol=1e-12,
+        atol=1e-13,
+        events={"up": Event("q", direction=1, terminal=True)},
+    )
+    assert stop.status == "success" and len(stop.events["up"]) == 1
+    np.testing.assert_allclose(stop.events["up"][0, 1], times[0], rtol=0, atol=1e-10)
+    after = stop.t > times[0]
+    assert np.isnan(stop.states[after]).all() and np.isfinite(stop.states[~after]).all()
+
+
+def test_a_batch_of_inertias_is_each_member_alone():
+    inertias = np.array([2.4, 2.7, 3.0])
+    kw = dict(m0=M0, t_final=20.0, saveat=5, rtol=1e-12, atol=1e-14)
+    batch = gm.solve(BODY, "taylor", parameters={"I1": inertias}, threads=2, **kw)
+    for i, I1 in enumerate(inertias):
+        one = gm.solve(gm.RigidBody([I1, 2.0, 1.0]), "taylor", **kw)
+        np.testing.assert_allclose(batch.m[i], one.m, rtol=0, atol=1e-12)
+
+
+def test_what_the_general_taylor_method_cannot_run_is_refused():
+    q, p = sp.symbols("q p")
+    chart = gm.CanonicalSystem.from_expression(-q * p**2 / 2, (q,), (p,), name="blow-up", chart=((1, -10.0, 1.5),))
+    with pytest.raises(InputError, match="chart"):
+        gm.solve(chart, "taylor", y0=[1.0, 1.0], t_final=0.5)
+    with pytest.raises(InputError, match="runs compiled"):
+        gm.solve(BODY, "taylor", m0=M0, t_final=1.0, backend="python")

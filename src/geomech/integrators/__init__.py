@@ -86,6 +86,7 @@ __all__ = [
     "Structure",
     "SymplecticEuler",
     "TAYLOR",
+    "Taylor",
     "compatible_methods",
     "methods_for",
     "get_method",

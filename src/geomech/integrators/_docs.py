@@ -26,11 +26,13 @@ numba from the symbolic model (cached on disk), over a batch of initial states i
 that keep the structure: Gauss-Legendre collocation up to s = 6 stages (order 12), the symmetric
 compositions `Composition(order, scheme, stages)` of the midpoint rule (`midpoint_s9_6`, `midpoint_s17_8`,
 `midpoint_s35_10`) or of Gauss-Legendre steps, and the Lie-Poisson splitting composed to order 10
-(`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Adaptive Adams wraps
-scipy's VODE/LSODA. The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run
-compiled where the gait and torques are formulas, BKMM also by Taylor's method (`BKMM(solver="taylor")`: the
-Taylor coefficients generated from the equations' straight-line code, `geomech.symbolic.taylor`), and otherwise
-under scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in exponential
+(`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Taylor's method
+(`taylor`) generates the Taylor coefficients of the solution from the system's formulas (`geomech.symbolic.taylor`)
+and steps them at the order of the tolerances, with dense output and events on each step's polynomial: a few dozen
+steps where DOP853 takes hundreds. Adaptive Adams wraps scipy's VODE/LSODA. The Lagrangian methods (BKMM,
+Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run compiled where the gait and torques are formulas,
+BKMM also by Taylor's method (`BKMM(solver="taylor")`, from the reduction's closed forms), and otherwise under
+scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in exponential
 coordinates about a moving centre. The exact propagators give the state of a one-degree-of-freedom system at any
 time from one period, at a cost that does not grow with t. Speed and accuracy beside scipy and heyoka:
 `benchmarks/README.md`.

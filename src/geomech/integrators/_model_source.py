@@ -12,6 +12,7 @@ from typing import Any
 import sympy as sp
 
 from ..symbolic.compile import M_SYMBOLS, compile_vector
+from ..symbolic.taylor import taylor_source
 from . import _codegen
 
 __all__ = ["R_SYMBOLS", "model_source", "variational_equations", "variational_source", "vector_field"]
@@ -44,7 +45,10 @@ def model_source(
         return (name, outputs, args, scalar_args)
 
     def emit(specs: list, suffix: str = "") -> tuple[str, Any]:
-        return _emit(specs, parameters, suffix)
+        src, derived = _emit(specs, parameters, suffix)
+        if "taylor" in features:
+            src += _taylor(kind, layout, expr, variables, parameters)
+        return src, derived
 
     if kind == "rotor":  # the equations of a body with rotors and its torque law, a vector field
         f = list(expr)
@@ -95,6 +99,15 @@ def model_source(
             part = g[i].subs({m[j]: 0 for j in range(3) if j != i})
             specs.append(FS(f"dh{i}", (part,), (m[i],), scalar_args=True))
     return emit(specs)
+
+
+def _taylor(kind: str, layout: str, expr: Any, variables: tuple, parameters: tuple) -> str:
+    """The Taylor coefficients of the solution of the model's equations (``taylor_coeffs``, and the rows of its work
+    array ``TAYLOR_ROWS``), from the vector field's formulas with their common subexpressions shared."""
+    f, state = vector_field(kind, layout, expr, variables)
+    replacements, reduced = sp.cse([sp.sympify(e) for e in f], symbols=sp.numbered_symbols("_tc"), order="none")
+    text, rows = taylor_source("taylor_coeffs", replacements, state, reduced, list(parameters))
+    return f"\n\nTAYLOR_ROWS = {rows}\n\n\n" + text
 
 
 def _emit(entries: list, parameters: tuple, suffix: str) -> tuple[str, Any]:

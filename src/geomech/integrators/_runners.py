@@ -15,7 +15,7 @@ from ..errors import InputError
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, rhs_address
 from ._problem import Problem
-from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP
+from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
 from .solution import STATUS
 
 __all__ = [
@@ -312,13 +312,6 @@ def _adaptive_outcome(
             reasons[b] = f"located by the continuous extension at t = {INFO[b, 5]:.12g}"
         else:
             reasons[b] = f"the state or its error estimate is not finite past t = {INFO[b, 5]:.6g} (a blow-up)"
-
-
-def taylor_order(tolerances: tuple[float, float]) -> int:
-    """The order of Taylor's method at ``tolerances`` (rtol, atol): ``ceil(-ln(eps) / 2) + 1``, eps the smaller,
-    between 4 and 40 (Jorba & Zou's choice, heyoka's: the cost of the coefficients, p^2 a step, against the steps)."""
-    eps = min(tolerances)
-    return int(min(40, max(4, np.ceil(-0.5 * np.log(eps)) + 1)))
 
 
 def run_taylor(

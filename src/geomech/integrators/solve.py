@@ -15,7 +15,7 @@ from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
 from ._batch import batch_index, initial_states, left_chart, parameter_batch
 from ._events import compile_events, event_table
 from ._problem import Problem, make_problem
-from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic
+from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic, run_taylor
 from ._times import DEFAULT_SAVEAT, time_grid
 from ._times import tolerances as method_tolerances
 from ._variational import augment, sensitivity_names, split, variational_module
@@ -32,6 +32,7 @@ from .methods import (
     Quadrature,
     SerretAndoyerAtlas,
     SolveIVP,
+    Taylor,
     get_method,
 )
 from .solution import STATUS, Failure, Solution, Status, run_stats
@@ -215,14 +216,15 @@ def solve(
         names are the system's parameters and the gait's and torques' coefficients (the derivatives of the
         generated equations by forward differentiation of their straight-line code).
     events : mapping of str to formula or :class:`~geomech.integrators.Event`, optional
-        Zeros of functions of the state to locate (``dop853`` or ``dopri5``, compiled; a canonical or left-invariant
-        system, or a body with rotors, given by formulas): each a formula in the state's components, by the names of
-        ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's parameters, e.g.
+        Zeros of functions of the state to locate (``dop853``, ``dopri5`` or ``taylor``, compiled; a canonical or
+        left-invariant system, or a body with rotors, given by formulas): each a formula in the state's components,
+        by the names of ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's parameters, e.g.
         ``{"apex": Event("m1", direction=-1)}``. For a Lagrangian system, with ``BKMM`` or ``LagrangeDAlembert``
         compiled: formulas in the group coordinates, the shapes and their rates (a prescribed shape's from its
         gait), with BKMM the momenta ``p0, p1, ...``, with Lagrange-d'Alembert the group velocities, ``t``, the
         parameters and the gait's coefficients (``Event("psi", direction=1)``: the gait back at its start). Each
-        zero is found on the continuous extension of the step that crosses it, to the accuracy of the run, and is
+        zero is found on the continuous extension (Taylor's: the polynomial) of the step that crosses it, to the
+        accuracy of the run, and is
         reported in ``Solution.events[name]`` as a row ``(trajectory, t, state...)``. A terminal event ends its
         trajectory at its first zero (the saved states after it are NaN, the run a success).
     max_events : int
@@ -385,7 +387,15 @@ def solve(
     if wrt is not None:
         module, used = variational_module(problem, wrt, backend)
     else:
-        module, used = problem.module(frozenset(method.features & {"gf", "split"}), backend)
+        module, used = problem.module(frozenset(method.features & {"gf", "split", "taylor"}), backend)
+    if isinstance(method, Taylor):
+        chart = getattr(system, "chart", ())
+        if used != "numba" or chart:
+            why = "a chart whose exit the run must locate (use dop853)" if chart else "no compiled model here"
+            raise InputError(
+                f"Taylor's method runs compiled, from the formulas of a system (numba installed, backend 'auto' or "
+                f"'numba'); {problem.name} has {why}."
+            )
     if swept and used != "numba":
         raise InputError(
             f"A batch of `parameters` runs in the compiled loops, which {problem.name} cannot use here (backend "
@@ -398,10 +408,10 @@ def solve(
     if events is not None:
         if wrt is not None:
             raise InputError("`events` and `sensitivities` are not taken together; run them apart.")
-        if not isinstance(method, DormandPrince):
+        if not isinstance(method, (DormandPrince, Taylor)):
             raise IncompatibleMethodError(
-                f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, dopri5); "
-                f"{method!r} is not one."
+                f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, dopri5) "
+                f"or on the steps' polynomials of Taylor's method (taylor); {method!r} is not one of them."
             )
         V.memory_budget(
             float(B) * max_events * (d + 2),
@@ -435,6 +445,29 @@ def solve(
             system,
             PRM,
             method,
+            Y0,
+            t0,
+            saved_t,
+            tolerances,
+            V.positive_scalar(budget, "max_evaluations"),
+            OUT,
+            INFO,
+            reasons,
+            reached,
+            int(n_threads) if B > 1 else 1,
+            compiled_events,
+            max_events,
+        )
+        t_start += compile_time
+        if compiled_events is not None:
+            event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
+    elif isinstance(method, Taylor):
+        assert tolerances is not None
+        budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
+        n_threads = threads if threads is not None else (CORES if B > 1 else 1)
+        internal, compile_time, EVT, ECOUNT = run_taylor(
+            module,
+            PRM,
             Y0,
             t0,
             saved_t,

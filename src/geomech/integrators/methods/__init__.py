@@ -36,7 +36,7 @@ from ...errors import InputError
 from ._base import IncompatibleMethodError, Kind, Method, Structure
 from ._canonical import GaussLegendre, GeneratingFunction, ImplicitMidpoint, StormerVerlet, SymplecticEuler
 from ._composition import COMPOSITION_TABLES, Composition, composition_weights
-from ._embedded import DormandPrince, EmbeddedPair, embedded_pair
+from ._embedded import DormandPrince, EmbeddedPair, Taylor, embedded_pair, taylor_order
 from ._general import RK4, AdamsBashforthMoulton4, AdaptiveAdams, SolveIVP
 from ._group import RKMK, RKMK4
 from ._lagrangian import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, NonholonomicHamilton
@@ -79,6 +79,8 @@ __all__ = [
     "SerretAndoyerAtlas",
     "LagrangeDAlembert",
     "BKMM",
+    "Taylor",
+    "taylor_order",
     "TAYLOR",
     "DiscreteLagrangeDAlembert",
     "NonholonomicHamilton",
@@ -99,6 +101,7 @@ REGISTRY: dict[str, Method] = {
         SolveIVP(),
         DormandPrince("DOP853"),
         DormandPrince("DOPRI5"),
+        Taylor(),
         SymplecticEuler("A"),
         SymplecticEuler("B"),
         StormerVerlet(),

@@ -17,6 +17,7 @@ from typing import ClassVar
 
 from ...errors import InputError
 from ._base import Method, Structure
+from ._embedded import taylor_order
 from ._general import ScipyStepped
 
 
@@ -101,11 +102,8 @@ class BKMM(ScipyStepped):
 
     @property
     def order(self) -> int:
-        return 40 if self.solver == TAYLOR else super().order  # Taylor's: its largest (chosen from the tolerances)
-
-    @property
-    def variable_order(self) -> bool:  # type: ignore[override]
-        return self.solver == TAYLOR or super().variable_order
+        # Taylor's: that of the tolerances, fixed along a run (at the defaults here)
+        return taylor_order(self.default_tolerances) if self.solver == TAYLOR else super().order
 
     @property
     def key(self) -> str:
