@@ -218,15 +218,15 @@ def solve(
     events : mapping of str to formula or :class:`~geomech.integrators.Event`, optional
         Zeros of functions of the state to locate (``dop853``, ``dopri5`` or ``taylor``, compiled; a canonical or
         left-invariant system, or a body with rotors, given by formulas): each a formula in the state's components,
-        by the names of ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's parameters, e.g.
-        ``{"apex": Event("m1", direction=-1)}``. For a Lagrangian system, with ``BKMM`` or ``LagrangeDAlembert``
-        compiled: formulas in the group coordinates, the shapes and their rates (a prescribed shape's from its
-        gait), with BKMM the momenta ``p0, p1, ...``, with Lagrange-d'Alembert the group velocities, ``t``, the
-        parameters and the gait's coefficients (``Event("psi", direction=1)``: the gait back at its start). Each
-        zero is found on the continuous extension (Taylor's: the polynomial) of the step that crosses it, to the
-        accuracy of the run, and is
-        reported in ``Solution.events[name]`` as a row ``(trajectory, t, state...)``. A terminal event ends its
-        trajectory at its first zero (the saved states after it are NaN, the run a success).
+        by the names of ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's
+        parameters, e.g. ``{"apex": Event("m1", direction=-1)}``. For a Lagrangian system, with ``BKMM`` or
+        ``LagrangeDAlembert`` compiled: formulas in the group coordinates, the shapes and their rates (a prescribed
+        shape's from its gait), with BKMM the momenta ``p0, p1, ...``, with Lagrange-d'Alembert the group
+        velocities, ``t``, the parameters and the gait's coefficients (``Event("psi", direction=1)``: the gait back
+        at its start). Each zero is found on the continuous extension (Taylor's method: the polynomial) of the step
+        that crosses it, to the accuracy of the run, and is reported in ``Solution.events[name]`` as a row
+        ``(trajectory, t, state...)``. A terminal event ends its trajectory at its first zero (the saved states
+        after it are NaN, the run a success).
     max_events : int
         Events recorded per trajectory (more is an error naming it).
 
