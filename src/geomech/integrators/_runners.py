@@ -27,7 +27,6 @@ __all__ = [
     "run_atlas",
     "run_periodic",
     "run_taylor",
-    "taylor_order",
 ]
 
 #: Columns of the INFO array of a run.
