@@ -137,7 +137,7 @@ def test_generating_function_method_is_not_the_midpoint_rule(closed_loop_reduced
         assert REGISTRY[key].symmetric is symmetric
 
 
-# (Taylor's method runs compiled only and does not watch a chart: tests/integrators/test_taylor.py)
+# (on the Python backend: Taylor's method runs compiled only, tested in tests/integrators/test_taylor.py)
 CANONICAL_KEYS = [k for k, m in REGISTRY.items() if m.structure.value in ("any ODE", "canonical") and k != "taylor"]
 
 

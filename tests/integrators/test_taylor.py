@@ -220,10 +220,27 @@ def test_a_batch_of_inertias_is_each_member_alone():
         np.testing.assert_allclose(batch.m[i], one.m, rtol=0, atol=1e-12)
 
 
-def test_what_the_general_taylor_method_cannot_run_is_refused():
-    q, p = sp.symbols("q p")
-    chart = gm.CanonicalSystem.from_expression(-q * p**2 / 2, (q,), (p,), name="blow-up", chart=((1, -10.0, 1.5),))
-    with pytest.raises(InputError, match="chart"):
-        gm.solve(chart, "taylor", y0=[1.0, 1.0], t_final=0.5)
+def test_leaving_the_chart_is_located_on_the_polynomial():
+    # the blow-up system H = -q p^2 / 2, p = 2 / (2 - t) from p0 = 1, on the chart p < 1.5: it ends at
+    # t = 2 - 2/1.5 = 2/3, where q = (1 - t/2)^2 (q' = -q p)
+    q, p = sp.symbols("q p", real=True)
+    system = gm.CanonicalSystem.from_expression(-q * p**2 / 2, (q,), (p,), name="blow-up", chart=((1, -10.0, 1.5),))
+    sol = gm.solve(
+        system, "taylor", y0=[1.0, 1.0], t_final=3.0, saveat=31, rtol=1e-12, atol=1e-12, raise_on_failure=False
+    )
+    assert sol.status is Status.LEFT_CHART
+    failure = sol.failures[0]
+    assert abs(failure.time - 2.0 / 3.0) < 1e-12 and failure.step == 7  # the first output not reached: t = 0.7
+    inside = sol.t < 2.0 / 3.0
+    np.testing.assert_allclose(sol.states[inside, 0], (1 - sol.t[inside] / 2) ** 2, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sol.states[inside, 1], 2 / (2 - sol.t[inside]), rtol=0, atol=1e-10)
+    assert np.all(np.isnan(sol.states[~inside]))
+    # a start outside the chart ends at once; a run that stays inside is a success
+    outside = gm.solve(system, "taylor", y0=[1.0, 1.6], t_final=1.0, raise_on_failure=False)
+    assert outside.status is Status.LEFT_CHART and outside.failures[0].time == 0.0
+    assert gm.solve(system, "taylor", y0=[1.0, 0.5], t_final=1.5).status is Status.SUCCESS
+
+
+def test_the_python_backend_is_refused_by_name():
     with pytest.raises(InputError, match="runs compiled"):
         gm.solve(BODY, "taylor", m0=M0, t_final=1.0, backend="python")

@@ -19,6 +19,7 @@ import numpy as np
 from ._fptr import call_model
 from ._k_common import fail, kernel, param_row, store
 from ._k_embedded import erk_crossed
+from ._k_explicit import chart_margin
 
 
 def taylor_coeffs(X, W, order, prm):  # the model's, generated
@@ -104,11 +105,11 @@ def tk_step(X, y, order, rtol, atol):
 
 
 @kernel
-def tk_events(X, t, hs, b, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm):
+def tk_events(X, t, hs, b, limit, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm):
     """The events of a step of size hs from t: each event function's zero on the step's polynomial (bisection to
     the resolution of doubles), recorded in time order in EVT[b] (event, t, state) up to and including the first
-    terminal one, as the embedded pairs' loop does; returns the fraction of the step where a terminal event stops
-    the run, or 2 (none)."""
+    terminal one and up to the fraction ``limit`` of the step (where the run leaves its chart), as the embedded
+    pairs' loop does; returns the fraction of the step where a terminal event stops the run, or 2 (none)."""
     ne = EDIR.shape[0]
     for j in range(ne):
         THETA[j] = 2.0
@@ -137,7 +138,7 @@ def tk_events(X, t, hs, b, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, E
     while True:
         th = 2.0
         for j in range(ne):
-            if last < THETA[j] <= min(stop, 1.0) and THETA[j] < th:
+            if last < THETA[j] <= min(stop, limit, 1.0) and THETA[j] < th:
                 th = THETA[j]
         if th > 1.0:
             break
@@ -156,15 +157,40 @@ def tk_events(X, t, hs, b, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, E
 
 
 @kernel
-def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, efp, EDIR, ETERM, EVT, ECOUNT, PRM):
+def tk_chart_exit(X, hs, CH, YT):
+    """The fraction of a step of size hs at which its polynomial leaves the chart CH (bisection to the resolution
+    of doubles), or 2 where its end is inside."""
+    if CH.shape[0] == 0:
+        return 2.0
+    tk_horner(X, hs, YT)
+    if chart_margin(YT, CH) > 0.0:
+        return 2.0
+    lo = 0.0
+    hi = 1.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        tk_horner(X, mid * hs, YT)
+        if chart_margin(YT, CH) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+@kernel
+def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, efp, EDIR, ETERM, EVT, ECOUNT, PRM):
     """Integrate each row of Y0 from t0 by Taylor's method of order ``order`` (its coefficients the model's
     ``taylor_coeffs``, a work array of ``n_rows`` rows), saving at the times TS (monotone, away from t0) by the
-    step's Taylor polynomial. The event functions at the address ``efp`` (their directions EDIR and terminal flags
+    step's Taylor polynomial. A state that leaves the chart CH (rows: component, lower, upper bound; none: shape
+    (0, 3)) ends the run where the polynomial crosses the bound (status 6), the outputs before it kept. The event
+    functions at the address ``efp`` (their directions EDIR and terminal flags
     ETERM; none: length 0) are located on each step's polynomial and recorded in EVT[b] (event, t, state), counted
     in ECOUNT[b]; a terminal event ends the run there (status 9), the outputs after it NaN. INFO[b] as the
-    embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 8 evaluation budget spent, 9 a terminal
-    event), the index of the first time not reached, NaN, 0, evaluations (``order`` per step: one pass over the
-    equations per order), the time reached, steps, 0."""
+    embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation budget
+    spent, 9 a terminal event), the index of the first time not reached, NaN, 0, evaluations (``order`` per step:
+    one pass over the equations per order), the time reached, steps, 0."""
     nb, d = Y0.shape
     n = TS.shape[0]
     ne = EDIR.shape[0]
@@ -192,9 +218,11 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, efp,
         status = 0
         steps = 0
         nfev = 0.0
+        if k < n and not (chart_margin(y, CH) > 0.0):
+            status = 6
         if ne > 0:
             call_model(efp, y, GOLD, prm)
-        while k < n:
+        while k < n and status == 0:
             if nfev + order > max_evals:
                 status = 8
                 break
@@ -215,13 +243,23 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, efp,
                 break
             hs = direction * h
             t_new = t_end if last else t + hs
+            leave = tk_chart_exit(X, hs, CH, YT)
             stop = 2.0
             if ne > 0:
                 tk_horner(X, hs, YT)
                 call_model(efp, YT, GNEW, prm)
-                stop = tk_events(X, t, hs, b, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
+                stop = tk_events(X, t, hs, b, leave, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
                 for j in range(ne):
                     GOLD[j] = GNEW[j]
+            if leave <= 1.0 and leave < stop:  # the chart's end: the outputs before it, then the end
+                t_stop = t + leave * hs
+                while k < n and direction * (TS[k] - t_stop) < 0.0:
+                    tk_horner(X, TS[k] - t, OUT[b, k])
+                    k += 1
+                t = t_stop
+                steps += 1
+                status = 6
+                break
             if stop <= 1.0:  # a terminal event: the outputs up to it, then the end
                 t_stop = t + stop * hs
                 while k < n and direction * (TS[k] - t_stop) <= 0.0:

@@ -388,14 +388,11 @@ def solve(
         module, used = variational_module(problem, wrt, backend)
     else:
         module, used = problem.module(frozenset(method.features & {"gf", "split", "taylor"}), backend)
-    if isinstance(method, Taylor):
-        chart = getattr(system, "chart", ())
-        if used != "numba" or chart:
-            why = "a chart whose exit the run must locate (use dop853)" if chart else "no compiled model here"
-            raise InputError(
-                f"Taylor's method runs compiled, from the formulas of a system (numba installed, backend 'auto' or "
-                f"'numba'); {problem.name} has {why}."
-            )
+    if isinstance(method, Taylor) and used != "numba":
+        raise InputError(
+            f"Taylor's method runs compiled, from the formulas of a system (numba installed, backend 'auto' or "
+            f"'numba'); {problem.name} has no compiled model here."
+        )
     if swept and used != "numba":
         raise InputError(
             f"A batch of `parameters` runs in the compiled loops, which {problem.name} cannot use here (backend "
@@ -480,6 +477,7 @@ def solve(
             int(n_threads) if B > 1 else 1,
             compiled_events,
             max_events,
+            system,
         )
         t_start += compile_time
         if compiled_events is not None:

@@ -148,9 +148,10 @@ class Taylor(Method):
     ``atol + rtol |y_i|`` with the margin ``exp(-0.7 / (p - 1))``; the saved states and the events (located by
     bisection) are read from each step's polynomial. Kind: adaptive (``rtol``, ``atol``; default 1e-10, 1e-12).
     Order: that of the tolerances, fixed along a run (15 at the defaults); explicit; not symplectic nor
-    symmetric. Structure: an ODE given by formulas (compiled only; not on a system whose chart the run must
-    watch, as the Serret-Andoyer charts). Cost: a step of order p costs about p^2 / 2 multiply-adds per product
-    of the equations; a few dozen steps where DOP853 takes hundreds, for smooth motions at tight tolerances.
+    symmetric. Structure: an ODE given by formulas (compiled only; the exit of a system's chart located on the
+    polynomial, as the embedded pairs locate it). Cost: a step of order p costs about p^2 / 2 multiply-adds per
+    product of the equations; a few dozen steps where DOP853 takes hundreds, for smooth motions at tight
+    tolerances.
     Reference: Jorba & Zou, Experiment. Math. 14 (2005); Griewank & Walther, Evaluating Derivatives (2008), 13.2.
     """
 
