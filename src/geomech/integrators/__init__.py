@@ -34,6 +34,7 @@ from .methods import (
     StormerVerlet,
     Structure,
     SymplecticEuler,
+    Taylor,
     get_method,
     methods_table,
 )
