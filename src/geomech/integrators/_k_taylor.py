@@ -17,7 +17,7 @@ import numpy as np
 
 # >>> template preamble (removed when compiled)
 from ._fptr import call_model
-from ._k_common import fail, kernel, param_row, store
+from ._k_common import fail, finite, kernel, param_row, store
 from ._k_embedded import erk_crossed
 from ._k_explicit import chart_margin
 
@@ -251,23 +251,15 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, 
                 stop = tk_events(X, t, hs, b, leave, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
                 for j in range(ne):
                     GOLD[j] = GNEW[j]
-            if leave <= 1.0 and leave < stop:  # the chart's end: the outputs before it, then the end
-                t_stop = t + leave * hs
-                while k < n and direction * (TS[k] - t_stop) < 0.0:
+            end = min(leave, stop)
+            if end <= 1.0:  # the chart's end (the outputs before it) or a terminal event (those up to it)
+                status = 6 if leave < stop else 9
+                t_stop = t + end * hs
+                while k < n and (direction * (TS[k] - t_stop) < 0.0 or (status == 9 and TS[k] == t_stop)):
                     tk_horner(X, TS[k] - t, OUT[b, k])
                     k += 1
                 t = t_stop
                 steps += 1
-                status = 6
-                break
-            if stop <= 1.0:  # a terminal event: the outputs up to it, then the end
-                t_stop = t + stop * hs
-                while k < n and direction * (TS[k] - t_stop) <= 0.0:
-                    tk_horner(X, TS[k] - t, OUT[b, k])
-                    k += 1
-                t = t_stop
-                steps += 1
-                status = 9
                 break
             while k < n and (last or direction * (TS[k] - t_new) <= 0.0):
                 tk_horner(X, TS[k] - t, OUT[b, k])
@@ -275,11 +267,7 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, 
             tk_horner(X, hs, y)
             t = t_new
             steps += 1
-            finite = True
-            for i in range(d):
-                if not math.isfinite(y[i]):
-                    finite = False
-            if not finite:
+            if not finite(y):
                 status = 2
                 break
         if status != 0:

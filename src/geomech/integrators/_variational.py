@@ -14,7 +14,7 @@ from ..symbolic.compile import compile_vector
 from . import _codegen
 from ._model_source import variational_equations, variational_source
 
-__all__ = ["augment", "sensitivity_names", "split", "variational_module"]
+__all__ = ["augment", "named_sensitivities", "sensitivity_names", "split", "variational_module"]
 
 
 def sensitivity_names(problem: Any, sensitivities: Any) -> tuple[str, ...] | None:
@@ -28,15 +28,21 @@ def sensitivity_names(problem: Any, sensitivities: Any) -> tuple[str, ...] | Non
             f"left-invariant, or a body with rotors under a law of formulas that does not read the time); "
             f"{problem.name} is not one here."
         )
+    known = [n for n in problem.parameter_names if not n.startswith("_p")]
+    return named_sensitivities(sensitivities, known, f"parameters of {problem.name}")
+
+
+def named_sensitivities(sensitivities: Any, known: list[str], owner: str) -> tuple[str, ...]:
+    """The names of ``sensitivities`` (True: none, the initial state only), each one of ``known`` (the parameters
+    of ``owner``, as the error names them) and given once."""
     if sensitivities is True:
         return ()
     names = (sensitivities,) if isinstance(sensitivities, str) else tuple(sensitivities)
-    known = [n for n in problem.parameter_names if not n.startswith("_p")]
     unknown = [n for n in names if not isinstance(n, str) or n not in known]
     if unknown or len(set(names)) != len(names):
         raise InputError(
-            f"Expected `sensitivities` to be True (the initial state) or distinct names of parameters of "
-            f"{problem.name} ({known or 'it has none'}), got {sensitivities!r}."
+            f"Expected `sensitivities` to be True (the initial state) or distinct names of {owner} "
+            f"({known or 'it has none'}), got {sensitivities!r}."
         )
     return names
 

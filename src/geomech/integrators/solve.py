@@ -432,16 +432,11 @@ def solve(
         assert tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
         internal = run_ivp(module, PRM, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached)
-    elif isinstance(method, DormandPrince):
+    elif isinstance(method, (DormandPrince, Taylor)):
         assert tolerances is not None
         budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
         n_threads = threads if threads is not None else (CORES if B > 1 else 1)
-        internal, compile_time, EVT, ECOUNT = run_embedded(
-            module,
-            used,
-            system,
-            PRM,
-            method,
+        common = (
             Y0,
             t0,
             saved_t,
@@ -455,30 +450,10 @@ def solve(
             compiled_events,
             max_events,
         )
-        t_start += compile_time
-        if compiled_events is not None:
-            event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
-    elif isinstance(method, Taylor):
-        assert tolerances is not None
-        budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations
-        n_threads = threads if threads is not None else (CORES if B > 1 else 1)
-        internal, compile_time, EVT, ECOUNT = run_taylor(
-            module,
-            PRM,
-            Y0,
-            t0,
-            saved_t,
-            tolerances,
-            V.positive_scalar(budget, "max_evaluations"),
-            OUT,
-            INFO,
-            reasons,
-            reached,
-            int(n_threads) if B > 1 else 1,
-            compiled_events,
-            max_events,
-            system,
-        )
+        if isinstance(method, Taylor):
+            internal, compile_time, EVT, ECOUNT = run_taylor(module, PRM, *common, system)
+        else:
+            internal, compile_time, EVT, ECOUNT = run_embedded(module, used, system, PRM, method, *common)
         t_start += compile_time
         if compiled_events is not None:
             event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)

@@ -19,7 +19,7 @@ from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
 from .._events import compile_lagrangian_events, events_need_compiled
 from .._times import Times
-from .._variational import augment
+from .._variational import augment, named_sensitivities
 from ..methods import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
 from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, observe
@@ -192,17 +192,9 @@ def _sensitivity_names(setup: Any, method: Method, backend: str, events: Any, se
         or events is not None
     ):
         raise InputError(VARIATIONAL_NEEDS + f" Got {method!r} with backend {backend!r}.")
-    if sensitivities is True:
-        return ()
     known = [q.name for q in setup.system.parameter_symbols] + list(setup.coefficients)
-    names = (sensitivities,) if isinstance(sensitivities, str) else tuple(sensitivities)
-    unknown = [n for n in names if not isinstance(n, str) or n not in known]
-    if unknown or len(set(names)) != len(names):
-        raise InputError(
-            f"Expected `sensitivities` to be True (the initial state) or distinct names of the parameters of "
-            f"{setup.system.name} and of its gait's and torques' coefficients ({known}), got {sensitivities!r}."
-        )
-    return names
+    owner = f"the parameters of {setup.system.name} and of its gait's and torques' coefficients"
+    return named_sensitivities(sensitivities, known, owner)
 
 
 def _batch_shape(parameters: Mapping[str, Any] | None, q0: Any, rdot0: Any, p0: Any) -> tuple[int, ...] | None:
