@@ -3,6 +3,7 @@ repeated Lie derivatives of the same right-hand side by sympy (a second route to
 compiled Taylor loop of the BKMM equations against the compiled DOP853 on the same equations at a tighter
 tolerance, its convergence in the tolerance, and the energy of a coasting Chaplygin sleigh."""
 
+import ctypes
 import math
 
 import numpy as np
@@ -13,11 +14,12 @@ from scipy.special import ellipk
 import geomech as gm
 from geomech import solve
 from geomech.errors import InputError
-from geomech.integrators import BKMM, Event, Status
+from geomech.integrators import BKMM, Event, Status, Taylor, _codegen, _runners, _taylor_llvm
 from geomech.integrators._codegen import python_header, python_helpers
+from geomech.integrators._taylor_llvm import unrolled_address
 from geomech.integrators.methods import taylor_order
 from geomech.symbolic.compile import StraightLine
-from geomech.symbolic.taylor import taylor_source
+from geomech.symbolic.taylor import taylor_tape
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, roller_racer, simplified_bicycle, snakeboard
 
 x, y, t, a = sp.symbols("x y t a", real=True)
@@ -41,25 +43,44 @@ FIELDS = {
 POINT = {x: 0.7, y: 1.3, t: 0.4, a: 0.8}
 
 
-def _coefficients(fields, order):
-    """The generated Taylor coefficients of (x, y, t)' = (f, g, 1) at POINT, run as Python."""
+def _tape(fields):
     code = StraightLine()
     values = code.values(fields)
     code.flush()
-    source, rows = taylor_source("coeffs", code.assignments, [x, y, t], [*values, 1], [a])
+    return taylor_tape(code.assignments, [x, y, t], [*values, 1], [a])
+
+
+def _coefficients(fields, order, form="loop"):
+    """The generated Taylor coefficients of (x, y, t)' = (f, g, 1) at POINT: the loop over the orders run as
+    Python, or the code unrolled for ``order`` compiled by LLVM and called through its address."""
+    tape = _tape(fields)
     namespace = dict(python_helpers())
+    source = tape.source("coeffs") + "\n\n" + tape.constants_source("constants")
     exec(compile(python_header() + source, "<taylor>", "exec"), namespace)
     X = np.zeros((3, order + 1))
     X[:, 0] = [POINT[x], POINT[y], POINT[t]]
-    namespace["coeffs"](X, np.zeros((max(rows, 1), order + 1)), order, np.array([POINT[a]]))
+    prm = np.array([POINT[a]])
+    if form == "loop":
+        namespace["coeffs"](X, np.zeros((max(tape.n_rows, 1), order + 1)), order, prm)
+    else:
+        K = np.zeros(max(len(tape.constants), 1))
+        namespace["constants"](K, prm)
+        _call_unrolled(unrolled_address(tape, order), X, K, prm)
     return X
 
 
+def _call_unrolled(address, X, K, prm):
+    double_p = ctypes.POINTER(ctypes.c_double)
+    f = ctypes.CFUNCTYPE(None, double_p, double_p, double_p, ctypes.c_int64, ctypes.c_int64)(address)
+    f(X.ctypes.data_as(double_p), K.ctypes.data_as(double_p), prm.ctypes.data_as(double_p), X.shape[0], prm.size)
+
+
+@pytest.mark.parametrize("form", ["loop", "unrolled"])
 @pytest.mark.parametrize("name", FIELDS)
-def test_generated_coefficients_are_the_lie_derivatives(name):
+def test_generated_coefficients_are_the_lie_derivatives(name, form):
     f, g = FIELDS[name]
     order = 5
-    X = _coefficients((f, g), order)
+    X = _coefficients((f, g), order, form)
     # x^[k] = (L^(k-1) f)(point) / k!, L the derivative along the field
     for i, h in enumerate((f, g)):
         for k in range(1, order + 1):
@@ -69,12 +90,31 @@ def test_generated_coefficients_are_the_lie_derivatives(name):
     np.testing.assert_array_equal(X[2, 1:], [1.0] + [0.0] * (order - 1))
 
 
+def test_the_unrolled_code_agrees_with_the_loop_at_high_order_and_loads_from_disk(monkeypatch):
+    """Order 24 (sums of 25 terms, the structural zeros of t's series dropped): the two forms agree to round-off
+    of the coefficients' scale; the machine code, written to the cache, is loaded again without LLVM."""
+    fields = FIELDS["trigonometric"]
+    order = 24
+    loop = _coefficients(fields, order)
+    unrolled = _coefficients(fields, order, "unrolled")
+    scale = np.abs(loop).max(axis=1, keepdims=True)
+    np.testing.assert_allclose(unrolled, loop, rtol=0, atol=1e-12 * scale.max())
+    assert list(_codegen.cache_dir().glob("gm_taylor_*.o"))
+
+    def no_llvm(*args):
+        raise AssertionError("compiled again instead of loaded from the cache")
+
+    monkeypatch.setattr(_taylor_llvm, "_compile", no_llvm)
+    monkeypatch.setattr(_taylor_llvm, "_ADDRESSES", {})
+    np.testing.assert_array_equal(_coefficients(fields, order, "unrolled"), unrolled)
+
+
 def test_a_function_without_a_recurrence_is_refused_by_name():
     code = StraightLine()
     values = code.values([sp.Abs(x), y])
     code.flush()
     with pytest.raises(NotImplementedError, match="Abs"):
-        taylor_source("coeffs", code.assignments, [x, y], values, [])
+        taylor_tape(code.assignments, [x, y], values, [])
 
 
 def test_the_order_follows_the_tolerance():
@@ -173,14 +213,37 @@ BODY = gm.RigidBody([3.0, 2.0, 1.0])
 M0 = np.array([1.0, 0.3, 0.2])
 
 
-def test_the_free_body_meets_its_elliptic_solution_in_a_few_hundred_steps():
+@pytest.mark.parametrize("compact", [False, True])
+def test_the_free_body_meets_its_elliptic_solution_in_a_few_hundred_steps(compact):
+    """Both forms of the coefficients' code: unrolled for the order (the default for equations this small) and the
+    loop over the orders."""
     t = np.linspace(0.0, 100.0, 21)
-    sol = gm.solve(BODY, "taylor", m0=M0, saveat=t, t_final=100.0, rtol=1e-13, atol=1e-15)
+    method = Taylor(compact=compact)
+    sol = gm.solve(BODY, method, m0=M0, saveat=t, t_final=100.0, rtol=1e-13, atol=1e-15)
     exact = BODY.exact_solution(M0).momentum(t)
     np.testing.assert_allclose(sol.m, exact, rtol=0, atol=1e-11)
     np.testing.assert_allclose(np.linalg.norm(sol.m, axis=1), np.linalg.norm(M0), rtol=0, atol=1e-12)
     dop = gm.solve(BODY, "dop853", m0=M0, saveat=t, t_final=100.0, rtol=1e-13, atol=1e-15)
     assert sol.stats["n_internal_steps"] < dop.stats["n_internal_steps"] / 3
+
+
+def test_equations_too_large_to_unroll_run_the_loop(monkeypatch):
+    """The unrolled code is bounded before it is made: past UNROLL_LIMIT multiply-adds a pass, the loop over the
+    orders runs (the same steps as compact=True's)."""
+    kw = dict(m0=M0, t_final=10.0, saveat=3, rtol=1e-12, atol=1e-14)
+    monkeypatch.setattr(_runners, "UNROLL_LIMIT", 0)
+    monkeypatch.setattr(_taylor_llvm, "_compile", lambda *a: pytest.fail("compiled the unrolled code"))
+    monkeypatch.setattr(_taylor_llvm, "_ADDRESSES", {})
+    for module in list(_codegen._MODULES.values()):  # the choices made before, per module and order
+        monkeypatch.delitem(module.__dict__, "_TAYLOR_CODES", raising=False)
+    chosen = gm.solve(BODY, "taylor", **kw)
+    loop = gm.solve(BODY, Taylor(compact=True), **kw)
+    np.testing.assert_array_equal(chosen.m, loop.m)
+
+
+def test_a_compact_that_is_not_a_choice_is_refused_by_name():
+    with pytest.raises(InputError, match="compact"):
+        Taylor(compact="yes")
 
 
 def test_the_pendulums_period_from_events_on_the_steps_polynomials():

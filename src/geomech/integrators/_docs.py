@@ -29,7 +29,9 @@ compositions `Composition(order, scheme, stages)` of the midpoint rule (`midpoin
 (`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Taylor's method
 (`taylor`) generates the Taylor coefficients of the solution from the system's formulas (`geomech.symbolic.taylor`)
 and steps them at the order of the tolerances, with dense output and events on each step's polynomial: a few dozen
-steps where DOP853 takes hundreds. Adaptive Adams wraps scipy's VODE/LSODA. The Lagrangian methods (BKMM,
+steps where DOP853 takes hundreds. Its coefficients' code is written out for the order and compiled by LLVM
+(`geomech.integrators._taylor_llvm`, about a second per order, cached on disk), or, for large equations or with
+`Taylor(compact=True)`, a loop over the orders. Adaptive Adams wraps scipy's VODE/LSODA. The Lagrangian methods (BKMM,
 Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run compiled where the gait and torques are formulas,
 BKMM also by Taylor's method (`BKMM(solver="taylor")`, from the reduction's closed forms), and otherwise under
 scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in exponential

@@ -26,6 +26,10 @@ def taylor_coeffs(X, W, order, prm):  # the model's, generated
     raise NotImplementedError
 
 
+def taylor_constants(K, prm):  # the model's, generated
+    raise NotImplementedError
+
+
 # <<< template preamble
 
 
@@ -180,9 +184,13 @@ def tk_chart_exit(X, hs, CH, YT):
 
 
 @kernel
-def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, efp, EDIR, ETERM, EVT, ECOUNT, PRM):
+def taylor_run(
+    Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, tfp, n_k, max_evals, CH, efp, EDIR, ETERM, EVT, ECOUNT, PRM
+):
     """Integrate each row of Y0 from t0 by Taylor's method of order ``order`` (its coefficients the model's
-    ``taylor_coeffs``, a work array of ``n_rows`` rows), saving at the times TS (monotone, away from t0) by the
+    ``taylor_coeffs``, a work array of ``n_rows`` rows; or, where the address ``tfp`` is not 0, the same unrolled
+    for this order, :mod:`geomech.integrators._taylor_llvm`, reading the ``n_k`` constants of
+    ``taylor_constants``), saving at the times TS (monotone, away from t0) by the
     step's Taylor polynomial. A state that leaves the chart CH (rows: component, lower, upper bound; none: shape
     (0, 3)) ends the run where the polynomial crosses the bound (status 6), the outputs before it kept. The event
     functions at the address ``efp`` (their directions EDIR and terminal flags
@@ -196,6 +204,7 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, 
     ne = EDIR.shape[0]
     X = np.empty((d, order + 1))
     W = np.empty((max(n_rows, 1), order + 1))
+    K = np.zeros(max(n_k, 1))
     y = np.empty(d)
     GOLD = np.zeros(d)
     GNEW = np.zeros(d)
@@ -206,6 +215,8 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, 
     direction = 1.0 if t_end >= t0 else -1.0
     for b in range(nb):
         prm = param_row(PRM, b)
+        if tfp != 0:
+            taylor_constants(K, prm)
         for j in range(INFO.shape[1]):
             INFO[b, j] = 0.0
         for i in range(d):
@@ -228,7 +239,10 @@ def taylor_run(Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, max_evals, CH, 
                 break
             for i in range(d):
                 X[i, 0] = y[i]
-            taylor_coeffs(X, W, order, prm)
+            if tfp != 0:
+                call_model(tfp, X, K, prm)
+            else:
+                taylor_coeffs(X, W, order, prm)
             nfev += order
             h = tk_step(X, y, order, rtol, atol)
             if not (h > 0.0):  # NaN: coefficients not finite

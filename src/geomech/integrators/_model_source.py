@@ -12,7 +12,7 @@ from typing import Any
 import sympy as sp
 
 from ..symbolic.compile import M_SYMBOLS, compile_vector
-from ..symbolic.taylor import taylor_source
+from ..symbolic.taylor import taylor_tape
 from . import _codegen
 
 __all__ = ["R_SYMBOLS", "model_source", "variational_equations", "variational_source", "vector_field"]
@@ -106,8 +106,7 @@ def _taylor(kind: str, layout: str, expr: Any, variables: tuple, parameters: tup
     array ``TAYLOR_ROWS``), from the vector field's formulas with their common subexpressions shared."""
     f, state = vector_field(kind, layout, expr, variables)
     replacements, reduced = sp.cse([sp.sympify(e) for e in f], symbols=sp.numbered_symbols("_tc"), order="none")
-    text, rows = taylor_source("taylor_coeffs", replacements, state, reduced, list(parameters))
-    return f"\n\nTAYLOR_ROWS = {rows}\n\n\n" + text
+    return taylor_tape(replacements, state, reduced, list(parameters)).module_source()
 
 
 def _emit(entries: list, parameters: tuple, suffix: str) -> tuple[str, Any]:

@@ -451,7 +451,7 @@ def solve(
             max_events,
         )
         if isinstance(method, Taylor):
-            internal, compile_time, EVT, ECOUNT = run_taylor(module, PRM, *common, system)
+            internal, compile_time, EVT, ECOUNT = run_taylor(module, PRM, *common, system, method.compact)
         else:
             internal, compile_time, EVT, ECOUNT = run_embedded(module, used, system, PRM, method, *common)
         t_start += compile_time

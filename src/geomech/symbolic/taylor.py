@@ -2,14 +2,17 @@
 code, by the recurrences of its elementary operations (automatic differentiation in one variable, as in Jorba &
 Zou's and heyoka's Taylor methods).
 
-:func:`taylor_source` takes the assignments of a right-hand side (``name = expr``, in order: those
-:class:`~geomech.symbolic.compile.StraightLine` records), splits every expression into elementary operations
-(sums, products, quotients, powers, exp, log, sin and cos, sinh and cosh, the inverse trigonometric functions)
-and prints a numba function ``name(X, W, order, prm)``: ``X[:, 0]`` holds the state x(t0); it fills ``X[:, k]``,
-k = 1..order, with the Taylor coefficients x^[k] = x^(k)(t0)/k!, each operation's own coefficients kept in a row
-of the work array ``W``. Order k of every operation follows from orders 0..k of its operands (and, for the
-functions defined by their derivative, the orders below k of that derivative), so a pass over the operations per
-order, ``order`` passes in all, costs O(order^2) per product and function.
+:func:`taylor_tape` takes the assignments of a right-hand side (``name = expr``, in order: those
+:class:`~geomech.symbolic.compile.StraightLine` records) and splits every expression into elementary operations
+(sums, products, quotients, powers, exp, log, sin and cos, sinh and cosh, the inverse trigonometric functions):
+a :class:`TaylorTape`, plain data. Its :meth:`~TaylorTape.source` prints a numba function
+``name(X, W, order, prm)``: ``X[:, 0]`` holds the state x(t0); it fills ``X[:, k]``, k = 1..order, with the
+Taylor coefficients x^[k] = x^(k)(t0)/k!, each operation's own coefficients kept in a row of the work array
+``W``. Order k of every operation follows from orders 0..k of its operands (and, for the functions defined by
+their derivative, the orders below k of that derivative), so a pass over the operations per order, ``order``
+passes in all, costs O(order^2) per product and function. That loop runs every operation at a run-time order;
+:mod:`geomech.integrators._taylor_llvm` compiles the same tape for one order with every sum written out, as
+heyoka does, for a few times less work per step (the loop is the "compact" form, for tapes too large to unroll).
 
 The recurrences, for w = F(a), with a^[k] the coefficients (Griewank & Walther, Evaluating derivatives, 13.2;
 each is the coefficient of t^k of an identity between series):
@@ -28,13 +31,14 @@ Taylor loop's template (``geomech.integrators._k_taylor``), compiled with it.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import sympy as sp
 
 from .compile import _Printer
 
-__all__ = ["taylor_source", "TAYLOR_FUNCTIONS"]
+__all__ = ["TaylorTape", "taylor_tape", "TAYLOR_FUNCTIONS"]
 
 #: The functions the Taylor code knows, with the derivative that defines each (``x`` its argument, ``w`` its value).
 _X, _WV = sp.symbols("x w")
@@ -65,18 +69,128 @@ _REWRITTEN = {
 TAYLOR_FUNCTIONS = (*(f.__name__ for f in (*_DEFINED_BY_DERIVATIVE, *_REWRITTEN)), "sqrt", "powers")
 
 
+Ref = Any  # a series row's name ("_x3", "_w7"), a constant's ("_k2", "_p0"), or a float
+
+
+@dataclass(frozen=True)
+class TaylorTape:
+    """The elementary operations of a Taylor pass, as plain data (a Python literal: the generated model module
+    keeps it, and :mod:`geomech.integrators._taylor_llvm` compiles it for one order, unrolled).
+
+    A reference is a series row (``_x{i}`` the state's row ``X[i]``, ``_w{i}`` the work array's ``W[i]``), a
+    constant (``_p{i}`` the parameter ``prm[i]``, ``_k{i}`` one of ``constants``) or a float. The operations, in
+    order, each filling the row ``w``:
+
+    - ``("lin", w, ((c, a), ...), c0)``: sum of c a (c a float or constant), plus c0 (None or a constant) at
+      order 0;
+    - ``("mul", w, a, b)``: the product a b (a square when a is b);
+    - ``("quot", w, c, a, b)``: c a / b, or c / b where ``a`` is None;
+    - ``("sqrt", w, a)``, ``("pow", w, a, e)`` (e a float or a constant);
+    - ``("int", w, f, a, r)``: w = f(a) with f' (a) = r, f a name of :data:`TAYLOR_FUNCTIONS`' first part.
+
+    ``outputs`` are the derivatives of the state (references), ``constants`` the ``(name, code)`` of the
+    parameter-only constants (numba code of the ``_p{i}`` and the constants before them), ``state`` the rows of
+    ``X`` the operations read.
+    """
+
+    n_rows: int
+    n_parameters: int
+    constants: tuple[tuple[str, str], ...]
+    state: tuple[int, ...]
+    ops: tuple[tuple[Any, ...], ...]
+    outputs: tuple[Ref, ...]
+
+    def data(self) -> tuple[Any, ...]:
+        """The tape as a Python literal (``repr`` of it is valid source); :meth:`from_data` inverts it."""
+        return (self.n_rows, self.n_parameters, self.constants, self.state, self.ops, self.outputs)
+
+    @classmethod
+    def from_data(cls, data: tuple[Any, ...]) -> TaylorTape:
+        return cls(*data)
+
+    def multiply_adds(self, order: int) -> int:
+        """The multiply-adds of the recurrences' sums for the orders 0..order-1 (the size of a pass)."""
+        sums = sum(1 for op in self.ops if op[0] in ("mul", "quot", "sqrt", "pow", "int"))
+        linear = sum(len(op[2]) for op in self.ops if op[0] == "lin")
+        return sums * order * (order + 1) // 2 + linear * order
+
+    def source(self, name: str) -> str:
+        """The numba source of ``name(X, W, order, prm)``: the coefficients to ``order`` by a loop over the orders
+        (its work array ``W`` of ``n_rows`` rows)."""
+
+        def at(r: Ref) -> str:
+            if isinstance(r, str) and r[1] in "xw":
+                return f"{r}[k]"
+            return f"({_number(r)} if k == 0 else 0.0)"
+
+        def scaled(c: Ref, r: str) -> str:
+            return f"{r}[k]" if c == 1.0 else f"{_number(c)} * {r}[k]"
+
+        body: list[str] = []
+        for op in self.ops:
+            kind, w = op[0], op[1]
+            if kind == "lin":
+                text = " + ".join(scaled(c, r) for c, r in op[2])
+                if op[3] is not None:
+                    text += f" + ({_number(op[3])} if k == 0 else 0.0)"
+            elif kind == "mul":
+                text = f"tk_mul({op[2]}, {op[3]}, k)"
+            elif kind == "quot":
+                top = at(op[2]) if op[3] is None else scaled(op[2], op[3])
+                text = f"tk_quot({top}, {w}, {op[4]}, k)"
+            elif kind == "sqrt":
+                text = f"math.sqrt({op[2]}[0]) if k == 0 else tk_sqrt({w}, {op[2]}, k)"
+            elif kind == "pow":
+                e = _number(op[3])
+                text = f"{op[2]}[0] ** {e} if k == 0 else tk_pow({w}, {op[2]}, {e}, k)"
+            else:  # "int"
+                text = f"math.{op[2]}({op[3]}[0]) if k == 0 else tk_int({op[3]}, {op[4]}, k)"
+            body.append(f"        {w}[k] = {text}")
+        lines = [f"@kernel\ndef {name}(X, W, order, prm):"]
+        lines += [f"    _p{i} = prm[{i}]" for i in range(self.n_parameters)]
+        lines += [f"    {c} = {code}" for c, code in self.constants]
+        lines += [f"    _x{i} = X[{i}]" for i in self.state]
+        lines += [f"    _w{i} = W[{i}]" for i in range(self.n_rows)]
+        lines.append("    for k in range(order):")
+        lines += body
+        lines += [f"        X[{i}, k + 1] = {at(o)} / (k + 1)" for i, o in enumerate(self.outputs)]
+        return "\n".join(lines) + "\n"
+
+    def constants_source(self, name: str) -> str:
+        """The numba source of ``name(K, prm)``: the constants ``_k{i}`` into ``K[i]`` (for the unrolled code,
+        which reads them there)."""
+        lines = [f"@kernel\ndef {name}(K, prm):"]
+        lines += [f"    _p{i} = prm[{i}]" for i in range(self.n_parameters)]
+        for c, code in self.constants:
+            lines += [f"    {c} = {code}", f"    K[{c[2:]}] = {c}"]
+        lines.append("    return None")
+        return "\n".join(lines) + "\n"
+
+    def module_source(self) -> str:
+        """The part of a generated model module Taylor's method reads: ``TAYLOR_ROWS``, ``TAYLOR_TAPE`` (this tape's
+        data), ``taylor_coeffs`` (:meth:`source`) and ``taylor_constants`` (:meth:`constants_source`)."""
+        return (
+            f"\n\nTAYLOR_ROWS = {self.n_rows}\nTAYLOR_TAPE = {self.data()!r}\n\n\n"
+            + self.source("taylor_coeffs")
+            + "\n\n"
+            + self.constants_source("taylor_constants")
+        )
+
+
+def _number(r: Ref) -> str:
+    return repr(r) if isinstance(r, float) else str(r)
+
+
 class _Tape:
-    """The operations of a Taylor pass: series rows (``_x{i}`` of the state, ``_w{i}`` of the work array) and
-    scalar constants (``_k{i}``: of the parameters and numbers only, computed once before the loop)."""
+    """The lowering of straight-line assignments to the operations of a :class:`TaylorTape`."""
 
     def __init__(self) -> None:
         self.printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
         self.series: set[sp.Symbol] = set()
-        self.constants: list[str] = []
-        self.ops: list[str] = []
+        self.constants: list[tuple[str, str]] = []
+        self.ops: list[tuple[Any, ...]] = []
         self.memo: dict[sp.Expr, sp.Expr] = {}
         self.n_rows = 0
-        self.n_constants = 0
 
     def code(self, e: sp.Expr) -> str:
         text = self.printer.doprint(e)
@@ -88,18 +202,28 @@ class _Tape:
     def constant(self, e: sp.Expr) -> sp.Expr:
         """``e`` (of numbers and constants) as a number or a named constant."""
         if e.is_number:
-            if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+            if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan) or not e.is_finite:
                 raise NotImplementedError(f"a formula is not finite: {e}")
             return e
         if isinstance(e, sp.Symbol):
             return e
         if e in self.memo:
             return self.memo[e]
-        name = sp.Symbol(f"_k{self.n_constants}")
-        self.n_constants += 1
-        self.constants.append(f"{name} = {self.code(e)}")
+        name = sp.Symbol(f"_k{len(self.constants)}")
+        self.constants.append((str(name), self.code(e)))
         self.memo[e] = name
         return name
+
+    def ref(self, e: sp.Expr) -> Ref:
+        """The tape's reference to a series row or constant (a float for a number)."""
+        if isinstance(e, sp.Symbol):
+            return str(e)
+        if not e.is_number:
+            return str(self.constant(e))
+        value = complex(sp.N(e, 20))
+        if value.imag != 0.0:
+            raise NotImplementedError(f"a formula is not real: {e}")
+        return float(value.real)
 
     def row(self) -> sp.Symbol:
         name = sp.Symbol(f"_w{self.n_rows}")
@@ -109,12 +233,6 @@ class _Tape:
 
     def is_series(self, e: sp.Expr) -> bool:
         return isinstance(e, sp.Symbol) and e in self.series
-
-    def at_k(self, e: sp.Expr) -> str:
-        """Order k of a reference: the row's entry, or a constant at order 0 only."""
-        if self.is_series(e):
-            return f"{e}[k]"
-        return f"({self.code(e)} if k == 0 else 0.0)"
 
     # -- the operations ------------------------------------------------------------------------------------
     def lower(self, e: sp.Expr) -> sp.Expr:
@@ -143,26 +261,25 @@ class _Tape:
         return out
 
     def _add(self, e: sp.Expr) -> sp.Expr:
-        """A sum: one row, its numeric coefficients folded in, its constant terms at order 0."""
+        """A sum: one row, its coefficients (numbers and constants) folded in, its constant terms at order 0."""
         const: list[sp.Expr] = []
-        terms: list[tuple[sp.Expr, sp.Expr]] = []
+        terms: dict[sp.Expr, list[sp.Expr]] = {}
         for a in e.args:
             c, rest = a.as_coeff_Mul()
             ref = self.lower(rest)
             if self.is_series(ref):
-                terms.append((c, ref))
+                terms.setdefault(ref, []).append(c)
             else:
                 const.append(c * ref)
         if not terms:
             return self.constant(sp.Add(*const))
-        key = sp.Add(*const, *[c * r for c, r in terms])
+        key = sp.Add(*const, *[sp.Add(*cs) * r for r, cs in terms.items()])
         if key in self.memo:
             return self.memo[key]
         w = self.row()
-        text = " + ".join(f"{r}[k]" if c == 1 else f"{self.code(c)} * {r}[k]" for c, r in terms)
-        if const:
-            text += f" + ({self.code(self.constant(sp.Add(*const)))} if k == 0 else 0.0)"
-        self.ops.append(f"{w}[k] = {text}")
+        pairs = tuple((self.ref(self.constant(sp.Add(*cs))), str(r)) for r, cs in terms.items())
+        c0 = self.ref(self.constant(sp.Add(*const))) if const else None
+        self.ops.append(("lin", str(w), pairs, c0))
         self.memo[key] = w
         return w
 
@@ -179,9 +296,9 @@ class _Tape:
         d = sp.Mul(*[a for a in den if not self.is_series(a)])
         num = [a for a in num if self.is_series(a)]
         den = [a for a in den if self.is_series(a)]
-        c = self.constant(c / d) if d != 1 else c
+        c = self.constant(c / d) if d != 1 else self.constant(c)
         if not num and not den:
-            return self.constant(c)
+            return c
         key = sp.Mul(c, *num, *[sp.Pow(b, -1) for b in den])
         if key in self.memo:
             return self.memo[key]
@@ -192,8 +309,7 @@ class _Tape:
             out = top if c == 1 else self._scaled(c, top)
         else:
             w = self.row()
-            at = (f"{top}[k]" if c == 1 else f"{self.code(c)} * {top}[k]") if top is not None else self.at_k(c)
-            self.ops.append(f"{w}[k] = tk_quot({at}, {w}, {bottom}, k)")
+            self.ops.append(("quot", str(w), self.ref(c), None if top is None else str(top), str(bottom)))
             out = w
         self.memo[key] = out
         return out
@@ -207,14 +323,14 @@ class _Tape:
             key = sp.Mul(out, b)
             if key not in self.memo:
                 w = self.row()
-                self.ops.append(f"{w}[k] = tk_mul({out}, {b}, k)")
+                self.ops.append(("mul", str(w), str(out), str(b)))
                 self.memo[key] = w
             out = self.memo[key]
         return out
 
     def _scaled(self, c: sp.Expr, a: sp.Expr) -> sp.Expr:
         w = self.row()
-        self.ops.append(f"{w}[k] = {self.code(c)} * {a}[k]")
+        self.ops.append(("lin", str(w), ((self.ref(c), str(a)),), None))
         return w
 
     def _pow(self, base: sp.Expr, e: sp.Expr) -> sp.Expr:
@@ -238,11 +354,11 @@ class _Tape:
             root = self.memo.get(sp.sqrt(base))
             if root is None:
                 root = self.row()
-                self.ops.append(f"{root}[k] = math.sqrt({base}[0]) if k == 0 else tk_sqrt({root}, {base}, k)")
+                self.ops.append(("sqrt", str(root), str(base)))
                 self.memo[sp.sqrt(base)] = root
             return self._pow(root, sp.Integer(e.p))
         w = self.row()
-        self.ops.append(f"{w}[k] = {base}[0] ** {self.code(e)} if k == 0 else tk_pow({w}, {base}, {self.code(e)}, k)")
+        self.ops.append(("pow", str(w), str(base), self.ref(self.constant(e))))
         return w
 
     def _reciprocal(self, b: sp.Expr) -> sp.Expr:
@@ -250,31 +366,30 @@ class _Tape:
         if key in self.memo:
             return self.memo[key]
         w = self.row()
-        self.ops.append(f"{w}[k] = tk_quot((1.0 if k == 0 else 0.0), {w}, {b}, k)")
+        self.ops.append(("quot", str(w), 1.0, None, str(b)))
         self.memo[key] = w
         return w
 
     def _by_derivative(self, f: Any, a: sp.Expr) -> sp.Expr:
         w = self.row()
         self.memo[f(a)] = w  # before its derivative, which may read it (exp, tanh) or its twin (sin and cos)
-        self.ops.append(f"{w}[k] = {self.code(f(sp.Symbol(f'{a}[0]')))} if k == 0 else tk_int({a}, RDER, k)")
-        at = len(self.ops) - 1
+        at = len(self.ops)
+        self.ops.append(("int", str(w), f.__name__, str(a), None))
         r = self.lower(_DEFINED_BY_DERIVATIVE[f].xreplace({_X: a, _WV: w}))
         if not self.is_series(r):  # pragma: no cover - every function above has a derivative varying with a
             raise NotImplementedError(f"{f}: a constant derivative")
-        self.ops[at] = self.ops[at].replace("RDER", str(r))
+        self.ops[at] = ("int", str(w), f.__name__, str(a), str(r))
         return w
 
 
-def taylor_source(
-    name: str,
+def taylor_tape(
     assignments: Sequence[tuple[sp.Symbol, sp.Expr]],
     state: Sequence[sp.Symbol | None],
     derivatives: Sequence[Any],
     parameters: Sequence[sp.Symbol],
-) -> tuple[str, int]:
-    """The numba source of ``name(X, W, order, prm)``: the Taylor coefficients to ``order`` of the solution of
-    ``x_i' = derivatives[i]`` from ``X[:, 0]``, and the number of rows its work array ``W`` needs.
+) -> TaylorTape:
+    """The Taylor pass of ``x_i' = derivatives[i]``: its operations, from which :meth:`TaylorTape.source` prints
+    the coefficients' loop and :mod:`geomech.integrators._taylor_llvm` the same unrolled for one order.
 
     ``assignments`` (``symbol = expression``, in order) define the derivatives from the state's symbols
     (``state[i]`` the symbol of ``X[i]``, None where the right-hand side does not read it) and the ``parameters``
@@ -283,22 +398,16 @@ def taylor_source(
     """
     tape = _Tape()
     env: dict[sp.Symbol, sp.Expr] = {}
+    rows: list[int] = []
     for i, s in enumerate(state):
         if s is not None:
             row = sp.Symbol(f"_x{i}")
             tape.series.add(row)
             env[s] = row
+            rows.append(i)
     for i, p in enumerate(parameters):
         env[p] = sp.Symbol(f"_p{i}")
     for sym, e in assignments:
         env[sym] = tape.lower(sp.sympify(e).xreplace(env))
-    outs = [tape.lower(sp.sympify(e).xreplace(env)) for e in derivatives]
-    lines = [f"@kernel\ndef {name}(X, W, order, prm):"]
-    lines += [f"    _p{i} = prm[{i}]" for i in range(len(parameters))]
-    lines += [f"    {c}" for c in tape.constants]
-    lines += [f"    _x{i} = X[{i}]" for i, s in enumerate(state) if s is not None]
-    lines += [f"    _w{i} = W[{i}]" for i in range(tape.n_rows)]
-    lines.append("    for k in range(order):")
-    lines += [f"        {op}" for op in tape.ops]
-    lines += [f"        X[{i}, k + 1] = {tape.at_k(o)} / (k + 1)" for i, o in enumerate(outs)]
-    return "\n".join(lines) + "\n", tape.n_rows
+    outs = tuple(tape.ref(tape.lower(sp.sympify(e).xreplace(env))) for e in derivatives)
+    return TaylorTape(tape.n_rows, len(parameters), tuple(tape.constants), tuple(rows), tuple(tape.ops), outs)

@@ -151,10 +151,20 @@ class Taylor(Method):
     symmetric. Structure: an ODE given by formulas (compiled only; the exit of a system's chart located on the
     polynomial, as the embedded pairs locate it). Cost: a step of order p costs about p^2 / 2 multiply-adds per
     product of the equations; a few dozen steps where DOP853 takes hundreds, for smooth motions at tight
-    tolerances.
+    tolerances. The coefficients' code is written out for the run's order (every sum unrolled, the coefficients
+    known to vanish dropped; compiled by LLVM in about a second per order and cached on disk), or, for equations
+    too large for that or with ``compact=True``, a loop over the orders (heyoka's "compact mode": about twice
+    the time a step, compiled once for every order).
     Reference: Jorba & Zou, Experiment. Math. 14 (2005); Griewank & Walther, Evaluating Derivatives (2008), 13.2.
+
+    Parameters
+    ----------
+    compact : bool or None
+        The loop over the orders (True) or the code unrolled for the order (False); None (the default): unrolled
+        unless a pass would be more than 60,000 multiply-adds.
     """
 
+    compact: bool | None = None
     structure: ClassVar[Structure] = Structure.ODE
     kind: ClassVar[Kind] = Kind.ADAPTIVE
     explicit: ClassVar[bool] = True
@@ -164,6 +174,10 @@ class Taylor(Method):
     @property
     def order(self) -> int:
         return taylor_order(self.default_tolerances)  # a run's is that of its tolerances, fixed along it
+
+    def __post_init__(self) -> None:
+        if self.compact not in (None, True, False):
+            raise InputError(f"Expected `compact` to be True, False or None (chosen by size), got {self.compact!r}.")
 
     @property
     def key(self) -> str:

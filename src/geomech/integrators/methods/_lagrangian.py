@@ -82,7 +82,7 @@ class BKMM(ScipyStepped):
     by the recurrences of their elementary operations, the order ``ceil(-ln(eps) / 2) + 1`` (4 to 40) from the
     smaller tolerance eps (15 at 1e-12), the step from the last two coefficients (Jorba & Zou), the saved states
     and the events by the step's polynomial: a few dozen steps where DOP853 takes hundreds, for smooth motions at
-    tight tolerances.
+    tight tolerances; its coefficients' code unrolled for the order as :class:`~geomech.integrators.Taylor`'s.
     Reference: [KM] eqs. (1.1)-(1.3); [BKMM]; [JZ] Jorba & Zou, Experiment. Math. 14 (2005).
 
     Parameters

@@ -37,7 +37,7 @@ from ...errors import SymbolicError
 from ...reduction.lagrange_dalembert import lagrange_dalembert
 from ...reduction.reduced_numeric import reduction_data
 from ...symbolic.compile import StraightLine, number_form
-from ...symbolic.taylor import taylor_source
+from ...symbolic.taylor import taylor_tape
 from ...systems.gait import T_SYMBOL
 from .. import _codegen
 from ..methods import DormandPrince
@@ -540,10 +540,8 @@ def _taylor_closed(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: 
     values = code.values(derivatives)
     code.flush()
     state = g + [r[j] for j in F] + [rd[j] for j in F] + pm + [None, t]
-    text, rows = taylor_source(
-        "taylor_coeffs", code.assignments, state, values, [sp.Symbol(f"_p{i}") for i in range(n_prm)]
-    )
-    return f"\n\nTAYLOR_ROWS = {rows}\n\n\n" + text
+    parameters = [sp.Symbol(f"_p{i}") for i in range(n_prm)]
+    return taylor_tape(code.assignments, state, values, parameters).module_source()
 
 
 def _module_text(body: str, seen: str) -> str:

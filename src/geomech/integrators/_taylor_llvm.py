@@ -1,0 +1,257 @@
+"""Taylor coefficients unrolled for one order: a :class:`~geomech.symbolic.taylor.TaylorTape` printed as LLVM IR with
+every recurrence's sum written out, compiled by LLVM (llvmlite, numba's code generator) and called by the Taylor
+loop through its address (:func:`geomech.integrators._fptr.call_model`).
+
+Why not numba: the unrolled code of a model is thousands of statements (the snakeboard's BKMM equations at order
+19: 1,400 values, 7,000 multiply-adds), which numba's front end takes 15 s to compile where LLVM alone takes under
+one; and the loop over the orders (:meth:`TaylorTape.source`, the "compact" form) spends about twice the time per
+step on loop overhead and memory traffic that the unrolled code keeps in registers. Written out, the coefficients
+that vanish are known when the code is printed (those of t beyond order 1, of a constant, of a sum or product of
+such): their terms are dropped, so a gait's sin(omega t) costs one multiply an order instead of k.
+
+The function is ``void name(double *X, double *K, double *prm, int64 d, int64 n_prm)``: ``X`` the ``d x (order
++ 1)`` coefficients (row-major; column 0 the state, the others filled), ``K`` the tape's constants (by the model's
+``taylor_constants(K, prm)``), ``prm`` the parameters. The machine code is cached on disk beside the kernels,
+named by the hash of the IR, llvmlite's version and the host CPU.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import hashlib
+import threading
+from typing import Any
+
+from .._storage import write_atomic
+from ..symbolic.taylor import TaylorTape
+from ._codegen import cache_dir
+
+__all__ = ["taylor_ir", "unrolled_address", "UNROLL_LIMIT"]
+
+#: The largest pass (multiply-adds of :meth:`TaylorTape.multiply_adds`) compiled unrolled; larger ones run the
+#: loop over the orders (LLVM's time grows with the code, about 1 s for 10,000 multiply-adds).
+UNROLL_LIMIT = 60_000
+#: The C library's functions the code calls (the intrinsics lower to some of them too).
+_LIBM = ("exp", "log", "sin", "cos", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos")
+_LIBM_MORE = ("asinh", "acosh", "atanh")
+_INTRINSICS = {"exp", "log", "sin", "cos"}
+
+#: a multiply and an add may be one fused instruction (one rounding instead of two)
+FLAGS = ("contract",)
+_LOCK = threading.Lock()
+_ADDRESSES: dict[str, int] = {}
+_ENGINES: list[Any] = []  # kept alive: the code lives as long as its engine
+_TARGET: list[Any] = []
+
+
+def taylor_ir(tape: TaylorTape, name: str, order: int) -> str:
+    """The LLVM IR of ``name``: the Taylor coefficients to ``order`` of the tape's equations, unrolled."""
+    from llvmlite import ir
+
+    D = ir.DoubleType()
+    i64 = ir.IntType(64)
+    mod = ir.Module(name=name)
+    fn = ir.Function(mod, ir.FunctionType(ir.VoidType(), [D.as_pointer()] * 3 + [i64, i64]), name=name)
+    for a in fn.args[:3]:
+        a.add_attribute("noalias")
+    X, Kp, P = fn.args[:3]
+    b = ir.IRBuilder(fn.append_basic_block("entry"))
+    functions: dict[str, Any] = {}
+
+    def call(f: str, *args: Any) -> Any:
+        if f not in functions:
+            if f in _INTRINSICS or f in ("sqrt", "pow"):
+                functions[f] = mod.declare_intrinsic(f"llvm.{f}", [D])
+            else:
+                functions[f] = ir.Function(mod, ir.FunctionType(D, [D] * len(args)), name=f)
+        return b.call(functions[f], list(args))
+
+    def load(ptr: Any, i: int) -> Any:
+        return b.load(b.gep(ptr, [ir.Constant(i64, i)], inbounds=True))
+
+    def mul(u: Any, v: Any) -> Any:
+        return b.fmul(u, v, flags=FLAGS)
+
+    def add(u: Any, v: Any) -> Any:
+        return b.fadd(u, v, flags=FLAGS)
+
+    def num(c: float) -> Any:
+        return ir.Constant(D, c)
+
+    consts: dict[str, Any] = {f"_p{i}": load(P, i) for i in range(tape.n_parameters)}
+    consts.update({c: load(Kp, int(c[2:])) for c, _ in tape.constants})
+    series: dict[tuple[str, int], Any] = {}  # (row, k) -> value; None: the coefficient vanishes
+    stride = order + 1
+    for i in tape.state:
+        series[(f"_x{i}", 0)] = load(X, i * stride)
+
+    def scalar(c: Any) -> Any:
+        return num(c) if isinstance(c, float) else consts[c]
+
+    def at(r: Any, k: int) -> Any:
+        """Order k of a reference (None where it vanishes)."""
+        if isinstance(r, str) and r[1] in "xw":
+            return series[(r, k)]
+        if k > 0 or r == 0.0:
+            return None
+        return scalar(r)
+
+    def times(u: Any, v: Any) -> Any:
+        return None if u is None or v is None else mul(u, v)
+
+    def plus(u: Any, v: Any) -> Any:
+        return v if u is None else u if v is None else add(u, v)
+
+    def minus(u: Any, v: Any) -> Any:
+        if v is None:
+            return u
+        return b.fneg(v) if u is None else b.fsub(u, v)
+
+    def total(terms: Any) -> Any:
+        acc = None
+        for t in terms:
+            acc = plus(acc, t)
+        return acc
+
+    def scaled(c: Any, v: Any) -> Any:
+        return v if (c == 1.0 or v is None) else mul(scalar(c), v)
+
+    def cauchy(u: str, v: str, k: int, first: int, last: int) -> Any:
+        """sum_{j=first..last} u^[j] v^[k-j], by halves where u is v."""
+        if u != v:
+            return total(times(at(u, j), at(v, k - j)) for j in range(first, last + 1))
+        pairs = total(times(at(u, j), at(u, k - j)) for j in range(first, last + 1) if j < k - j)
+        twice = None if pairs is None else mul(num(2.0), pairs)
+        middle = times(at(u, k // 2), at(u, k // 2)) if k % 2 == 0 and first <= k // 2 <= last else None
+        return plus(twice, middle)
+
+    for k in range(order):
+        for op in tape.ops:
+            kind, w = op[0], op[1]
+            if kind == "lin":
+                value = total(scaled(c, at(r, k)) for c, r in op[2])
+                if op[3] is not None and k == 0:
+                    value = plus(value, scalar(op[3]))
+            elif kind == "mul":
+                value = cauchy(op[2], op[3], k, 0, k)
+            elif kind == "quot":
+                top = at(op[2], k) if op[3] is None else scaled(op[2], at(op[3], k))
+                rest = minus(top, cauchy(op[4], w, k, 1, k))
+                value = None if rest is None else b.fdiv(rest, at(op[4], 0))
+            elif kind == "sqrt":
+                a = op[2]
+                if k == 0:
+                    value = call("sqrt", at(a, 0))
+                else:
+                    rest = minus(at(a, k), cauchy(w, w, k, 1, k - 1))
+                    value = None if rest is None else b.fdiv(rest, mul(num(2.0), at(w, 0)))
+            elif kind == "pow":
+                a, e = op[2], op[3]
+                if k == 0:
+                    value = call("pow", at(a, 0), scalar(e))
+                else:
+                    terms = []
+                    for j in range(k):
+                        term = times(at(a, k - j), at(w, j))
+                        if term is None:
+                            continue
+                        if isinstance(e, float):
+                            factor = num(e * (k - j) - j)
+                        else:
+                            factor = b.fsub(mul(consts[e], num(float(k - j))), num(float(j)))
+                        terms.append(mul(factor, term))
+                    acc = total(terms)
+                    value = None if acc is None else b.fdiv(acc, mul(num(float(k)), at(a, 0)))
+            else:  # "int": w = f(a), f'(a) = r
+                f, a, r = op[2], op[3], op[4]
+                if k == 0:
+                    value = call(f, at(a, 0))
+                else:
+                    terms = []
+                    for j in range(1, k + 1):
+                        aj = at(a, j)
+                        term = times(aj if j == 1 or aj is None else mul(num(float(j)), aj), at(r, k - j))
+                        terms.append(term)
+                    acc = total(terms)
+                    value = None if acc is None else b.fdiv(acc, num(float(k)))
+            series[(w, k)] = value
+        for i, o in enumerate(tape.outputs):
+            v = at(o, k)
+            v = None if v is None else b.fdiv(v, num(float(k + 1)))
+            b.store(num(0.0) if v is None else v, b.gep(X, [ir.Constant(i64, i * stride + k + 1)], inbounds=True))
+            series[(f"_x{i}", k + 1)] = v
+    b.ret_void()
+    return str(mod)
+
+
+def _target() -> Any:
+    """LLVM's target machine for this host (created once)."""
+    import llvmlite.binding as llvm
+
+    if not _TARGET:
+        llvm.initialize_native_target()
+        llvm.initialize_native_asmprinter()
+        target = llvm.Target.from_triple(llvm.get_process_triple())
+        tm = target.create_target_machine(
+            cpu=llvm.get_host_cpu_name(), features=llvm.get_host_cpu_features().flatten(), opt=3, jit=True
+        )
+        _libm_symbols(llvm)
+        _TARGET.append(tm)
+    return _TARGET[0]
+
+
+def _libm_symbols(llvm: Any) -> None:
+    """The C library's functions, made known to LLVM's linker by their addresses in this process."""
+    libm = ctypes.util.find_library("m")
+    handles = [ctypes.CDLL(libm)] if libm else []
+    handles.append(ctypes.CDLL(None))
+    for name in _LIBM + _LIBM_MORE:
+        for h in handles:
+            try:
+                fn = getattr(h, name)
+            except AttributeError:
+                continue
+            llvm.add_symbol(name, ctypes.cast(fn, ctypes.c_void_p).value)
+            break
+
+
+def _compile(tm: Any, ir_text: str) -> bytes:
+    """The machine code (an object file) of ``ir_text``, optimised at level 3 for this host."""
+    import llvmlite.binding as llvm
+
+    module = llvm.parse_assembly(ir_text)
+    module.verify()
+    pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=3))
+    pb.getModulePassManager().run(module, pb)
+    return bytes(tm.emit_object(module))
+
+
+def unrolled_address(tape: TaylorTape, order: int) -> int:
+    """The address of the tape's coefficients to ``order``, unrolled (:func:`taylor_ir`), compiled once per
+    process and cached on disk."""
+    import llvmlite
+    import llvmlite.binding as llvm
+
+    with _LOCK:
+        tm = _target()
+        ir_text = taylor_ir(tape, "taylor_unrolled", order)
+        host = (llvm.get_process_triple(), llvm.get_host_cpu_name(), llvm.get_host_cpu_features().flatten())
+        key = "\n".join((llvmlite.__version__, *host, ir_text))
+        digest = hashlib.sha256(key.encode()).hexdigest()[:24]
+        if digest in _ADDRESSES:
+            return _ADDRESSES[digest]
+        path = cache_dir() / f"gm_taylor_{digest}.o"
+        obj = path.read_bytes() if path.exists() else None
+        if obj is None:
+            obj = _compile(tm, ir_text)
+            write_atomic(path, obj)
+        engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
+        engine.add_object_file(llvm.ObjectFileRef.from_data(obj))
+        engine.finalize_object()
+        address = engine.get_function_address("taylor_unrolled")
+        if not address:  # pragma: no cover - a corrupt cache entry
+            raise RuntimeError(f"the unrolled Taylor code {path} defines no function: delete the file")
+        _ENGINES.append(engine)
+        _ADDRESSES[digest] = address
+        return address
