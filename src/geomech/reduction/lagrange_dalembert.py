@@ -272,7 +272,8 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         if s.c == 0:
             X = sp.eye(s.n)
         else:
-            vecs = A.nullspace(simplify=True)
+            # the pivots tested for zero by the exact simplifier (sympy's `simplify` there is most of the time)
+            vecs = A.nullspace(simplify=simplify_expr, iszerofunc=lambda e: simplify_expr(e) == 0)
             X = sp.Matrix.hstack(*[_clear_denominators(v) for v in vecs])
         lhs = X.T * (
             sp.Matrix(self.mass_matrix) * column(self.qddot) - self.forces - self.input_matrix * column(self.tau)

@@ -4,6 +4,7 @@ kept factored, and each step is bounded in size so that a derivation takes secon
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from functools import lru_cache
 from typing import Any
@@ -118,8 +119,37 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
 @lru_cache(maxsize=4096)
 def _factor(p: Any) -> sp.Expr:
     """A ring polynomial as a product of its irreducible factors (cached: the same numerator recurs)."""
-    content, factors = p.factor_list()
+    content, factors = factor_list(p)
     return sp.Mul(sp.Rational(content.numerator, content.denominator), *[f.as_expr() ** k for f, k in factors])
+
+
+def factor_list(p: Any) -> tuple[Any, list]:
+    """``p.factor_list()`` of a polynomial of a ring over the rationals, by FLINT's multivariate factorization
+    where python-flint is installed (sympy's own, in Python, is most of a derivation's time): the content, and the
+    irreducible factors with integer coefficients, primitive, their leading coefficients positive, as sympy's."""
+    flint = _flint()
+    if flint is None or p.is_ground:
+        return p.factor_list()
+    R = p.ring
+    terms = p.terms()
+    den = 1
+    for _, c in terms:
+        den = den * c.denominator // math.gcd(den, c.denominator)
+    ctx = flint.fmpz_mpoly_ctx.get(tuple(f"x{i}" for i in range(len(R.gens))), "lex")
+    f = ctx.from_dict({m: int(c.numerator) * (den // int(c.denominator)) for m, c in terms})
+    content, factors = f.factor()
+    QQ = R.domain
+    out = [(R.from_dict({m: QQ(int(v)) for m, v in g.to_dict().items()}), int(k)) for g, k in factors]
+    return QQ(int(content), den), out
+
+
+@lru_cache(maxsize=1)
+def _flint() -> Any:
+    try:
+        import flint
+    except ImportError:  # pragma: no cover - python-flint is a dependency; sympy's factorization otherwise
+        return None
+    return flint if hasattr(flint, "fmpz_mpoly_ctx") else None
 
 
 class _Unsupported(Exception):
@@ -157,7 +187,7 @@ class _Fractions:
         if p not in self.factors:
             key = p.as_expr()
             if key not in _FACTORS:
-                content, facs = p.factor_list()
+                content, facs = factor_list(p)
                 _FACTORS[key] = (content, [(f.as_expr(), k) for f, k in facs])
             content, facs = _FACTORS[key]
             out = []
