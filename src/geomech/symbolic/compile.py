@@ -132,7 +132,9 @@ def compile_vector(exprs: Any, variables: Sequence[sp.Symbol], *, dtype: Any = f
         if not batch:  # one point: every entry is a scalar (the common case inside an integrator's step)
             return np.array(f(*x), dtype=dtype).reshape(shape)
         vals = f(*np.moveaxis(x, -1, 0))
-        out = np.stack([np.broadcast_to(np.asarray(v, dtype=dtype), batch) for v in vals], -1)
+        out = np.empty(batch + (len(vals),), dtype=dtype)
+        for i, v in enumerate(vals):  # an assignment broadcasts the constant entries
+            out[..., i] = v
         return out.reshape(batch + shape)
 
     return vector

@@ -381,11 +381,15 @@ class NonholonomicSystem:
             self.body_basis,
         )
 
-    def __hash__(self) -> int:
+    @cached_property
+    def _hash(self) -> int:
         return hash(self.key)
 
+    def __hash__(self) -> int:  # the caches of every derivation ask for it: computed once
+        return self._hash
+
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, NonholonomicSystem) and self.key == other.key
+        return isinstance(other, NonholonomicSystem) and (other is self or self.key == other.key)
 
     # ---------------- basic objects ----------------
     @property

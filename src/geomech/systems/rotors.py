@@ -42,6 +42,7 @@ angular momentum :math:`\\pi = R m` constant; the energy changes at the rate
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -59,6 +60,12 @@ __all__ = ["RotorBody", "torque_function"]
 #: Elevation of the wheel axes above the base plane that makes the four-wheel pyramid isotropic,
 #: A A^T = (4/3) I: 2 cos^2(beta) = 4 sin^2(beta), i.e. tan(beta) = 1/sqrt(2) (35.26 degrees).
 ISOTROPIC_PYRAMID_ELEVATION = float(np.arctan(1.0 / np.sqrt(2.0)))
+
+
+@functools.cache
+def _positive_symbols(names: str) -> tuple[sp.Symbol, ...]:
+    """``sp.symbols(names, positive=True)`` as a tuple, made once (a run reads them several times)."""
+    return tuple(sp.symbols(names, positive=True, seq=True))
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,7 +187,7 @@ class RotorBody:
         """The (3, N) matrix whose columns are the rotor axes."""
         return self.axes.T
 
-    @property
+    @functools.cached_property
     def is_principal(self) -> bool:
         """Whether :math:`\\Lambda` is diagonal and every rotor axis is a body axis (the seed's layouts)."""
         lam = self.inertia
@@ -283,10 +290,10 @@ class RotorBody:
         rotor on axis 3, ``(lambda1, lambda2, lambda3)`` and ``(J1, J2, J3)`` for three on the principal
         axes; ``(None, ...)`` for other layouts (numbers are used)."""
         if self.is_principal and self.n_rotors == 1 and abs(self.axes[0, 2]) == 1.0:
-            return sp.symbols("lambda1 lambda2 I3", positive=True), (sp.Symbol("J3", positive=True),)
+            return _positive_symbols("lambda1 lambda2 I3"), _positive_symbols("J3")
         if self.is_principal and self.n_rotors == 3 and np.array_equal(np.abs(self.axes), np.eye(3)):
-            return sp.symbols("lambda1:4", positive=True), sp.symbols("J1:4", positive=True)
-        return None, sp.symbols(f"J1:{self.n_rotors + 1}", positive=True)
+            return _positive_symbols("lambda1:4"), _positive_symbols("J1:4")
+        return None, _positive_symbols(f"J1:{self.n_rotors + 1}")
 
     @property
     def parameters(self) -> dict[str, float]:
