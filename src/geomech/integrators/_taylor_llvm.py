@@ -193,19 +193,28 @@ def _target() -> Any:
         llvm.initialize_native_target()
         llvm.initialize_native_asmprinter()
         target = llvm.Target.from_triple(llvm.get_process_triple())
-        tm = target.create_target_machine(
-            cpu=llvm.get_host_cpu_name(), features=llvm.get_host_cpu_features().flatten(), opt=3, jit=True
-        )
+        tm = target.create_target_machine(cpu=llvm.get_host_cpu_name(), features=_host_features(llvm), opt=3, jit=True)
         _libm_symbols(llvm)
         _TARGET.append(tm)
     return _TARGET[0]
 
 
+def _host_features(llvm: Any) -> str:
+    """The host CPU's features for LLVM ("" where LLVM cannot tell: the generic CPU's code)."""
+    try:
+        return str(llvm.get_host_cpu_features().flatten())
+    except RuntimeError:  # pragma: no cover - some platforms do not report them
+        return ""
+
+
 def _libm_symbols(llvm: Any) -> None:
     """The C library's functions, made known to LLVM's linker by their addresses in this process."""
-    libm = ctypes.util.find_library("m")
-    handles = [ctypes.CDLL(libm)] if libm else []
-    handles.append(ctypes.CDLL(None))
+    handles = []
+    for name in (ctypes.util.find_library("m"), None):
+        try:
+            handles.append(ctypes.CDLL(name))
+        except (OSError, TypeError):  # pragma: no cover - no such library, or no process handle (Windows)
+            continue
     for name in _LIBM + _LIBM_MORE:
         for h in handles:
             try:
@@ -236,7 +245,7 @@ def unrolled_address(tape: TaylorTape, order: int) -> int:
     with _LOCK:
         tm = _target()
         ir_text = taylor_ir(tape, "taylor_unrolled", order)
-        host = (llvm.get_process_triple(), llvm.get_host_cpu_name(), llvm.get_host_cpu_features().flatten())
+        host = (llvm.get_process_triple(), llvm.get_host_cpu_name(), _host_features(llvm))
         key = "\n".join((llvmlite.__version__, *host, ir_text))
         digest = hashlib.sha256(key.encode()).hexdigest()[:24]
         if digest in _ADDRESSES:
