@@ -12,15 +12,17 @@ such): their terms are dropped, so a gait's sin(omega t) costs one multiply an o
 The function is ``void name(double *X, double *K, double *prm, int64 d, int64 n_prm)``: ``X`` the ``d x (order
 + 1)`` coefficients (row-major; column 0 the state, the others filled), ``K`` the tape's constants (by the model's
 ``taylor_constants(K, prm)``), ``prm`` the parameters. The machine code is cached on disk beside the kernels,
-named by the hash of the IR, llvmlite's version and the host CPU.
+named by the hash of the tape, the order, this module's source, llvmlite's version and the host CPU.
 """
 
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import hashlib
 import threading
+from pathlib import Path
 from typing import Any
 
 from .._storage import write_atomic
@@ -236,24 +238,31 @@ def _compile(tm: Any, ir_text: str) -> bytes:
     return bytes(tm.emit_object(module))
 
 
+@functools.cache
+def _printer_fingerprint() -> str:
+    """The hash of this module's source: the unrolled code cached on disk is printed by it."""
+    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+
+
 def unrolled_address(tape: TaylorTape, order: int) -> int:
     """The address of the tape's coefficients to ``order``, unrolled (:func:`taylor_ir`), compiled once per
-    process and cached on disk."""
+    process and cached on disk (named by the tape, the order, this module's source, llvmlite and the host)."""
     import llvmlite
     import llvmlite.binding as llvm
 
     with _LOCK:
         tm = _target()
-        ir_text = taylor_ir(tape, "taylor_unrolled", order)
+        # named by what the IR is made of (the tape, the order, this printer's source), so that code cached on
+        # disk loads without printing its IR again
         host = (llvm.get_process_triple(), llvm.get_host_cpu_name(), _host_features(llvm))
-        key = "\n".join((llvmlite.__version__, *host, ir_text))
+        key = "\n".join((llvmlite.__version__, *host, _printer_fingerprint(), str(order), repr(tape.data())))
         digest = hashlib.sha256(key.encode()).hexdigest()[:24]
         if digest in _ADDRESSES:
             return _ADDRESSES[digest]
         path = cache_dir() / f"gm_taylor_{digest}.o"
         obj = path.read_bytes() if path.exists() else None
         if obj is None:
-            obj = _compile(tm, ir_text)
+            obj = _compile(tm, taylor_ir(tape, "taylor_unrolled", order))
             write_atomic(path, obj)
         engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
         engine.add_object_file(llvm.ObjectFileRef.from_data(obj))
