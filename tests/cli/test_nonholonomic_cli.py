@@ -122,6 +122,24 @@ def test_derive_snakeboard_json_and_latex(capsys):
     assert code == 0 and r"\dot{\phi}" in out and "== bkmm ==" in out
 
 
+def test_a_derivation_runs_without_the_numeric_stack(tmp_path):
+    """``geomech derive`` is symbolic: a fresh process derives and prints without importing scipy or numba (their
+    import took longer than the derivation of a small system), through the command's own entry point."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; sys.argv = ['geomech', 'derive', 'chaplygin_sleigh']; "
+        "import _geomech_cli; rc = _geomech_cli.main(); "
+        "print([m for m in ('scipy', 'numba', 'matplotlib', 'xarray') if m in sys.modules], rc)"
+    )
+    env = {**os.environ, "GEOMECH_CACHE_DIR": str(tmp_path)}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "== bkmm ==" in done.stdout and done.stdout.strip().splitlines()[-1] == "[] 0"
+
+
 MODEL = """
 from geomech.lie import SE2
 from geomech.systems.nonholonomic import NonholonomicSystem

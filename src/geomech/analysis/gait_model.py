@@ -9,7 +9,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .. import _validate as V
 from ..errors import InputError, ShapeError, SingularityError
@@ -69,6 +68,8 @@ def check_regular(model: ReducedNumeric, loop: Gait, n: int = 1024) -> None:
     that only grazes the singular set (the snakeboard's :math:`\\phi = \\pm\\pi/2`, where
     :math:`\\mathbb I = 4mr^2\\cos^2\\phi` touches 0 without changing sign) is caught too.
     """
+    from scipy.optimize import minimize_scalar
+
     if model.m == 0:
         return
     T = loop.T

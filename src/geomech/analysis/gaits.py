@@ -37,7 +37,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from .._display import ShowsItselfAsHTML
@@ -333,6 +332,8 @@ def analyse_gait(
     SingularityError
         The locked inertia is singular (or the connection infinite) somewhere on the loop.
     """
+    from scipy.integrate import solve_ivp
+
     model = reduced_numeric(system, parameters, basis)
     s = model.system
     loop = gait_loop(s, loop, period, parameters=parameters)

@@ -28,8 +28,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import root
 
 from .. import _validate as V
 from .._display import ShowsItselfAsHTML
@@ -78,6 +76,8 @@ def _rates(model: ReducedNumeric, loop: Any, G: float):
 
 def _period_map(model: ReducedNumeric, loop: Any, Pi0: np.ndarray, rtol: float, atol: float) -> Any:
     """(Pi, the three integrals of the phase) over one period from Pi0; the integrals start at 0."""
+    from scipy.integrate import solve_ivp
+
     G = float(np.linalg.norm(Pi0))
     rhs = _rates(model, loop, G)
     axis = Pi0 / G
@@ -183,6 +183,8 @@ def periodic_body_momentum(
     """A body momentum :math:`\\Pi_0` on the sphere :math:`|\\Pi| = |\\Pi_{guess}|` that returns after one period of
     the shape ``loop``: a fixed point of the period map, by Newton (scipy's ``hybr``) in the tangent plane at the
     guess. Raises :class:`~geomech.errors.ConvergenceError` when none is found near the guess."""
+    from scipy.optimize import root
+
     model, loop = _model_and_loop(system, loop, period, parameters)
     guess = V.exact_shape(Pi_guess, "Pi_guess", (3,))
     G = float(np.linalg.norm(guess))

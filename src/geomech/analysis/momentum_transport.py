@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from .._display import ShowsItselfAsHTML
@@ -207,6 +206,8 @@ def momentum_transport(
         :math:`\\Phi(t)` and :math:`b(t)` (DOP853 on the :math:`m^2 + m` linear equations, tolerances ``rtol``,
         ``atol``).
     """
+    from scipy.integrate import solve_ivp
+
     model = _affine_model(system, parameters, basis)
     s = model.system
     loop = gait_loop(s, loop, period, parameters=parameters)

@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from .._display import ShowsItselfAsHTML
@@ -132,6 +131,8 @@ def rigid_body_phase(
     reconstructed : also reconstruct :math:`R` on SO(3) by Runge-Kutta-Munthe-Kaas (:func:`~geomech.solve` on a
         :class:`~geomech.systems.GroupFlow`).
     """
+    from scipy.integrate import solve_ivp
+
     from ..reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
     from ..systems import RigidBody
 

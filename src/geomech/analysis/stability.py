@@ -35,8 +35,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from .. import _validate as V
 from .._display import ShowsItselfAsHTML
@@ -386,6 +384,8 @@ def stability_boundary(
         default :math:`(0, G, 0)`, the spin about the intermediate axis, the seed's :math:`(l, L) = (0, 0)`.
     fixed : other parameter values passed to ``family``.
     """
+    from scipy.optimize import brentq
+
     G = V.positive_scalar(G, "G")
     a, b = (float(x) for x in V.finite(bracket, "bracket"))
     near = np.array([0.0, G, 0.0]) if near is None else V.exact_shape(near, "near", (3,))
@@ -443,6 +443,8 @@ def perturbation_growth(
 ) -> PerturbationGrowth:
     """Integrate Euler's equation :math:`\\dot m = m\\times\\nabla H` from :math:`m_e + \\delta\\,u` (projected
     back to :math:`|m| = |m_e|`) and record the deviation :math:`|m(t) - m_e|`."""
+    from scipy.integrate import solve_ivp
+
     system = as_left_invariant(system)
     m_e = V.exact_shape(m_e, "m_e", (3,))
     G = float(np.linalg.norm(m_e))

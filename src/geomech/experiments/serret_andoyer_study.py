@@ -31,7 +31,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .. import _validate as V
 from .._storage import check_output_dir, dumps_json, write_set
@@ -196,6 +195,8 @@ def approaches(cfg: StudyConfig) -> list[Approach]:
 
 def build_model(cfg: StudyConfig) -> _Model:
     """The closed loop, its reduction, and an initial state on the level ``H_c = cfg.Hc`` with ``m3 = 0``."""
+    from scipy.optimize import brentq
+
     from ..lie import so3
     from ..reduction import EulerCoordinates, GeneralizedSerretAndoyer, spatial_frame
     from ..systems.control import StructurePreservingControl

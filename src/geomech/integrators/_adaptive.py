@@ -9,8 +9,6 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy import integrate as _scipy_integrate
-from scipy.integrate import ode
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError
@@ -96,6 +94,8 @@ def integrate_ivp(
     time not reached, ``time`` the last time reached) or None, the number of evaluations and of steps. A
     :class:`~geomech.errors.NumericalError` raised by ``rhs`` ends the run as the failure ``error_status``.
     """
+    from scipy import integrate as _scipy_integrate
+
     rtol, atol = tolerances
     Y = np.full((len(times), y0.size), np.nan)
     k = 0
@@ -151,6 +151,8 @@ def run_adaptive(
     row for all or one per row of ``Y0``), saving at ``times`` and
     filling ``OUT`` and ``INFO`` as the compiled loops do (``INFO[b, 1]`` is the index of the first output
     time not reached); returns the number of internal steps taken (summed over the batch)."""
+    from scipy.integrate import ode
+
     rhs = module.rhs
     d = Y0.shape[1]
     rtol, atol = tolerances

@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from ..reduction.serret_andoyer import GeneralizedSerretAndoyer, spatial_frame
 from .solution import Failure, Status
@@ -42,6 +41,8 @@ def run_atlas(
     """Integrate from ``(m0, R0)`` at ``t0``, saving at ``times``: DOP853 with dense output in each chart,
     stopped by an event where :math:`|L|/G` reaches ``sa.switch_at``, and restarted in the chart about the
     body axis with the smallest :math:`|m_k|` (where :math:`|L|/G \\le 1/\\sqrt 3`)."""
+    from scipy.integrate import solve_ivp
+
     rtol, atol = tolerances
     G = float(np.linalg.norm(m0))
     S = spatial_frame(R0 @ m0)

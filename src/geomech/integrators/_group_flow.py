@@ -10,7 +10,6 @@ import time
 from typing import Any, cast
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError
@@ -62,6 +61,8 @@ def solve_group_flow(
     memory_limit: float,
 ) -> Solution:
     """Integrate ``system`` from ``g0`` (internal: :func:`~geomech.solve` has checked the method and the times)."""
+    from scipy.integrate import solve_ivp
+
     G = system.group.numeric
     k, n = system.k, G.matrix_size
     ac = list(G.angle_components)

@@ -33,7 +33,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.linalg import expm, logm
 
 from ..errors import InputError
 from . import _common as c
@@ -136,10 +135,14 @@ class LieGroup:
         return c.eye(self.matrix_size, batch_shape)
 
     def exp(self, u: Any) -> np.ndarray:
+        from scipy.linalg import expm
+
         return expm(self.hat(u))
 
     def log(self, g: Any) -> np.ndarray:
         """The principal logarithm (real part of ``scipy.linalg.logm``, element by element)."""
+        from scipy.linalg import logm
+
         g = self.check(g)
         flat = g.reshape((-1,) + g.shape[-2:])
         out = np.array([np.real(logm(x)) for x in flat]).reshape(g.shape)
@@ -173,6 +176,8 @@ class LieGroup:
     # -- Jacobians of exp ---------------------------------------------------------------------------
     def right_jacobian(self, u: Any) -> np.ndarray:
         """:math:`J_r(u) = \\int_0^1 e^{-s\\,\\mathrm{ad}_u}ds`, by the exponential of a block matrix."""
+        from scipy.linalg import expm
+
         adu = self.ad(u)
         k = self.dim
         M = np.zeros(adu.shape[:-2] + (2 * k, 2 * k))

@@ -32,7 +32,6 @@ from typing import Any, final
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import quad
 
 from .. import _validate as V
 from ..errors import ConvergenceError, InputError, SingularityError
@@ -370,6 +369,8 @@ class LPeriod:
 
 
 def _quad(f, a: float, b: float, what: str) -> tuple[float, float]:
+    from scipy.integrate import quad
+
     val, err = quad(f, a, b, epsabs=0.0, epsrel=1e-13, limit=400)
     if not np.isfinite(val) or err > 1e-9 * abs(val):
         raise ConvergenceError(

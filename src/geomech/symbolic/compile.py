@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.printing.numpy import _known_functions_numpy
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import InputError, SymbolicError
@@ -95,8 +96,16 @@ def _lambdify(exprs: Any, variables: Sequence[sp.Symbol]):
             + ", ".join(str(e) for e in flat if isinstance(e, sp.Basic) and e.has(sp.zoo, sp.oo, sp.nan))[:300]
             + "."
         )
-    # numpy for the elementary functions, scipy.special for the rest (elliptic integrals, erf, ...)
-    return sp.lambdify(list(variables), exprs, modules=["scipy", "numpy"], cse=True)
+    # numpy for the elementary functions, scipy.special for the rest (elliptic integrals, erf, ...): scipy only
+    # where a formula needs it (importing scipy.special costs more than compiling a small formula)
+    special = any(
+        type(f).__name__ not in _NUMPY_FUNCTIONS for e in flat if isinstance(e, sp.Basic) for f in e.atoms(sp.Function)
+    )
+    return sp.lambdify(list(variables), exprs, modules=["scipy", "numpy"] if special else ["numpy"], cse=True)
+
+
+#: The functions sympy's numpy printer evaluates with numpy alone (sin, exp, log, atan2, Abs, Min, Piecewise, ...).
+_NUMPY_FUNCTIONS = frozenset(_known_functions_numpy) | {"Abs", "Min", "Max", "Piecewise", "re", "im", "arg"}
 
 
 def compile_scalar(expr: sp.Expr, variables: Sequence[sp.Symbol]):

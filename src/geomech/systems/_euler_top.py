@@ -27,7 +27,6 @@ from fractions import Fraction
 from typing import Any, Literal
 
 import numpy as np
-from scipy.special import ellipj, ellipk, ellipkm1, elliprf
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError
@@ -55,6 +54,8 @@ def _jacobi(u: np.ndarray, m: float, p: float, K: float) -> tuple[np.ndarray, np
     That keeps the relative accuracy of ``cn`` near its zeros and of ``dn`` near its minimum ``k'``
     as ``k -> 1``, where ellipj alone (evaluated with ``m`` rounded near 1) does not.
     """
+    from scipy.special import ellipj
+
     r = u - 4.0 * K * np.round(u / (4.0 * K))
     sign_sn = np.where(r < 0, -1.0, 1.0)
     a = np.abs(r)
@@ -94,6 +95,8 @@ def _phase(sn0: float, cn0: float, p: float, K: float) -> float:
     ``cn^2 + k'^2 sn^2``, so ``k'^2`` is never rounded through ``m = 1 - k'^2`` and the phase keeps full
     relative accuracy as ``k -> 1``, including near ``K`` where ``ellipkinc(phi, m)`` does not.
     """
+    from scipy.special import elliprf
+
     h = math.hypot(sn0, cn0)
     a, b = abs(sn0) / h, abs(cn0) / h
     u = a * float(elliprf(b * b, b * b + p * a * a, 1.0))  # in [0, K]
@@ -272,6 +275,8 @@ class EulerTopSolution:
             that :math:`k'^2` underflows the float64 normal range; or a derived constant came out
             non-finite (not expected for valid input).
         """
+        from scipy.special import ellipk, ellipkm1
+
         I = V.positive(V.exact_shape(inertia, "inertia", (3,)), "inertia")
         m = V.exact_shape(m0, "m0", (3,))
         big = float(np.abs(m).max())

@@ -7,7 +7,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import brentq
 
 from ..symbolic.compile import M_SYMBOLS
 from ..symbolic.integrals import symbolic_friendly
@@ -69,6 +68,8 @@ def hyperregularity_report(c: Any, R: float) -> HyperregularityReport:
 
 
 def _scalar(c: Any, i: int, R: float) -> tuple[str, str, list[float]]:
+    from scipy.optimize import brentq
+
     if c._phi_1d_exprs is not None:
         th = dict(zip(c._psyms, c.theta()))
         d = sp.diff(c._phi_1d_exprs[i], V_SYMBOL).subs(th)
