@@ -1,5 +1,5 @@
 import sys
 
-from .cli.main import main
+from _geomech_cli import main
 
 sys.exit(main())
