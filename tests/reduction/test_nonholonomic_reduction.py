@@ -310,6 +310,22 @@ def test_a_second_derivation_loads_from_the_disk_cache(monkeypatch, tmp_path):
     assert ns.DISK_CACHE.misses > misses
 
 
+def test_each_printed_form_is_made_alone_and_agrees_with_both(monkeypatch, tmp_path):
+    _fresh_memory(monkeypatch, tmp_path)
+    from geomech.reduction._derived import Derived
+
+    red = bkmm_reduction(chaplygin_sleigh())
+    with monkeypatch.context() as m:
+        m.setattr(Derived, "_latex", lambda self, v: pytest.fail("LaTeX printed for a text-only caller"))
+        text = red.to_dict(("text",))
+    assert set(text) == {"title", "text"}
+    both = red.to_dict()
+    assert both["text"] == text["text"] and both["latex"] == red.to_dict(("latex",))["latex"]
+    assert "\\" in json.dumps(both["latex"]) and both["latex"] != both["text"]
+    with pytest.raises(InputError, match="`forms` takes 'text' and 'latex'"):
+        red.to_dict(("html",))
+
+
 def test_a_new_process_reads_the_disk_cache(tmp_path):
     """Two fresh processes (this one's in-memory state, whatever earlier tests left, plays no part): the first
     derives and writes, the second reads everything back and derives nothing."""

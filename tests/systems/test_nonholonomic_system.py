@@ -131,6 +131,20 @@ def test_invariance_report_names_the_breaking_term():
     assert report.lagrangian_invariant and not report.constraints_invariant and report.breaking_constraints == (0,)
 
 
+def test_the_invariance_report_is_made_once_per_system_and_sampling(monkeypatch):
+    """Building a system checks invariance and ``derive`` shows the report: the second asks for the kept one."""
+    from geomech.systems import nonholonomic as nh
+
+    calls = []
+    real = nh.invariance_report
+    monkeypatch.setattr(nh, "invariance_report", lambda *a, **k: calls.append(k) or real(*a, **k))
+    s = _snake(check=False)
+    first = s.check_invariance()
+    assert s.check_invariance() is first and len(calls) == 1
+    other = s.check_invariance(samples=5)
+    assert other.ok and len(calls) == 2 and calls[-1]["samples"] == 5
+
+
 def test_rescaled_constraints_define_the_same_invariant_distribution():
     # Multiplying a one-form by a function of the group variables changes the form but not the distribution.
     scaled = [f"(2 + cos(x))*({SNAKE_C[0]})", SNAKE_C[1]]

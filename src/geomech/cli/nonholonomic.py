@@ -74,9 +74,11 @@ def require_values(system) -> None:
 
 
 def derivation(
-    system, sections: tuple[str, ...] = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction")
+    system,
+    sections: tuple[str, ...] = ("system", "lagrange_dalembert", "bkmm", "almost_poisson", "poisson_reduction"),
+    forms: tuple[str, ...] = ("text", "latex"),
 ) -> dict[str, Any]:
-    """All derived objects of ``system`` as a JSON-ready dict (text and LaTeX of each)."""
+    """All derived objects of ``system`` as a JSON-ready dict: text and LaTeX of each, or the ``forms`` given."""
     import sympy as sp
 
     from ..reduction import bkmm_reduction, lagrange_dalembert
@@ -103,13 +105,13 @@ def derivation(
             },
         }
     if "lagrange_dalembert" in sections:
-        out["lagrange_dalembert"] = lagrange_dalembert(system).to_dict()
+        out["lagrange_dalembert"] = lagrange_dalembert(system).to_dict(forms)
     if "bkmm" in sections:
-        out["bkmm"] = bkmm_reduction(system).to_dict()
+        out["bkmm"] = bkmm_reduction(system).to_dict(forms)
     if "almost_poisson" in sections:
-        out["almost_poisson"] = almost_poisson(system).to_dict()
+        out["almost_poisson"] = almost_poisson(system).to_dict(forms)
     if "poisson_reduction" in sections:
-        out["poisson_reduction"] = poisson_reduction(system).to_dict()
+        out["poisson_reduction"] = poisson_reduction(system).to_dict(forms)
     return out
 
 
@@ -155,7 +157,8 @@ def derive_cmd(model, model_file, params, sections, as_json, as_latex) -> None:
         )
     system = nonholonomic_system(spec, values)
     with activity(f"deriving {system.name}"):
-        data = derivation(system, tuple(sections) or _SECTIONS)
+        forms = ("text", "latex") if as_json else ("latex",) if as_latex else ("text",)
+        data = derivation(system, tuple(sections) or _SECTIONS, forms)
     if as_json:
         rest = {k: v for k, v in data.items() if k != "system"}
         head = {"system": system.name, "sections": list(rest)}

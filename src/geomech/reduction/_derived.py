@@ -6,11 +6,13 @@ from __future__ import annotations
 import copy
 import json
 from collections.abc import Mapping
+from functools import partial
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
+from ..errors import InputError
 from ..symbolic.cache import shared_value
 
 __all__ = ["Derived", "Labelled"]
@@ -107,19 +109,22 @@ class Derived:
                 lines.append(f"{name} = {_short_text(value)}")
         return "\n".join(lines)
 
-    def to_dict(self) -> dict:
-        """A JSON-ready dict: every value as text (sympy ``str``) and as LaTeX (cached with the derivation: printing
-        long expressions costs as much as deriving them)."""
+    def to_dict(self, forms: tuple[str, ...] = ("text", "latex")) -> dict:
+        """A JSON-ready dict: every value as text (sympy ``str``, key ``"text"``) and as LaTeX (``"latex"``), or in
+        the ``forms`` asked for only; each form is cached with the derivation (printing long expressions costs as
+        much as deriving them, so a caller that shows one form does not pay for the other)."""
+        unknown = sorted(set(forms) - {"text", "latex"})
+        if unknown:
+            raise InputError(f"`forms` takes 'text' and 'latex', got {unknown}.")
+        printers = {"text": _as_text, "latex": self._latex}
+        out: dict[str, Any] = {"title": self.title}
+        for form in ("text", "latex"):
+            if form in forms:
+                out[form] = shared_value(self, f"to_dict_{form}", partial(self._printed, printers[form]))
+        return copy.deepcopy(out)
 
-        def render() -> dict:
-            items = self.items()
-            return {
-                "title": self.title,
-                "text": {name: _as_text(v) for name, _, v in items},
-                "latex": {name: self._latex(v) for name, _, v in items},
-            }
-
-        return copy.deepcopy(shared_value(self, "to_dict", render))
+    def _printed(self, render: Any) -> dict:
+        return {name: render(value) for name, _, value in self.items()}
 
     def to_json(self, **kwargs: Any) -> str:
         """:meth:`to_dict` as a JSON string."""

@@ -571,9 +571,17 @@ class NonholonomicSystem:
         on :math:`g`; the constraint rows in body velocities at :math:`g` must annihilate the distribution at
         the identity. Both are tested exactly at random points (the formulas are exact, so a mismatch beyond
         round-off is a real dependence); the report names the terms of :math:`L` that depend on :math:`g`
-        (after trigonometric simplification) and the constraints that break invariance.
+        (after trigonometric simplification) and the constraints that break invariance. The report is kept (the
+        system is immutable): building the system checks, ``derive`` shows the same report.
         """
-        return invariance_report(self, samples=samples, seed=seed)
+        key = (int(samples), int(seed))
+        if key not in self._invariance_reports:
+            self._invariance_reports[key] = invariance_report(self, samples=samples, seed=seed)
+        return self._invariance_reports[key]
+
+    @cached_property
+    def _invariance_reports(self) -> dict[tuple[int, int], InvarianceReport]:
+        return {}
 
     def __repr__(self) -> str:
         return (
