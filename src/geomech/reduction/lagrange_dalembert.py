@@ -24,6 +24,7 @@ from ..symbolic import (
     column,
     compile_matrix,
     inverse,
+    quadratic_form,
     shared_property,
     shared_value,
     simplify_expr,
@@ -240,7 +241,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         out = []
         for a in range(s.c):
             # a quadratic form in v, then in w = (rdot, p); every coefficient depends on q only
-            S = _simp_matrix(sp.hessian(e[a], v) / 2)
+            S = _simp_matrix(quadratic_form(e[a], v))
             Cw = Tb.T * S * Tb
             terms = [simplify_expr(e[a].xreplace(zero_v))]
             for i in range(len(w)):

@@ -60,6 +60,7 @@ from ..symbolic import (
     clear_denominators,
     column,
     inverse,
+    quadratic_coefficients,
     shared_property,
     simplify_expr,
     simplify_matrix,
@@ -80,6 +81,25 @@ __all__ = [
 
 _simp_matrix = simplify_matrix
 _dt = time_derivative
+
+
+def _quadratic_blocks(e: Any, x: list, y: list) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+    r"""``(Q, R, S)`` with :math:`e = x^T Q x + x^T R y + y^T S y` (``Q``, ``S`` symmetric) for ``e`` a quadratic
+    form in ``(x, y)`` (half the Hessians and the mixed second derivatives, from one walk of ``e``)."""
+    c = quadratic_coefficients(e, list(x) + list(y))
+    nx, ny = len(x), len(y)
+
+    def sym(offset: int, n: int) -> sp.Matrix:
+        return sp.Matrix(
+            n,
+            n,
+            lambda i, j: c.get((offset + min(i, j), offset + max(i, j)), sp.Integer(0)) / (1 if i == j else 2),
+        )
+
+    mixed = sp.Matrix(nx, ny, lambda i, j: c.get((i, nx + j), sp.Integer(0)))
+    return sym(0, nx), mixed, sym(nx, ny)
+
+
 _clear_denominators = clear_denominators
 _NumericMixin = NumericCache
 
@@ -312,9 +332,10 @@ class NonholonomicReduction(Derived, _NumericMixin):
         for i in range(self.m):
             adj = sum(mu[a] * C[a][b][d] * E[b, i] * W[d] for a in range(k) for b in range(k) for d in range(k))
             e = sp.expand(-adj + sum(mu[a] * (sp.Matrix(self.F[a])[i, :] * rd)[0, 0] for a in range(k)))
-            Hs.append(_simp_matrix(sp.hessian(e, list(rd)) / 2) if s.sigma else sp.ImmutableMatrix(sp.zeros(0, 0)))
-            Ks.append(_simp_matrix(sp.Matrix(s.sigma, self.m, lambda al, j, e=e: sp.diff(e, rd[al], p[j]))))
-            Ds.append(_simp_matrix(sp.hessian(e, list(p)) / 2))
+            H, K, D = _quadratic_blocks(e, list(rd), list(p))
+            Hs.append(_simp_matrix(H) if s.sigma else sp.ImmutableMatrix(sp.zeros(0, 0)))
+            Ks.append(_simp_matrix(K))
+            Ds.append(_simp_matrix(D))
         return tuple(Hs), tuple(Ks), tuple(Ds)
 
     @shared_property
@@ -376,9 +397,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
             # them costs minutes (multivariate gcds) for general parameters and reads no better.
             Q = R = S = None
             for e in (-chris, vert, curv, -fterm):
-                q_ = _simp_matrix(sp.hessian(e, list(rd)) / 2)
-                r_ = _simp_matrix(sp.Matrix(s.sigma, self.m, lambda b, j, e=e: sp.diff(e, rd[b], p[j])))
-                s_ = _simp_matrix(sp.hessian(e, list(p)) / 2) if self.m else sp.ImmutableMatrix(sp.zeros(0, 0))
+                q_, r_, s_ = (_simp_matrix(b) for b in _quadratic_blocks(e, list(rd), list(p)))
                 Q, R, S = (q_, r_, s_) if Q is None else (Q + q_, R + r_, S + s_)
             Qs.append(sp.ImmutableMatrix(Q))
             Rs.append(sp.ImmutableMatrix(R))

@@ -15,7 +15,17 @@ from .compile import (
     suffixed_symbols,
 )
 from .formula import FUNCTIONS, parse_formula, to_expression
-from .simplify import clear_denominators, inverse, simplify_expr, simplify_matrix, tidy_trig, time_derivative, vanishes
+from .simplify import (
+    clear_denominators,
+    inverse,
+    quadratic_coefficients,
+    quadratic_form,
+    simplify_expr,
+    simplify_matrix,
+    tidy_trig,
+    time_derivative,
+    vanishes,
+)
 
 __all__ = [
     "GroupChart",
@@ -38,6 +48,8 @@ __all__ = [
     "to_expression",
     "clear_denominators",
     "inverse",
+    "quadratic_coefficients",
+    "quadratic_form",
     "simplify_expr",
     "simplify_matrix",
     "tidy_trig",

@@ -13,12 +13,16 @@ import numpy as np
 import sympy as sp
 from sympy.simplify.fu import TR2
 
+from ..errors import SymbolicError
+
 __all__ = [
     "simplify_expr",
     "simplify_matrix",
     "tidy_trig",
     "inverse",
     "time_derivative",
+    "quadratic_coefficients",
+    "quadratic_form",
     "clear_denominators",
     "vanishes",
 ]
@@ -363,6 +367,64 @@ def time_derivative(expr: Any, coords: Sequence[sp.Symbol], rates: Sequence[sp.S
     """Time derivative of an expression (or matrix) that depends on time through ``coords`` only."""
     zero = sp.zeros(*expr.shape) if isinstance(expr, sp.MatrixBase) else sp.Integer(0)
     return sum((sp.diff(expr, c) * v for c, v in zip(coords, rates)), zero)
+
+
+def quadratic_coefficients(expr: Any, variables: Sequence[sp.Symbol]) -> dict[tuple[int, ...], sp.Expr]:
+    """The coefficients of ``expr`` as a polynomial of degree at most 2 in ``variables``: a dict from the sorted
+    indices of a monomial (``()``, ``(i,)``, ``(i, j)`` with ``i <= j``) to its coefficient, which is free of the
+    variables.
+
+    Only the products that hold a variable are multiplied out (the coefficients keep their form: a Hessian by
+    ``diff`` walks the whole expression once per entry, this walks it once). Raises :class:`SymbolicError` where
+    ``expr`` is not such a polynomial (a variable inside a function or a denominator, or a degree above 2).
+    """
+    index = {v: i for i, v in enumerate(variables)}
+    names = set(index)
+
+    def poly(e: sp.Expr) -> dict[tuple[int, ...], list]:
+        if not (e.free_symbols & names):
+            return {(): [e]}
+        if e in index:
+            return {(index[e],): [sp.Integer(1)]}
+        if e.is_Add:
+            out: dict[tuple[int, ...], list] = {}
+            for a in e.args:
+                for mon, cs in poly(a).items():
+                    out.setdefault(mon, []).extend(cs)
+            return out
+        if e.is_Mul:
+            free, dep = e.as_independent(*variables, as_Add=False)
+            out = {(): [free]}
+            for f in sp.Mul.make_args(dep):
+                out = product(out, poly(f))
+            return out
+        if e.is_Pow and e.exp.is_Integer and 0 < e.exp <= 2:
+            base = poly(e.base)
+            return product(base, base) if e.exp == 2 else base
+        raise SymbolicError(f"Expected a polynomial of degree <= 2 in {list(variables)}, got the factor {e}.")
+
+    def product(a: dict, b: dict) -> dict[tuple[int, ...], list]:
+        out: dict[tuple[int, ...], list] = {}
+        for ma, ca in a.items():
+            for mb, cb in b.items():
+                mon = tuple(sorted(ma + mb))
+                if len(mon) > 2:
+                    raise SymbolicError(f"Expected a polynomial of degree <= 2 in {list(variables)}, got {expr}.")
+                fa, fb = sp.Add(*ca), sp.Add(*cb)
+                out.setdefault(mon, []).append(fa * fb)
+        return out
+
+    return {mon: sp.Add(*cs) for mon, cs in poly(sp.sympify(expr)).items()}
+
+
+def quadratic_form(expr: Any, variables: Sequence[sp.Symbol]) -> sp.Matrix:
+    """The symmetric matrix :math:`Q` of the quadratic part :math:`x^T Q x` of ``expr`` in ``variables`` (half
+    its Hessian), from :func:`quadratic_coefficients`."""
+    coeffs = quadratic_coefficients(expr, variables)
+    n = len(variables)
+    return sp.Matrix(
+        n, n, lambda i, j: coeffs.get((min(i, j), max(i, j)), sp.Integer(0)) * (1 if i == j else sp.Rational(1, 2))
+    )
 
 
 def clear_denominators(v: sp.MatrixBase) -> sp.Matrix:
