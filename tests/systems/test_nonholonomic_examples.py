@@ -161,6 +161,21 @@ def test_bkmm_snakeboard_is_the_general_one_with_normalised_inertia():
     assert g.constraint_matrix == b.constraint_matrix
 
 
+def test_snakeboard_constraints_are_no_slip_across_each_axle():
+    """The written-out constraints against the geometry: each wheel pair's axle centre, at distance r behind and
+    ahead of the board's centre, moves along its wheels (headings theta + phi and theta - phi)."""
+    s = snakeboard()
+    x, y, th, _, phi = s.q
+    xd, yd, thd, _, _ = s.qdot
+    r = next(p for p in s.parameter_symbols if p.name == "r")
+    rows = list(s.constraint_matrix * sp.Matrix(s.qdot))
+    for sign, heading, row in ((-1, th + phi, rows[0]), (1, th - phi, rows[1])):
+        X, Y = x + sign * r * sp.cos(th), y + sign * r * sp.sin(th)
+        Xd, Yd = (sum(sp.diff(P, c) * v for c, v in ((x, xd), (y, yd), (th, thd))) for P in (X, Y))
+        across = -sp.sin(heading) * Xd + sp.cos(heading) * Yd
+        assert sp.simplify(sp.expand_trig(row - across)) == 0
+
+
 def test_plus_phi_turns_the_board_clockwise_when_rolling_forward():
     """Documented convention: moving towards the front wheels with phi > 0, theta decreases."""
     s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)

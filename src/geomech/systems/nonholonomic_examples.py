@@ -109,8 +109,10 @@ def _snakeboard(bkmm: bool) -> NonholonomicSystem:
     xd, yd, thd, psid, phid = _v("x", "y", "theta", "psi", "phi")
     Jt = m * r**2 if bkmm else J + J0 + 2 * J1
     L = m / 2 * (xd**2 + yd**2) + Jt / 2 * thd**2 + J0 * thd * psid + J0 / 2 * psid**2 + J1 * phid**2
-    back = _no_slip(xd + r * sp.sin(th) * thd, yd - r * sp.cos(th) * thd, th + phi)
-    front = _no_slip(xd - r * sp.sin(th) * thd, yd + r * sp.cos(th) * thd, th - phi)
+    # no slip across the back and front axles (at (x, y) -/+ r (cos theta, sin theta)), written out: the velocity of
+    # each axle's centre across its wheels, simplified (the test of this example derives it from _no_slip)
+    back = -sp.sin(th + phi) * xd + sp.cos(th + phi) * yd - r * sp.cos(phi) * thd
+    front = -sp.sin(th - phi) * xd + sp.cos(th - phi) * yd + r * sp.cos(phi) * thd
     basis = sp.Matrix([-2 * r * sp.cos(phi) ** 2, 0, sp.sin(2 * phi)])
     desc = "snakeboard (BKMM 1996): a board with a rotor and two wheel pairs steered opposite; " + (
         "inertia normalised as in BKMM, J + J0 + 2 J1 = m r^2" if bkmm else "general inertias m, r, J, J0, J1"
@@ -119,7 +121,7 @@ def _snakeboard(bkmm: bool) -> NonholonomicSystem:
         L,
         SE2(x, y, th),
         (psi, phi),
-        [_tidy(back, (xd, yd, thd)), _tidy(front, (xd, yd, thd))],
+        [back, front],
         name="snakeboard_bkmm" if bkmm else "snakeboard",
         description=desc,
         basis=basis,
