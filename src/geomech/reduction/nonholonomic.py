@@ -570,9 +570,8 @@ def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
         normalization = s.basis_note or "given by the model"
     l = s.body_lagrangian
     xi, rd = list(s.xi), list(s.shape_dot)
-    Il = sp.hessian(l, xi) if xi else sp.zeros(0, 0)
-    Gam = sp.Matrix(len(xi), len(rd), lambda a, b: sp.diff(l, xi[a], rd[b]))
-    mrr = sp.hessian(l, rd) if rd else sp.zeros(0, 0)
+    half_Il, Gam, half_mrr = _quadratic_blocks(l, xi, rd)
+    Il, mrr = 2 * half_Il, 2 * half_mrr
     V = -l.subs({v: 0 for v in xi + rd})
     if any(e.free_symbols & set(s.group.coordinates) for e in list(Il) + list(Gam) + list(mrr)):
         raise SymbolicError(f"{s.name}: the body Lagrangian still depends on the group variables; check G-invariance.")
