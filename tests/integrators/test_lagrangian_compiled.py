@@ -4,6 +4,8 @@ DOP853: two implementations of the linear algebra (loops over named values, or a
 function; numpy on arrays) and two drivers. The compiled paths are also the default of the other nonholonomic tests,
 where they meet exact solutions and each other."""
 
+import weakref
+
 import numpy as np
 import pytest
 
@@ -194,3 +196,29 @@ def test_the_compiled_discrete_map_reports_a_failed_step(max_newton):
     assert np.isnan(b.q[-1]).all() and np.isfinite(b.q[max_newton - 1]).all()
     with pytest.raises(InputError, match="backend='numba'"):
         solve(s, DiscreteLagrangeDAlembert("group"), t_final=0.1, h=0.05, shapes=GAIT, backend="numba")
+
+
+def test_a_later_process_loads_the_generated_equations_from_disk(monkeypatch, tmp_path):
+    """The generated source of the compiled equations and BKMM's basis and blocks are kept on disk with the
+    derivations: with the process's memory emptied, the same run generates nothing and derives no basis, and its
+    states are the same numbers."""
+    from geomech.integrators.nonholonomic import _compiled
+    from geomech.reduction import nonholonomic as nh
+    from geomech.symbolic import cache as ns
+
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", str(tmp_path))
+    build, kw = CASES["roller_racer"]
+    for fresh in (False, True):
+        monkeypatch.setattr(ns, "_SHARED", {})
+        monkeypatch.setattr(_compiled, "_SOURCES", weakref.WeakKeyDictionary())
+        monkeypatch.setattr(_compiled, "_MADE", weakref.WeakKeyDictionary())
+        nh._bkmm_fields.cache_clear()
+        if fresh:
+            monkeypatch.setattr(_compiled, "_generate", lambda *a, **k: pytest.fail("the source was generated again"))
+            monkeypatch.setattr(nh, "_derive_bkmm_fields", lambda *a: pytest.fail("the basis was derived again"))
+        sol = solve(build(), BKMM(), t_final=1.0, saveat=5, rtol=1e-10, atol=1e-12, **kw)
+        assert sol.stats["backend"] == "numba"
+        if not fresh:
+            first = sol.q.copy()
+    np.testing.assert_array_equal(sol.q, first)
+    assert any(tmp_path.rglob("*.pkl"))

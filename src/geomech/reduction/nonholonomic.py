@@ -56,6 +56,7 @@ import sympy as sp
 
 from ..errors import InputError, SymbolicError
 from ..symbolic import (
+    DISK_CACHE,
     NumericCache,
     clear_denominators,
     column,
@@ -68,6 +69,7 @@ from ..symbolic import (
     time_derivative,
     to_expression,
 )
+from ..symbolic.cache import MISSING
 from ..systems.nonholonomic import NonholonomicSystem
 from ._derived import Derived
 from .reduced_numeric import ReducedNumeric
@@ -564,10 +566,21 @@ def _basis(system: NonholonomicSystem, basis: Any) -> tuple[sp.ImmutableMatrix, 
 
 @lru_cache(maxsize=64)
 def _bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
+    """The basis, its note and the blocks of the body Lagrangian of the reduction: from the disk cache where an
+    earlier process derived them (the basis's checks take symbolic ranks), else derived."""
+    stored = ("bkmm fields", basis_key)
+    fields = DISK_CACHE.load(system.key, stored)
+    if fields is MISSING:
+        fields = _derive_bkmm_fields(system, basis_key)
+        DISK_CACHE.save(system.key, stored, fields)
+    if basis_key is not None and basis_key[0] == "model":
+        fields = (fields[0], system.basis_note or "given by the model", *fields[2:])
+    return fields
+
+
+def _derive_bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
     s = system
     E, normalization = _basis(s, None if basis_key is None else sp.Matrix(basis_key[1]))
-    if basis_key is not None and basis_key[0] == "model":
-        normalization = s.basis_note or "given by the model"
     l = s.body_lagrangian
     xi, rd = list(s.xi), list(s.shape_dot)
     half_Il, Gam, half_mrr = _quadratic_blocks(l, xi, rd)

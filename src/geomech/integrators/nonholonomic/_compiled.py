@@ -25,9 +25,12 @@ coordinates and the constraints together; inverting it symbolically would cost m
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,6 +39,7 @@ import sympy as sp
 from ...errors import SymbolicError
 from ...reduction.lagrange_dalembert import lagrange_dalembert
 from ...reduction.reduced_numeric import reduction_data
+from ...symbolic.cache import DISK_CACHE, MISSING
 from ...symbolic.compile import StraightLine, number_form
 from ...symbolic.taylor import taylor_tape
 from ...systems.gait import T_SYMBOL
@@ -233,10 +237,18 @@ def _source(setup: Any, kind: tuple, numbers: tuple[float, ...], generate: Any) 
     }
     gait_forms = tuple(e.xreplace(slots) for e in gait_forms)
     torque_forms = tuple(e.xreplace(slots) for e in torque_forms)
-    key = (kind, gait_forms, torque_forms, tuple(setup.free_shapes), tuple(setup.prescribed))
+    n_prm = first + len(table) + len(slots)
+    key = (kind, gait_forms, torque_forms, tuple(setup.free_shapes), tuple(setup.prescribed), n_prm, tuple(extra))
     known = _SOURCES.setdefault(system, {})
     if key not in known:
-        known[key] = generate(gait_forms, torque_forms, first + len(table) + len(slots), tuple(extra))
+        # on disk too: a later process that runs the same equations loads the text numba's cache knows (generating
+        # it walks the derived equations and their Taylor pass: a third of a second for the snakeboard)
+        stored = ("generated source", _generator_fingerprint(), key)
+        text = DISK_CACHE.load(system.key, stored)
+        if text is MISSING:
+            text = generate(gait_forms, torque_forms, n_prm, tuple(extra))
+            DISK_CACHE.save(system.key, stored, text)
+        known[key] = text
     return LagrangianSource(
         known[key],
         tuple(own),
@@ -246,6 +258,29 @@ def _source(setup: Any, kind: tuple, numbers: tuple[float, ...], generate: Any) 
         system.n,
         *_NAMES[kind[0]],
     )
+
+
+@lru_cache(maxsize=1)
+def _generator_fingerprint() -> str:
+    """A digest of the modules that print the generated source (with the derivations the disk cache's own key
+    covers): an edited printer never reads a source the code before it made."""
+    root = Path(__file__).resolve().parent.parent.parent
+    h = hashlib.sha256()
+    for rel in _GENERATORS:
+        h.update((root / rel).read_bytes())
+    return h.hexdigest()
+
+
+#: The modules whose code decides a generated source, beside the derivations (``symbolic.cache._SOURCES``).
+_GENERATORS = (
+    "integrators/nonholonomic/_compiled.py",
+    "integrators/nonholonomic/_compiled_discrete.py",
+    "integrators/_codegen.py",
+    "reduction/reduced_numeric.py",
+    "symbolic/compile.py",
+    "symbolic/taylor.py",
+    "systems/gait.py",
+)
 
 
 _NAMES = {
