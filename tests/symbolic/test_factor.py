@@ -39,3 +39,38 @@ def test_flint_factors_are_sympys(p):
     for f, k in factors:
         product *= f**k
     assert product == p
+
+
+def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded():
+    """A numerator that is a multiple of sin(a + b) only on the circles S^2 + C^2 = 1 is divided by it (the
+    spurious factor of a right inverse); a long factor in two angles, whose norm exceeds _CIRCLE_MAX_NORM terms, is
+    not tried (that division cost minutes)."""
+    from geomech.symbolic import simplify as S
+
+    R, Ca, Cb, Sa, Sb, m, r, J = sp.ring("Ca Cb Sa Sb m r J", sp.QQ)
+    rel = [Ca**2 + Sa**2 - 1, Cb**2 + Sb**2 - 1]
+    f = Sa * Cb + Ca * Sb  # sin(a + b)
+    # (sin a cos b + cos a sin b) (cos a - m), with cos^2 a written 1 - sin^2 a: no polynomial factor f shows
+    num = (f * (Ca - m)).rem(rel)
+    assert num.div(f)[1] != 0
+    q = S._divide_on_circles(num, f, R, 2, rel)
+    assert q is not None and (q * f - num).rem(rel) == 0
+    # 20 terms in both angles (within _CIRCLE_MAX_TERMS): a norm of thousands of terms, so not tried
+    rng = random.Random(3)
+    monomials = [Sa, Ca, Sa * Cb, Ca * Sb, Ca * Cb, Sb, Cb]
+    long = sum(
+        rng.randint(1, 9)
+        * rng.choice(monomials)
+        * m ** rng.randint(0, 3)
+        * r ** rng.randint(0, 3)
+        * J ** rng.randint(0, 2)
+        for _ in range(20)
+    )
+    assert len(long.terms()) <= S._CIRCLE_MAX_TERMS
+    assert S._divide_on_circles((long * (Ca - m)).rem(rel), long, R, 2, rel) is None
+
+    a, b, mm = sp.symbols("a b m")
+    top = sp.expand(sp.expand_trig(sp.sin(a + b)) * (sp.cos(a) - mm)).subs(sp.cos(a) ** 2, 1 - sp.sin(a) ** 2)
+    e = top / sp.expand_trig(sp.sin(a + b))
+    assert sp.cancel(e) != sp.cos(a) - mm  # no polynomial cancellation shows it
+    assert S.simplify_expr(e) == sp.cos(a) - mm

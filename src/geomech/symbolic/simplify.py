@@ -32,6 +32,8 @@ __all__ = [
 _FACTOR_MAX_TERMS = 48
 #: Factors of a denominator longer than this are not tested for division on the circles S^2 + C^2 = 1.
 _CIRCLE_MAX_TERMS = 24
+#: Nor are those whose norm (the product of their conjugates in the cosines, reduced) has more terms than this.
+_CIRCLE_MAX_NORM = 400
 
 
 def _normal_form(expr: sp.Expr, pairs: Sequence[tuple[sp.Symbol, sp.Symbol]], keep_sin: bool) -> sp.Expr:
@@ -289,6 +291,11 @@ def _divide_on_circles(num: Any, f: Any, R: Any, npairs: int, rel: list) -> Any:
         if norm.degree(C) > 0:
             c = norm.compose(C, -C)
             norm, conj = (norm * c).rem(rel), conj * c
+            if len(norm.terms()) > _CIRCLE_MAX_NORM:
+                # a factor in several angles whose norm is long: the division by it costs minutes (a 22-term
+                # factor in two angles of a three-link chain has a norm of 3113 terms) and such a factor is not
+                # the short spurious one this looks for
+                return None
     q, r = (num * conj).rem(rel).div(norm)
     return None if r else q
 
