@@ -32,3 +32,24 @@ def test_a_chart_outside_the_group_is_refused():
     )
     with pytest.raises(SymbolicError, match="not in the Lie algebra"):
         _ = group_chart(bad).body_velocity_matrix
+
+
+def test_a_charts_body_velocity_matrices_are_read_back_from_disk(monkeypatch, tmp_path):
+    """Lambda(q) and its inverse are derived once for a chart's content and kept on disk: a new chart of the same
+    group in the same coordinates (another process) reads them; other coordinates derive their own. Lambda^{-1}
+    Lambda = I exactly."""
+    from geomech.lie import SE2
+
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", str(tmp_path))
+    first = group_chart(SE2("x", "y", "theta"))
+    L, Li = first.body_velocity_matrix, first.body_velocity_inverse
+    assert sp.simplify(Li * L - sp.eye(3)) == sp.zeros(3, 3)
+
+    def derived_again(*args, **kwargs):
+        raise RuntimeError("derived again")
+
+    monkeypatch.setattr(sp.MatrixBase, "inv", derived_again)
+    again = group_chart(SE2("x", "y", "theta"))
+    assert again is not first and again.body_velocity_inverse == Li and again.body_velocity_matrix == L
+    with pytest.raises(RuntimeError, match="derived again"):
+        _ = group_chart(SE2("u", "v", "phi")).body_velocity_inverse

@@ -131,10 +131,12 @@ def test_invariance_report_names_the_breaking_term():
     assert report.lagrangian_invariant and not report.constraints_invariant and report.breaking_constraints == (0,)
 
 
-def test_the_invariance_report_is_made_once_per_system_and_sampling(monkeypatch):
-    """Building a system checks invariance and ``derive`` shows the report: the second asks for the kept one."""
+def test_the_invariance_report_is_made_once_per_system_and_sampling(monkeypatch, tmp_path):
+    """Building a system checks invariance and ``derive`` shows the report: the second asks for the kept one, and a
+    later process (here: the same system built again, the disk cache in tmp_path) reads it from disk."""
     from geomech.systems import nonholonomic as nh
 
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", str(tmp_path))
     calls = []
     real = nh.invariance_report
     monkeypatch.setattr(nh, "invariance_report", lambda *a, **k: calls.append(k) or real(*a, **k))
@@ -143,6 +145,12 @@ def test_the_invariance_report_is_made_once_per_system_and_sampling(monkeypatch)
     assert s.check_invariance() is first and len(calls) == 1
     other = s.check_invariance(samples=5)
     assert other.ok and len(calls) == 2 and calls[-1]["samples"] == 5
+    again = _snake(check=False).check_invariance()
+    assert again == first and len(calls) == 2
+    broken = _snake(
+        check=False, constraints=["-sin(phi)*x_dot + cos(theta+phi)*y_dot - r*cos(phi)*theta_dot", SNAKE_C[1]]
+    )
+    assert not broken.check_invariance().ok and len(calls) == 3
 
 
 def test_rescaled_constraints_define_the_same_invariant_distribution():

@@ -34,7 +34,9 @@ _SOURCES = (
     "reduction/almost_poisson.py",
     "symbolic/simplify.py",
     "symbolic/cache.py",
+    "symbolic/charts.py",
     "systems/nonholonomic.py",
+    "systems/_invariance.py",
 )
 
 

@@ -20,6 +20,7 @@ import sympy as sp
 from ..errors import ConvergenceError, InputError, SymbolicError
 from ..lie.group import LieGroup
 from ..lie.groups import named_group
+from .cache import DISK_CACHE, MISSING
 from .compile import compile_vector
 from .simplify import simplify_expr, vanishes
 
@@ -145,14 +146,32 @@ class GroupChart:
     def body_velocity_matrix(self) -> sp.ImmutableMatrix:
         """:math:`\\Lambda(q)` with :math:`\\xi = \\Lambda(q)\\,\\dot q`, column :math:`j` being
         :math:`(g^{-1}\\partial g/\\partial q_j)^\\vee`."""
-        cols = [self.vee((self.inverse * self.matrix.diff(q)).applyfunc(simplify_expr)) for q in self.coordinates]
-        return sp.ImmutableMatrix(sp.Matrix.hstack(*cols).applyfunc(simplify_expr))
+
+        def derive() -> sp.ImmutableMatrix:
+            cols = [self.vee((self.inverse * self.matrix.diff(q)).applyfunc(simplify_expr)) for q in self.coordinates]
+            return sp.ImmutableMatrix(sp.Matrix.hstack(*cols).applyfunc(simplify_expr))
+
+        return self._kept("body_velocity_matrix", derive)
 
     @cached_property
     def body_velocity_inverse(self) -> sp.ImmutableMatrix:
         """:math:`\\Lambda(q)^{-1}`: coordinate rates from the body velocity."""
-        inv = sp.Matrix(self.body_velocity_matrix).inv(method="LU")
-        return sp.ImmutableMatrix(inv.applyfunc(simplify_expr))
+
+        def derive() -> sp.ImmutableMatrix:
+            inv = sp.Matrix(self.body_velocity_matrix).inv(method="LU")
+            return sp.ImmutableMatrix(inv.applyfunc(simplify_expr))
+
+        return self._kept("body_velocity_inverse", derive)
+
+    def _kept(self, name: str, derive: Any) -> Any:
+        """``derive()``, kept in the derivation cache on disk under the chart's exact content (the group's matrix,
+        its inverse and basis in these coordinates): every process that builds a system on this chart reads it."""
+        key = ("group chart", self.name, self.coordinates, self.matrix, self.inverse, self.basis)
+        value = DISK_CACHE.load(key, name)
+        if value is MISSING:
+            value = derive()
+            DISK_CACHE.save(key, name, value)
+        return value
 
     def Ad_matrix(self, g: sp.MatrixBase | None = None, *, inverse: bool = False) -> sp.Matrix:
         """:math:`\\mathrm{Ad}_g` as a ``dim x dim`` matrix (default :math:`g = g(q)`),

@@ -34,6 +34,7 @@ import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, ShapeError, SymbolicError
+from ..symbolic.cache import DISK_CACHE, MISSING
 from ..symbolic.charts import GroupChart, group_chart
 from ..symbolic.formula import parse_formula
 from ..symbolic.simplify import simplify_expr
@@ -572,11 +573,19 @@ class NonholonomicSystem:
         the identity. Both are tested exactly at random points (the formulas are exact, so a mismatch beyond
         round-off is a real dependence); the report names the terms of :math:`L` that depend on :math:`g`
         (after trigonometric simplification) and the constraints that break invariance. The report is kept (the
-        system is immutable): building the system checks, ``derive`` shows the same report.
+        system is immutable; on disk with the derivations): building the system checks, ``derive`` shows the same
+        report.
         """
         key = (int(samples), int(seed))
         if key not in self._invariance_reports:
-            self._invariance_reports[key] = invariance_report(self, samples=samples, seed=seed)
+            # on disk too (the checks compile the Lagrangian and constraints): by the symbolic content, the sampling
+            # and the values the points take
+            stored = ("invariance", *key, tuple(sorted(self.parameters.items())))
+            report = DISK_CACHE.load(self.key, stored)
+            if report is MISSING:
+                report = invariance_report(self, samples=samples, seed=seed)
+                DISK_CACHE.save(self.key, stored, report)
+            self._invariance_reports[key] = report
         return self._invariance_reports[key]
 
     @cached_property
