@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from sympy.printing.numpy import _known_functions_numpy
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import InputError, SymbolicError
@@ -104,8 +103,11 @@ def _lambdify(exprs: Any, variables: Sequence[sp.Symbol]):
     return sp.lambdify(list(variables), exprs, modules=["scipy", "numpy"] if special else ["numpy"], cse=True)
 
 
-#: The functions sympy's numpy printer evaluates with numpy alone (sin, exp, log, atan2, Abs, Min, Piecewise, ...).
-_NUMPY_FUNCTIONS = frozenset(_known_functions_numpy) | {"Abs", "Min", "Max", "Piecewise", "re", "im", "arg"}
+#: The functions (sympy's class names) that sympy's numpy printer writes with numpy alone.
+_NUMPY_FUNCTIONS = frozenset(
+    "sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh exp log sign floor ceiling Abs Min Max "
+    "Piecewise re im arg".split()
+)
 
 
 def compile_scalar(expr: sp.Expr, variables: Sequence[sp.Symbol]):
