@@ -5,8 +5,7 @@ import pytest
 import sympy as sp
 
 from geomech.errors import SymbolicError
-from geomech.reduction.nonholonomic import _quadratic_blocks
-from geomech.symbolic import quadratic_coefficients, quadratic_form, simplify_expr
+from geomech.symbolic import quadratic_blocks, quadratic_coefficients, quadratic_form, simplify_expr
 
 r, s, a, b = sp.symbols("r s a b")
 u, v, w = sp.symbols("u v w")
@@ -42,7 +41,7 @@ def test_linear_terms_are_kept_apart():
 
 def test_the_blocks_match_the_mixed_derivatives():
     e = _forms()[1]
-    Q, R, S = _quadratic_blocks(e, [u], [v, w])
+    Q, R, S = quadratic_blocks(e, [u], [v, w])
     assert simplify_expr(Q[0, 0] - sp.diff(e, u, 2) / 2) == 0
     assert all(simplify_expr(R[0, j] - sp.diff(e, u, y)) == 0 for j, y in enumerate([v, w]))
     assert all(simplify_expr(x) == 0 for x in S - sp.hessian(e, [v, w]) / 2)

@@ -61,7 +61,7 @@ from ..symbolic import (
     clear_denominators,
     column,
     inverse,
-    quadratic_coefficients,
+    quadratic_blocks,
     shared_property,
     simplify_expr,
     simplify_matrix,
@@ -83,25 +83,6 @@ __all__ = [
 
 _simp_matrix = simplify_matrix
 _dt = time_derivative
-
-
-def _quadratic_blocks(e: Any, x: list, y: list) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-    r"""``(Q, R, S)`` with :math:`e = x^T Q x + x^T R y + y^T S y` (``Q``, ``S`` symmetric) for ``e`` a quadratic
-    form in ``(x, y)`` (half the Hessians and the mixed second derivatives, from one walk of ``e``)."""
-    c = quadratic_coefficients(e, list(x) + list(y))
-    nx, ny = len(x), len(y)
-
-    def sym(offset: int, n: int) -> sp.Matrix:
-        return sp.Matrix(
-            n,
-            n,
-            lambda i, j: c.get((offset + min(i, j), offset + max(i, j)), sp.Integer(0)) / (1 if i == j else 2),
-        )
-
-    mixed = sp.Matrix(nx, ny, lambda i, j: c.get((i, nx + j), sp.Integer(0)))
-    return sym(0, nx), mixed, sym(nx, ny)
-
-
 _clear_denominators = clear_denominators
 _NumericMixin = NumericCache
 
@@ -334,7 +315,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         for i in range(self.m):
             adj = sum(mu[a] * C[a][b][d] * E[b, i] * W[d] for a in range(k) for b in range(k) for d in range(k))
             e = sp.expand(-adj + sum(mu[a] * (sp.Matrix(self.F[a])[i, :] * rd)[0, 0] for a in range(k)))
-            H, K, D = _quadratic_blocks(e, list(rd), list(p))
+            H, K, D = quadratic_blocks(e, list(rd), list(p))
             Hs.append(_simp_matrix(H) if s.sigma else sp.ImmutableMatrix(sp.zeros(0, 0)))
             Ks.append(_simp_matrix(K))
             Ds.append(_simp_matrix(D))
@@ -399,7 +380,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
             # them costs minutes (multivariate gcds) for general parameters and reads no better.
             Q = R = S = None
             for e in (-chris, vert, curv, -fterm):
-                q_, r_, s_ = (_simp_matrix(b) for b in _quadratic_blocks(e, list(rd), list(p)))
+                q_, r_, s_ = (_simp_matrix(b) for b in quadratic_blocks(e, list(rd), list(p)))
                 Q, R, S = (q_, r_, s_) if Q is None else (Q + q_, R + r_, S + s_)
             Qs.append(sp.ImmutableMatrix(Q))
             Rs.append(sp.ImmutableMatrix(R))
@@ -583,7 +564,7 @@ def _derive_bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
     E, normalization = _basis(s, None if basis_key is None else sp.Matrix(basis_key[1]))
     l = s.body_lagrangian
     xi, rd = list(s.xi), list(s.shape_dot)
-    half_Il, Gam, half_mrr = _quadratic_blocks(l, xi, rd)
+    half_Il, Gam, half_mrr = quadratic_blocks(l, xi, rd)
     Il, mrr = 2 * half_Il, 2 * half_mrr
     V = -l.subs({v: 0 for v in xi + rd})
     if any(e.free_symbols & set(s.group.coordinates) for e in list(Il) + list(Gam) + list(mrr)):

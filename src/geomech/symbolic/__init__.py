@@ -18,6 +18,7 @@ from .formula import FUNCTIONS, parse_formula, to_expression
 from .simplify import (
     clear_denominators,
     inverse,
+    quadratic_blocks,
     quadratic_coefficients,
     quadratic_form,
     simplify_expr,
@@ -48,6 +49,7 @@ __all__ = [
     "to_expression",
     "clear_denominators",
     "inverse",
+    "quadratic_blocks",
     "quadratic_coefficients",
     "quadratic_form",
     "simplify_expr",

@@ -21,6 +21,7 @@ __all__ = [
     "tidy_trig",
     "inverse",
     "time_derivative",
+    "quadratic_blocks",
     "quadratic_coefficients",
     "quadratic_form",
     "clear_denominators",
@@ -412,26 +413,37 @@ def quadratic_coefficients(expr: Any, variables: Sequence[sp.Symbol]) -> dict[tu
 
     def product(a: dict, b: dict) -> dict[tuple[int, ...], list]:
         out: dict[tuple[int, ...], list] = {}
+        sums = {mb: sp.Add(*cb) for mb, cb in b.items()}
         for ma, ca in a.items():
-            for mb, cb in b.items():
+            fa = sp.Add(*ca)
+            for mb, fb in sums.items():
                 mon = tuple(sorted(ma + mb))
                 if len(mon) > 2:
                     raise SymbolicError(f"Expected a polynomial of degree <= 2 in {list(variables)}, got {expr}.")
-                fa, fb = sp.Add(*ca), sp.Add(*cb)
                 out.setdefault(mon, []).append(fa * fb)
         return out
 
     return {mon: sp.Add(*cs) for mon, cs in poly(sp.sympify(expr)).items()}
 
 
+def quadratic_blocks(expr: Any, x: Sequence[sp.Symbol], y: Sequence[sp.Symbol] = ()) -> tuple[sp.Matrix, ...]:
+    r"""``(Q, R, S)`` with :math:`x^T Q x + x^T R y + y^T S y` the quadratic part of ``expr`` in ``(x, y)`` (``Q``,
+    ``S`` symmetric: half the Hessians; ``R`` the mixed second derivatives), from :func:`quadratic_coefficients`."""
+    c = quadratic_coefficients(expr, list(x) + list(y))
+    nx, ny = len(x), len(y)
+
+    def sym(offset: int, n: int) -> sp.Matrix:
+        return sp.Matrix(
+            n, n, lambda i, j: c.get((offset + min(i, j), offset + max(i, j)), sp.Integer(0)) / (1 if i == j else 2)
+        )
+
+    return sym(0, nx), sp.Matrix(nx, ny, lambda i, j: c.get((i, nx + j), sp.Integer(0))), sym(nx, ny)
+
+
 def quadratic_form(expr: Any, variables: Sequence[sp.Symbol]) -> sp.Matrix:
     """The symmetric matrix :math:`Q` of the quadratic part :math:`x^T Q x` of ``expr`` in ``variables`` (half
-    its Hessian), from :func:`quadratic_coefficients`."""
-    coeffs = quadratic_coefficients(expr, variables)
-    n = len(variables)
-    return sp.Matrix(
-        n, n, lambda i, j: coeffs.get((min(i, j), max(i, j)), sp.Integer(0)) * (1 if i == j else sp.Rational(1, 2))
-    )
+    its Hessian)."""
+    return quadratic_blocks(expr, variables)[0]
 
 
 def clear_denominators(v: sp.MatrixBase) -> sp.Matrix:
