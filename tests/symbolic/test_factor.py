@@ -53,7 +53,7 @@ def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded():
     # (sin a cos b + cos a sin b) (cos a - m), with cos^2 a written 1 - sin^2 a: no polynomial factor f shows
     num = (f * (Ca - m)).rem(rel)
     assert num.div(f)[1] != 0
-    q = S._divide_on_circles(num, f, R, 2, rel)
+    q = S._divide_on_circles(num, f, R, 2)
     assert q is not None and (q * f - num).rem(rel) == 0
     # 20 terms in both angles (within _CIRCLE_MAX_TERMS): a norm of thousands of terms, so not tried
     rng = random.Random(3)
@@ -67,10 +67,37 @@ def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded():
         for _ in range(20)
     )
     assert len(long.terms()) <= S._CIRCLE_MAX_TERMS
-    assert S._divide_on_circles((long * (Ca - m)).rem(rel), long, R, 2, rel) is None
+    assert S._divide_on_circles((long * (Ca - m)).rem(rel), long, R, 2) is None
 
     a, b, mm = sp.symbols("a b m")
     top = sp.expand(sp.expand_trig(sp.sin(a + b)) * (sp.cos(a) - mm)).subs(sp.cos(a) ** 2, 1 - sp.sin(a) ** 2)
     e = top / sp.expand_trig(sp.sin(a + b))
     assert sp.cancel(e) != sp.cos(a) - mm  # no polynomial cancellation shows it
     assert S.simplify_expr(e) == sp.cos(a) - mm
+
+
+def test_circle_remainder_is_the_division_by_the_circle_relations():
+    """The simplifier's term-by-term reduction modulo C^2 + S^2 - 1 against sympy's multivariate division by the
+    relations (a Groebner basis: the remainder is unique), on random polynomials with high cosine powers."""
+    from geomech.symbolic.simplify import circle_rem
+
+    R, Ca, Cb, Sa, Sb, m = sp.ring("Ca Cb Sa Sb m", sp.QQ)
+    rel = [Ca**2 + Sa**2 - 1, Cb**2 + Sb**2 - 1]
+    rng = random.Random(11)
+    for _ in range(60):
+        p = R(0)
+        for _ in range(rng.randint(0, 25)):
+            p += (
+                sp.Rational(rng.randint(-5, 5), rng.randint(1, 3))
+                * Ca ** rng.randint(0, 5)
+                * Cb ** rng.randint(0, 4)
+                * Sa ** rng.randint(0, 3)
+                * Sb ** rng.randint(0, 2)
+                * m ** rng.randint(0, 2)
+            )
+        reduced = circle_rem(p, 2)
+        assert reduced == p.rem(rel)
+        assert all(mon[0] < 2 and mon[1] < 2 for mon in reduced.itermonoms())
+    R1, C, S, x = sp.ring("C S x", sp.QQ)
+    assert circle_rem(C**5 * x, 1) == C * (1 - S**2) ** 2 * x
+    assert circle_rem(C * S**3 + x**4, 1) == C * S**3 + x**4

@@ -314,7 +314,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         Hs, Ks, Ds = [], [], []
         for i in range(self.m):
             adj = sum(mu[a] * C[a][b][d] * E[b, i] * W[d] for a in range(k) for b in range(k) for d in range(k))
-            e = sp.expand(-adj + sum(mu[a] * (sp.Matrix(self.F[a])[i, :] * rd)[0, 0] for a in range(k)))
+            e = -adj + sum(mu[a] * (sp.Matrix(self.F[a])[i, :] * rd)[0, 0] for a in range(k))
             H, K, D = quadratic_blocks(e, list(rd), list(p))
             Hs.append(_simp_matrix(H) if s.sigma else sp.ImmutableMatrix(sp.zeros(0, 0)))
             Ks.append(_simp_matrix(K))

@@ -95,8 +95,7 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     gens = tuple(C for _, C in pairs) + tuple(S for S, _ in pairs) + tuple(others)
     try:
         R = _ring(gens)
-        rel = [R.gens[i] ** 2 + R.gens[len(pairs) + i] ** 2 - 1 for i in range(len(pairs))]
-        n_, den = _Fractions(R, rel).convert(e)
+        n_, den = _Fractions(R, len(pairs)).convert(e)
     except (
         ValueError,
         TypeError,
@@ -108,7 +107,7 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
         return _simplify_expr_slow(e, pairs, back)
     if not n_:
         return sp.Integer(0)
-    n_, den = _cancel_factors(n_, den, R, len(pairs), rel)
+    n_, den = _cancel_factors(n_, den, R, len(pairs))
     num = n_.as_expr()
     # The denominator is kept as the product of its irreducible factors (readable, and no costly gcd).
     den = sp.Mul(
@@ -150,6 +149,34 @@ def factor_list(p: Any) -> tuple[Any, list]:
     return QQ(int(content), den), out
 
 
+def exact_quotient(p: Any, f: Any) -> Any:
+    """``p / f`` for polynomials of one ring over the rationals where ``f`` divides ``p``, else ``None``: by
+    FLINT's exact division where python-flint is installed (sympy's ``div`` finds the leading term of the whole
+    remainder at every step: quadratic in the number of terms)."""
+    flint = _flint()
+    if flint is None:
+        q, r = p.div(f)
+        return None if r else q
+    R = p.ring
+    ctx = _fmpq_context(len(R.gens))
+    a, b = (
+        ctx.from_dict({m: flint.fmpq(int(c.numerator), int(c.denominator)) for m, c in g.iterterms()}) for g in (p, f)
+    )
+    from flint.utils.flint_exceptions import DomainError
+
+    try:
+        q = a / b
+    except DomainError:  # not a multiple
+        return None
+    QQ = R.domain
+    return R.from_dict({m: QQ(int(c.p), int(c.q)) for m, c in q.to_dict().items()})
+
+
+@lru_cache(maxsize=64)
+def _fmpq_context(n: int) -> Any:
+    return _flint().fmpq_mpoly_ctx.get(tuple(f"x{i}" for i in range(n)), "lex")
+
+
 @lru_cache(maxsize=1)
 def _flint() -> Any:
     try:
@@ -173,17 +200,17 @@ class _Fractions:
     Converting a sympy expression bottom up keeps every denominator factored: a sum takes the lcm of the
     factored denominators (no gcd of large polynomials, the cost of ``together`` followed by ``cancel`` on
     nested expressions), a negative power factors only its base (short, usually). Numerators are reduced
-    modulo the circle relations ``rel`` after every product.
+    modulo the circle relations of the first ``npairs`` cosines (:func:`circle_rem`) after every product.
     """
 
-    def __init__(self, R: Any, rel: list):
-        self.R, self.rel = R, rel
+    def __init__(self, R: Any, npairs: int):
+        self.R, self.npairs = R, npairs
         self.gen = {g.as_expr(): g for g in R.gens}
         self.memo: dict = {}
         self.factors: dict = {}
 
     def reduce(self, p: Any) -> Any:
-        return p.rem(self.rel) if self.rel else p
+        return circle_rem(p, self.npairs)
 
     def factor(self, p: Any) -> tuple[Any, list]:
         p = self.reduce(p)
@@ -257,22 +284,22 @@ class _Fractions:
         return out
 
 
-def _cancel_factors(num: Any, den: dict, R: Any, npairs: int, rel: list) -> tuple[Any, dict]:
+def _cancel_factors(num: Any, den: dict, R: Any, npairs: int) -> tuple[Any, dict]:
     """Divide ``num`` by the factors of ``den`` it is a multiple of: as polynomials, or on the circles
     (:func:`_divide_on_circles`)."""
     den = dict(den)
     for f in list(den):
         while den[f]:
-            q, r = num.div(f)
-            if r:
-                q = _divide_on_circles(num, f, R, npairs, rel) if rel else None
+            q = exact_quotient(num, f)
+            if q is None:
+                q = _divide_on_circles(num, f, R, npairs) if npairs else None
                 if q is None:
                     break
             num, den[f] = q, den[f] - 1
     return num, den
 
 
-def _divide_on_circles(num: Any, f: Any, R: Any, npairs: int, rel: list) -> Any:
+def _divide_on_circles(num: Any, f: Any, R: Any, npairs: int) -> Any:
     r"""``num / f`` where it is a multiple of ``f`` on the circles :math:`S_u^2 + C_u^2 = 1` (reduced), else ``None``.
 
     Polynomial division misses such multiples: the ring :math:`\mathbb Q[S, C]/(S^2 + C^2 - 1)` is not
@@ -291,14 +318,44 @@ def _divide_on_circles(num: Any, f: Any, R: Any, npairs: int, rel: list) -> Any:
     for C in cos_gens:
         if norm.degree(C) > 0:
             c = norm.compose(C, -C)
-            norm, conj = (norm * c).rem(rel), conj * c
+            norm, conj = circle_rem(norm * c, npairs), conj * c
             if len(norm.terms()) > _CIRCLE_MAX_NORM:
                 # a factor in several angles whose norm is long: the division by it costs minutes (a 22-term
                 # factor in two angles of a three-link chain has a norm of 3113 terms) and such a factor is not
                 # the short spurious one this looks for
                 return None
-    q, r = (num * conj).rem(rel).div(norm)
-    return None if r else q
+    return exact_quotient(circle_rem(num * conj, npairs), norm)
+
+
+def circle_rem(p: Any, npairs: int) -> Any:
+    r"""The remainder of ``p`` modulo the circles :math:`C_i^2 + S_i^2 - 1`, where the ring's generators are
+    :math:`(C_1, \dots, C_n, S_1, \dots, S_n, \dots)` with ``n = npairs`` in lex order: every :math:`C_i^{2k+e}` becomes
+    :math:`C_i^e(1 - S_i^2)^k`. The relations' leading terms :math:`C_i^2` are coprime, so they are a Groebner basis
+    and this is ``p.rem(relations)``, term by term (sympy's general division looks for the leading term of the
+    whole remainder at every step: quadratic in the number of terms)."""
+    if not npairs or all(max(m[:npairs]) < 2 for m in p.itermonoms()):
+        return p
+    zero = p.ring.domain.zero
+    out: dict = {}
+    for mon, c in p.iterterms():
+        terms = [(mon, c)]
+        for i in range(npairs):
+            k = mon[i] // 2
+            if not k:
+                continue
+            # C^(2k+e) -> C^e sum_j binom(k, j) (-S^2)^j
+            expanded = []
+            for m, cc in terms:
+                m = list(m)
+                m[i] -= 2 * k
+                for j in range(k + 1):
+                    mj = list(m)
+                    mj[npairs + i] += 2 * j
+                    expanded.append((tuple(mj), cc * math.comb(k, j) * (-1) ** j))
+            terms = expanded
+        for m, cc in terms:
+            out[m] = out.get(m, zero) + cc
+    return p.ring.from_dict({m: c for m, c in out.items() if c})
 
 
 def _pythagoras(expr: sp.Expr, S: sp.Symbol, C: sp.Symbol) -> sp.Expr:
