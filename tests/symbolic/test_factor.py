@@ -101,3 +101,19 @@ def test_circle_remainder_is_the_division_by_the_circle_relations():
     R1, C, S, x = sp.ring("C S x", sp.QQ)
     assert circle_rem(C**5 * x, 1) == C * (1 - S**2) ** 2 * x
     assert circle_rem(C * S**3 + x**4, 1) == C * S**3 + x**4
+
+
+def test_expand_terms_keeps_roots_whole():
+    """A sum of terms, as sympy's expand gives it, except inside roots: their arguments are not expanded (their
+    denominators spread over every term of the argument otherwise), and the value is the same."""
+    from geomech.symbolic import expand_terms
+
+    a, b, m, x = sp.symbols("a b m x", positive=True)
+    root = sp.sqrt(b**2 + (a + m * x) ** 2 / (1 + m) ** 2)
+    e = (a + x) * (a - m / root) + (x + 1) ** 2
+    out = expand_terms(e)
+    assert 1 / root in out.atoms(sp.Pow)  # kept whole
+    assert len(sp.Add.make_args(out)) == 7  # a^2 + a x - a m/root - m x/root + x^2 + 2 x + 1, expanded outside
+    assert sp.simplify(out - e) == 0
+    assert sp.count_ops(out) < sp.count_ops(sp.expand(e))
+    assert expand_terms(sp.Matrix([(a + x) ** 2])) == sp.Matrix([a**2 + 2 * a * x + x**2])

@@ -58,6 +58,24 @@ def test_planar_masses_kinetic_energy_from_positions(three_bodies, rng):
         assert abs(np.arctan2(d[1], d[0]) - q[2]) < 1e-12 or abs(abs(np.arctan2(d[1], d[0]) - q[2]) - 2 * np.pi) < 1e-9
 
 
+@pytest.mark.parametrize("masses", [[1.0, 2.0, 1.5], [1.0, 2.0, 1.5, 0.7]])
+def test_planar_masses_potential_is_the_pair_sum_over_positions(masses, rng):
+    """The potential of the Lagrangian (its distances written from the Jacobi vectors, each component one
+    fraction) against -sum m_i m_j / |x_i - x_j| over the inertial positions, a second construction; and compact
+    (the distances' arguments were once expanded over (m1 + m2)^4 denominators)."""
+    s = planar_point_masses(masses)
+    V = -s.lagrangian.xreplace({v: 0 for v in s.qdot})
+    Vf = s.compile(V, s.q)
+    m = np.array(masses)
+    for _ in range(3):
+        q = np.concatenate([rng.normal(size=3), [rng.uniform(0.5, 2)], rng.normal(size=s.sigma - 1)])
+        X = planar_point_positions(s, q)
+        pairs = [(i, j) for i in range(m.size) for j in range(i + 1, m.size)]
+        expected = -sum(m[i] * m[j] / np.linalg.norm(X[i] - X[j]) for i, j in pairs)
+        np.testing.assert_allclose(Vf(q), expected, rtol=1e-12)
+    assert sp.count_ops(V) < 60 * len(masses)
+
+
 def test_planar_masses_locked_inertia_closed_form(three_bodies, rng):
     s = three_bodies
     m1, m2, m3 = 1.0, 2.0, 1.5

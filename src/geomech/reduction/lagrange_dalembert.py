@@ -23,6 +23,7 @@ from ..symbolic import (
     clear_denominators,
     column,
     compile_matrix,
+    expand_terms,
     inverse,
     quadratic_form,
     shared_property,
@@ -94,7 +95,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         r"""Left-hand sides (= 0) of :math:`\mathbb M\ddot q - f - A^T\lambda - B\tau = 0`."""
         M, A = sp.Matrix(self.mass_matrix), sp.Matrix(self.constraint_matrix)
         lhs = M * column(self.qddot) - self.forces - A.T * column(self.lam) - self.input_matrix * column(self.tau)
-        return sp.ImmutableMatrix(lhs.applyfunc(sp.expand))
+        return sp.ImmutableMatrix(expand_terms(lhs))
 
     @shared_property
     def _solved(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
@@ -109,7 +110,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         G = _simp_matrix(X.T * M * X)
         Ginv = _simp_matrix(inverse(G))
         if s.c == 0:
-            qdd = (X * Ginv * X.T * F).applyfunc(sp.expand)
+            qdd = expand_terms(X * Ginv * X.T * F)
             return sp.ImmutableMatrix(sp.zeros(0, 1)), sp.ImmutableMatrix(qdd)
         Y = self._right_inverse()
         b = -sp.Matrix(self.constraint_drift)
@@ -117,7 +118,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         a = Ginv * (X.T * F - (X.T * MY) * b)
         qdd = X * a + Y * b
         lam = (Y.T * M * X) * a + (Y.T * MY) * b - Y.T * F
-        return sp.ImmutableMatrix(lam.applyfunc(sp.expand)), sp.ImmutableMatrix(qdd.applyfunc(sp.expand))
+        return sp.ImmutableMatrix(expand_terms(lam)), sp.ImmutableMatrix(expand_terms(qdd))
 
     def _right_inverse(self) -> sp.Matrix:
         """A right inverse :math:`Y` of :math:`A` (:math:`AY = I`) supported on c coordinates: the columns of A with
@@ -420,7 +421,7 @@ _EXPAND_LIMIT = 400
 
 def _expand_small(e: sp.Expr) -> sp.Expr:
     """``e`` expanded (a sum of terms, as printed in the equations) where it is small, else as it is."""
-    return sp.expand(e) if sp.count_ops(e) <= _EXPAND_LIMIT else e
+    return expand_terms(e) if sp.count_ops(e) <= _EXPAND_LIMIT else e
 
 
 # --------------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from .compile import (
 from .formula import FUNCTIONS, parse_formula, to_expression
 from .simplify import (
     clear_denominators,
+    expand_terms,
     inverse,
     quadratic_blocks,
     quadratic_coefficients,
@@ -48,6 +49,7 @@ __all__ = [
     "parse_formula",
     "to_expression",
     "clear_denominators",
+    "expand_terms",
     "inverse",
     "quadratic_blocks",
     "quadratic_coefficients",

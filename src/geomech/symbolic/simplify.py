@@ -25,6 +25,7 @@ __all__ = [
     "quadratic_coefficients",
     "quadratic_form",
     "clear_denominators",
+    "expand_terms",
     "vanishes",
 ]
 
@@ -395,6 +396,20 @@ def _simplify_expr_slow(e: sp.Expr, pairs: list, back: dict) -> sp.Expr:
     if den.could_extract_minus_sign():
         num, den = -num, -den
     return (num / den).xreplace(back)
+
+
+def expand_terms(e: Any) -> Any:
+    """``e`` (an expression or a matrix) expanded into a sum of terms, with every root (a power whose exponent is
+    not an integer, such as the distance of a potential) kept whole: ``sympy.expand`` would expand its argument
+    and spread the argument's denominators over it (the planar three-body's equations grew a thousandfold)."""
+    if isinstance(e, sp.MatrixBase):
+        return e.applyfunc(expand_terms)
+    e = sp.sympify(e)
+    roots = [p for p in e.atoms(sp.Pow) if not p.exp.is_Integer]
+    if not roots:
+        return sp.expand(e)
+    keep = {r: sp.Dummy() for r in roots}
+    return sp.expand(e.xreplace(keep)).xreplace({d: r for r, d in keep.items()})
 
 
 def tidy_trig(e: sp.Expr) -> sp.Expr:

@@ -107,28 +107,35 @@ def planar_point_masses(
         mu_j = m[j + 1] * Mj[j] / Mj[j + 1]
         w = (R * s[j]).applyfunc(tdiff)
         T += sp.Rational(1, 2) * mu_j * sp.expand(sp.trigsimp(sp.expand(w.dot(w))))
-    # body positions from Jacobi vectors (centre of mass at the origin), for the pair distances
-    pos = _jacobi_positions(s, m, Mj)
+    # the pair distances from the Jacobi vectors: a difference of positions needs no centre of mass, and each
+    # component kept as one fraction (b2 and a2 + m2 rho/(m1 + m2) for the third body and the first), not expanded
+    pos, _ = _chain_positions(s, m, Mj)
     Vexpr = 0
     for i in range(N):
         for j in range(i + 1, N):
-            dist = sp.sqrt(sp.expand((pos[i] - pos[j]).dot(pos[i] - pos[j])))
+            gap = [sp.factor(c) for c in pos[j] - pos[i]]
+            dist = sp.sqrt(sum(c**2 for c in gap if c != 0))
             Vexpr += pot.xreplace({d: dist, mi: m[i], mj: m[j]})
     values = {f"m{i + 1}": float(v) for i, v in enumerate(ms)} | pvals
     return HolonomicSystem.from_lagrangian(T - Vexpr, "SE2", shape, parameters=values, name=f"planar {N} point masses")
 
 
-def _jacobi_positions(s: list, m: Sequence[sp.Expr], Mj: list) -> list:
-    """Body-frame positions x_i (centre of mass at 0) from Jacobi vectors s_j = x_{j+1} - c_j."""
-    N = len(m)
-    # Build positions relative to x_1 first: x_{j+1} = c_j + s_j, c_{j+1} = (M_j c_j + m_{j+1} x_{j+1})/M_{j+1}.
+def _chain_positions(s: list, m: Sequence[sp.Expr], Mj: list) -> tuple[list, sp.Matrix]:
+    """Body-frame positions x_i relative to x_1 from the Jacobi vectors s_j = x_{j+1} - c_j, and the centre of mass
+    c_N: x_{j+1} = c_j + s_j, c_{j+1} = (M_j c_j + m_{j+1} x_{j+1})/M_{j+1}."""
     xs = [sp.zeros(2, 1)]
     cj = sp.zeros(2, 1)
-    for j in range(N - 1):
+    for j in range(len(m) - 1):
         xn = cj + s[j]
         xs.append(xn)
         cj = (Mj[j] * cj + m[j + 1] * xn) / Mj[j + 1]
-    return [(xi - cj).applyfunc(sp.simplify) for xi in xs]
+    return xs, cj
+
+
+def _jacobi_positions(s: list, m: Sequence[sp.Expr], Mj: list) -> list:
+    """Body-frame positions x_i (centre of mass at 0) from Jacobi vectors s_j = x_{j+1} - c_j."""
+    xs, c = _chain_positions(s, m, Mj)
+    return [(xi - c).applyfunc(sp.simplify) for xi in xs]
 
 
 def planar_point_positions(system: HolonomicSystem, q: Any) -> np.ndarray:
