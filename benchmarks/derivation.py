@@ -6,10 +6,11 @@ of the whole command (the process's wall time, from its start to its exit, measu
 import geomech and the time of the derivation (every section, printed as ``derive`` prints it), and a digest of the
 printed text (two runs whose digests agree printed the same formulas, so neither is larger). Python's bytecode is
 compiled once before the timed runs (into a temporary ``PYTHONPYCACHEPREFIX``), as an installed package has it.
-Best of ``--repeats`` runs; a run past ``--limit`` seconds is not repeated. Then a compiled model in a fresh process
-whose caches are warm (a private cache directory filled by a first run): the time to build the system and of the
-first solve, of which loading the kernels, and of the next solve. Writes ``results/derivation.json`` and
-``results/derivation.md``.
+A user's model of the same size is timed the same way (``models/tilted_sleigh.py``, its BKMM section and every
+section, the tilt a number and a symbol). Best of ``--repeats`` runs; a run past ``--limit`` seconds is not
+repeated. Then a compiled model in a fresh process whose caches are warm (a private cache directory filled by a
+first run): the time to build the system and of the first solve, of which loading the kernels, and of the next
+solve. Writes ``results/derivation.json`` and ``results/derivation.md``.
 
     PYTHONPATH=src python benchmarks/derivation.py [--repeats 3] [--limit 120] [--only snakeboard ...]
 """
@@ -36,7 +37,7 @@ t0 = time.perf_counter()
 import _geomech_cli
 from geomech.cli.main import main
 t1 = time.perf_counter()
-sys.argv = ["geomech", "derive", sys.argv[1]]
+sys.argv = ["geomech", "derive", *sys.argv[1:]]
 out = io.StringIO()
 with contextlib.redirect_stdout(out):
     code = _geomech_cli.main()
@@ -54,13 +55,29 @@ def examples() -> list[str]:
     return list(EXAMPLES)
 
 
+#: A user's model of the same size as the examples (issue 16): the tilted-blade sleigh with a sliding mass, its
+#: BKMM section as the issue times it and every section, the tilt a number and a symbol.
+MODEL = str(HERE / "models" / "tilted_sleigh.py")
+MODEL_CASES = {
+    "tilted_sleigh --section bkmm": [MODEL, "--section", "bkmm"],
+    "tilted_sleigh --section bkmm, symbolic tilt": [MODEL, "--section", "bkmm", "--param", "symbolic_tilt=1"],
+    "tilted_sleigh": [MODEL],
+    "tilted_sleigh, symbolic tilt": [MODEL, "--param", "symbolic_tilt=1"],
+}
+
+
 def one(name: str, limit: float, pycache: str) -> dict[str, Any]:
     env = {**os.environ, "GEOMECH_CACHE_DIR": "off", "PYTHONPYCACHEPREFIX": pycache}
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     start = time.perf_counter()
     try:
         done = subprocess.run(
-            [sys.executable, "-c", CHILD, name], env=env, capture_output=True, text=True, timeout=limit, check=False
+            [sys.executable, "-c", CHILD, *MODEL_CASES.get(name, [name])],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=limit,
+            check=False,
         )
     except subprocess.TimeoutExpired:
         return dict(code=None, error=[f"more than {limit:g} s"])
@@ -117,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[dict[str, Any]] = []
     slow: list[tuple[str, str]] = []
     with tempfile.TemporaryDirectory() as pycache:
-        names = args.only or examples()
+        names = args.only or examples() + list(MODEL_CASES)
         one(names[0], args.limit, pycache)  # compiles the bytecode of everything a derivation imports
         for name in names:
             runs = [one(name, args.limit, pycache)]
