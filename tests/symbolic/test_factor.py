@@ -41,10 +41,12 @@ def test_flint_factors_are_sympys(p):
     assert product == p
 
 
-def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded():
+def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded(monkeypatch):
     """A numerator that is a multiple of sin(a + b) only on the circles S^2 + C^2 = 1 is divided by it (the
-    spurious factor of a right inverse); a long factor in two angles, whose norm exceeds _CIRCLE_MAX_NORM terms, is
-    not tried (that division cost minutes)."""
+    spurious factor of a right inverse); so is one that is a multiple of a long factor in two angles (its norm
+    has thousands of terms: the three-link chain's locked inertia), by FLINT's polynomials and by sympy's (the
+    fallback) alike; a factor that does not divide is not found to; a norm longer than _CIRCLE_MAX_NORM terms is not
+    tried."""
     from geomech.symbolic import simplify as S
 
     R, Ca, Cb, Sa, Sb, m, r, J = sp.ring("Ca Cb Sa Sb m r J", sp.QQ)
@@ -55,7 +57,7 @@ def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded():
     assert num.div(f)[1] != 0
     q = S._divide_on_circles(num, f, R, 2)
     assert q is not None and (q * f - num).rem(rel) == 0
-    # 20 terms in both angles (within _CIRCLE_MAX_TERMS): a norm of thousands of terms, so not tried
+    # 20 terms in both angles (within _CIRCLE_MAX_TERMS): a norm of 4599 terms
     rng = random.Random(3)
     monomials = [Sa, Ca, Sa * Cb, Ca * Sb, Ca * Cb, Sb, Cb]
     long = sum(
@@ -67,7 +69,16 @@ def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded():
         for _ in range(20)
     )
     assert len(long.terms()) <= S._CIRCLE_MAX_TERMS
-    assert S._divide_on_circles((long * (Ca - m)).rem(rel), long, R, 2) is None
+    multiple = (long * (Ca * Sb - m * J)).rem(rel)
+    assert multiple.div(long)[1] != 0  # a multiple on the circles only
+    for flint in (S._flint(), None):
+        monkeypatch.setattr(S, "_flint", lambda flint=flint: flint)
+        q = S._divide_on_circles(multiple, long, R, 2)
+        assert q is not None and (q * long - multiple).rem(rel) == 0
+        assert S._divide_on_circles((multiple + m * Sa).rem(rel), long, R, 2) is None
+    monkeypatch.undo()
+    monkeypatch.setattr(S, "_CIRCLE_MAX_NORM", 50)
+    assert S._divide_on_circles(multiple, long, R, 2) is None
 
     a, b, mm = sp.symbols("a b m")
     top = sp.expand(sp.expand_trig(sp.sin(a + b)) * (sp.cos(a) - mm)).subs(sp.cos(a) ** 2, 1 - sp.sin(a) ** 2)

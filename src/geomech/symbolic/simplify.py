@@ -34,8 +34,10 @@ __all__ = [
 _FACTOR_MAX_TERMS = 48
 #: Factors of a denominator longer than this are not tested for division on the circles S^2 + C^2 = 1.
 _CIRCLE_MAX_TERMS = 24
-#: Nor are those whose norm (the product of their conjugates in the cosines, reduced) has more terms than this.
-_CIRCLE_MAX_NORM = 400
+#: Nor are those whose norm (the product of their conjugates in the cosines, reduced) has more terms than this:
+#: the three-link chain's locked inertia, 22 terms in two angles, has a norm of 3113 terms and divides its shape
+#: mass's numerators (a sixteenth of their size after the division), in milliseconds with FLINT.
+_CIRCLE_MAX_NORM = 20000
 
 
 def _normal_form(expr: sp.Expr, pairs: Sequence[tuple[sp.Symbol, sp.Symbol]], keep_sin: bool) -> sp.Expr:
@@ -154,21 +156,25 @@ def exact_quotient(p: Any, f: Any) -> Any:
     """``p / f`` for polynomials of one ring over the rationals where ``f`` divides ``p``, else ``None``: by
     FLINT's exact division where python-flint is installed (sympy's ``div`` finds the leading term of the whole
     remainder at every step: quadratic in the number of terms)."""
-    flint = _flint()
-    if flint is None:
+    if _flint() is None:
         q, r = p.div(f)
         return None if r else q
-    R = p.ring
-    ctx = _fmpq_context(len(R.gens))
-    a, b = (
-        ctx.from_dict({m: flint.fmpq(int(c.numerator), int(c.denominator)) for m, c in g.iterterms()}) for g in (p, f)
-    )
     from flint.utils.flint_exceptions import DomainError
 
     try:
-        q = a / b
+        q = _to_flint(p) / _to_flint(f)
     except DomainError:  # not a multiple
         return None
+    return _from_flint(q, p.ring)
+
+
+def _to_flint(p: Any) -> Any:
+    fmpq = _flint().fmpq
+    ctx = _fmpq_context(len(p.ring.gens))
+    return ctx.from_dict({m: fmpq(int(c.numerator), int(c.denominator)) for m, c in p.iterterms()})
+
+
+def _from_flint(q: Any, R: Any) -> Any:
     QQ = R.domain
     return R.from_dict({m: QQ(int(c.p), int(c.q)) for m, c in q.to_dict().items()})
 
@@ -315,17 +321,46 @@ def _divide_on_circles(num: Any, f: Any, R: Any, npairs: int) -> Any:
     # spurious factors are short (cos u, sin(u + v) expanded, ...); the norm of a long one is costly
     if len(f.terms()) > _CIRCLE_MAX_TERMS or not any(f.degree(C) > 0 for C in cos_gens):
         return None
+    if _flint() is not None:
+        return _divide_on_circles_flint(num, f, npairs)
     conj, norm = R.one, f
     for C in cos_gens:
         if norm.degree(C) > 0:
             c = norm.compose(C, -C)
             norm, conj = circle_rem(norm * c, npairs), conj * c
             if len(norm.terms()) > _CIRCLE_MAX_NORM:
-                # a factor in several angles whose norm is long: the division by it costs minutes (a 22-term
-                # factor in two angles of a three-link chain has a norm of 3113 terms) and such a factor is not
-                # the short spurious one this looks for
                 return None
     return exact_quotient(circle_rem(num * conj, npairs), norm)
+
+
+def _divide_on_circles_flint(num: Any, f: Any, npairs: int) -> Any:
+    """:func:`_divide_on_circles` in FLINT's polynomials: the norm in two angles has thousands of terms, and its
+    products and reductions in sympy's (Python) took seconds. The reduction modulo the circles is the remainder of
+    the division by each relation, whose leading term is :math:`C_i^2` in the lex order of the ring."""
+    from flint.utils.flint_exceptions import DomainError
+
+    n = len(f.ring.gens)
+    g = _fmpq_context(n).gens()
+    rel = [g[i] ** 2 + g[npairs + i] ** 2 - 1 for i in range(npairs)]
+
+    def rem(p: Any) -> Any:
+        for r in rel:
+            p = divmod(p, r)[1]
+        return p
+
+    norm = _to_flint(f)
+    conj = norm**0
+    for i in range(npairs):
+        if norm.degrees()[i] > 0:
+            c = norm.compose(*[-g[j] if j == i else g[j] for j in range(n)])
+            norm, conj = rem(norm * c), conj * c
+            if len(norm) > _CIRCLE_MAX_NORM:
+                return None
+    try:
+        q = rem(_to_flint(num) * conj) / norm
+    except DomainError:  # not a multiple on the circles
+        return None
+    return _from_flint(q, f.ring)
 
 
 def circle_rem(p: Any, npairs: int) -> Any:
