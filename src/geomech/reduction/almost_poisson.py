@@ -62,7 +62,14 @@ import numpy as np
 import sympy as sp
 
 from ..errors import InputError
-from ..symbolic import NumericCache, clear_denominators, inverse, shared_property, simplify_expr, simplify_matrix
+from ..symbolic import (
+    NumericCache,
+    clear_denominators,
+    shared_property,
+    simplified_inverse,
+    simplify_expr,
+    simplify_matrix,
+)
 from ..symbolic.compile import compile_matrix, compile_vector
 from ..symbolic.formula import to_expression
 from ..systems.nonholonomic import NonholonomicSystem
@@ -165,7 +172,7 @@ class AlmostPoissonStructure(Derived, NumericCache):
             return sp.ImmutableMatrix(
                 sp.diag(*[sp.Matrix(b) for b in (red.locked_inertia_inverse, red.shape_mass_inverse) if b.rows])
             )
-        return simplify_matrix(inverse(self.metric))
+        return simplified_inverse(self.metric)
 
     @shared_property
     def momentum(self) -> sp.ImmutableMatrix:

@@ -28,6 +28,7 @@ from ..symbolic import (
     quadratic_form,
     shared_property,
     shared_value,
+    simplified_inverse,
     simplify_expr,
     simplify_matrix,
     stack_last,
@@ -108,7 +109,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         F = sp.Matrix(self.forces) + self.input_matrix * column(self.tau)
         X = sp.Matrix(self.projected_equations[1])
         G = _simp_matrix(X.T * M * X)
-        Ginv = _simp_matrix(inverse(G))
+        Ginv = simplified_inverse(G)
         if s.c == 0:
             qdd = expand_terms(X * Ginv * X.T * F)
             return sp.ImmutableMatrix(sp.zeros(0, 1)), sp.ImmutableMatrix(qdd)
@@ -235,7 +236,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         )
         ftau = -Zb[k:, :].T * column(self.tau)
         if R != sp.eye(s.c):
-            Rinv_T = _simp_matrix(inverse(R)).T
+            Rinv_T = simplified_inverse(R).T
             e, ftau = Rinv_T * e, Rinv_T * ftau
         w = list(red.rdot) + list(red.p)
         zero_v = {x: 0 for x in v}
@@ -448,7 +449,7 @@ def _block_right_inverse(A: sp.Matrix, system: NonholonomicSystem, variables: Se
     if best is None:
         raise SymbolicError(f"{system.name}: no invertible {c} x {c} block of the constraint matrix at a random point.")
     cols = best[1]
-    block_inv = _simp_matrix(inverse(A[:, list(cols)]))
+    block_inv = simplified_inverse(A[:, list(cols)])
     Y = sp.zeros(n, c)
     for a, j in enumerate(cols):
         Y[j, :] = block_inv[a, :]

@@ -60,9 +60,9 @@ from ..symbolic import (
     NumericCache,
     clear_denominators,
     column,
-    inverse,
     quadratic_blocks,
     shared_property,
+    simplified_inverse,
     simplify_expr,
     simplify_matrix,
     suffixed_symbols,
@@ -146,7 +146,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
 
     @shared_property
     def locked_inertia_inverse(self) -> sp.ImmutableMatrix:
-        return _simp_matrix(inverse(self.locked_inertia)) if self.m else sp.ImmutableMatrix(0, 0, [])
+        return simplified_inverse(self.locked_inertia) if self.m else sp.ImmutableMatrix(0, 0, [])
 
     @shared_property
     def connection(self) -> sp.ImmutableMatrix:
@@ -339,7 +339,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
     @shared_property
     def shape_mass_inverse(self) -> sp.ImmutableMatrix:
         r""":math:`M(r)^{-1}` (simplified)."""
-        return _simp_matrix(inverse(self.shape_mass)) if self.system.sigma else sp.ImmutableMatrix(0, 0, [])
+        return simplified_inverse(self.shape_mass) if self.system.sigma else sp.ImmutableMatrix(0, 0, [])
 
     @shared_property
     def shape_coefficients(self) -> tuple[tuple[sp.ImmutableMatrix, ...], ...]:
