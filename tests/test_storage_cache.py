@@ -47,6 +47,23 @@ def test_a_cache_others_can_write_to_is_not_used(monkeypatch, tmp_path):
     assert shared not in _codegen.cache_dir().parents  # the private scratch directory instead
 
 
+def test_the_templates_split_is_kept_beside_the_kernels_and_recomputed_when_unreadable(monkeypatch, tmp_path):
+    """The split of the loop templates into shared and per-model source is read from the cache when there, and
+    computed again (the same split) when its file is missing or damaged."""
+    monkeypatch.setenv("GEOMECH_CACHE_DIR", str(tmp_path / "c"))
+    monkeypatch.setattr(_codegen, "_template_split", _codegen._template_split.__wrapped__)
+    fresh = _codegen._split_sources(_codegen._template_sources())
+    assert _codegen._template_split() == fresh
+    (kept,) = (tmp_path / "c" / "kernels").glob("split_*.json")
+    assert json.loads(kept.read_text())[2] == list(fresh[2])
+    kept.write_text(json.dumps(["shared", "model", ["a"]]))
+    assert _codegen._template_split() == ("shared", "model", ("a",))  # read, not recomputed
+    for damaged in ("{", json.dumps([1, 2]), json.dumps([1, "model", []])):
+        kept.write_text(damaged)
+        assert _codegen._template_split() == fresh
+        assert json.loads(kept.read_text())[0] == fresh[0]
+
+
 def test_write_set_is_all_or_nothing(tmp_path):
     out = tmp_path / "new"
 

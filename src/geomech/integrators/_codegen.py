@@ -30,6 +30,7 @@ import builtins
 import functools
 import hashlib
 import importlib.util
+import json
 import os
 import sys
 import threading
@@ -115,12 +116,29 @@ def _template_split() -> tuple[str, str, tuple[str, ...]]:
     """The templates split into (shared source, per-model source, names the shared source defines).
 
     A function belongs to the model when it reads a name no template defines (a model function such as
-    ``rhs``), or calls a function that does; everything else (constants, helpers) is shared.
+    ``rhs``), or calls a function that does; everything else (constants, helpers) is shared. Reading the syntax
+    trees takes a tenth of a second: the split is kept beside the kernels, named by a hash of the templates' text.
     """
+    sources = _template_sources()
+    digest = hashlib.sha256("\0".join(text for _, text in sources).encode()).hexdigest()[:24]
+    path = cache_dir() / f"split_{digest}.json"
+    try:
+        shared, model, names = json.loads(path.read_text())
+        if isinstance(shared, str) and isinstance(model, str) and all(isinstance(n, str) for n in names):
+            return shared, model, tuple(names)
+    except (OSError, ValueError, TypeError):  # not there yet, or unreadable: computed again, and written
+        pass
+    split = _split_sources(sources)
+    write_atomic(path, json.dumps(split))
+    return split
+
+
+def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str, ...]]:
+    """:func:`_template_split` from the templates' text."""
     functions: dict[str, tuple[ast.FunctionDef, str]] = {}
     order: list[tuple[str, str]] = []  # (kind, text) in template order; kind is a function name or ""
     defined: set[str] = set()
-    for _, text in _template_sources():
+    for _, text in sources:
         lines = text.splitlines()
         for node in ast.parse(text).body:
             first = min([node.lineno] + [d.lineno for d in getattr(node, "decorator_list", [])])
