@@ -1,5 +1,7 @@
 """Nonholonomic systems with symmetry: groups in coordinates, parsing, invariance checks, input errors."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -209,6 +211,29 @@ def test_energy_and_mass_matrix():
     M = s.mass_matrix
     assert M.shape == (5, 5) and sp.simplify(M - M.T) == sp.zeros(5, 5)
     assert sp.expand(s.energy - s.lagrangian) == 0  # no potential: E = T = L
+
+
+@pytest.mark.parametrize(
+    "lagrangian",
+    [
+        SNAKE_L,
+        # products of sums, a shape-dependent metric, a potential and a mixed term left unexpanded
+        "m/2*(x_dot*cos(theta) + y_dot*sin(theta) + r*phi_dot*cos(psi))**2 + J/2*(theta_dot + psi_dot)**2"
+        " + J0/2*psi_dot**2 + J1/2*(1 + sin(phi)**2)*phi_dot**2 - m*r*cos(psi) + J0*theta_dot*psi_dot/(2 + cos(phi))",
+    ],
+)
+def test_the_mass_matrix_is_the_hessian_of_the_lagrangian_in_the_velocities(lagrangian):
+    """Read off the coefficients in one walk, against sympy's Hessian (equal after expansion); a Lagrangian with a
+    velocity inside a function still gets its Hessian, and is refused by name as not mechanical."""
+    s = _snake(lagrangian=lagrangian)
+    H = sp.hessian(s.lagrangian, s.qdot)
+    assert s.mass_matrix.shape == (5, 5)
+    assert all(sp.expand(a - b) == 0 for a, b in zip(s.mass_matrix, H))
+    assert not any(e.free_symbols & set(s.qdot) for e in s.mass_matrix)
+    bad = dataclasses.replace(s, lagrangian=s.lagrangian + sp.sqrt(1 + s.qdot[0] ** 2))
+    assert sp.simplify(bad.mass_matrix[0, 0] - H[0, 0] - 1 / (1 + s.qdot[0] ** 2) ** sp.Rational(3, 2)) == 0
+    with pytest.raises(SymbolicError, match="not polynomial in the velocities"):
+        _snake(lagrangian=SNAKE_L + " + sqrt(1 + x_dot**2)")
 
 
 def test_a_shape_group_split_that_does_not_match_the_lagrangian_is_reported():
