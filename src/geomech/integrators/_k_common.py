@@ -209,6 +209,56 @@ def lu_solve(A, x, n):
 
 
 @kernel
+def lu_factor(A, piv, n):
+    """LU factorisation with partial pivoting of the leading ``n x n`` block of ``A``, in place (the unit lower
+    factor's multipliers below the diagonal), the row exchanges in ``piv``; for several solves with one matrix
+    (:func:`lu_apply`). Returns False if a pivot is zero or not finite."""
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > amax:
+                amax = abs(A[i, k])
+                p = i
+        if not (amax > 0.0) or not math.isfinite(amax):
+            return False
+        piv[k] = p
+        if p != k:
+            for j in range(n):
+                t = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = t
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            f = A[i, k] * inv
+            A[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+    return True
+
+
+@kernel
+def lu_apply(A, piv, x, n):
+    """Solve in place with the factors of :func:`lu_factor` (``x`` holds the right-hand side)."""
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            t = x[k]
+            x[k] = x[p]
+            x[p] = t
+        xk = x[k]
+        if xk != 0.0:
+            for i in range(k + 1, n):
+                x[i] -= A[i, k] * xk
+    for k in range(n - 1, -1, -1):
+        t = x[k]
+        for j in range(k + 1, n):
+            t -= A[k, j] * x[j]
+        x[k] = t / A[k, k]
+
+
+@kernel
 def solve_checked(A, x, n, rcond):
     """:func:`lu_solve`, and False also where the matrix is singular to working precision: a pivot of the
     elimination below ``rcond`` times the largest entry of ``A`` (the generated equations of motion solve their
