@@ -140,7 +140,7 @@ def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
                 dn = max(abs(d0), abs(d1))
                 if not math.isfinite(dn):
                     break
-                if newton_done(dn, dprev, it, scale, 0.01 * tol):
+                if newton_done(dn, dprev, it, scale, tol):
                     code = 0
                     break
                 dprev = dn
@@ -228,8 +228,10 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                 # Newton's matrix is built from the stage Jacobians at the first iterate and kept while the
                 # corrections contract fast: from the extrapolated predictor its error is of the size of the first
                 # correction, so the next iterations converge as with Newton's full method, at one factorisation
-                # a step; it is rebuilt when the contraction is slow (the first step, a large step)
+                # a step; when the contraction is slow (the first step, a large step) the step goes on with Newton's
+                # full method, the matrix rebuilt at every iterate, so that a hard step converges as before
                 fresh = True
+                full = False
                 for it in range(maxit):
                     if fresh:
                         for i in range(s):
@@ -274,7 +276,9 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                     if newton_done(dn, dprev, it, scale, 0.01 * tol):
                         code = 0
                         break
-                    fresh = it > 0 and dn > 0.1 * dprev
+                    if it > 0 and dn > 0.1 * dprev:
+                        full = True
+                    fresh = full
                     dprev = dn
                 if code != 0:
                     break
