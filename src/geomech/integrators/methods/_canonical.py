@@ -173,10 +173,10 @@ def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
 
 
 def gauss_constants(stages: int, weights: tuple[float, ...]) -> np.ndarray:
-    """The ``P`` of the compiled Gauss-Legendre loop: (s, A, d, c, J, gamma_1..gamma_J), a step being the
+    """The ``P`` of the compiled Gauss-Legendre loop: (s, A, b, c, J, gamma_1..gamma_J), a step being the
     composition of J steps of sizes gamma_j h."""
-    A, _, c, d = _gauss_tableau(stages)
-    return np.concatenate([[stages], A.ravel(), d, c, [len(weights)], weights])
+    A, b, c, _ = _gauss_tableau(stages)
+    return np.concatenate([[stages], A.ravel(), b, c, [len(weights)], weights])
 
 
 @dataclass(frozen=True)
