@@ -147,10 +147,10 @@ class GeneratingFunction(Method):
 
 
 @functools.cache
-def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(A, b, c, d)`` of s-stage Gauss-Legendre collocation, ``d = b^T A^{-1}``, computed in 40-digit arithmetic
-    and rounded once: the nodes c are the zeros of the shifted Legendre polynomial P_s(2c - 1) (numpy's
-    Gauss-Legendre nodes refined by Newton's method in mpmath), b and A the collocation conditions
+def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, b, c)`` of s-stage Gauss-Legendre collocation, computed in 40-digit arithmetic and rounded once: the
+    nodes c are the zeros of the shifted Legendre polynomial P_s(2c - 1) (numpy's Gauss-Legendre nodes refined
+    by Newton's method in mpmath), b and A the collocation conditions
     sum_j b_j c_j^k = 1/(k+1) and sum_j a_ij c_j^k = c_i^(k+1)/(k+1), k < s ([HNW] II.7)."""
     import mpmath  # type: ignore[import-untyped]
 
@@ -162,20 +162,14 @@ def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
         Vi = mpmath.matrix([[cj**k for cj in c] for k in range(s)]) ** -1  # V[k, j] = c_j^k
         b = [sum(Vi[j, k] / (k + 1) for k in range(s)) for j in range(s)]
         A = mpmath.matrix([[sum(Vi[j, k] * ci ** (k + 1) / (k + 1) for k in range(s)) for j in range(s)] for ci in c])
-        d = mpmath.lu_solve(A.T, mpmath.matrix(b))
         as_float = lambda v: np.array([float(x) for x in v])  # noqa: E731
-        return (
-            np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]),
-            as_float(b),
-            as_float(c),
-            as_float(d),
-        )
+        return np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]), as_float(b), as_float(c)
 
 
 def gauss_constants(stages: int, weights: tuple[float, ...]) -> np.ndarray:
     """The ``P`` of the compiled Gauss-Legendre loop: (s, A, b, c, J, gamma_1..gamma_J), a step being the
     composition of J steps of sizes gamma_j h."""
-    A, b, c, _ = _gauss_tableau(stages)
+    A, b, c = _gauss_tableau(stages)
     return np.concatenate([[stages], A.ravel(), b, c, [len(weights)], weights])
 
 
@@ -211,7 +205,7 @@ class GaussLegendre(Method):
 
     def tableau(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The Butcher tableau ``(A, b, c)``."""
-        return _gauss_tableau(self.stages)[:3]
+        return _gauss_tableau(self.stages)
 
     def constants(self, problem: Any) -> np.ndarray:
         return gauss_constants(self.stages, (1.0,))  # one step: the composition (1)
