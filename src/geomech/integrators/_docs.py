@@ -28,9 +28,9 @@ compositions `Composition(order, scheme, stages)` of the midpoint rule (`midpoin
 `midpoint_s35_10`) or of Gauss-Legendre steps, and the Lie-Poisson splitting composed to order 10
 (`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Gauss-Legendre solves
 its stages by Newton's method with one factorisation a step, runs the iteration a hundred times below
-`newton_tol` (a composition's J sub-steps J times lower again) and steps by y + h sum b_i f(Y_i) at the converged stages, summed with compensation, so that its
-energy error over 1e5 steps and more stays at round-off (a step by d = b^T A^{-1}, which saves s evaluations,
-drifts). Taylor's method
+`newton_tol` (a composition's J sub-steps J times lower again) and steps by y + h sum b_i f(Y_i) at the
+converged stages, summed with compensation, so that its energy error over 1e5 steps and more stays at round-off
+(a step by d = b^T A^{-1}, which saves s evaluations, drifts). Taylor's method
 (`taylor`) generates the Taylor coefficients of the solution from the system's formulas (`geomech.symbolic.taylor`)
 and steps them at the order of the tolerances, with dense output and events on each step's polynomial: a few dozen
 steps where DOP853 takes hundreds. Its coefficients' code is written out for the order and compiled by LLVM
