@@ -307,3 +307,95 @@ def test_leaving_the_chart_is_located_on_the_polynomial():
 def test_the_python_backend_is_refused_by_name():
     with pytest.raises(InputError, match="runs compiled"):
         gm.solve(BODY, "taylor", m0=M0, t_final=1.0, backend="python")
+
+
+# -- several members at once: the coefficients of a batch in the lanes of the vector unit --------------------------
+@pytest.mark.parametrize("lanes", [2, 4])
+@pytest.mark.parametrize("name", FIELDS)
+def test_each_lane_computes_its_own_members_coefficients(name, lanes):
+    """The code for ``lanes`` members at once (every value a vector; the functions without a vector form called
+    lane by lane) gives each lane what the code for one member gives at that lane's point and parameter."""
+    tape = _tape(FIELDS[name])
+    order = 12
+    namespace = dict(python_helpers())
+    exec(compile(python_header() + tape.constants_source("constants"), "<taylor>", "exec"), namespace)
+    points = [(0.7 + 0.05 * lane, 1.3 - 0.1 * lane, 0.4 + 0.2 * lane, 0.8 + 0.1 * lane) for lane in range(lanes)]
+    n_k = max(len(tape.constants), 1)
+    XV, KV, PV = np.zeros((3, order + 1, lanes)), np.zeros((n_k, lanes)), np.zeros((1, lanes))
+    alone = []
+    for lane, (x0, y0, t0, a0) in enumerate(points):
+        X, K, prm = np.zeros((3, order + 1)), np.zeros(n_k), np.array([a0])
+        X[:, 0] = XV[:, 0, lane] = (x0, y0, t0)
+        namespace["constants"](K, prm)
+        KV[:, lane], PV[:, lane] = K, prm
+        _call_unrolled(unrolled_address(tape, order), X, K, prm)
+        alone.append(X)
+    _call_unrolled(unrolled_address(tape, order, lanes), XV, KV, PV)
+    for lane, X in enumerate(alone):
+        scale = np.abs(X).max(axis=1, keepdims=True)
+        np.testing.assert_allclose(XV[:, :, lane], X, rtol=0, atol=1e-13 * scale.max(), err_msg=f"lane {lane}")
+
+
+def _through_lanes(monkeypatch, lanes):
+    """Runs of a batch compute the coefficients ``lanes`` members at a time; the widths asked for are recorded."""
+    asked = []
+
+    def unrolled(tape, order, width=1):
+        asked.append(width)
+        return unrolled_address(tape, order, width)
+
+    monkeypatch.setattr(_runners, "simd_lanes", lambda: lanes)
+    monkeypatch.setattr(_runners, "unrolled_address", unrolled)
+    for module in list(_codegen._MODULES.values()):
+        monkeypatch.delitem(module.__dict__, "_TAYLOR_CODES", raising=False)
+    return asked
+
+
+def _assert_members_alone(batch, system, Y, **kw):
+    for i in range(Y.shape[0]):
+        one = gm.solve(system, "taylor", y0=Y[i], **kw)
+        np.testing.assert_array_equal(np.isnan(batch.states[i]), np.isnan(one.states), err_msg=f"member {i}")
+        np.testing.assert_allclose(batch.states[i], one.states, rtol=0, atol=1e-12, err_msg=f"member {i}")
+        mine = [f for f in batch.failures if f.batch_index == (i,)]
+        assert [(f.kind, f.time) for f in mine] == [(f.kind, f.time) for f in one.failures], i
+
+
+def test_a_batch_in_lanes_ends_each_member_where_it_ends_alone(monkeypatch):
+    """The blow-up of the chart test from 14 momenta, 4 lanes refilled as members end: one reaches the end, four
+    spend their budget at different times, seven leave the chart at different times, two start outside it. Each
+    member's states, status and time of failure are those of the member run alone (one lane)."""
+    q, p = sp.symbols("q p", real=True)
+    system = gm.CanonicalSystem.from_expression(-q * p**2 / 2, (q,), (p,), name="blow-up", chart=((1, -10.0, 1.5),))
+    p0 = np.linspace(0.3, 1.6, 14)
+    Y = np.stack([np.ones_like(p0), p0], axis=1)
+    kw = dict(t_final=3.0, saveat=31, rtol=1e-12, atol=1e-12, max_evaluations=80, raise_on_failure=False)
+    asked = _through_lanes(monkeypatch, 4)
+    batch = gm.solve(system, "taylor", y0=Y, threads=1, **kw)
+    assert 4 in asked
+    kinds = [f.kind for f in batch.failures]
+    assert kinds.count(Status.BUDGET_EXHAUSTED) == 4 and kinds.count(Status.LEFT_CHART) == 9
+    _assert_members_alone(batch, system, Y, **kw)
+
+
+def test_events_in_lanes_are_each_members_own(monkeypatch):
+    """Pendulums of 10 amplitudes, 2 lanes: each records its own upward crossings of q = 0, those swinging past
+    q = 2.5 stop there (a terminal event) after one, the others run on; as alone."""
+    pendulum = gm.CanonicalSystem.from_expression("p**2/2 - cos(q)", ["q"], ["p"])
+    Y = np.stack([np.linspace(1.0, 2.8, 10), np.zeros(10)], axis=1)
+    events = {"up": Event("q", direction=1), "stop": Event("q - 5/2", direction=1, terminal=True)}
+    kw = dict(t_final=30.0, saveat=31, rtol=1e-12, atol=1e-13, events=events)
+    _through_lanes(monkeypatch, 2)
+    batch = gm.solve(pendulum, "taylor", y0=Y, threads=1, **kw)
+    for i in range(Y.shape[0]):
+        one = gm.solve(pendulum, "taylor", y0=Y[i], **kw)
+        for name in events:  # rows (trajectory, t, state)
+            mine = batch.events[name][batch.events[name][:, 0] == i]
+            period = 4.0 * ellipk(np.sin(Y[i, 0] / 2) ** 2)
+            crossings = 1 if Y[i, 0] > 2.5 else int(30.0 / period - 0.75) + 1
+            expected = int(Y[i, 0] > 2.5) if name == "stop" else crossings
+            assert len(mine) == len(one.events[name]) == expected, (name, i, len(mine))
+            np.testing.assert_allclose(mine[:, 1:], one.events[name][:, 1:], rtol=0, atol=1e-12)
+        # the first upward crossing at three quarters of the period 4 K(sin^2(a/2))
+        first = batch.events["up"][batch.events["up"][:, 0] == i][0, 1]
+        assert abs(first - 3.0 * ellipk(np.sin(Y[i, 0] / 2) ** 2)) < 1e-9
+    _assert_members_alone(batch, pendulum, Y, **kw)

@@ -35,8 +35,11 @@ converged stages, summed with compensation, so that its energy error over 1e5 st
 and steps them at the order of the tolerances, with dense output and events on each step's polynomial: a few dozen
 steps where DOP853 takes hundreds. Its coefficients' code is written out for the order and compiled by LLVM
 (`geomech.integrators._taylor_llvm`, about a second per order, cached on disk), or, for large equations or with
-`Taylor(compact=True)`, a loop over the orders. Adaptive Adams wraps scipy's VODE/LSODA. The Lagrangian methods (BKMM,
-Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run compiled where the gait and torques are formulas,
+`Taylor(compact=True)`, a loop over the orders. A batch computes the coefficients of 4 members at once (the lanes
+of an AVX vector unit; 8 with AVX-512, 2 without AVX), each member stepping on its own and its lane taking the next
+member where it ends: 2.5 times less time a member than one at a time. Adaptive Adams wraps scipy's VODE/LSODA.
+The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run compiled where the
+gait and torques are formulas,
 BKMM also by Taylor's method (`BKMM(solver="taylor")`, from the reduction's closed forms), and otherwise under
 scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in exponential
 coordinates about a moving centre. The exact propagators give the state of a one-degree-of-freedom system at any

@@ -184,108 +184,262 @@ def tk_chart_exit(X, hs, CH, YT):
 
 
 @kernel
+def tk_begin(Y0, b, t0, TS, OUT, INFO, y, CH, efp, EDIR, GOLD, prm):
+    """Start member b: its state into y, the outputs at t0 saved, its event functions into GOLD; returns (the
+    index of the first time not reached, status: 0, or 6 where it starts outside the chart)."""
+    n = TS.shape[0]
+    for j in range(INFO.shape[1]):
+        INFO[b, j] = 0.0
+    for i in range(y.shape[0]):
+        y[i] = Y0[b, i]
+    k = 0
+    while k < n and TS[k] == t0:
+        store(OUT, b, k, y)
+        k += 1
+    status = 0
+    if k < n and not (chart_margin(y, CH) > 0.0):
+        status = 6
+    if EDIR.shape[0] > 0:
+        call_model(efp, y, GOLD, prm)
+    return k, status
+
+
+@kernel
+def tk_advance(
+    X, y, t, k, b, TS, OUT, order, rtol, atol, CH, efp, EDIR, ETERM, EVT, ECOUNT, GOLD, GNEW, GMID, THETA, YT, prm
+):
+    """A step of member b from (t, y) by its Taylor coefficients X (X[:, 0] = y): the outputs it passes saved, the
+    step ended early where it leaves the chart CH or at a terminal event, y advanced; returns (t, the index of the
+    first time not reached, status, the steps taken: 0 or 1)."""
+    n = TS.shape[0]
+    ne = EDIR.shape[0]
+    t_end = TS[n - 1]
+    direction = 1.0 if t_end >= t else -1.0
+    h = tk_step(X, y, order, rtol, atol)
+    if not (h > 0.0):  # NaN: coefficients not finite
+        return t, k, 2, 0
+    remaining = abs(t_end - t)
+    last = h >= remaining
+    if last:
+        h = remaining
+    elif not (h >= 10.0 * abs(np.nextafter(t, direction * np.inf) - t)):
+        return t, k, 4, 0
+    hs = direction * h
+    t_new = t_end if last else t + hs
+    leave = tk_chart_exit(X, hs, CH, YT)
+    stop = 2.0
+    if ne > 0:
+        tk_horner(X, hs, YT)
+        call_model(efp, YT, GNEW, prm)
+        stop = tk_events(X, t, hs, b, leave, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
+        for j in range(ne):
+            GOLD[j] = GNEW[j]
+    end = min(leave, stop)
+    if end <= 1.0:  # the chart's end (the outputs before it) or a terminal event (those up to it)
+        status = 6 if leave < stop else 9
+        t_stop = t + end * hs
+        while k < n and (direction * (TS[k] - t_stop) < 0.0 or (status == 9 and TS[k] == t_stop)):
+            tk_horner(X, TS[k] - t, OUT[b, k])
+            k += 1
+        return t_stop, k, status, 1
+    while k < n and (last or direction * (TS[k] - t_new) <= 0.0):
+        tk_horner(X, TS[k] - t, OUT[b, k])
+        k += 1
+    tk_horner(X, hs, y)
+    if not finite(y):
+        return t_new, k, 2, 1
+    return t_new, k, 0, 1
+
+
+@kernel
+def tk_end(OUT, INFO, b, k, status, nfev, t, steps):
+    """Member b ended at t with status (its outputs from index k on NaN where it failed)."""
+    if status != 0:
+        fail(OUT, INFO, b, k, k, status, np.nan)
+    INFO[b, 4] = nfev
+    INFO[b, 5] = t
+    INFO[b, 6] = steps
+
+
+@kernel
+def tk_lane_start(
+    lane, nxt, Y0, t0, TS, OUT, INFO, CH, efp, EDIR, PRM, tfp, K, KV, PV, YS, GOLDS, MEMBER, T, KS, STEPS, NFEV
+):
+    """The lane takes the next member, from index nxt, that has a step to take (those that have none end at once;
+    MEMBER[lane] = -1 where none is left); returns the index after it. The member's parameters and constants go
+    into the lane's entries of PV and KV."""
+    lanes = MEMBER.shape[0]
+    n = TS.shape[0]
+    nb = Y0.shape[0]
+    MEMBER[lane] = -1
+    while nxt < nb:
+        b = nxt
+        nxt += 1
+        prm = param_row(PRM, b)
+        k, status = tk_begin(Y0, b, t0, TS, OUT, INFO, YS[lane], CH, efp, EDIR, GOLDS[lane], prm)
+        if k >= n or status != 0:
+            tk_end(OUT, INFO, b, k, status, 0.0, t0, 0)
+            continue
+        MEMBER[lane] = b
+        T[lane] = t0
+        KS[lane] = k
+        STEPS[lane] = 0
+        NFEV[lane] = 0.0
+        if tfp != 0:
+            taylor_constants(K, prm)
+            for j in range(K.shape[0]):
+                KV[j * lanes + lane] = K[j]
+            for j in range(prm.shape[0]):
+                PV[j * lanes + lane] = prm[j]
+        break
+    return nxt
+
+
+@kernel
 def taylor_run(
-    Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, tfp, n_k, max_evals, CH, efp, EDIR, ETERM, EVT, ECOUNT, PRM
+    Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, tfp, n_k, lanes, max_evals, CH, efp, EDIR, ETERM, EVT, ECOUNT, PRM
 ):
     """Integrate each row of Y0 from t0 by Taylor's method of order ``order`` (its coefficients the model's
     ``taylor_coeffs``, a work array of ``n_rows`` rows; or, where the address ``tfp`` is not 0, the same unrolled
-    for this order, :mod:`geomech.integrators._taylor_llvm`, reading the ``n_k`` constants of
-    ``taylor_constants``), saving at the times TS (monotone, away from t0) by the
-    step's Taylor polynomial. A state that leaves the chart CH (rows: component, lower, upper bound; none: shape
-    (0, 3)) ends the run where the polynomial crosses the bound (status 6), the outputs before it kept. The event
-    functions at the address ``efp`` (their directions EDIR and terminal flags
-    ETERM; none: length 0) are located on each step's polynomial and recorded in EVT[b] (event, t, state), counted
-    in ECOUNT[b]; a terminal event ends the run there (status 9), the outputs after it NaN. INFO[b] as the
-    embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation budget
-    spent, 9 a terminal event), the index of the first time not reached, NaN, 0, evaluations (``order`` per step:
-    one pass over the equations per order), the time reached, steps, 0."""
+    for this order and for ``lanes`` members at once, :mod:`geomech.integrators._taylor_llvm`, reading the ``n_k``
+    constants of ``taylor_constants``), saving at the times TS (monotone, away from t0) by the step's Taylor
+    polynomial. Each lane runs a member; where it ends, the lane takes the next (the steps of the members in the
+    lanes of a pass differ: only their coefficients are computed together). A state that leaves the chart CH
+    (rows: component, lower, upper bound; none: shape (0, 3)) ends the run where the polynomial crosses the bound
+    (status 6), the outputs before it kept. The event functions at the address ``efp`` (their directions EDIR and
+    terminal flags ETERM; none: length 0) are located on each step's polynomial and recorded in EVT[b] (event, t,
+    state), counted in ECOUNT[b]; a terminal event ends the run there (status 9), the outputs after it NaN. INFO[b]
+    as the embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation
+    budget spent, 9 a terminal event), the index of the first time not reached, NaN, 0, evaluations (``order``
+    per step: one pass over the equations per order), the time reached, steps, 0."""
     nb, d = Y0.shape
-    n = TS.shape[0]
-    ne = EDIR.shape[0]
-    X = np.empty((d, order + 1))
-    W = np.empty((max(n_rows, 1), order + 1))
+    stride = order + 1
+    XV = np.zeros(
+        d * stride * lanes
+    )  # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l
+    X = np.empty((d, stride))  # those of one lane
+    W = np.empty((max(n_rows, 1), stride))
     K = np.zeros(max(n_k, 1))
-    y = np.empty(d)
-    GOLD = np.zeros(d)
+    KV = np.zeros(max(n_k, 1) * lanes)
+    PV = np.zeros(max(PRM.shape[1], 1) * lanes)
+    YS = np.empty((lanes, d))
+    GOLDS = np.zeros((lanes, d))
     GNEW = np.zeros(d)
     GMID = np.zeros(d)
-    THETA = np.zeros(max(ne, 1))
+    THETA = np.zeros(max(EDIR.shape[0], 1))
     YT = np.empty(d)
-    t_end = TS[n - 1]
-    direction = 1.0 if t_end >= t0 else -1.0
-    for b in range(nb):
-        prm = param_row(PRM, b)
+    MEMBER = np.full(lanes, -1)
+    T = np.zeros(lanes)
+    KS = np.zeros(lanes, dtype=np.int64)
+    STEPS = np.zeros(lanes, dtype=np.int64)
+    NFEV = np.zeros(lanes)
+    nxt = 0
+    for lane in range(lanes):
+        nxt = tk_lane_start(
+            lane, nxt, Y0, t0, TS, OUT, INFO, CH, efp, EDIR, PRM, tfp, K, KV, PV, YS, GOLDS, MEMBER, T, KS, STEPS, NFEV
+        )
+    while True:
+        running = False
+        for lane in range(lanes):
+            # a member whose budget cannot pay another step ends (status 8), its lane takes the next
+            while MEMBER[lane] >= 0 and NFEV[lane] + order > max_evals:
+                tk_end(OUT, INFO, MEMBER[lane], KS[lane], 8, NFEV[lane], T[lane], STEPS[lane])
+                nxt = tk_lane_start(
+                    lane,
+                    nxt,
+                    Y0,
+                    t0,
+                    TS,
+                    OUT,
+                    INFO,
+                    CH,
+                    efp,
+                    EDIR,
+                    PRM,
+                    tfp,
+                    K,
+                    KV,
+                    PV,
+                    YS,
+                    GOLDS,
+                    MEMBER,
+                    T,
+                    KS,
+                    STEPS,
+                    NFEV,
+                )
+            if MEMBER[lane] >= 0:
+                running = True
+                for i in range(d):
+                    XV[i * stride * lanes + lane] = YS[lane, i]
+        if not running:
+            break
         if tfp != 0:
-            taylor_constants(K, prm)
-        for j in range(INFO.shape[1]):
-            INFO[b, j] = 0.0
-        for i in range(d):
-            y[i] = Y0[b, i]
-        t = t0
-        k = 0
-        while k < n and TS[k] == t0:
-            store(OUT, b, k, y)
-            k += 1
-        status = 0
-        steps = 0
-        nfev = 0.0
-        if k < n and not (chart_margin(y, CH) > 0.0):
-            status = 6
-        if ne > 0:
-            call_model(efp, y, GOLD, prm)
-        while k < n and status == 0:
-            if nfev + order > max_evals:
-                status = 8
-                break
-            for i in range(d):
-                X[i, 0] = y[i]
+            call_model(tfp, XV, KV, PV)
+        for lane in range(lanes):
+            b = MEMBER[lane]
+            if b < 0:
+                continue
+            prm = param_row(PRM, b)
             if tfp != 0:
-                call_model(tfp, X, K, prm)
-            else:
+                for i in range(d):
+                    for j in range(stride):
+                        X[i, j] = XV[(i * stride + j) * lanes + lane]
+            else:  # the loop over the orders (one lane)
+                for i in range(d):
+                    X[i, 0] = YS[lane, i]
                 taylor_coeffs(X, W, order, prm)
-            nfev += order
-            h = tk_step(X, y, order, rtol, atol)
-            if not (h > 0.0):  # NaN: coefficients not finite
-                status = 2
-                break
-            remaining = abs(t_end - t)
-            last = h >= remaining
-            if last:
-                h = remaining
-            elif not (h >= 10.0 * abs(np.nextafter(t, direction * np.inf) - t)):
-                status = 4
-                break
-            hs = direction * h
-            t_new = t_end if last else t + hs
-            leave = tk_chart_exit(X, hs, CH, YT)
-            stop = 2.0
-            if ne > 0:
-                tk_horner(X, hs, YT)
-                call_model(efp, YT, GNEW, prm)
-                stop = tk_events(X, t, hs, b, leave, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
-                for j in range(ne):
-                    GOLD[j] = GNEW[j]
-            end = min(leave, stop)
-            if end <= 1.0:  # the chart's end (the outputs before it) or a terminal event (those up to it)
-                status = 6 if leave < stop else 9
-                t_stop = t + end * hs
-                while k < n and (direction * (TS[k] - t_stop) < 0.0 or (status == 9 and TS[k] == t_stop)):
-                    tk_horner(X, TS[k] - t, OUT[b, k])
-                    k += 1
-                t = t_stop
-                steps += 1
-                break
-            while k < n and (last or direction * (TS[k] - t_new) <= 0.0):
-                tk_horner(X, TS[k] - t, OUT[b, k])
-                k += 1
-            tk_horner(X, hs, y)
-            t = t_new
-            steps += 1
-            if not finite(y):
-                status = 2
-                break
-        if status != 0:
-            fail(OUT, INFO, b, k, k, status, np.nan)
-        INFO[b, 4] = nfev
-        INFO[b, 5] = t
-        INFO[b, 6] = steps
+            NFEV[lane] += order
+            t, k, status, stepped = tk_advance(
+                X,
+                YS[lane],
+                T[lane],
+                KS[lane],
+                b,
+                TS,
+                OUT,
+                order,
+                rtol,
+                atol,
+                CH,
+                efp,
+                EDIR,
+                ETERM,
+                EVT,
+                ECOUNT,
+                GOLDS[lane],
+                GNEW,
+                GMID,
+                THETA,
+                YT,
+                prm,
+            )
+            T[lane] = t
+            KS[lane] = k
+            STEPS[lane] += stepped
+            if k >= TS.shape[0] or status != 0:
+                tk_end(OUT, INFO, b, k, status, NFEV[lane], t, STEPS[lane])
+                nxt = tk_lane_start(
+                    lane,
+                    nxt,
+                    Y0,
+                    t0,
+                    TS,
+                    OUT,
+                    INFO,
+                    CH,
+                    efp,
+                    EDIR,
+                    PRM,
+                    tfp,
+                    K,
+                    KV,
+                    PV,
+                    YS,
+                    GOLDS,
+                    MEMBER,
+                    T,
+                    KS,
+                    STEPS,
+                    NFEV,
+                )

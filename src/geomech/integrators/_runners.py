@@ -16,7 +16,7 @@ from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, rhs_address
 from ._problem import Problem
-from ._taylor_llvm import UNROLL_LIMIT, unrolled_address
+from ._taylor_llvm import UNROLL_LIMIT, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
 from .solution import STATUS
 
@@ -360,8 +360,18 @@ def run_taylor(
         codes[order, compact] = (unrolled_address(tape, order) if unroll else 0, len(tape.constants))
         compile_time += time.perf_counter() - start
     tfp, n_k = codes[order, compact]
+    lanes = 1
     if tfp:
         rows_w = 0  # the unrolled code keeps its values in registers
+        # a batch whose threads each run several members computes the coefficients of several at once (the lanes
+        # of the vector unit), compiled once per order too
+        width = simd_lanes()
+        if width > 1 and Y0.shape[0] >= 2 * width * max(1, threads):
+            if (order, compact, width) not in codes:
+                start = time.perf_counter()
+                codes[order, compact, width] = unrolled_address(TaylorTape.from_data(module.TAYLOR_TAPE), order, width)
+                compile_time += time.perf_counter() - start
+            tfp, lanes = codes[order, compact, width], width
     if not module.taylor_run.signatures:
         # the first call compiles the loop with the model's coefficients (or loads numba's disk cache): timed apart
         start = time.perf_counter()
@@ -377,6 +387,7 @@ def run_taylor(
             rows_w,
             tfp,
             n_k,
+            lanes,
             1.0,
             np.zeros((0, 3)),
             0,
@@ -402,6 +413,7 @@ def run_taylor(
             rows_w,
             tfp,
             n_k,
+            lanes,
             budget,
             chart,
             *event_args,
