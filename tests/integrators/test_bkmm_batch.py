@@ -118,13 +118,27 @@ def test_torque_coefficients_and_a_state_batch():
 def test_the_compiled_observation_is_the_python_one(monkeypatch):
     s = snakeboard(**SNAKE)
     kw = dict(t_final=1.0, saveat=4, shapes={"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **TOL)
+    monkeypatch.setattr(_compiled, "_compiled_observation", lambda name, compiled, rows: False)
     python = solve(s, BKMM(), parameters={"a": [0.5, 1.0]}, **kw)
-    monkeypatch.setattr(_compiled, "PYTHON_ROWS", 0)
+    monkeypatch.setattr(_compiled, "_compiled_observation", lambda name, compiled, rows: True)
     compiled = solve(s, BKMM(), parameters={"a": [0.5, 1.0]}, **kw)
     np.testing.assert_array_equal(compiled.states, python.states)
     for name in ("energy", "tau", "constraint_residual"):
         x, y = compiled.quantities[name], python.quantities[name]
         np.testing.assert_allclose(x, y, rtol=1e-14, atol=1e-14 * max(1.0, float(np.abs(y).max())))
+
+
+def test_the_observation_is_compiled_once_python_has_cost_as_much(monkeypatch):
+    """Runs observed as Python (no compilation for a few small runs) until the states a module has observed so in
+    the process would pass PYTHON_ROWS; then, and for a larger run at once, by the compiled code."""
+    monkeypatch.setattr(_compiled, "PYTHON_ROWS", 12)
+    monkeypatch.setattr(_compiled, "_PYTHON_SEEN", {})
+    choices = [_compiled._compiled_observation("m", False, rows) for rows in (5, 5, 5)]
+    assert choices == [False, False, True]
+    assert _compiled._compiled_observation("other", False, 13) and not _compiled._compiled_observation(
+        "other", False, 4
+    )
+    assert _compiled._compiled_observation("new", True, 1)  # already compiled in this process
 
 
 def test_a_failing_member_is_its_own_failure():

@@ -4,6 +4,7 @@ work and memory bounds are checked first."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -55,9 +56,9 @@ class Times:
         """Which of the loop's states are asked for (None: all)."""
         return None if self.k is None else np.searchsorted(self.kernel_steps(), self.k)
 
-    @property
+    @functools.cached_property
     def t(self) -> np.ndarray:
-        """The saved times."""
+        """The saved times (made once: a run reads them several times)."""
         if self.h is None:
             if self.given is not None:
                 return self.given

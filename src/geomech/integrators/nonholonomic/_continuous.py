@@ -391,7 +391,9 @@ def run_compiled(
         steps += run(rest, limit)[0]
     loop_time = time.perf_counter() - start - compile_time
     n = len(times)
-    OBS = observe(module, made, OUT.reshape(B * n, d), PRM, n).reshape(B, n, made.observed)
+    OBS, seconds = observe(module, made, OUT.reshape(B * n, d), PRM, n)
+    OBS = OBS.reshape(B, n, made.observed)
+    compile_time += seconds
     failures = []
     for b in np.flatnonzero(INFO[:, 0] != 0).tolist():
         code = int(INFO[b, 0])
@@ -412,7 +414,9 @@ def run_compiled(
             if rows.size:
                 Y = np.ascontiguousarray(rows[:, 2:])
                 per_member = PRM if PRM.shape[0] == 1 else PRM[rows[:, 0].astype(int)]
-                shown = observe(module, made, Y, np.ascontiguousarray(per_member), 1)[:, :n_q]
+                shown, seconds = observe(module, made, Y, np.ascontiguousarray(per_member), 1)
+                compile_time += seconds
+                shown = shown[:, :n_q]
                 table[name] = np.concatenate([rows[:, :2], shown], axis=1)
             else:
                 table[name] = np.zeros((0, 2 + n_q))

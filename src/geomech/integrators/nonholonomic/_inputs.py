@@ -264,7 +264,14 @@ def initial_state(
     (:math:`\dot g = 0`) with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
     constraints (when they involve the shape velocities).
     """
-    setup = _setup(system, shapes, None, parameters)
+    return initial_state_of(_setup(system, shapes, None, parameters), t0, q0, rdot0, p0, qdot0, parameters)
+
+
+def initial_state_of(
+    setup: _Setup, t0: float, q0: Any, rdot0: Any, p0: Any, qdot0: Any, parameters: Mapping[str, float] | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`initial_state` for a run whose gait and torques are set up (``_setup``) already."""
+    system = setup.system
     parameters = {k: v for k, v in scalar_values(parameters).items() if k not in setup.coefficients}
     names = [s.name for s in system.q]
     given = _by_name(q0, names, "q0")

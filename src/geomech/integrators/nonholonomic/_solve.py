@@ -26,7 +26,7 @@ from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair,
 from ._continuous import VARIATIONAL_NEEDS, run_compiled, run_full, run_reduced
 from ._discrete import run_discrete
 from ._hamiltonian import run_hamiltonian
-from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state
+from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state_of
 from ._trajectory import quantities, spatial_momentum
 
 #: Default ceiling on steps of the discrete Lagrange-d'Alembert integrator (a Python loop, about 0.2 ms a step).
@@ -87,9 +87,7 @@ def solve_lagrangian(
             max_events=max_events,
             wrt=wrt,
         )
-    q_init, qd_init = initial_state(
-        system, setup.gait, t0=t0, q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters
-    )
+    q_init, qd_init = initial_state_of(setup, t0, q0, rdot0, p0, qdot0, parameters)
     h = times.h
     if isinstance(method, DiscreteLagrangeDAlembert):
         assert h is not None  # a fixed-step method: solve() has set the step
@@ -302,7 +300,7 @@ def _solve_batch(
     if wrt is not None:
         Y0 = augment(Y0, len(wrt))  # Phi = I, S = 0
     # each member's configuration at t0 (its prescribed shapes from its gait), checked as one trajectory is
-    start = observe(module, made, np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1), PRM, 1)
+    start, observe_compile = observe(module, made, np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1), PRM, 1)
     _require_positive_kinetic_energy(system, start[:, : system.n], arrays, members=f" {shape}")
     n_threads = threads if threads is not None else (os.cpu_count() or 1)
     compiled_events = None if events is None else compile_lagrangian_events(setup, made, bkmm_slots(setup, m), events)
@@ -359,7 +357,7 @@ def _solve_batch(
             run.nfev,
             run.loop_time,
             backend="numba",
-            compile_time=run.compile_time,
+            compile_time=run.compile_time + observe_compile,
             loop_time=run.loop_time,
         ),
         parameters={key: (v.reshape(shape) if v.ndim else float(v)) for key, v in arrays.items()},
