@@ -295,4 +295,4 @@ def test_simulate_lists_the_events_of_a_gait_and_of_a_hamiltonian(capsys):
     code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "full", "--event", "back=psi")
     assert code == 0, err  # the Lagrange-d'Alembert equations, compiled: the same zeros of the gait
     code, out, err = _run(capsys, "simulate", "snakeboard", *SNAKE_ARGS, "--method", "discrete", "--event", "back=psi")
-    assert code == 2 and "BKMM or LagrangeDAlembert" in err and len(err.strip().splitlines()) == 1
+    assert code == 2 and "discrete Lagrange-d'Alembert map has none" in err and len(err.strip().splitlines()) == 1

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,7 @@ from .. import _validate as V
 from ..errors import InputError, NumericalError
 from .solution import Failure, Status
 
-__all__ = ["run_adaptive", "integrate_ivp", "MAX_EVALUATIONS", "MAX_EVALUATIONS_COMPILED"]
+__all__ = ["run_adaptive", "integrate_ivp", "StepEvents", "MAX_EVALUATIONS", "MAX_EVALUATIONS_COMPILED"]
 
 
 #: Default ceiling on right-hand-side evaluations of the adaptive simulators (tens of seconds of work).
@@ -77,6 +78,67 @@ def _failure(kind: Status, k: int, when: Any, detail: str = "") -> Failure:
     return Failure(kind=kind, batch_index=(), step=int(k), time=float(when), residual=float("nan"), detail=detail)
 
 
+@dataclass
+class StepEvents:
+    """The events of a run stepped by :func:`integrate_ivp`: ``g(t, y)`` the values of the event functions at a
+    time and state, their ``directions`` (+1 rising, -1 falling, 0 both) and ``terminal`` flags; the occurrences
+    located are appended to ``rows`` as ``(event, t, state...)``, in time order, up to and including the first
+    terminal one (the rule of the compiled loops, :func:`~geomech.integrators._k_embedded.erk_crossed`)."""
+
+    g: Callable[[float, np.ndarray], np.ndarray]
+    directions: np.ndarray
+    terminal: np.ndarray
+    names: tuple[str, ...] = ()
+    rows: list[np.ndarray] = field(default_factory=list)
+
+    def table(
+        self, shown: Callable[[float, np.ndarray], np.ndarray], width: int, max_events: int
+    ) -> dict[str, np.ndarray]:
+        """Solution.events of one trajectory: for each event its rows ``(0, t, shown(t, state))`` (``width``
+        numbers shown); raises where there were more than ``max_events``."""
+        if len(self.rows) > max_events:
+            raise InputError(
+                f"The run had {len(self.rows)} events, more than `max_events` = {max_events}; raise it, or make the "
+                "events rarer (a direction, a terminal event)."
+            )
+        out: dict[str, list[np.ndarray]] = {name: [] for name in self.names}
+        for r in self.rows:
+            out[self.names[int(r[0])]].append(np.r_[0.0, r[1], shown(r[1], r[2:])])
+        return {k: np.array(v) if v else np.zeros((0, 2 + width)) for k, v in out.items()}
+
+    def crossed(self, g0: np.ndarray, g1: np.ndarray) -> np.ndarray:
+        """Which functions went from g0 to g1 through zero in their direction (from a nonzero value to zero or
+        past it: a zero at the start of a step is the previous step's)."""
+        rising = (g0 < 0.0) & (g1 >= 0.0)
+        falling = (g0 > 0.0) & (g1 <= 0.0)
+        return (rising & (self.directions >= 0.0)) | (falling & (self.directions <= 0.0))
+
+    def locate(self, dense: Callable, t_old: float, t_new: float, g_old: np.ndarray, g_new: np.ndarray) -> float | None:
+        """The step's occurrences, each zero found on the dense output by bisection to the resolution of doubles,
+        recorded; returns the time of the first terminal one (None: none)."""
+        hits: list[tuple[float, float, int]] = []
+        for j in np.flatnonzero(self.crossed(g_old, g_new)).tolist():
+            lo, hi = t_old, t_new  # g keeps g_old's sign at lo; the zero is reached at hi
+            below = g_old[j] < 0.0
+            for _ in range(200):
+                mid = 0.5 * (lo + hi)
+                if mid in (lo, hi):
+                    break
+                gm = self.g(mid, dense(mid))[j]
+                if (gm < 0.0) == below and gm != 0.0:
+                    lo = mid
+                else:
+                    hi = mid
+            hits.append((abs(hi - t_old), hi, j))
+        stop = None
+        for _, t, jj in sorted(hits):
+            self.rows.append(np.r_[jj, t, dense(t)])
+            if self.terminal[jj]:
+                stop = t
+                break
+        return stop
+
+
 def integrate_ivp(
     name: str,
     rhs: Callable,
@@ -87,8 +149,10 @@ def integrate_ivp(
     tolerances: tuple[float, float],
     max_evaluations: Any,
     error_status: Status = Status.NONFINITE,
+    events: StepEvents | None = None,
 ) -> tuple[np.ndarray, Failure | None, int, int]:
-    """Integrate from ``t0``, saving at ``times`` by the solver's dense output (as solve_ivp does).
+    """Integrate from ``t0``, saving at ``times`` by the solver's dense output (as solve_ivp does), the ``events``
+    located on it (a terminal one ends the run there, the saved states after it NaN).
 
     Returns the saved states (NaN past a failure), the :class:`Failure` (``step`` the index of the first
     time not reached, ``time`` the last time reached) or None, the number of evaluations and of steps. A
@@ -109,6 +173,7 @@ def integrate_ivp(
     sign = 1.0 if times[-1] > t0 else -1.0
     failure: Failure | None = None
     n_steps = 0
+    g_old = None if events is None else events.g(t0, np.asarray(y0, dtype=float))
     try:
         while k < len(times):
             message = step.step()
@@ -120,10 +185,16 @@ def integrate_ivp(
                 failure = _failure(Status.NONFINITE, k, step.t_old)
                 break
             dense = step.dense_output()
-            while k < len(times) and sign * (times[k] - step.t) <= 0:
+            stop = None
+            if events is not None and g_old is not None:
+                g_new = events.g(float(step.t), step.y)
+                stop = events.locate(dense, float(step.t_old), float(step.t), g_old, g_new)
+                g_old = g_new
+            end = step.t if stop is None else stop
+            while k < len(times) and sign * (times[k] - end) <= 0:
                 Y[k] = dense(times[k])
                 k += 1
-            if step.status == "finished":
+            if step.status == "finished" or stop is not None:
                 break
     except _OverBudget as stop:
         if stop.projected is not None:

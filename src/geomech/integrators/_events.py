@@ -11,7 +11,7 @@ every model and event set.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..symbolic.compile import M_SYMBOLS, FunctionSpec, kernel_source
 from ..symbolic.formula import to_expression
 from . import _codegen
+from ._adaptive import StepEvents
 from ._k_common import F_EVENT
 from ._model_source import R_SYMBOLS
 
@@ -31,7 +32,8 @@ __all__ = [
     "compile_events",
     "compile_lagrangian_events",
     "event_table",
-    "events_need_compiled",
+    "events_need_adaptive",
+    "stepped_lagrangian_events",
 ]
 
 
@@ -54,16 +56,38 @@ class Event:
 
 @dataclass(frozen=True)
 class CompiledEvents:
-    """The events of a run as the loop takes them: the address of their function, directions, terminal flags."""
+    """The events of a run as the loop takes them: the address of their function, directions, terminal flags; and
+    the function itself, ``function(y, out, prm)``, for the runs stepped from Python (scipy's solvers)."""
 
     names: tuple[str, ...]
     address: int
     directions: np.ndarray
     terminal: np.ndarray
+    function: Any = None
 
     @classmethod
     def none(cls) -> CompiledEvents:
         return cls((), 0, np.zeros(0), np.zeros(0))
+
+    def stepped(self, prm: np.ndarray, d: int) -> StepEvents:
+        """The events of one trajectory (its parameter row ``prm``, its state of length ``d``) for
+        :func:`~geomech.integrators._adaptive.integrate_ivp`."""
+        out = np.zeros(d)
+        n = len(self.names)
+        function = self.function
+
+        def g(_t: float, y: np.ndarray) -> np.ndarray:
+            function(np.ascontiguousarray(y, dtype=float), out, prm)
+            return out[:n].copy()
+
+        return StepEvents(g, self.directions, self.terminal)
+
+    def record(self, rows: list[np.ndarray], EVT: np.ndarray, ECOUNT: np.ndarray, b: int) -> None:
+        """Trajectory b's occurrences ``rows`` into the loops' record (EVT[b], ECOUNT[b]): as many as fit, all
+        counted."""
+        for c, row in enumerate(rows[: EVT.shape[1]]):
+            EVT[b, c] = row
+        ECOUNT[b] = len(rows)
 
 
 def _specs(events: Any) -> dict[str, Event]:
@@ -135,14 +159,15 @@ def _compiled(specs: Mapping[str, Event], outputs: list, state: tuple, params: t
         int(module.addresses(("event",))[F_EVENT]),
         np.array([float(s.direction) for s in specs.values()]),
         np.array([float(s.terminal) for s in specs.values()]),
+        module.event,
     )
 
 
-def events_need_compiled(name: str) -> str:
+def events_need_adaptive(name: str) -> str:
     return (
-        f"`events` of {name} are located on the compiled continuous extension of BKMM or LagrangeDAlembert: either "
-        "method with solver 'DOP853' or 'RK45', the gait and torques as formulas, numba installed, backend 'auto' or "
-        "'numba'."
+        f"`events` of {name} are located on the continuous extension of an adaptive method: BKMM, LagrangeDAlembert "
+        "(compiled, or stepped by scipy's solvers) or NonholonomicHamilton; the discrete Lagrange-d'Alembert map has "
+        "none."
     )
 
 
@@ -181,6 +206,48 @@ def compile_lagrangian_events(setup: Any, made: Any, slots: list[str | None], ev
             )
         outputs.append(expr)
     return _compiled(specs, outputs, state, tuple(prm))
+
+
+def stepped_lagrangian_events(
+    setup: Any, events: Any, values: Mapping[str, float], shown: Callable[[float, np.ndarray], np.ndarray]
+) -> StepEvents:
+    """The events of a Lagrangian system stepped from Python (scipy's solvers: BKMM and Lagrange-d'Alembert in
+    Python, the Hamiltonian forms), as :class:`~._adaptive.StepEvents` of the run's state y: formulas in ``t``, the
+    coordinates and velocities by name (``shown(t, y)`` gives ``(q, qdot)``), the system's parameters and the
+    coefficients whose ``values`` are given."""
+    from ..symbolic.compile import compile_scalar
+    from ..systems.gait import T_SYMBOL
+
+    specs = _specs(events)
+    system = setup.system
+    local: dict[str, Any] = {s.name: s for s in (*system.q, *system.qdot)}
+    local["t"] = T_SYMBOL
+    known = {**{k: float(v) for k, v in system.parameters.items()}, **{k: float(v) for k, v in values.items()}}
+    variables = [T_SYMBOL, *system.q, *system.qdot]
+    fns = []
+    for key, spec in specs.items():
+        e = to_expression(spec.expression, f"events[{key!r}]", local)
+        e = e.xreplace({s: local[s.name] for s in e.free_symbols if s.name in local})
+        e = e.xreplace({s: known[s.name] for s in e.free_symbols if s.name in known and s not in variables})
+        unknown = sorted(str(s) for s in e.free_symbols - set(variables))
+        if unknown:
+            raise InputError(
+                f"`events[{key!r}]` reads {unknown}, which are neither t, the coordinates and velocities of "
+                f"{system.name} ({', '.join(n for n in local if n != 't')}) nor its parameters or coefficients given "
+                "in `parameters`."
+            )
+        fns.append(compile_scalar(e, variables))
+
+    def g(t: float, y: np.ndarray) -> np.ndarray:
+        tx = np.r_[t, shown(t, y)]
+        return np.array([float(f(tx)) for f in fns])
+
+    return StepEvents(
+        g,
+        np.array([float(s.direction) for s in specs.values()]),
+        np.array([float(s.terminal) for s in specs.values()]),
+        tuple(specs),
+    )
 
 
 def event_table(

@@ -96,11 +96,17 @@ def run_ivp(
     INFO: np.ndarray,
     reasons: dict[int, str],
     reached: dict[int, float],
-) -> int:
+    events: Any = None,
+    max_events: int = 0,
+) -> tuple[int, np.ndarray, np.ndarray]:
     """Each row of ``Y0`` by a scipy solver on the compiled right-hand side; fills ``OUT`` and ``INFO`` as the
-    loops do, ``reasons`` and ``reached`` (the last time reached) for a failed row; returns the steps taken."""
+    loops do, ``reasons`` and ``reached`` (the last time reached) for a failed row, the ``events``
+    (:class:`~._events.CompiledEvents`) located on the solver's dense output; returns the steps taken and the
+    events recorded as the compiled loops record them ((B, max_events, 2 + d), their counts (B,))."""
     d = Y0.shape[1]
     steps = 0
+    EVT = np.zeros((Y0.shape[0], max_events if events is not None else 0, 2 + d))
+    ECOUNT = np.zeros(Y0.shape[0])
     for b in range(Y0.shape[0]):
         buf = np.empty(d)
         prm = rows(PRM, b, b + 1)[0]
@@ -109,16 +115,19 @@ def run_ivp(
             module.rhs(np.ascontiguousarray(y, dtype=float), buf, prm)
             return buf.copy()
 
+        located = None if events is None else events.stepped(prm, d)
         Y, failure, nfev, n = integrate_ivp(
-            type(method).__name__, f, Y0[b], t0, times, method.solver, tolerances, max_evaluations
+            type(method).__name__, f, Y0[b], t0, times, method.solver, tolerances, max_evaluations, events=located
         )
+        if located is not None:
+            events.record(located.rows, EVT, ECOUNT, b)
         OUT[b] = Y
         INFO[b, 4] = nfev
         steps += n
         if failure is not None:
             INFO[b, 0], INFO[b, 1], INFO[b, 2] = CODES[failure.kind], failure.step, np.nan
             reasons[b], reached[b] = failure.detail, failure.time
-    return steps
+    return steps, EVT, ECOUNT
 
 
 def run_atlas(

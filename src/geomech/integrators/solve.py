@@ -216,14 +216,17 @@ def solve(
         names are the system's parameters and the gait's and torques' coefficients (the derivatives of the
         generated equations by forward differentiation of their straight-line code).
     events : mapping of str to formula or :class:`~geomech.integrators.Event`, optional
-        Zeros of functions of the state to locate (``dop853``, ``dopri5`` or ``taylor``, compiled; a canonical or
-        left-invariant system, or a body with rotors, given by formulas): each a formula in the state's components,
+        Zeros of functions of the state to locate (``dop853``, ``dopri5`` or ``taylor``, compiled, or scipy's
+        solvers through ``solve_ivp``; a canonical or left-invariant system, or a body with rotors, given by
+        formulas): each a formula in the state's components,
         by the names of ``Solution.labels`` (and ``t`` where a torque law reads the time), and the system's
         parameters, e.g. ``{"apex": Event("m1", direction=-1)}``. For a Lagrangian system, with ``BKMM`` or
         ``LagrangeDAlembert`` compiled: formulas in the group coordinates, the shapes and their rates (a prescribed
         shape's from its gait), with BKMM the momenta ``p0, p1, ...``, with Lagrange-d'Alembert the group
         velocities, ``t``, the parameters and the gait's coefficients (``Event("psi", direction=1)``: the gait back
-        at its start). Each zero is found on the continuous extension (Taylor's method: the polynomial) of the step
+        at its start); stepped by scipy's solvers (``backend="python"``, a solver without a compiled twin, or
+        ``NonholonomicHamilton``), formulas in every coordinate and velocity by name, ``t``, the parameters and the
+        coefficients. Each zero is found on the continuous extension (Taylor's method: the polynomial) of the step
         that crosses it, to the accuracy of the run, and is reported in ``Solution.events[name]`` as a row
         ``(trajectory, t, state...)``. A terminal event ends its trajectory at its first zero (the saved states
         after it are NaN, the run a success).
@@ -405,10 +408,11 @@ def solve(
     if events is not None:
         if wrt is not None:
             raise InputError("`events` and `sensitivities` are not taken together; run them apart.")
-        if not isinstance(method, (DormandPrince, Taylor)):
+        if not isinstance(method, (DormandPrince, Taylor, SolveIVP)):
             raise IncompatibleMethodError(
-                f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, dopri5) "
-                f"or on the steps' polynomials of Taylor's method (taylor); {method!r} is not one of them."
+                f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, dopri5), "
+                f"on the steps' polynomials of Taylor's method (taylor), or on the dense output of scipy's solvers "
+                f"(solve_ivp); {method!r} is not one of them."
             )
         V.memory_budget(
             float(B) * max_events * (d + 2),
@@ -431,7 +435,10 @@ def solve(
     elif isinstance(method, SolveIVP):
         assert tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-        internal = run_ivp(module, PRM, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached)
+        ivp_args = (module, PRM, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached)
+        internal, EVT, ECOUNT = run_ivp(*ivp_args, compiled_events, max_events)
+        if compiled_events is not None:
+            event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
     elif isinstance(method, (DormandPrince, Taylor)):
         assert tolerances is not None
         budget = MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations

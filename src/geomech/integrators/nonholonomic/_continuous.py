@@ -25,13 +25,13 @@ from .._adaptive import (
     integrate_ivp,
     projected_cost_error,
 )
-from .._events import compile_lagrangian_events, event_table, events_need_compiled
+from .._events import compile_lagrangian_events, event_table, stepped_lagrangian_events
 from .._runners import INFO_COLUMNS, run_embedded, run_taylor
 from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
 from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots, observe
-from ._inputs import _group_rates, _Setup
+from ._inputs import _group_rates, _Setup, scalar_values
 from ._trajectory import _accelerations, _Raw
 
 #: What the variational equations of a Lagrangian system need.
@@ -117,11 +117,21 @@ def run_full(
 
     y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
     budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-    Y, failure, nfev, n_steps = integrate_ivp(
-        "LagrangeDAlembert", rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR
+    return _stepped(
+        "LagrangeDAlembert",
+        setup,
+        rhs,
+        evaluate,
+        y0,
+        t0,
+        times,
+        method,
+        tolerances,
+        budget,
+        parameters,
+        events,
+        max_events,
     )
-    Q, QD, TAU = _rows(setup, times, Y, evaluate)
-    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
 
 
 def run_reduced(
@@ -217,9 +227,40 @@ def run_reduced(
         failure = run.failures[0][1] if run.failures else None
         return run.raw(setup, m, 0, failure)
     budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-    Y, failure, nfev, n_steps = integrate_ivp("BKMM", rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR)
+    return _stepped(
+        "BKMM", setup, rhs, evaluate, y0, t0, times, method, tolerances, budget, parameters, events, max_events
+    )
+
+
+def _stepped(
+    name: str,
+    setup: _Setup,
+    rhs: Callable,
+    evaluate: Callable,
+    y0: np.ndarray,
+    t0: float,
+    times: np.ndarray,
+    method: Any,
+    tolerances: tuple[float, float],
+    budget: Any,
+    parameters: Mapping[str, float] | None,
+    events: Any,
+    max_events: int,
+) -> _Raw:
+    """A Lagrangian run in Python stepped by scipy's ``method.solver``: ``evaluate(t, y)`` gives the (q, qdot, shape
+    forces) of its state, the ``events`` located on the solver's dense output."""
+
+    def shown(t: float, y: np.ndarray) -> np.ndarray:
+        q, qd, _ = evaluate(t, y)
+        return np.r_[q, qd]
+
+    located = None if events is None else stepped_lagrangian_events(setup, events, scalar_values(parameters), shown)
+    Y, failure, nfev, n_steps = integrate_ivp(
+        name, rhs, y0, t0, times, method.solver, tolerances, budget, SINGULAR, located
+    )
     Q, QD, TAU = _rows(setup, times, Y, evaluate)
-    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
+    table = {} if located is None else located.table(shown, 2 * setup.system.n, max_events)
+    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps, events=table)
 
 
 def _compiled_or_refused(system: Any, method: Any, backend: str, events: Any, module: Callable) -> Any:
@@ -237,8 +278,6 @@ def _compiled_or_refused(system: Any, method: Any, backend: str, events: Any, mo
             + ("" if pair is None else ", and a gait or torque given as a Python callable")
             + "."
         )
-    if compiled is None and events is not None:
-        raise InputError(events_need_compiled(system.name))
     return compiled
 
 

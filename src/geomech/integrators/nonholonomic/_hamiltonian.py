@@ -12,8 +12,9 @@ import numpy as np
 from ...errors import InputError
 from ...reduction import almost_poisson, bates_sniatycki, full_almost_poisson
 from .._adaptive import integrate_ivp
+from .._events import stepped_lagrangian_events
 from ._continuous import SINGULAR
-from ._inputs import _Setup
+from ._inputs import _Setup, scalar_values
 from ._trajectory import _Raw
 
 
@@ -45,6 +46,8 @@ def run_hamiltonian(
     tolerances: tuple[float, float],
     max_evaluations: Any,
     parameters: Mapping[str, float] | None,
+    events: Any = None,
+    max_events: int = 1000,
 ) -> _Raw:
     """Integrate ``z = (q, pt)`` (and the work of the torques) by ``method.solver``; the velocity at a saved state is
     the field's q rows, :math:`\\dot q = \\partial H/\\partial p` (on :math:`\\mathcal M`, in :math:`\\mathcal D`)."""
@@ -77,9 +80,15 @@ def run_hamiltonian(
         F, tau = force(t, z[:n], free[:n])
         return np.r_[free + R @ F, tau @ free[shapes]]
 
+    def shown(_t: float, y: np.ndarray) -> np.ndarray:
+        """(q, qdot) of a state: qdot the field's q rows (which the torques leave alone)."""
+        z = y[:-1]
+        return np.r_[z[:n], field(z)[:n]]
+
+    located = None if events is None else stepped_lagrangian_events(setup, events, scalar_values(parameters), shown)
     y0 = np.r_[q_init, pt(np.r_[q_init, qd_init])[:, 0], 0.0]
     Y, failure, nfev, n_steps = integrate_ivp(
-        name, rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR
+        name, rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR, located
     )
     N = len(times)
     Q, QD, TAU = np.full((N, n), np.nan), np.full((N, n), np.nan), np.full((N, system.sigma), np.nan)
@@ -87,4 +96,5 @@ def run_hamiltonian(
         z = Y[i, :-1]
         Q[i], QD[i] = z[:n], field(z)[:n]
         TAU[i] = force(times[i], Q[i], QD[i])[1]
-    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps)
+    table = {} if located is None else located.table(shown, 2 * n, max_events)
+    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps, events=table)

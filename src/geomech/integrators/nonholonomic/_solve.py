@@ -17,7 +17,7 @@ from ...errors import InputError
 from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
-from .._events import compile_lagrangian_events, events_need_compiled
+from .._events import compile_lagrangian_events, events_need_adaptive
 from .._times import Times
 from .._variational import augment, named_sensitivities
 from ..methods import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
@@ -63,8 +63,8 @@ def solve_lagrangian(
     setup = _setup(system, shapes, tau, parameters)
     check_parameter_names(setup, parameters)
     wrt = _sensitivity_names(setup, method, backend, events, sensitivities)
-    if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert)):
-        raise InputError(events_need_compiled(system.name) + f" Got {method!r}.")
+    if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert, NonholonomicHamilton)):
+        raise InputError(events_need_adaptive(system.name) + f" Got {method!r}.")
     shape = _batch_shape(parameters, q0, rdot0, p0)
     if shape is not None:
         return _solve_batch(
@@ -130,7 +130,9 @@ def solve_lagrangian(
         assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
         budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
         if isinstance(method, NonholonomicHamilton):
-            raw = run_hamiltonian(setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters)
+            raw = run_hamiltonian(
+                setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters, events, max_events
+            )
         else:  # the two that run compiled: the equations with multipliers, or BKMM's
             args = (setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend)
             if isinstance(method, LagrangeDAlembert):
