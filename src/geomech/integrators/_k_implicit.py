@@ -159,6 +159,14 @@ def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
 
 
 @kernel
+def stage_point(y, Z, i, out):
+    """The state at stage i of a collocation step from y: y + Z_i (Z the stages' increments, one after another)."""
+    d = y.shape[0]
+    for u in range(d):
+        out[u] = y[u] + Z[i * d + u]
+
+
+@kernel
 def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """s-stage Gauss-Legendre collocation in the stage increments Z_i = Y_i - y_n:
     Z_i = h sum_j a_ij f(y_n + Z_j), solved by Newton's method, then y_{n+1} = y_n + h sum_i b_i f(y_n + Z_i)
@@ -240,13 +248,11 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                 for it in range(maxit):
                     if fresh:
                         for i in range(s):
-                            for u in range(d):
-                                tmp[u] = y[u] + Z[i * d + u]
+                            stage_point(y, Z, i, tmp)
                             call_model4(f_jac, tmp, F[i], Js[i], prm)
                     else:
                         for i in range(s):
-                            for u in range(d):
-                                tmp[u] = y[u] + Z[i * d + u]
+                            stage_point(y, Z, i, tmp)
                             call_model(f_rhs, tmp, F[i], prm)
                     nrhs += s
                     nnewton += 1
@@ -290,8 +296,7 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                 if code != 0:
                     break
                 for i in range(s):
-                    for u in range(d):
-                        tmp[u] = y[u] + Z[i * d + u]
+                    stage_point(y, Z, i, tmp)
                     call_model(f_rhs, tmp, F[i], prm)
                 nrhs += s
                 for u in range(d):
