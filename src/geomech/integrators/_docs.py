@@ -38,6 +38,8 @@ steps where DOP853 takes hundreds. Its coefficients' code is written out for the
 `Taylor(compact=True)`, a loop over the orders. A batch computes the coefficients of 4 members at once (the lanes
 of an AVX vector unit; 8 with AVX-512, 2 without AVX), each member stepping on its own and its lane taking the next
 member where it ends: 2.5 times less time a member than one at a time. Adaptive Adams wraps scipy's VODE/LSODA.
+Events (`events={"apex": Event("m1", direction=-1)}`) are located on the continuous extension of the step that
+crosses them by the Dormand-Prince pairs, Taylor's method and scipy's solvers (`SolveIVP("Radau")`, ...).
 The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run compiled where the
 gait and torques are formulas,
 BKMM also by Taylor's method (`BKMM(solver="taylor")`, from the reduction's closed forms), and otherwise under
