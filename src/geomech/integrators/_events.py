@@ -1,12 +1,14 @@
 """User events of an adaptive run: zeros of functions of the state, located by the continuous extension of the
-compiled embedded pairs (``erk_run`` of ``_k_embedded.py``).
+compiled embedded pairs (``erk_run`` of ``_k_embedded.py``), on the steps' polynomials of Taylor's method, or on
+the dense output of scipy's solvers stepped from Python (:class:`~._adaptive.StepEvents`, with the same rule).
 
 An event is a formula in the state's components, by the names of ``Solution.labels`` (and ``t`` where the time is
 part of the state, as for a torque law that reads it) and the system's parameters; text is parsed by the formula
 whitelist. Its zeros are found on each accepted step's continuous extension by bisection, to the resolution of
 doubles in the step: their error is the method's, at the tolerances of the run. The event functions are compiled
 into one model function ``event`` of their own, called through its address, so that the loop compiles once for
-every model and event set.
+every model and event set; the runs stepped by scipy call the same function from Python (and the Lagrangian
+equations in Python, formulas in the coordinates and velocities, :func:`stepped_lagrangian_events`).
 """
 
 from __future__ import annotations
