@@ -226,6 +226,26 @@ def test_simulate_with_initial_momentum(capsys):
     assert abs(summary["nonholonomic_momentum"][0] - (2 * summary["energy_initial"]) ** 0.5) < 1e-3
     code, _, err = _run(capsys, *base, "--p0", "1")
     assert code == 2 and "Expected `--p0` to have 2 entries" in err and err.count("\n") == 1
+    # an event by Hamilton's equations (scipy's DOP853 on z = (q, pt)) and by the compiled BKMM equations
+    times = {}
+    for method in ("almost-poisson", "reduced"):
+        code, out, err = _run(
+            capsys,
+            *base,
+            "--p0",
+            "1,0.5",
+            "--t-final",
+            "5",
+            "--method",
+            method,
+            "--event",
+            "turn=theta - 1/2",
+            "--json",
+        )
+        assert code == 0, err
+        times[method] = [e["t"] for e in json.loads(out)["events"]["turn"]]
+    assert len(times["reduced"]) >= 1
+    np.testing.assert_allclose(times["almost-poisson"], times["reduced"], rtol=0, atol=1e-8)
 
 
 def test_derive_latex_prints_the_system_as_latex(capsys):

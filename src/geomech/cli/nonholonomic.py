@@ -317,7 +317,8 @@ def _plain(value: Any) -> str:
     multiple=True,
     metavar="NAME=FORMULA",
     help="Locate the zeros of FORMULA in the state (e.g. 'back=psi', 'east=x - 1') and list their times and states "
-    "(repeatable; --method reduced, reduced-taylor or full, or dop853/dopri5 with --hamiltonian).",
+    "(repeatable; --method reduced, reduced-taylor, full, or the Hamiltonian forms almost-poisson, bates-sniatycki, "
+    "full-tensor; with --hamiltonian the adaptive methods dop853, dopri5, taylor and solve_ivp).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 @out_option("Directory for trajectory.csv, trajectory.nc (NetCDF), summary.json and path.png.")
