@@ -314,10 +314,9 @@ def taylor_run(
     per step: one pass over the equations per order), the time reached, steps, 0."""
     nb, d = Y0.shape
     stride = order + 1
-    XV = np.zeros(
-        d * stride * lanes
-    )  # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l
-    X = np.empty((d, stride))  # those of one lane
+    # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l; a lane's are read in place
+    XV = np.zeros(d * stride * lanes)
+    X3 = XV.reshape((d, stride, lanes))
     W = np.empty((max(n_rows, 1), stride))
     K = np.zeros(max(n_k, 1))
     KV = np.zeros(max(n_k, 1) * lanes)
@@ -381,13 +380,8 @@ def taylor_run(
             if b < 0:
                 continue
             prm = param_row(PRM, b)
-            if tfp != 0:
-                for i in range(d):
-                    for j in range(stride):
-                        X[i, j] = XV[(i * stride + j) * lanes + lane]
-            else:  # the loop over the orders (one lane)
-                for i in range(d):
-                    X[i, 0] = YS[lane, i]
+            X = X3[:, :, lane]
+            if tfp == 0:  # the loop over the orders (one lane)
                 taylor_coeffs(X, W, order, prm)
             NFEV[lane] += order
             t, k, status, stepped = tk_advance(
