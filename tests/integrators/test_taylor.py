@@ -336,6 +336,22 @@ def test_each_lane_computes_its_own_members_coefficients(name, lanes):
         np.testing.assert_allclose(XV[:, :, lane], X, rtol=0, atol=1e-13 * scale.max(), err_msg=f"lane {lane}")
 
 
+@pytest.mark.parametrize("lanes", [1, 4])
+def test_the_lanes_new_states_are_their_polynomials_at_their_steps(lanes):
+    """Horner's rule on the lanes at once (the state's advance of a pass) against numpy's polynomial of each row
+    of each lane at that lane's step."""
+    d, order = 3, 9
+    rng = np.random.default_rng(5)
+    X = rng.uniform(-1.0, 1.0, (d, order + 1, lanes))
+    H = rng.uniform(-0.5, 0.5, lanes)
+    Y = np.zeros((d, lanes))
+    _call_unrolled(_taylor_llvm.horner_address(d, order, lanes), X, H, Y)
+    for lane in range(lanes):
+        for i in range(d):
+            exact = np.polynomial.polynomial.polyval(H[lane], X[i, :, lane])
+            assert abs(Y[i, lane] - exact) <= 1e-14 * np.abs(X[i, :, lane]).sum(), (i, lane)
+
+
 def _through_lanes(monkeypatch, lanes):
     """Runs of a batch compute the coefficients ``lanes`` members at a time; the widths asked for are recorded."""
     asked = []

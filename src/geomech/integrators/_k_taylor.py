@@ -209,21 +209,22 @@ def tk_advance(
     X, y, t, k, b, TS, OUT, order, rtol, atol, CH, efp, EDIR, ETERM, EVT, ECOUNT, GOLD, GNEW, GMID, THETA, YT, prm
 ):
     """A step of member b from (t, y) by its Taylor coefficients X (X[:, 0] = y): the outputs it passes saved, the
-    step ended early where it leaves the chart CH or at a terminal event, y advanced; returns (t, the index of the
-    first time not reached, status, the steps taken: 0 or 1)."""
+    step ended early where it leaves the chart CH or at a terminal event; returns (t, the index of the first time
+    not reached, status, the steps taken: 0 or 1, the step). Where the status is 0 the caller advances y to the
+    step's end (Horner's rule at the step: the lanes' states at once)."""
     n = TS.shape[0]
     ne = EDIR.shape[0]
     t_end = TS[n - 1]
     direction = 1.0 if t_end >= t else -1.0
     h = tk_step(X, y, order, rtol, atol)
     if not (h > 0.0):  # NaN: coefficients not finite
-        return t, k, 2, 0
+        return t, k, 2, 0, 0.0
     remaining = abs(t_end - t)
     last = h >= remaining
     if last:
         h = remaining
     elif not (h >= 10.0 * abs(np.nextafter(t, direction * np.inf) - t)):
-        return t, k, 4, 0
+        return t, k, 4, 0, 0.0
     hs = direction * h
     t_new = t_end if last else t + hs
     leave = tk_chart_exit(X, hs, CH, YT)
@@ -241,14 +242,11 @@ def tk_advance(
         while k < n and (direction * (TS[k] - t_stop) < 0.0 or (status == 9 and TS[k] == t_stop)):
             tk_horner(X, TS[k] - t, OUT[b, k])
             k += 1
-        return t_stop, k, status, 1
+        return t_stop, k, status, 1, 0.0
     while k < n and (last or direction * (TS[k] - t_new) <= 0.0):
         tk_horner(X, TS[k] - t, OUT[b, k])
         k += 1
-    tk_horner(X, hs, y)
-    if not finite(y):
-        return t_new, k, 2, 1
-    return t_new, k, 0, 1
+    return t_new, k, 0, 1, hs
 
 
 @kernel
@@ -297,21 +295,42 @@ def tk_lane_start(
 
 @kernel
 def taylor_run(
-    Y0, t0, TS, OUT, INFO, rtol, atol, order, n_rows, tfp, n_k, lanes, max_evals, CH, efp, EDIR, ETERM, EVT, ECOUNT, PRM
+    Y0,
+    t0,
+    TS,
+    OUT,
+    INFO,
+    rtol,
+    atol,
+    order,
+    n_rows,
+    tfp,
+    hfp,
+    n_k,
+    lanes,
+    max_evals,
+    CH,
+    efp,
+    EDIR,
+    ETERM,
+    EVT,
+    ECOUNT,
+    PRM,
 ):
     """Integrate each row of Y0 from t0 by Taylor's method of order ``order`` (its coefficients the model's
     ``taylor_coeffs``, a work array of ``n_rows`` rows; or, where the address ``tfp`` is not 0, the same unrolled
     for this order and for ``lanes`` members at once, :mod:`geomech.integrators._taylor_llvm`, reading the ``n_k``
-    constants of ``taylor_constants``), saving at the times TS (monotone, away from t0) by the step's Taylor
-    polynomial. Each lane runs a member; where it ends, the lane takes the next (the steps of the members in the
-    lanes of a pass differ: only their coefficients are computed together). A state that leaves the chart CH
-    (rows: component, lower, upper bound; none: shape (0, 3)) ends the run where the polynomial crosses the bound
-    (status 6), the outputs before it kept. The event functions at the address ``efp`` (their directions EDIR and
-    terminal flags ETERM; none: length 0) are located on each step's polynomial and recorded in EVT[b] (event, t,
-    state), counted in ECOUNT[b]; a terminal event ends the run there (status 9), the outputs after it NaN. INFO[b]
-    as the embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation
-    budget spent, 9 a terminal event), the index of the first time not reached, NaN, 0, evaluations (``order``
-    per step: one pass over the equations per order), the time reached, steps, 0."""
+    constants of ``taylor_constants``; the lanes' states advanced at once by the code at ``hfp``, Horner's rule on
+    vectors of the lanes, or one by one where it is 0), saving at the times TS (monotone, away from t0) by the
+    step's Taylor polynomial. Each lane runs a member; where it ends, the lane takes the next (the steps of the
+    members in the lanes of a pass differ: only their coefficients and new states are computed together). A state
+    that leaves the chart CH (rows: component, lower, upper bound; none: shape (0, 3)) ends the run where the
+    polynomial crosses the bound (status 6), the outputs before it kept. The event functions at the address ``efp``
+    (their directions EDIR and terminal flags ETERM; none: length 0) are located on each step's polynomial and
+    recorded in EVT[b] (event, t, state), counted in ECOUNT[b]; a terminal event ends the run there (status 9), the
+    outputs after it NaN. INFO[b] as the embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 6
+    left the chart, 8 evaluation budget spent, 9 a terminal event), the index of the first time not reached, NaN, 0,
+    evaluations (``order`` per step: one pass over the equations per order), the time reached, steps, 0."""
     nb, d = Y0.shape
     stride = order + 1
     # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l; a lane's are read in place
@@ -332,6 +351,10 @@ def taylor_run(
     KS = np.zeros(lanes, dtype=np.int64)
     STEPS = np.zeros(lanes, dtype=np.int64)
     NFEV = np.zeros(lanes)
+    HV = np.zeros(lanes)  # the steps of the lanes whose state advances
+    YV = np.zeros(d * lanes)  # their new states, entry i of lane l at i lanes + l
+    PENDING = np.zeros(lanes, dtype=np.bool_)
+    DONE = np.zeros(lanes, dtype=np.bool_)  # the lane's member has ended
     nxt = 0
     for lane in range(lanes):
         nxt = tk_lane_start(
@@ -340,9 +363,11 @@ def taylor_run(
     while True:
         running = False
         for lane in range(lanes):
-            # a member whose budget cannot pay another step ends (status 8), its lane takes the next
-            while MEMBER[lane] >= 0 and NFEV[lane] + order > max_evals:
-                tk_end(OUT, INFO, MEMBER[lane], KS[lane], 8, NFEV[lane], T[lane], STEPS[lane])
+            # a lane whose member ended, or whose budget cannot pay another step (status 8), takes the next member
+            while MEMBER[lane] >= 0 and (DONE[lane] or NFEV[lane] + order > max_evals):
+                if not DONE[lane]:
+                    tk_end(OUT, INFO, MEMBER[lane], KS[lane], 8, NFEV[lane], T[lane], STEPS[lane])
+                DONE[lane] = False
                 nxt = tk_lane_start(
                     lane,
                     nxt,
@@ -384,7 +409,7 @@ def taylor_run(
             if tfp == 0:  # the loop over the orders (one lane)
                 taylor_coeffs(X, W, order, prm)
             NFEV[lane] += order
-            t, k, status, stepped = tk_advance(
+            t, k, status, stepped, hs = tk_advance(
                 X,
                 YS[lane],
                 T[lane],
@@ -411,29 +436,26 @@ def taylor_run(
             T[lane] = t
             KS[lane] = k
             STEPS[lane] += stepped
-            if k >= TS.shape[0] or status != 0:
+            if status == 0:
+                PENDING[lane] = True
+                HV[lane] = hs
+            else:
                 tk_end(OUT, INFO, b, k, status, NFEV[lane], t, STEPS[lane])
-                nxt = tk_lane_start(
-                    lane,
-                    nxt,
-                    Y0,
-                    t0,
-                    TS,
-                    OUT,
-                    INFO,
-                    CH,
-                    efp,
-                    EDIR,
-                    PRM,
-                    tfp,
-                    K,
-                    KV,
-                    PV,
-                    YS,
-                    GOLDS,
-                    MEMBER,
-                    T,
-                    KS,
-                    STEPS,
-                    NFEV,
-                )
+                DONE[lane] = True
+        # the stepping lanes' states advanced to their steps' ends, at once
+        if hfp != 0:
+            call_model(hfp, XV, HV, YV)
+        for lane in range(lanes):
+            if not PENDING[lane]:
+                continue
+            PENDING[lane] = False
+            y = YS[lane]
+            if hfp != 0:
+                for i in range(d):
+                    y[i] = YV[i * lanes + lane]
+            else:
+                tk_horner(X3[:, :, lane], HV[lane], y)
+            status = 0 if finite(y) else 2
+            if KS[lane] >= TS.shape[0] or status != 0:
+                tk_end(OUT, INFO, MEMBER[lane], KS[lane], status, NFEV[lane], T[lane], STEPS[lane])
+                DONE[lane] = True

@@ -16,7 +16,7 @@ from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, rhs_address
 from ._problem import Problem
-from ._taylor_llvm import UNROLL_LIMIT, simd_lanes, unrolled_address
+from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
 from .solution import STATUS
 
@@ -381,6 +381,13 @@ def run_taylor(
                 codes[order, compact, width] = unrolled_address(TaylorTape.from_data(module.TAYLOR_TAPE), order, width)
                 compile_time += time.perf_counter() - start
             tfp, lanes = codes[order, compact, width], width
+    hfp = 0
+    if tfp:  # the states advanced by Horner's rule on the lanes at once, compiled once per size, order and lanes
+        if ("horner", Y0.shape[1], order, lanes) not in codes:
+            start = time.perf_counter()
+            codes["horner", Y0.shape[1], order, lanes] = horner_address(Y0.shape[1], order, lanes)
+            compile_time += time.perf_counter() - start
+        hfp = codes["horner", Y0.shape[1], order, lanes]
     if not module.taylor_run.signatures:
         # the first call compiles the loop with the model's coefficients (or loads numba's disk cache): timed apart
         start = time.perf_counter()
@@ -395,6 +402,7 @@ def run_taylor(
             order,
             rows_w,
             tfp,
+            hfp,
             n_k,
             lanes,
             1.0,
@@ -421,6 +429,7 @@ def run_taylor(
             order,
             rows_w,
             tfp,
+            hfp,
             n_k,
             lanes,
             budget,

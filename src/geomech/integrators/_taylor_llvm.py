@@ -29,7 +29,7 @@ from .._storage import write_atomic
 from ..symbolic.taylor import TaylorTape
 from ._codegen import cache_dir
 
-__all__ = ["taylor_ir", "unrolled_address", "simd_lanes", "UNROLL_LIMIT"]
+__all__ = ["horner_address", "horner_ir", "taylor_ir", "unrolled_address", "simd_lanes", "UNROLL_LIMIT"]
 
 #: The largest pass (multiply-adds of :meth:`TaylorTape.multiply_adds`) compiled unrolled; larger ones run the
 #: loop over the orders (LLVM's time grows with the code, about 1 s for 10,000 multiply-adds).
@@ -274,35 +274,77 @@ def _printer_fingerprint() -> str:
     return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
 
 
+def horner_ir(name: str, d: int, order: int, lanes: int) -> str:
+    """The LLVM IR of ``name(X, H, Y, _, _)``: the Taylor polynomials of the ``d`` rows of ``X`` (the coefficients of
+    :func:`taylor_ir` to ``order`` for ``lanes`` members, in its layout) at the steps ``H`` (one a lane), by Horner's
+    rule on vectors of the lanes: ``Y[i lanes + l]``, the new states of the members, in one pass."""
+    from llvmlite import ir
+
+    D = ir.DoubleType()
+    T = D if lanes == 1 else ir.VectorType(D, lanes)
+    i64 = ir.IntType(64)
+    mod = ir.Module(name=name)
+    fn = ir.Function(mod, ir.FunctionType(ir.VoidType(), [D.as_pointer()] * 3 + [i64, i64]), name=name)
+    for a in fn.args[:3]:
+        a.add_attribute("noalias")
+    X, H, Y = fn.args[:3]
+    b = ir.IRBuilder(fn.append_basic_block("entry"))
+
+    def address(ptr: Any, i: int) -> Any:
+        at = b.gep(ptr, [ir.Constant(i64, i * lanes)], inbounds=True)
+        return at if lanes == 1 else b.bitcast(at, T.as_pointer())
+
+    h = b.load(address(H, 0), align=8)
+    stride = order + 1
+    for i in range(d):
+        acc = b.load(address(X, i * stride + order), align=8)
+        for j in range(order - 1, -1, -1):
+            acc = b.fadd(b.fmul(acc, h, flags=FLAGS), b.load(address(X, i * stride + j), align=8), flags=FLAGS)
+        b.store(acc, address(Y, i), align=8)
+    b.ret_void()
+    return str(mod)
+
+
+def horner_address(d: int, order: int, lanes: int) -> int:
+    """The address of :func:`horner_ir`'s function for ``d`` rows, ``order`` and ``lanes`` (compiled once per
+    process and cached on disk as :func:`unrolled_address`'s code is)."""
+    return _machine_code(f"horner {d} {order} {lanes}", "taylor_horner", lambda name: horner_ir(name, d, order, lanes))
+
+
 def unrolled_address(tape: TaylorTape, order: int, lanes: int = 1) -> int:
     """The address of the tape's coefficients to ``order``, unrolled (:func:`taylor_ir`) for ``lanes``
     trajectories at once, compiled once per process and cached on disk (named by the tape, the order, the lanes,
     this module's source, llvmlite and the host)."""
+    return _machine_code(
+        f"{order}\n{lanes}\n{tape.data()!r}", "taylor_unrolled", lambda name: taylor_ir(tape, name, order, lanes)
+    )
+
+
+def _machine_code(what: str, name: str, make_ir: Any) -> int:
+    """The address of function ``name`` of the IR ``make_ir(name)`` describes (``what`` names it: the code cached
+    on disk is named by it, this module's source, llvmlite and the host, and loads without printing its IR
+    again), compiled once per process."""
     import llvmlite
     import llvmlite.binding as llvm
 
     with _LOCK:
         tm = _target()
-        # named by what the IR is made of (the tape, the order, this printer's source), so that code cached on
-        # disk loads without printing its IR again
         host = (llvm.get_process_triple(), llvm.get_host_cpu_name(), _host_features(llvm))
-        key = "\n".join(
-            (llvmlite.__version__, *host, _printer_fingerprint(), str(order), str(lanes), repr(tape.data()))
-        )
+        key = "\n".join((llvmlite.__version__, *host, _printer_fingerprint(), what))
         digest = hashlib.sha256(key.encode()).hexdigest()[:24]
         if digest in _ADDRESSES:
             return _ADDRESSES[digest]
         path = cache_dir() / f"gm_taylor_{digest}.o"
         obj = path.read_bytes() if path.exists() else None
         if obj is None:
-            obj = _compile(tm, taylor_ir(tape, "taylor_unrolled", order, lanes))
+            obj = _compile(tm, make_ir(name))
             write_atomic(path, obj)
         engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
         engine.add_object_file(llvm.ObjectFileRef.from_data(obj))
         engine.finalize_object()
-        address = engine.get_function_address("taylor_unrolled")
+        address = engine.get_function_address(name)
         if not address:  # pragma: no cover - a corrupt cache entry
-            raise RuntimeError(f"the unrolled Taylor code {path} defines no function: delete the file")
+            raise RuntimeError(f"the Taylor code {path} defines no function {name}: delete the file")
         _ENGINES.append(engine)
         _ADDRESSES[digest] = address
         return address
