@@ -196,3 +196,29 @@ def test_an_option_is_never_taken_as_another_options_value(capsys, tmp_path, mon
     assert not os.listdir(tmp_path)
     code, out, _ = run(capsys, *RIGID, "--out=--json")  # spelled out, it is a name like any other
     assert code == 0 and (tmp_path / "--json" / "rigid_body.json").is_file()
+
+
+def test_an_interrupt_python_swallowed_still_ends_the_command(monkeypatch, capsys):
+    """Ctrl-C raised where Python ignores exceptions (a weak reference's callback during an import) is lost: one
+    recorded during the imports ends the command once they end, and a process still running a moment after an
+    interrupt is ended with the same line and status."""
+    import threading
+
+    import _geomech_cli
+
+    stale = threading.Timer(60.0, lambda: None)  # an interrupt recorded, its exception swallowed
+    monkeypatch.setattr(_geomech_cli, "_INTERRUPTED", [stale])
+    monkeypatch.setattr(sys, "argv", ["geomech", "rigid-body", "--inertia", "3", "2", "1"])
+    previous = signal.getsignal(signal.SIGINT)
+    try:
+        assert _geomech_cli.main() == 130
+    finally:  # main installs its handler: the test process keeps its own
+        signal.signal(signal.SIGINT, previous)
+    assert capsys.readouterr().err == "geomech: interrupted\n"
+    ended = threading.Event()
+    monkeypatch.setattr(_geomech_cli, "_INTERRUPTED", [])
+    monkeypatch.setattr(_geomech_cli, "GRACE", 0.05)
+    monkeypatch.setattr(_geomech_cli, "_interrupted", ended.set)
+    with pytest.raises(KeyboardInterrupt):
+        _geomech_cli._on_sigint(signal.SIGINT, None)
+    assert ended.wait(5.0)
