@@ -10,7 +10,7 @@ import pytest
 from geomech import solve
 from geomech.errors import InputError
 from geomech.integrators import BKMM, Status
-from geomech.integrators.nonholonomic import _compiled
+from geomech.integrators.nonholonomic import _observe
 from geomech.systems.nonholonomic_examples import kinematic_car, roller_racer, rolling_disk, snakeboard
 
 SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
@@ -118,9 +118,9 @@ def test_torque_coefficients_and_a_state_batch():
 def test_the_compiled_observation_is_the_python_one(monkeypatch):
     s = snakeboard(**SNAKE)
     kw = dict(t_final=1.0, saveat=4, shapes={"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **TOL)
-    monkeypatch.setattr(_compiled, "_compiled_observation", lambda name, compiled, rows: False)
+    monkeypatch.setattr(_observe, "_compiled_observation", lambda name, compiled, rows: False)
     python = solve(s, BKMM(), parameters={"a": [0.5, 1.0]}, **kw)
-    monkeypatch.setattr(_compiled, "_compiled_observation", lambda name, compiled, rows: True)
+    monkeypatch.setattr(_observe, "_compiled_observation", lambda name, compiled, rows: True)
     compiled = solve(s, BKMM(), parameters={"a": [0.5, 1.0]}, **kw)
     np.testing.assert_array_equal(compiled.states, python.states)
     for name in ("energy", "tau", "constraint_residual"):
@@ -131,14 +131,12 @@ def test_the_compiled_observation_is_the_python_one(monkeypatch):
 def test_the_observation_is_compiled_once_python_has_cost_as_much(monkeypatch):
     """Runs observed as Python (no compilation for a few small runs) until the states a module has observed so in
     the process would pass PYTHON_ROWS; then, and for a larger run at once, by the compiled code."""
-    monkeypatch.setattr(_compiled, "PYTHON_ROWS", 12)
-    monkeypatch.setattr(_compiled, "_PYTHON_SEEN", {})
-    choices = [_compiled._compiled_observation("m", False, rows) for rows in (5, 5, 5)]
+    monkeypatch.setattr(_observe, "PYTHON_ROWS", 12)
+    monkeypatch.setattr(_observe, "_PYTHON_SEEN", {})
+    choices = [_observe._compiled_observation("m", False, rows) for rows in (5, 5, 5)]
     assert choices == [False, False, True]
-    assert _compiled._compiled_observation("other", False, 13) and not _compiled._compiled_observation(
-        "other", False, 4
-    )
-    assert _compiled._compiled_observation("new", True, 1)  # already compiled in this process
+    assert _observe._compiled_observation("other", False, 13) and not _observe._compiled_observation("other", False, 4)
+    assert _observe._compiled_observation("new", True, 1)  # already compiled in this process
 
 
 def test_a_failing_member_is_its_own_failure():

@@ -9,7 +9,8 @@ the step shrinks.
 * :class:`~geomech.integrators.BKMM`: the BKMM equations (1.1)-(1.3) of the nonholonomic seed: momentum and
   shape equations for :math:`(r, \dot r, p)` and the reconstruction :math:`\dot q_G = \Lambda(q_G)^{-1}\xi`;
   the velocity satisfies the constraints exactly at every instant. Compiled (``_compiled``: straight-line code
-  generated for the system, run by the compiled Dormand-Prince loops) where the gait and torques are formulas.
+  generated for the system, run by the compiled Dormand-Prince loops; its saved states observed by ``_observe``) where
+  the gait and torques are formulas.
 * :class:`~geomech.integrators.NonholonomicHamilton`: Hamilton's equations on :math:`\mathbb FL(\mathcal D)` in
   the almost-Poisson, Bates-Sniatycki or full-tensor form of :mod:`geomech.reduction` (``_hamiltonian``), with
   the torques as a generalised force, stepped by scipy.

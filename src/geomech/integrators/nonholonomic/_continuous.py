@@ -30,8 +30,9 @@ from .._runners import INFO_COLUMNS, run_embedded, run_taylor
 from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
-from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots, observe
+from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots
 from ._inputs import _group_rates, _Setup, scalar_values
+from ._observe import observe
 from ._trajectory import _accelerations, _Raw
 
 #: What the variational equations of a Lagrangian system need.

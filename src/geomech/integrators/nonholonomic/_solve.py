@@ -22,11 +22,12 @@ from .._times import Times
 from .._variational import augment, named_sensitivities
 from ..methods import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
 from ..solution import Failure, Solution, Status, run_stats
-from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, observe
+from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair
 from ._continuous import VARIATIONAL_NEEDS, run_compiled, run_full, run_reduced
 from ._discrete import run_discrete
 from ._hamiltonian import run_hamiltonian
 from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state_of
+from ._observe import observe
 from ._trajectory import quantities, spatial_momentum
 
 #: Default ceiling on steps of the discrete Lagrange-d'Alembert integrator (a Python loop, about 0.2 ms a step).
