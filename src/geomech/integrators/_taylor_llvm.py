@@ -47,10 +47,10 @@ _ENGINES: list[Any] = []  # kept alive: the code lives as long as its engine
 _TARGET: list[Any] = []
 
 
-def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
-    """The LLVM IR of ``name``: the Taylor coefficients to ``order`` of the tape's equations, unrolled; with
-    ``lanes`` > 1, of that many trajectories at once, every value a vector of ``lanes`` numbers (the arrays then
-    hold each entry's lanes side by side: entry i of lane l at ``i * lanes + l``)."""
+def _function(name: str, lanes: int) -> tuple[Any, Any, tuple[Any, Any, Any], Any]:
+    """A module with the function ``void name(double *, double *, double *, i64, i64)`` (the signature the compiled
+    loops call; the three arrays never alias), its builder at the entry block, the three arrays, and ``address(ptr,
+    i)``: the pointer to entry i of ``ptr`` (a vector of ``lanes`` doubles where ``lanes`` > 1)."""
     from llvmlite import ir
 
     D = ir.DoubleType()
@@ -60,8 +60,25 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
     fn = ir.Function(mod, ir.FunctionType(ir.VoidType(), [D.as_pointer()] * 3 + [i64, i64]), name=name)
     for a in fn.args[:3]:
         a.add_attribute("noalias")
-    X, Kp, P = fn.args[:3]
     b = ir.IRBuilder(fn.append_basic_block("entry"))
+
+    def address(ptr: Any, i: int) -> Any:
+        at = b.gep(ptr, [ir.Constant(i64, i * lanes)], inbounds=True)
+        return at if lanes == 1 else b.bitcast(at, T.as_pointer())
+
+    return mod, b, (fn.args[0], fn.args[1], fn.args[2]), address
+
+
+def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
+    """The LLVM IR of ``name``: the Taylor coefficients to ``order`` of the tape's equations, unrolled; with
+    ``lanes`` > 1, of that many trajectories at once, every value a vector of ``lanes`` numbers (the arrays then
+    hold each entry's lanes side by side: entry i of lane l at ``i * lanes + l``)."""
+    from llvmlite import ir
+
+    mod, b, (X, Kp, P), address = _function(name, lanes)
+    D = ir.DoubleType()
+    T = D if lanes == 1 else ir.VectorType(D, lanes)
+    i64 = ir.IntType(64)
     functions: dict[str, Any] = {}
 
     def call(f: str, *args: Any) -> Any:
@@ -79,10 +96,6 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
             at_lane = [b.extract_element(a, ir.Constant(i64, lane)) for a in args]
             out = b.insert_element(out, b.call(functions[f], at_lane), ir.Constant(i64, lane))
         return out
-
-    def address(ptr: Any, i: int) -> Any:
-        at = b.gep(ptr, [ir.Constant(i64, i * lanes)], inbounds=True)
-        return at if lanes == 1 else b.bitcast(at, T.as_pointer())
 
     def load(ptr: Any, i: int) -> Any:
         return b.load(address(ptr, i), align=8)
@@ -278,22 +291,7 @@ def horner_ir(name: str, d: int, order: int, lanes: int) -> str:
     """The LLVM IR of ``name(X, H, Y, _, _)``: the Taylor polynomials of the ``d`` rows of ``X`` (the coefficients of
     :func:`taylor_ir` to ``order`` for ``lanes`` members, in its layout) at the steps ``H`` (one a lane), by Horner's
     rule on vectors of the lanes: ``Y[i lanes + l]``, the new states of the members, in one pass."""
-    from llvmlite import ir
-
-    D = ir.DoubleType()
-    T = D if lanes == 1 else ir.VectorType(D, lanes)
-    i64 = ir.IntType(64)
-    mod = ir.Module(name=name)
-    fn = ir.Function(mod, ir.FunctionType(ir.VoidType(), [D.as_pointer()] * 3 + [i64, i64]), name=name)
-    for a in fn.args[:3]:
-        a.add_attribute("noalias")
-    X, H, Y = fn.args[:3]
-    b = ir.IRBuilder(fn.append_basic_block("entry"))
-
-    def address(ptr: Any, i: int) -> Any:
-        at = b.gep(ptr, [ir.Constant(i64, i * lanes)], inbounds=True)
-        return at if lanes == 1 else b.bitcast(at, T.as_pointer())
-
+    mod, b, (X, H, Y), address = _function(name, lanes)
     h = b.load(address(H, 0), align=8)
     stride = order + 1
     for i in range(d):
