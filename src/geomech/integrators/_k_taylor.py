@@ -346,7 +346,7 @@ def taylor_run(
     GMID = np.zeros(d)
     THETA = np.zeros(max(EDIR.shape[0], 1))
     YT = np.empty(d)
-    MEMBER = np.full(lanes, -1)
+    MEMBER = np.full(lanes, -2)  # the lane's member; -1: none left, -2: not yet given one
     T = np.zeros(lanes)
     KS = np.zeros(lanes, dtype=np.int64)
     STEPS = np.zeros(lanes, dtype=np.int64)
@@ -356,42 +356,19 @@ def taylor_run(
     PENDING = np.zeros(lanes, dtype=np.bool_)
     DONE = np.zeros(lanes, dtype=np.bool_)  # the lane's member has ended
     nxt = 0
-    for lane in range(lanes):
-        nxt = tk_lane_start(
-            lane, nxt, Y0, t0, TS, OUT, INFO, CH, efp, EDIR, PRM, tfp, K, KV, PV, YS, GOLDS, MEMBER, T, KS, STEPS, NFEV
-        )
     while True:
         running = False
         for lane in range(lanes):
-            # a lane whose member ended, or whose budget cannot pay another step (status 8), takes the next member
-            while MEMBER[lane] >= 0 and (DONE[lane] or NFEV[lane] + order > max_evals):
-                if not DONE[lane]:
+            # a lane not yet given a member, or whose member ended or cannot pay another step (status 8), takes the
+            # next member
+            while MEMBER[lane] == -2 or (MEMBER[lane] >= 0 and (DONE[lane] or NFEV[lane] + order > max_evals)):
+                if MEMBER[lane] >= 0 and not DONE[lane]:
                     tk_end(OUT, INFO, MEMBER[lane], KS[lane], 8, NFEV[lane], T[lane], STEPS[lane])
                 DONE[lane] = False
                 nxt = tk_lane_start(
-                    lane,
-                    nxt,
-                    Y0,
-                    t0,
-                    TS,
-                    OUT,
-                    INFO,
-                    CH,
-                    efp,
-                    EDIR,
-                    PRM,
-                    tfp,
-                    K,
-                    KV,
-                    PV,
-                    YS,
-                    GOLDS,
-                    MEMBER,
-                    T,
-                    KS,
-                    STEPS,
-                    NFEV,
-                )
+                    lane, nxt, Y0, t0, TS, OUT, INFO, CH, efp, EDIR, PRM, tfp, K, KV, PV, YS, GOLDS, MEMBER, T, KS,
+                    STEPS, NFEV
+                )  # fmt: skip
             if MEMBER[lane] >= 0:
                 running = True
                 for i in range(d):
