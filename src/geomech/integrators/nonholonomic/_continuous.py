@@ -118,7 +118,7 @@ def run_full(
 
     y0 = np.r_[q_init[fr], qd_init[fr], 0.0]
     budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-    return _stepped(
+    return run_stepped(
         "LagrangeDAlembert",
         setup,
         rhs,
@@ -228,12 +228,12 @@ def run_reduced(
         failure = run.failures[0][1] if run.failures else None
         return run.raw(setup, m, 0, failure)
     budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-    return _stepped(
+    return run_stepped(
         "BKMM", setup, rhs, evaluate, y0, t0, times, method, tolerances, budget, parameters, events, max_events
     )
 
 
-def _stepped(
+def run_stepped(
     name: str,
     setup: _Setup,
     rhs: Callable,
@@ -248,8 +248,9 @@ def _stepped(
     events: Any,
     max_events: int,
 ) -> _Raw:
-    """A Lagrangian run in Python stepped by scipy's ``method.solver``: ``evaluate(t, y)`` gives the (q, qdot, shape
-    forces) of its state, the ``events`` located on the solver's dense output."""
+    """A run in Python stepped by scipy's ``method.solver`` (Lagrange-d'Alembert, BKMM, the Hamiltonian forms):
+    ``evaluate(t, y)`` gives the (q, qdot, shape forces) of its state, the ``events`` located on the solver's dense
+    output."""
 
     def shown(t: float, y: np.ndarray) -> np.ndarray:
         q, qd, _ = evaluate(t, y)

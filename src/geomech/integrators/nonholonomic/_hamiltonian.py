@@ -11,10 +11,8 @@ import numpy as np
 
 from ...errors import InputError
 from ...reduction import almost_poisson, bates_sniatycki, full_almost_poisson
-from .._adaptive import integrate_ivp
-from .._events import stepped_lagrangian_events
-from ._continuous import SINGULAR
-from ._inputs import _Setup, scalar_values
+from ._continuous import run_stepped
+from ._inputs import _Setup
 from ._trajectory import _Raw
 
 
@@ -80,21 +78,13 @@ def run_hamiltonian(
         F, tau = force(t, z[:n], free[:n])
         return np.r_[free + R @ F, tau @ free[shapes]]
 
-    def shown(_t: float, y: np.ndarray) -> np.ndarray:
-        """(q, qdot) of a state: qdot the field's q rows (which the torques leave alone)."""
+    def evaluate(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, qdot, torques) of a state: qdot the field's q rows (which the torques leave alone)."""
         z = y[:-1]
-        return np.r_[z[:n], field(z)[:n]]
+        q, qd = z[:n], field(z)[:n]
+        return q, qd, force(t, q, qd)[1]
 
-    located = None if events is None else stepped_lagrangian_events(setup, events, scalar_values(parameters), shown)
     y0 = np.r_[q_init, pt(np.r_[q_init, qd_init])[:, 0], 0.0]
-    Y, failure, nfev, n_steps = integrate_ivp(
-        name, rhs, y0, t0, times, method.solver, tolerances, max_evaluations, SINGULAR, located
+    return run_stepped(
+        name, setup, rhs, evaluate, y0, t0, times, method, tolerances, max_evaluations, parameters, events, max_events
     )
-    N = len(times)
-    Q, QD, TAU = np.full((N, n), np.nan), np.full((N, n), np.nan), np.full((N, system.sigma), np.nan)
-    for i in np.flatnonzero(np.all(np.isfinite(Y), axis=1)):
-        z = Y[i, :-1]
-        Q[i], QD[i] = z[:n], field(z)[:n]
-        TAU[i] = force(times[i], Q[i], QD[i])[1]
-    table = {} if located is None else located.table(shown, 2 * n, max_events)
-    return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps, events=table)
