@@ -517,3 +517,26 @@ def test_systems_that_differ_only_in_parameter_values_share_one_compilation():
     # and the two bodies do move differently
     a, b = (solve(body, "rk4", m0=m0, h=0.05, t_final=2.0).states[-1] for body in bodies)
     assert np.max(np.abs(a - b)) > 0.02  # |m| = 1.06: far above any round-off
+
+
+def test_the_compiled_loops_time_is_stated_apart_from_the_python_around_it():
+    """``loop_time`` is the calls into the compiled loop alone: part of ``run_time`` (the set-up, the bound on the
+    work and the quantities are the rest), for the fixed-step, embedded and Taylor loops and the compiled
+    Lagrangian runs; a run in Python has none."""
+    from geomech.integrators import BKMM
+    from geomech.systems.nonholonomic_examples import chaplygin_sleigh
+
+    body = gm.RigidBody((3.0, 2.0, 1.0))
+    sleigh = chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6)
+    runs = [
+        solve(body, "implicit_midpoint", m0=[1.0, 0.3, 0.2], h=0.01, t_final=1.0),
+        solve(body, "dop853", m0=[1.0, 0.3, 0.2], rtol=1e-10, atol=1e-10, t_final=1.0),
+        solve(body, "taylor", m0=[1.0, 0.3, 0.2], rtol=1e-10, atol=1e-10, t_final=1.0),
+        solve(sleigh, BKMM(), p0=[0.3, 0.5], rtol=1e-10, atol=1e-10, t_final=1.0),
+        solve(sleigh, BKMM(solver="taylor"), p0=[0.3, 0.5], rtol=1e-10, atol=1e-10, t_final=1.0),
+    ]
+    for sol in runs:
+        assert sol.stats["backend"] == "numba"
+        assert 0.0 < sol.stats["loop_time"] <= sol.stats["run_time"], (sol.method, sol.stats)
+    python = solve(body, "implicit_midpoint", m0=[1.0, 0.3, 0.2], h=0.01, t_final=1.0, backend="python")
+    assert "loop_time" not in python.stats

@@ -40,15 +40,18 @@ def _chunks(B: int, threads: int) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
 
 
-def _threaded(call: Any, B: int, threads: int) -> None:
+def _threaded(call: Any, B: int, threads: int) -> float:
     """``call(a, b)`` on the rows a:b of a batch, split over ``threads`` threads (the compiled loops release
-    the GIL)."""
+    the GIL); returns the seconds from the first call to the last one's end (the compiled loop's wall time)."""
     if threads <= 1 or B < 2:
+        start = time.perf_counter()
         call(0, B)
-        return
+        return time.perf_counter() - start
     with ThreadPoolExecutor(max_workers=min(threads, B)) as pool:
+        start = time.perf_counter()
         for fut in [pool.submit(call, a, b) for a, b in _chunks(B, threads)]:
             fut.result()
+        return time.perf_counter() - start
 
 
 def rows(PRM: np.ndarray, a: int, b: int) -> np.ndarray:
@@ -70,14 +73,14 @@ def run_compiled(
     P: np.ndarray,
     PRM: np.ndarray,
     threads: int,
-) -> None:
+) -> float:
     """A fixed-step loop over the batch ``Y0``; ``FP`` the addresses of the model functions it calls, ``PRM`` the
-    parameter values (one row for all, or one per trajectory)."""
+    parameter values (one row for all, or one per trajectory). Returns the loop's seconds."""
 
     def call(a: int, b: int) -> None:
         kern(FP, Y0[a:b], h, nsteps, save_every, OUT[a:b], INFO[a:b], tol, maxit, P, rows(PRM, a, b))
 
-    _threaded(call, Y0.shape[0], threads)
+    return _threaded(call, Y0.shape[0], threads)
 
 
 CODES = {status: code for code, status in STATUS.items()}
@@ -229,10 +232,11 @@ def run_embedded(
     threads: int,
     events: Any = None,
     max_events: int = 0,
-) -> tuple[int, float, np.ndarray, np.ndarray]:
+) -> tuple[int, float, float, np.ndarray, np.ndarray]:
     """Each row of ``Y0`` by the compiled Dormand-Prince loop, stopped where it leaves the chart of
     ``problem_system`` (its ``chart``: component, lower and upper bound) or at a terminal event; returns (accepted
-    steps, compile time, the events recorded (B, max_events, 2 + d), their counts (B,))."""
+    steps, compile time, the compiled loop's seconds, the events recorded (B, max_events, 2 + d), their counts
+    (B,))."""
     from ._events import CompiledEvents
 
     ev = CompiledEvents.none() if events is None else events
@@ -291,9 +295,9 @@ def run_embedded(
         )
 
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
-        _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
+        loop_time = _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
     _adaptive_outcome(INFO, times, tolerances, reasons, reached)
-    return int(INFO[:, 6].sum()), compile_time, EVT, ECOUNT
+    return int(INFO[:, 6].sum()), compile_time, loop_time, EVT, ECOUNT
 
 
 def _adaptive_outcome(
@@ -341,13 +345,13 @@ def run_taylor(
     max_events: int = 0,
     problem_system: Any = None,
     compact: bool | None = None,
-) -> tuple[int, float, np.ndarray, np.ndarray]:
+) -> tuple[int, float, float, np.ndarray, np.ndarray]:
     """Each row of ``Y0`` by the compiled Taylor loop of ``module`` at the order :func:`taylor_order` of
     ``tolerances``, stopped where it leaves the chart of ``problem_system`` or at a terminal event; returns (steps,
-    compile time, the events recorded (B, max_events, 2 + d), their counts (B,)). The coefficients are the
-    module's tape (``TAYLOR_TAPE``) unrolled for the order (:mod:`._taylor_llvm`, compiled once per order: its
-    time is counted in the compile time), or with ``compact`` (default: where the unrolled code would pass
-    ``UNROLL_LIMIT`` multiply-adds) the module's loop over the orders, ``taylor_coeffs``."""
+    compile time, the compiled loop's seconds, the events recorded (B, max_events, 2 + d), their counts (B,)). The
+    coefficients are the module's tape (``TAYLOR_TAPE``) unrolled for the order (:mod:`._taylor_llvm`, compiled once
+    per order: its time is counted in the compile time), or with ``compact`` (default: where the unrolled code would
+    pass ``UNROLL_LIMIT`` multiply-adds) the module's loop over the orders, ``taylor_coeffs``."""
     from ._events import CompiledEvents
 
     ev = CompiledEvents.none() if events is None else events
@@ -441,6 +445,6 @@ def run_taylor(
         )
 
     with np.errstate(all="ignore"):
-        _threaded(call, Y0.shape[0], threads)
+        loop_time = _threaded(call, Y0.shape[0], threads)
     _adaptive_outcome(INFO, times, tolerances, reasons, reached)
-    return int(INFO[:, 6].sum()), compile_time, EVT, ECOUNT
+    return int(INFO[:, 6].sum()), compile_time, loop_time, EVT, ECOUNT

@@ -174,8 +174,9 @@ class Solution:
     stats : dict
         Counters: ``n_steps`` (steps, or output times, per trajectory), ``n_internal_steps``, ``n_rhs``
         (right-hand-side evaluations, summed over the batch), ``n_newton`` (summed), ``backend``,
-        ``compile_time`` and ``run_time`` in seconds; a compiled Lagrangian run adds ``loop_time``, the compiled loop
-        alone (the rest of ``run_time`` is the set-up and the quantities at the saved times).
+        ``compile_time`` and ``run_time`` in seconds; a compiled run adds ``loop_time``, the wall time of the calls
+        into the compiled loop alone (the rest of ``run_time`` is the Python around it: the set-up, the bound on
+        the work, the quantities at the saved times).
     parameters : mapping
         The parameter values the system was evaluated with: numbers, and arrays of the batch's shape for the
         parameters a batch sweeps (``solve(..., parameters={name: array})``).

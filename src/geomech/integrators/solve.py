@@ -423,6 +423,7 @@ def solve(
         )
         compiled_events = compile_events(problem, events, used)
     compile_time = 0.0
+    loop_time: float | None = None  # the compiled loop's seconds, where there is one
     t_start = time.perf_counter()
     reasons: dict[int, str] = {}
     reached: dict[int, float] = {}
@@ -458,9 +459,9 @@ def solve(
             max_events,
         )
         if isinstance(method, Taylor):
-            internal, compile_time, EVT, ECOUNT = run_taylor(module, PRM, *common, system, method.compact)
+            internal, compile_time, loop_time, EVT, ECOUNT = run_taylor(module, PRM, *common, system, method.compact)
         else:
-            internal, compile_time, EVT, ECOUNT = run_embedded(module, used, system, PRM, method, *common)
+            internal, compile_time, loop_time, EVT, ECOUNT = run_embedded(module, used, system, PRM, method, *common)
         t_start += compile_time
         if compiled_events is not None:
             event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
@@ -510,7 +511,7 @@ def solve(
         if used != "numba" or B < 2 or B * nsteps < 20_000:
             n_threads = 1
         with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
-            run_compiled(
+            loop_time = run_compiled(
                 kern,
                 module.addresses(calls) if FP is None else FP,
                 Y0,
@@ -610,6 +611,7 @@ def solve(
             backend=used,
             compile_time=compile_time,
             **({"chart_switches": len(switches)} if isinstance(method, SerretAndoyerAtlas) else {}),
+            **({"loop_time": loop_time} if loop_time is not None and used == "numba" else {}),
         ),
         parameters={
             **dict(getattr(problem.core, "parameters", {}) or {}),
