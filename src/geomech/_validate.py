@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -51,7 +52,7 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
 def finite(value: Any, name: str) -> np.ndarray:
     """Return ``value`` as a float array after checking that every entry is finite."""
     arr = as_float_array(value, name)
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InputError(f"Expected `{name}` to be finite, got {_show(arr)}.")
     return arr
 
@@ -77,12 +78,14 @@ def exact_shape(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
 def positive(value: Any, name: str) -> np.ndarray:
     """Return ``value`` as a finite float array whose entries are all > 0."""
     arr = finite(value, name)
-    if not np.all(arr > 0):
+    if not (arr > 0).all():
         raise InputError(f"Expected `{name}` to be positive, got {_show(arr)}.")
     return arr
 
 
 def positive_scalar(value: Any, name: str) -> float:
+    if type(value) in (float, int) and 0 < value < math.inf:  # a plain number (not a bool): nothing to convert
+        return float(value)
     arr = positive(value, name)
     if arr.ndim != 0:
         raise ShapeError(f"Expected `{name}` to be a scalar, got shape {arr.shape}.")

@@ -56,6 +56,7 @@ class Problem:
     # for each entry of prm before the derived ones: (parameter name, whether it is its reciprocal)
     parameter_recipe: tuple[tuple[str, bool], ...] = ()
     derived: Any = None  # the derived parameters (coefficients hoisted by the code generator) from the given ones
+    _bound: bool = False  # prm holds the derived parameters' values of ``derived``
     # A body with rotors, bound to its torque law by ._rotor.bind_torque: the law, the torque as a function
     # u(t, R, m, gamma, Gamma), and whether it depends on time (the time is then the state's last component)
     law: Any = None
@@ -109,8 +110,7 @@ class Problem:
                 )
                 tag = "c" if self.kind == "canonical" else self.layout
                 module = _codegen.compiled_module(src, tag)
-                self.derived = derived
-                self.prm = self.parameter_rows({})[0]
+                self.bind_derived(derived)
                 return module, "numba"
             except NotImplementedError:
                 if backend == "numba":
@@ -119,6 +119,15 @@ class Problem:
             why = "numba is not available" if self.expression is not None else "the system has no formula"
             raise InputError(f"backend='numba' needs a system built from a formula and numba; {why}.")
         return _codegen.python_module(self._python_functions(features)), "python"
+
+    def bind_derived(self, derived: Any) -> None:
+        """Use the generated model's ``derived`` parameters: ``prm`` becomes the system's values and theirs (made
+        once per model: the same ``derived`` keeps them)."""
+        if derived is self.derived and self._bound:
+            return
+        self.derived = derived
+        self.prm = self.parameter_rows({})[0]
+        self._bound = True
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

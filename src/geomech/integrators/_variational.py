@@ -54,8 +54,7 @@ def variational_module(problem: Any, wrt: tuple[str, ...], backend: str) -> tupl
     args = (problem.kind, problem.layout, model, problem.variables, problem.parameter_symbols, wrt)
     if backend != "python" and _codegen.numba_available():
         src, derived = variational_source(*args)
-        problem.derived = derived
-        problem.prm = problem.parameter_rows({})[0]
+        problem.bind_derived(derived)
         return _codegen.compiled_module(src, "var"), "numba"
     outputs, aug = variational_equations(*args)
     f = compile_vector(outputs, [*aug, *problem.parameter_symbols])

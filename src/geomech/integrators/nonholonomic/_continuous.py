@@ -201,7 +201,7 @@ def run_reduced(
         return q, qd, tau_v
 
     p_init = rn.momentum(q_init, qd_init)
-    y0 = np.r_[q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, 0.0]
+    y0 = np.concatenate([q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, [0.0]])
     taylor = method.solver == TAYLOR
     compiled = _compiled_or_refused(
         system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities)
@@ -405,7 +405,7 @@ def run_compiled(
 
     # the work is bounded before it is done: a pilot of a few members (spread over the batch), their pace projected
     # to the end (as in Python); the members it finished are kept, the others run with the budget
-    pilot = np.array(sorted({int(i) for i in np.linspace(0, B - 1, min(B, 8))}), dtype=int)
+    pilot = np.arange(B) if B <= 8 else np.unique(np.linspace(0, B - 1, 8).astype(int))
     EVT = np.zeros((B, max_events if events is not None else 0, 2 + d))
     ECOUNT = np.zeros(B)
     steps, compile_time = run(pilot, min(limit, PILOT))

@@ -279,8 +279,11 @@ def initial_state_of(
     r_p, rd_p, _ = setup.gait(t0)
     for j, i in enumerate(setup.prescribed):
         q[system.k + i] = r_p[j]
-    lda = lagrange_dalembert(system).numeric(parameters)
     _require_positive_kinetic_energy(system, q, parameters)
+
+    def lda() -> Any:
+        return lagrange_dalembert(system).numeric(parameters)
+
     if isinstance(qdot0, str):
         if qdot0 != "rest":
             raise InputError(f"Expected `qdot0` to be velocities or 'rest', got {qdot0!r}.")
@@ -289,7 +292,7 @@ def initial_state_of(
                 "Give `p0` or qdot0='rest', not both: at rest the momentum follows from the shape velocities."
             )
         qd = np.r_[np.zeros(system.k), _shape_rates(system, setup, rdot0, rd_p)]
-        res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
+        res = np.abs(lda().constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
             raise InputError(
                 f"{system.name} cannot start at rest with these shape velocities: |A(q0) qdot0| = {res:.3g} "
@@ -304,7 +307,7 @@ def initial_state_of(
         )
         if qd.size != system.n:
             raise InputError(f"Expected `qdot0` to have {system.n} entries, got {qd.size}.")
-        res = np.abs(lda.constraint_residual(q, qd)).max(initial=0.0)
+        res = np.abs(lda().constraint_residual(q, qd)).max(initial=0.0)
         if res > 1e-9 * max(1.0, np.abs(qd).max()):
             raise InputError(
                 f"`qdot0` violates the constraints: |A(q0) qdot0| = {res:.3g}; give a velocity in D, or "
@@ -322,7 +325,7 @@ def initial_state_of(
                 f"Expected `p0` to have {k} entries (the body momentum of {system.name} in the basis of "
                 f"{system.group.name}'s algebra), got {p.size}."
             )
-        M = lda.mass_matrix(q)
+        M = lda().mass_matrix(q)
         B = np.linalg.inv(lam_inv(q[:k]))
         return q, np.r_[np.linalg.solve(M[:k, :k], B.T @ p - M[:k, k:] @ rd), rd]
     red = bkmm_reduction(system)
@@ -334,8 +337,7 @@ def initial_state_of(
         )
     rn = red.numeric(parameters)
     xi = rn.xi(q[system.k :], rd, p)
-    qd = np.r_[lam_inv(q[: system.k]) @ xi, rd]
-    return q, qd
+    return q, np.concatenate([lam_inv(q[: system.k]) @ xi, rd])
 
 
 def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.ndarray) -> np.ndarray:
@@ -361,17 +363,15 @@ def _require_positive_kinetic_energy(
     missing = sorted(s.name for s in system.parameter_symbols if s.name not in merged)
     if missing:
         system.parameter_values({})  # the system's own message, naming them
-    P = (
-        np.stack(
-            [
-                np.broadcast_to(np.asarray(merged[s.name], dtype=float).reshape(-1), (B,))
-                for s in system.parameter_symbols
-            ],
-            axis=-1,
+    values_in = [merged[s.name] for s in system.parameter_symbols]
+    if B == 1 and all(isinstance(v, (float, int, np.floating, np.integer)) for v in values_in):
+        P = np.array([values_in], dtype=float).reshape(1, -1)  # one configuration, numbers: a row as they are
+    else:
+        P = (
+            np.stack([np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (B,)) for v in values_in], axis=-1)
+            if values_in
+            else np.zeros((B, 0))
         )
-        if system.parameter_symbols
-        else np.zeros((B, 0))
-    )
     x = np.concatenate([Q, P], axis=1)
     key = (id(system), x.shape, x.tobytes())
     known = _CHECKED.get(system)
