@@ -2,7 +2,7 @@
 method, and in Python) and its Lagrange-d'Alembert equations with multipliers (compiled) beside heyoka's Taylor
 integrator on the reduced equations.
 
-    PYTHONPATH=src python benchmarks/nonholonomic.py          # about 30 seconds
+    PYTHONPATH=src python benchmarks/nonholonomic.py          # 2 to 3 minutes
     PYTHONPATH=src python benchmarks/nonholonomic.py --quick  # fewer tolerances
 
 Not part of the test suite; needs heyoka (``pip install "heyoka>=7,<8"``, the ``bench`` extra).

@@ -19,7 +19,7 @@ derives them from H_f and the control's phi. The reference is heyoka in quadrupl
 
 Measured, in one run: the max-norm error of the state at t = 100 against the wall time, best of several
 repeats: ``solve(body, method, tau=control, ...)`` from the Python call to the Solution, the compiled loop alone
-(``stats["run_time"]``), and heyoka's ``propagate_until`` from a reset state (its construction and JIT
+(``stats["loop_time"]``), and heyoka's ``propagate_until`` from a reset state (its construction and JIT
 compilation apart, as geomech's compilation is). Writes ``results/rotors.json`` and ``results/rotors.md``.
 """
 
@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
     def measure(who: str, method: str, tol: float | None, **kw: Any) -> None:
         first = gm.solve(body, method, **kw, **common)  # compiles (or loads the disk cache)
         wall, sol = best_of(lambda: gm.solve(body, method, **kw, **common), repeats)
-        loop = min(gm.solve(body, method, **kw, **common).stats["run_time"] for _ in range(repeats))
+        loop = min(gm.solve(body, method, **kw, **common).stats["loop_time"] for _ in range(repeats))
         rows.append(
             dict(
                 who=who,
