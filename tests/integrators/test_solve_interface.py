@@ -540,3 +540,18 @@ def test_the_compiled_loops_time_is_stated_apart_from_the_python_around_it():
         assert 0.0 < sol.stats["loop_time"] <= sol.stats["run_time"], (sol.method, sol.stats)
     python = solve(body, "implicit_midpoint", m0=[1.0, 0.3, 0.2], h=0.01, t_final=1.0, backend="python")
     assert "loop_time" not in python.stats
+
+
+def test_models_sharing_a_compilation_run_each_with_its_own_values():
+    """Two bodies of one model (its derived parameters computed once per set of values and kept) solved in turn,
+    each against scipy's integration of its own Euler equations."""
+    from scipy.integrate import solve_ivp
+
+    m0 = np.array([1.0, 0.3, 0.2])
+    for inertia in [(3.0, 2.0, 1.0), (3.0, 2.0, 1.5), (3.0, 2.0, 1.0), (2.5, 2.0, 1.0)]:
+        sol = solve(gm.RigidBody(inertia), "dop853", m0=m0, rtol=1e-12, atol=1e-12, t_final=5.0)
+        inv = 1.0 / np.array(inertia)
+        ref = solve_ivp(
+            lambda t, m, inv=inv: np.cross(m, inv * m), (0.0, 5.0), m0, method="DOP853", rtol=1e-12, atol=1e-12
+        ).y[:, -1]
+        np.testing.assert_allclose(sol.states[-1], ref, rtol=0, atol=1e-9, err_msg=str(inertia))

@@ -32,6 +32,9 @@ from .methods import Structure
 
 __all__ = ["Problem", "make_problem"]
 
+#: The rows of a model's given and derived parameters (by its function of the derived ones), by the given values.
+_DERIVED_ROWS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
 
 @dataclass(eq=False)
 class Problem:
@@ -126,8 +129,20 @@ class Problem:
         if derived is self.derived and self._bound:
             return
         self.derived = derived
-        self.prm = self.parameter_rows({})[0]
         self._bound = True
+        if derived is None:
+            self.prm = self.parameter_rows({})[0]
+            return
+        # the same model and values in a later call (a new Problem each call): the row made then
+        rows = _DERIVED_ROWS.setdefault(derived, {})
+        key = (self.prm[: len(self.parameter_symbols)].tobytes(), self.parameter_recipe)
+        row = rows.get(key)
+        if row is None:
+            row = self.parameter_rows({})[0]
+            if len(rows) >= 64:
+                rows.pop(next(iter(rows)))
+            rows[key] = row
+        self.prm = row.copy()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
