@@ -305,6 +305,8 @@ def _adaptive_outcome(
 ) -> None:
     """The members of an adaptive loop stopped by a terminal event made successes (their outputs after it NaN); why
     each failed member stopped (``reasons``), and where (``reached``)."""
+    if not INFO[:, 0].any():  # every member a success
+        return
     stopped = INFO[:, 0] == 9
     INFO[stopped, 0] = 0
     rtol, atol = tolerances
