@@ -239,3 +239,75 @@ def test_symplectic_energy_error_is_bounded_over_a_million_steps(key, closed_loo
     assert first > 1e-11, first
     assert last < 1.02 * first + 1e-14, (first, last)
     assert np.abs(sol.energy - sol.energy[0]).max() < 10 * h ** REGISTRY[key].order
+
+
+@pytest.mark.parametrize("s", range(1, 7))
+def test_gauss_legendre_eigenbasis_is_that_of_its_pade_denominator(s):
+    """A = T diag(lam) T^-1, and lam are the reciprocals of the zeros of the denominator of exp's (s, s) Pade
+    approximant, Gauss-Legendre's stability function (an independent route to A's eigenvalues); each complex one
+    has its conjugate as partner, with the conjugate eigenvector."""
+    from math import factorial
+
+    from geomech.integrators.methods._canonical import _gauss_tableau, gauss_transform
+
+    A = _gauss_tableau(s)[0]
+    lam, T, Ti, partner = gauss_transform(A)
+    np.testing.assert_allclose(T @ np.diag(lam) @ Ti, A, rtol=0, atol=1e-14)
+    # Q(z) = sum_j (2s - j)! s! / ((2s)! j! (s - j)!) (-z)^j; numpy's roots want the highest power first
+    q = [
+        factorial(2 * s - j) * factorial(s) / (factorial(2 * s) * factorial(j) * factorial(s - j)) * (-1) ** j
+        for j in range(s + 1)
+    ]
+    expected = np.sort_complex(1.0 / np.roots(q[::-1]))
+    np.testing.assert_allclose(np.sort_complex(lam), expected, rtol=1e-10)
+    solved = [k for k in range(s) if partner[k] > -1.5]
+    assert len(solved) == (s + 1) // 2
+    for k in solved:
+        if partner[k] == -1:
+            assert lam[k].imag == 0.0 and np.all(T[:, k].imag == 0.0)
+        else:
+            other = int(partner[k])
+            assert lam[other] == np.conj(lam[k]) and np.all(T[:, other] == np.conj(T[:, k]))
+
+
+@pytest.mark.parametrize("s", [2, 3, 6])
+def test_gauss_legendre_in_the_eigenbasis_is_the_same_collocation(s):
+    """With the attitude (12 unknowns a stage: Newton's matrix in A's eigenbasis) and without it (3: the stage
+    Jacobians' matrix) Gauss-Legendre solves the same collocation equations for m, which does not depend on R:
+    the two m agree to Newton's tolerance, and R stays a rotation carrying the spatial momentum R m."""
+    body = gm.RigidBody((3.0, 2.0, 1.0))
+    m0 = [1.0, 0.3, 0.2]
+    kw = dict(h=0.25, t_final=50.0, saveat=11)
+    alone = solve(body, gm.integrators.GaussLegendre(s), m0=m0, **kw)
+    with_R = solve(body, gm.integrators.GaussLegendre(s), m0=m0, R0=np.eye(3), **kw)
+    np.testing.assert_allclose(with_R.states[:, :3], alone.states, rtol=0, atol=1e-12)
+    R = with_R.states[:, 3:].reshape(-1, 3, 3)
+    np.testing.assert_allclose(R @ np.swapaxes(R, 1, 2), np.broadcast_to(np.eye(3), R.shape), rtol=0, atol=1e-12)
+    spatial = np.einsum("nij,nj->ni", R, with_R.states[:, :3])
+    np.testing.assert_allclose(spatial, spatial[:1].repeat(len(spatial), 0), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("s", [2, 3, 6])
+def test_the_eigenbasis_blocks_solve_newtons_system(s):
+    """The correction by the blocks I - h lam_k J (the loop's gauss_blocks_solve, run as Python) is
+    (I - h A (x) J)^-1 r, numpy's solve of the s d x s d system."""
+    from geomech.integrators._k_common import lu_factor
+    from geomech.integrators._k_implicit import gauss_blocks_solve
+    from geomech.integrators.methods._canonical import _gauss_tableau, gauss_transform
+
+    rng = np.random.default_rng(7)
+    d, h = 5, 0.3
+    A = _gauss_tableau(s)[0]
+    lam, T, Ti, partner = gauss_transform(A)
+    Jac = rng.normal(size=(d, d))
+    r = rng.normal(size=s * d)
+    expected = np.linalg.solve(np.eye(s * d) - h * np.kron(A, Jac), r)
+    Cc = np.empty((s, d, d), complex)
+    piv = np.empty((s, d), np.int64)
+    for k in range(s):
+        if partner[k] > -1.5:
+            Cc[k] = np.eye(d) - h * lam[k] * Jac
+            assert lu_factor(Cc[k], piv[k], d)
+    got = r.copy()
+    gauss_blocks_solve(Cc, piv, np.empty((s, d), complex), T, Ti, partner, got, s, d)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())

@@ -27,7 +27,8 @@ that keep the structure: Gauss-Legendre collocation up to s = 6 stages (order 12
 compositions `Composition(order, scheme, stages)` of the midpoint rule (`midpoint_s9_6`, `midpoint_s17_8`,
 `midpoint_s35_10`) or of Gauss-Legendre steps, and the Lie-Poisson splitting composed to order 10
 (`LiePoissonSplitting(order, composition)`); `composition_weights` gives the weights. Gauss-Legendre solves
-its stages by Newton's method with one factorisation a step, runs the iteration a hundred times below
+its stages by Newton's method with one factorisation a step (from s d = 24 unknowns on, of (s + 1)/2 complex
+d x d blocks in the eigenbasis of its A, several times cheaper), runs the iteration a hundred times below
 `newton_tol` (a composition's J sub-steps J times lower again) and steps by y + h sum b_i f(Y_i) at the
 converged stages, summed with compensation, so that its energy error over 1e5 steps and more stays at round-off
 (a step by d = b^T A^{-1}, which saves s evaluations, drifts). Taylor's method

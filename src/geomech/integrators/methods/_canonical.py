@@ -167,10 +167,41 @@ def _gauss_tableau(s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def gauss_constants(stages: int, weights: tuple[float, ...]) -> np.ndarray:
-    """The ``P`` of the compiled Gauss-Legendre loop: (s, A, b, c, J, gamma_1..gamma_J), a step being the
-    composition of J steps of sizes gamma_j h."""
+    """The ``P`` of the compiled Gauss-Legendre loop: (s, A, b, c, J, gamma_1..gamma_J, then A's eigenvalues, T
+    and T^-1 (:func:`gauss_transform`: the real and imaginary part of each entry), and each eigenvalue's partner),
+    a step being the composition of J steps of sizes gamma_j h."""
     A, b, c = _gauss_tableau(stages)
-    return np.concatenate([[stages], A.ravel(), b, c, [len(weights)], weights])
+    lam, T, Ti, partner = gauss_transform(A)
+    pairs = [np.stack([x.real, x.imag], axis=-1).ravel() for x in (lam, T, Ti)]
+    return np.concatenate([[stages], A.ravel(), b, c, [len(weights)], weights, *pairs, partner])
+
+
+def gauss_transform(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``A = T diag(lam) T^-1``: Newton's matrix ``I - h A (x) J`` of a collocation step with one Jacobian J becomes
+    the s blocks ``I - h lam_k J`` of size d ([HNW] IV.8, for Radau IIA; Gauss's A has no real eigenvalue but, for
+    s odd, one). Gauss's eigenvalues come in conjugate pairs with conjugate eigenvectors, so for a real right-hand
+    side the solve of one of a pair gives the other's as its conjugate: ``partner[k]`` is the index of the other of
+    k's pair (-1 for a real eigenvalue), or -2 where k is the other, whose block is not solved."""
+    lam, T = np.linalg.eig(A)
+    s = len(lam)
+    partner = np.full(s, -2.0)
+    lam = lam.astype(complex)
+    T = T.astype(complex)
+    done: set[int] = set()
+    for k in sorted(range(s), key=lambda i: -lam[i].imag):
+        if k in done:
+            continue
+        done.add(k)
+        if abs(lam[k].imag) <= 1e-12 * abs(lam[k]):
+            lam[k] = lam[k].real
+            T[:, k] = T[:, k].real
+            partner[k] = -1.0
+            continue
+        other = min((i for i in range(s) if i not in done), key=lambda i: abs(lam[i] - np.conj(lam[k])))
+        done.add(other)
+        lam[other], T[:, other] = np.conj(lam[k]), np.conj(T[:, k])  # exact conjugates
+        partner[k] = float(other)
+    return lam, T, np.linalg.inv(T), partner
 
 
 @dataclass(frozen=True)
@@ -180,9 +211,11 @@ class GaussLegendre(Method):
     Order 2s; symplectic (canonical systems), symmetric, preserves quadratic invariants (so
     :math:`|m|^2`). Structure: any ODE with a Jacobian. Cost per step: Newton iterations on s d unknowns from
     the previous step's collocation polynomial, with one (s d) x (s d) factorisation built from the s exact
-    Jacobians (kept through the step while the iteration contracts fast, about two iterations a step), s
-    evaluations of f an iteration, and s more at the converged stages for the step y + h sum b_i f(Y_i),
-    summed with compensation: the energy error over millions of steps stays a round-off walk.
+    Jacobians (kept through the step while the iteration contracts fast, about two iterations a step), or, from
+    s d = 24 unknowns on, one Jacobian and (s + 1)/2 complex d x d factorisations in the eigenbasis of A (two to
+    three iterations a step, 2 to 2.7 times faster at d = 12 and 18); s evaluations of f an iteration, and s
+    more at the converged stages for the step y + h sum b_i f(Y_i), summed with compensation: the energy error
+    over millions of steps stays a round-off walk.
     Reference: [HLW] II.1.3, VI.4; [HNW] II.7.
     """
 
