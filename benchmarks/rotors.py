@@ -1,7 +1,7 @@
 """A rigid body with three rotors under a structure-preserving control: geomech's compiled open-loop equations beside
 heyoka's Taylor integrator on the same equations.
 
-    PYTHONPATH=src python benchmarks/rotors.py          # about 30 seconds
+    PYTHONPATH=src python benchmarks/rotors.py          # about a minute
     PYTHONPATH=src python benchmarks/rotors.py --quick  # fewer tolerances
 
 Not part of the test suite; needs heyoka (``pip install "heyoka>=7,<8"``, the ``bench`` extra).
