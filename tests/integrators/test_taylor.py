@@ -39,6 +39,11 @@ FIELDS = {
         (2 + x**2) ** a - y ** sp.Rational(5, 2) + 3 ** (x * t),
         x ** (-2) * y + sp.exp(a * x) / y**3 + (x + y) ** sp.Rational(1, 3),
     ),
+    # products of three and four rows sharing their common parts, a reciprocal and its square, constant factors
+    "shared products": (
+        a * x * y * sp.sin(x) * sp.cos(x) - 2 * x * y * sp.sin(x) + 3 * a * sp.sin(t) / (1 + x**2),
+        (1 + x**2) ** -2 + a * x * y * sp.sin(x) * sp.exp(-y) - 1 / (1 + x**2),
+    ),
 }
 POINT = {x: 0.7, y: 1.3, t: 0.4, a: 0.8}
 
@@ -107,6 +112,24 @@ def test_the_unrolled_code_agrees_with_the_loop_at_high_order_and_loads_from_dis
     monkeypatch.setattr(_taylor_llvm, "_compile", no_llvm)
     monkeypatch.setattr(_taylor_llvm, "_ADDRESSES", {})
     np.testing.assert_array_equal(_coefficients(fields, order, "unrolled"), unrolled)
+
+
+def test_products_share_their_common_factors_and_constant_factors_fold_into_sums():
+    """Each product of rows made once whatever its factors' order and grouping (x y sin x inside x y sin x cos x),
+    1/b^2 the square of 1/b, and parameters multiplying a row folded into the sums that read it rather than
+    written to rows of their own: the tape's operations counted, its coefficients checked as Lie derivatives
+    above."""
+    z, u = sp.symbols("z u", real=True)
+    b = 1 + x**2
+    fields = [x * y * sp.sin(x), x * y * sp.sin(x) * sp.cos(x), 1 / b, b**-2 + a * x * y * sp.sin(x) + 2 * a * y]
+    tape = taylor_tape([], [x, y, z, u], fields, [a])
+    kinds = [op[0] for op in tape.ops]
+    # sin x, cos x; x y, (x y) sin x, ((x y) sin x) cos x, x^2, (1/b)^2; 1/b; -sin x, 1 + x^2, the last sum
+    assert (kinds.count("int"), kinds.count("mul"), kinds.count("quot"), kinds.count("lin")) == (2, 5, 1, 3)
+    # the last derivative, one sum of 1/b^2, y (its coefficient 2 a) and x y sin x (its coefficient a)
+    assert tape.ops[-1][0] == "lin" and tape.outputs[-1] == tape.ops[-1][1]
+    assert {r for _, r in tape.ops[-1][2]} == {tape.ops[-2][1], "_x1", tape.outputs[0]}
+    assert dict(tape.constants)[dict((r, c) for c, r in tape.ops[-1][2])["_x1"]] == "2*_p0"
 
 
 def test_a_function_without_a_recurrence_is_refused_by_name():

@@ -30,6 +30,7 @@ Taylor loop's template (``geomech.integrators._k_taylor``), compiled with it.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -181,6 +182,11 @@ def _number(r: Ref) -> str:
     return repr(r) if isinstance(r, float) else str(r)
 
 
+def _row_order(row: sp.Symbol) -> tuple[str, int]:
+    """The state's rows, then the work array's in the order they were made."""
+    return (row.name[1], int(row.name[2:]))
+
+
 class _Tape:
     """The lowering of straight-line assignments to the operations of a :class:`TaylorTape`."""
 
@@ -190,6 +196,9 @@ class _Tape:
         self.constants: list[tuple[str, str]] = []
         self.ops: list[tuple[Any, ...]] = []
         self.memo: dict[sp.Expr, sp.Expr] = {}
+        # the products made, by their factors' names sorted (a multiset), and each factor's products
+        self.products: dict[tuple[str, ...], sp.Symbol] = {}
+        self.with_factor: dict[str, list[tuple[str, ...]]] = {}
         self.n_rows = 0
 
     def code(self, e: sp.Expr) -> str:
@@ -234,6 +243,26 @@ class _Tape:
     def is_series(self, e: sp.Expr) -> bool:
         return isinstance(e, sp.Symbol) and e in self.series
 
+    def varies(self, e: sp.Expr) -> bool:
+        """Whether ``e`` reads a series row (else it is a constant: numbers, parameters, constants)."""
+        return not self.series.isdisjoint(e.free_symbols)
+
+    def split(self, e: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+        """``e`` as (constant factor, varying factor): ``(2*_p0, _w3*_w5)`` for ``2*_p0*_w3*_w5``."""
+        factors = e.args if isinstance(e, sp.Mul) else (e,)
+        fixed = [f for f in factors if not self.varies(f)]
+        return sp.Mul(*fixed), sp.Mul(*[f for f in factors if self.varies(f)])
+
+    def lower_scaled(self, e: sp.Expr) -> sp.Expr:
+        """Like :meth:`lower`, but a constant multiple ``c r`` of a series row ``r`` is kept as that product (an
+        assignment's value, folded by sympy into the coefficients of the sums and products that read it) rather
+        than written to a row of its own."""
+        c, rest = self.split(e)
+        if c == 1 or rest == 1:
+            return self.lower(e)
+        ref = self.lower(rest)
+        return self.constant(c) * ref if self.is_series(ref) else self.constant(c * ref)
+
     # -- the operations ------------------------------------------------------------------------------------
     def lower(self, e: sp.Expr) -> sp.Expr:
         """A reference (series row or constant) to the value of ``e``, whose symbols are references."""
@@ -265,12 +294,13 @@ class _Tape:
         const: list[sp.Expr] = []
         terms: dict[sp.Expr, list[sp.Expr]] = {}
         for a in e.args:
-            c, rest = a.as_coeff_Mul()
+            c, rest = self.split(a)  # its coefficient (numbers, parameters, constants) apart from what varies
             ref = self.lower(rest)
             if self.is_series(ref):
                 terms.setdefault(ref, []).append(c)
             else:
                 const.append(c * ref)
+        terms = {r: cs for r, cs in terms.items() if sp.Add(*cs) != 0}
         if not terms:
             return self.constant(sp.Add(*const))
         key = sp.Add(*const, *[sp.Add(*cs) * r for r, cs in terms.items()])
@@ -289,7 +319,10 @@ class _Tape:
         den: list[sp.Expr] = []
         for a in e.args:
             if isinstance(a, sp.Pow) and a.exp.is_Integer and a.exp < 0:
-                den.append(self.lower(a.base ** (-a.exp)))
+                b = self.lower(a.base)
+                inverse = self.memo.get(sp.Pow(b, -1)) if self.is_series(b) else None
+                # a reciprocal already made is a factor of the product (1/b^2: its square, one product)
+                (den if inverse is None else num).extend([b if inverse is None else inverse] * int(-a.exp))
             else:
                 num.append(self.lower(a))
         c = sp.Mul(*[a for a in num if not self.is_series(a)])
@@ -315,18 +348,35 @@ class _Tape:
         return out
 
     def _product(self, factors: list[sp.Expr]) -> sp.Expr | None:
-        """The product of series rows (None for none), pairwise."""
+        """The product of series rows (None for none), by products of two: the largest product already made of some
+        of them reused (the tape's products of three or more rows share their common parts, whatever the order
+        sympy gave each), the others taken in the order of their rows."""
         if not factors:
             return None
-        out = factors[0]
-        for b in factors[1:]:
-            key = sp.Mul(out, b)
-            if key not in self.memo:
-                w = self.row()
-                self.ops.append(("mul", str(w), str(out), str(b)))
-                self.memo[key] = w
-            out = self.memo[key]
-        return out
+        if len(factors) == 1:
+            return factors[0]
+        order = sorted(factors, key=_row_order)
+        key = tuple(str(f) for f in order)
+        if key in self.products:
+            return self.products[key]
+        need = Counter(key)
+        best: tuple[str, ...] = ()
+        for name in need:
+            for made in self.with_factor.get(name, ()):
+                if len(best) < len(made) < len(key) and not Counter(made) - need:
+                    best = made
+        if best:
+            rest = list((need - Counter(best)).elements())
+            a, b = self.products[best], self._product([sp.Symbol(n) for n in rest])
+        else:
+            a, b = self._product(order[:-1]), order[-1]
+        assert a is not None and b is not None
+        w = self.row()
+        self.ops.append(("mul", str(w), str(a), str(b)))
+        self.products[key] = w
+        for name in need:
+            self.with_factor.setdefault(name, []).append(key)
+        return w
 
     def _scaled(self, c: sp.Expr, a: sp.Expr) -> sp.Expr:
         w = self.row()
@@ -341,6 +391,9 @@ class _Tape:
         if e.is_Integer:
             n = int(e)
             if n < 0:
+                inverse = self.memo.get(sp.Pow(base, -1))
+                if inverse is not None:  # 1/b^n from 1/b already made: products only
+                    return self._pow(inverse, sp.Integer(-n))
                 return self._reciprocal(self._pow(base, sp.Integer(-n)))
             if n == 0:
                 return sp.Integer(1)
@@ -408,6 +461,6 @@ def taylor_tape(
     for i, p in enumerate(parameters):
         env[p] = sp.Symbol(f"_p{i}")
     for sym, e in assignments:
-        env[sym] = tape.lower(sp.sympify(e).xreplace(env))
+        env[sym] = tape.lower_scaled(sp.sympify(e).xreplace(env))
     outs = tuple(tape.ref(tape.lower(sp.sympify(e).xreplace(env))) for e in derivatives)
     return TaylorTape(tape.n_rows, len(parameters), tuple(tape.constants), tuple(rows), tuple(tape.ops), outs)
