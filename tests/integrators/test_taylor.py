@@ -438,3 +438,47 @@ def test_events_in_lanes_are_each_members_own(monkeypatch):
         first = batch.events["up"][batch.events["up"][:, 0] == i][0, 1]
         assert abs(first - 3.0 * ellipk(np.sin(Y[i, 0] / 2) ** 2)) < 1e-9
     _assert_members_alone(batch, pendulum, Y, **kw)
+
+
+@pytest.mark.parametrize("solver, backend", [("taylor", "auto"), ("DOP853", "auto"), ("DOP853", "python")])
+def test_bkmm_without_the_work_integrates_the_same_motion(solver, backend):
+    """BKMM(work=False): the same motion and momentum (within the tolerance: the work no longer enters the error
+    control), the shape forces still observed, no `work`; a batch too. Where every shape is prescribed, Taylor's
+    pass has no shape forces in it (fewer operations in the tape)."""
+    s = snakeboard(**SNAKE)
+    common = dict(t_final=2.0, saveat=9, shapes=GAIT, rtol=1e-11, atol=1e-13, backend=backend)
+    ref = solve(s, BKMM(solver=solver), **common)
+    sol = solve(s, BKMM(solver=solver, work=False), **common)
+    assert sol.stats["backend"] == ("python" if backend == "python" else "numba")
+    for a, b in [(sol.q, ref.q), (sol.p, ref.p), (sol.quantities["tau"], ref.quantities["tau"])]:
+        assert np.abs(a - b).max() <= 1e-8 * max(1.0, float(np.abs(b).max()))
+    assert "work" not in sol.quantities and abs(ref.work[-1]) > 1e-3
+    with pytest.raises(AttributeError, match="work=False"):
+        _ = sol.work
+    if backend == "python":
+        return
+    batch = solve(
+        s,
+        BKMM(solver=solver, work=False),
+        **{**common, "shapes": {"psi": "a*sin(2*pi*t)", "phi": GAIT["phi"]}},
+        parameters={"a": [1.0, 0.5]},
+    )
+    assert "work" not in batch.quantities
+    np.testing.assert_allclose(batch.q[0], ref.q, rtol=0, atol=1e-8 * max(1.0, float(np.abs(ref.q).max())))
+    if solver == "taylor":
+        from geomech.integrators.nonholonomic._compiled import bkmm_module
+        from geomech.integrators.nonholonomic._inputs import _setup
+        from geomech.reduction import bkmm_reduction
+        from geomech.symbolic.taylor import TaylorTape
+
+        def heavy(work):
+            setup = _setup(s, GAIT, None, None)
+            module, _ = bkmm_module(setup, bkmm_reduction(s), True, None, work)
+            return sum(op[0] != "lin" for op in TaylorTape.from_data(module.TAYLOR_TAPE).ops)
+
+        assert heavy(False) <= heavy(True) - 6
+
+
+def test_bkmm_work_is_true_or_false():
+    with pytest.raises(InputError, match="`work`"):
+        BKMM(work="no")

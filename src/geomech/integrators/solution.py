@@ -338,7 +338,11 @@ class Solution:
         try:
             return self.quantities[name]
         except KeyError:
-            hint = " Pass R0 to solve() to integrate the attitude." if name == "spatial_momentum" else ""
+            hints = {
+                "spatial_momentum": " Pass R0 to solve() to integrate the attitude.",
+                "work": " BKMM integrates it unless given work=False.",
+            }
+            hint = hints.get(name, "")
             raise AttributeError(
                 f"This solution ({self.layout!r} layout) has no `{name}`; it has {sorted(self.quantities)}.{hint}"
             ) from None

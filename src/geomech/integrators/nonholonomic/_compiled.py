@@ -140,14 +140,15 @@ class LagrangianSource:
 
 
 def bkmm_source(
-    setup: Any, reduction: Any, taylor: bool = False, wrt: tuple[str, ...] | None = None
+    setup: Any, reduction: Any, taylor: bool = False, wrt: tuple[str, ...] | None = None, work: bool = True
 ) -> LagrangianSource | None:
     """The compiled right-hand side of ``setup``'s BKMM equations (system, gait, torques) and its observation, and
     the layout of the values they read, or None where the gait or a torque is a Python callable. Generated once per
     system, basis and form of the gait and torques. With ``taylor``, the module also has the Taylor coefficients of
     the equations' solution (``taylor_coeffs``, its work array's rows ``TAYLOR_ROWS``) for Taylor's method; with
     ``wrt`` (names of the system's parameters and the gait's and torques' coefficients), its right-hand side is
-    that of the state and its variational equations (the state transition matrix and the sensitivities to them)."""
+    that of the state and its variational equations (the state transition matrix and the sensitivities to them);
+    without ``work``, the work's derivative is zero (BKMM's ``work=False``)."""
     basis = sp.ImmutableMatrix(reduction.basis)
     own = [q.name for q in setup.system.parameter_symbols]
     coefficients = list(setup.coefficients)
@@ -156,11 +157,13 @@ def bkmm_source(
         at = None
         if wrt is not None:  # prm: the system's parameters first, the coefficients last
             at = tuple(own.index(n) if n in own else n_prm - len(coefficients) + coefficients.index(n) for n in wrt)
-        return _generate(setup, reduction, gait, torques, n_prm, taylor, at)
+        return _generate(setup, reduction, gait, torques, n_prm, taylor, at, work)
 
     kind: tuple = ("bkmm", basis)
     if taylor:
         kind += ("taylor",)
+    if not work:
+        kind += ("no work",)
     if wrt is not None:
         kind += (("wrt", *wrt),)
     made = _made(setup, kind, (), generate)
@@ -303,10 +306,12 @@ def _generate(
     n_prm: int,
     taylor: bool = False,
     wrt: tuple[int, ...] | None = None,
+    work: bool = True,
 ) -> str:
     """The module of the BKMM equations (``rhs``, ``observe``), of the state ``(g, r_F, rdot_F, p, W, t)``; with
     ``wrt`` (indices into ``prm``), of the state and its variational equations ``(y, Phi, S, t)`` (:func:`_forward`),
-    the time last as always; with ``taylor``, Taylor's coefficients too (:func:`_taylor_closed`)."""
+    the time last as always; with ``taylor``, Taylor's coefficients too (:func:`_taylor_closed`); without ``work``,
+    W' = 0."""
     system = setup.system
     k, s, m, c = system.k, system.sigma, reduction.m, system.c
     F, P = list(setup.free_shapes), list(setup.prescribed)
@@ -437,7 +442,7 @@ def _generate(
         + [rd[j] for j in F]
         + z[:nF]
         + pdot
-        + [code.value(sum(tau_v[j] * rd[j] for j in range(s)))]
+        + [code.value(sum(tau_v[j] * rd[j] for j in range(s))) if work else sp.Integer(0)]
         + [sp.Integer(1)]
     )
     values = code.values(outputs)
@@ -445,7 +450,7 @@ def _generate(
         state = list(g) + [r[j] for j in F] + [rd[j] for j in F] + list(p) + [None]
         values = values[:-1] + _forward(code, state, wrt, values[:-1]) + values[-1:]
     code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(values)))
-    series = _taylor_closed(setup, reduction, gait_forms, torque_forms, n_prm) if taylor else ""
+    series = _taylor_closed(setup, reduction, gait_forms, torque_forms, n_prm, work) if taylor else ""
     return _module_text(code.body(), seen.body()) + series
 
 
@@ -518,7 +523,9 @@ def _shape_solve(
     return z, tau_v
 
 
-def _taylor_closed(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int) -> str:
+def _taylor_closed(
+    setup: Any, reduction: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int, work: bool = True
+) -> str:
     """The Taylor coefficients of the BKMM equations' solution (``taylor_coeffs``, and ``TAYLOR_ROWS`` the rows of its
     work array), from the reduction's closed forms: the reconstruction (1.1) and the momentum equation (1.2), and
     for the shapes the shape mass and forces of (1.3), as sympy simplified them. The same equations as
@@ -559,7 +566,7 @@ def _taylor_closed(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: 
     tau_f = [code.value(e.xreplace(at).xreplace(params)) for e in torque_forms]
     z: list[Any] = []
     tau_v: list[Any] = []
-    if s:
+    if s and (F or work):  # the shape forces: for the free shapes' motion, and the work
         z, tau_v = _shape_solve(
             code, closed(reduction.shape_mass), list(closed(reduction.shape_forces)), tau_f, rdd_p, F, P
         )
@@ -568,7 +575,7 @@ def _taylor_closed(setup: Any, reduction: Any, gait_forms: tuple, torque_forms: 
         + [rd[j] for j in F]
         + z[: len(F)]
         + pdot
-        + [code.value(sum(tau_v[j] * rd[j] for j in range(s)))]
+        + [code.value(sum(tau_v[j] * rd[j] for j in range(s))) if work else sp.Integer(0)]
         + [sp.Integer(1)]
     )
     values = code.values(derivatives)
@@ -734,13 +741,13 @@ def lda_slots(setup: Any) -> list[str | None]:
 
 
 def bkmm_module(
-    setup: Any, reduction: Any, taylor: bool = False, wrt: tuple[str, ...] | None = None
+    setup: Any, reduction: Any, taylor: bool = False, wrt: tuple[str, ...] | None = None, work: bool = True
 ) -> tuple[Any, LagrangianSource] | None:
     """The compiled module of ``setup``'s BKMM equations (with ``wrt``, and their variational equations; see
     :func:`bkmm_source`) and the layout of the values ``prm`` it reads (the system's parameters, the gait's and the
     torques' numbers, their coefficients), or None where they cannot be compiled (numba missing, a callable gait or
     torque, a function numba lacks; with ``taylor``, a function with no Taylor recurrence)."""
-    return _module(lambda: bkmm_source(setup, reduction, taylor, wrt), "bkv" if wrt is not None else "bk")
+    return _module(lambda: bkmm_source(setup, reduction, taylor, wrt, work), "bkv" if wrt is not None else "bk")
 
 
 def lda_module(setup: Any, baumgarte: float) -> tuple[Any, LagrangianSource] | None:

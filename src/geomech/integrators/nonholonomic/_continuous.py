@@ -192,9 +192,11 @@ def run_reduced(
         tau_v[F], tau_v[P] = tau_f, z[nF:]
         return q, qd, xi, z[:nF], tau_v, rn.pdot(r, rd, p)
 
+    work = method.work
+
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         q, qd, _, rdd_f, tau_v, pdot = evaluate_all(t, y)
-        return np.r_[qd[:k], qd[k:][F], rdd_f, pdot, tau_v @ qd[k:]]
+        return np.r_[qd[:k], qd[k:][F], rdd_f, pdot, tau_v @ qd[k:] if work else 0.0]
 
     def evaluate(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         q, qd, _, _, tau_v, _ = evaluate_all(t, y)
@@ -204,7 +206,7 @@ def run_reduced(
     y0 = np.concatenate([q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, [0.0]])
     taylor = method.solver == TAYLOR
     compiled = _compiled_or_refused(
-        system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities)
+        system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities, work)
     )
     if compiled is None and sensitivities is not None:
         raise InputError(VARIATIONAL_NEEDS)

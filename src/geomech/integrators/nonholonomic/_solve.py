@@ -161,7 +161,11 @@ def solve_lagrangian(
         method=method,
         layout="qv",
         labels=tuple(s.name for s in system.q) + tuple(s.name for s in system.qdot),
-        quantities=quantities(setup, raw, parameters),
+        quantities={
+            key: v
+            for key, v in quantities(setup, raw, parameters).items()
+            if key != "work" or not isinstance(method, BKMM) or method.work
+        },
         status=failures[0].kind if failures else Status.SUCCESS,
         message=message,
         failures=failures,
@@ -257,7 +261,7 @@ def _solve_batch(
     taylor = isinstance(method, BKMM) and method.solver == TAYLOR
     if isinstance(method, BKMM) and backend != "python" and (taylor or compiled_pair(method.solver) is not None):
         red = bkmm_reduction(system)
-        compiled = bkmm_module(setup, red, taylor, wrt)
+        compiled = bkmm_module(setup, red, taylor, wrt, method.work)
     if compiled is None:
         raise InputError(
             f"A batch (arrays in `parameters`, or initial states with leading axes) of {system.name} runs in the "
@@ -328,7 +332,7 @@ def _solve_batch(
         "energy": W[..., 2 * n + sigma],
         "momentum": run.states[..., k_p : k_p + m],
         "tau": W[..., 2 * n : 2 * n + sigma],
-        "work": run.states[..., -1],
+        **({"work": run.states[..., -1]} if method.work else {}),
         "constraint_residual": W[..., 2 * n + sigma + 1 : 2 * n + sigma + 1 + c],
         **run.variational,
     }
