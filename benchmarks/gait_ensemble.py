@@ -11,7 +11,8 @@ J1 = 0.01) from rest, five periods (t = 5), on the gaits psi = a sin(2 pi t), ph
 a in [0.5, 1.5] (25 values), b in [0.2, 0.8] (20), c in [0, 2 pi) (20): 10,000 members. geomech:
 ``solve(s, BKMM(), shapes=..., parameters={"a": ..., "b": ..., "c": ...}, threads=2)`` (DOP853) and the same with
 ``BKMM(solver="taylor")``, one call from Python to the Solution (the final states, energies and shape forces of
-every member). heyoka: the reduced equations in closed
+every member), and by Taylor's method without the work of the shape forces (``work=False``: the equations heyoka
+integrates). heyoka: the reduced equations in closed
 form of ``nonholonomic.py`` with a, b, c as its run-time parameters (``par[0..2]``), a ``taylor_adaptive_batch`` of
 the recommended SIMD width per thread, each thread propagating its half of the members batch by batch (the state
 and time reset, the parameters set), 1 and 2 threads. The error is the max-norm error of (x, y, theta, p) at t = 5
@@ -47,8 +48,9 @@ A, B, C = sp.symbols("a b c", real=True)
 FORMULAS = {"psi": A * sp.sin(2 * sp.pi * T_SYMBOL), "phi": B * sp.sin(2 * sp.pi * T_SYMBOL + C)}
 GAIT = {"psi": "a*sin(2*pi*t)", "phi": "b*sin(2*pi*t + c)"}
 GEOMECH_TOLS = [1e-8, 1e-10, 1e-12]
-#: the compiled BKMM equations by the embedded pair and by Taylor's method
-METHODS = {"DOP853": BKMM(), "Taylor": BKMM(solver="taylor")}
+#: the compiled BKMM equations by the embedded pair and by Taylor's method; without the shape forces' work, the
+#: equations heyoka is given (group motion and momentum)
+METHODS = {"DOP853": BKMM(), "Taylor": BKMM(solver="taylor"), "Taylor, work=False": BKMM(solver="taylor", work=False)}
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 
 

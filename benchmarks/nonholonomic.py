@@ -91,6 +91,8 @@ COMPILED = {
     "BKMM": BKMM(),
     "LagrangeDAlembert": LagrangeDAlembert(),
     "BKMM Taylor": BKMM(solver="taylor"),
+    # without the shape forces' work: the equations heyoka integrates
+    "BKMM Taylor (work=False)": BKMM(solver="taylor", work=False),
 }
 HEYOKA_TOLS = [1e-6, 1e-9, 1e-12, 1e-15]
 
