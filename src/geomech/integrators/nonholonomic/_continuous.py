@@ -148,9 +148,11 @@ def run_reduced(
     events: Any = None,
     max_events: int = 0,
     sensitivities: tuple[str, ...] | None = None,
+    p_init: np.ndarray | None = None,
 ) -> _Raw:
     """The BKMM equations (1.1)-(1.3): momentum, shape and reconstruction; the state is
-    ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`.
+    ``(g, r_free, rdot_free, p, W)`` and the group coordinates follow :math:`\\dot q_G = \\Lambda(q_G)^{-1}\\xi`,
+    from ``p_init``, the momentum given, or that of ``(q_init, qd_init)``.
     Compiled (the Dormand-Prince loops) where the solver has a compiled twin and the gait and torques are
     formulas, unless ``backend`` is "python"; otherwise stepped by scipy with the equations in Python."""
     system = setup.system
@@ -202,7 +204,8 @@ def run_reduced(
         q, qd, _, _, tau_v, _ = evaluate_all(t, y)
         return q, qd, tau_v
 
-    p_init = rn.momentum(q_init, qd_init)
+    if p_init is None:
+        p_init = rn.momentum(q_init, qd_init)
     y0 = np.concatenate([q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, [0.0]])
     taylor = method.solver == TAYLOR
     compiled = _compiled_or_refused(

@@ -4,6 +4,7 @@ free shapes, and the initial state consistent with the constraints."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -202,7 +203,7 @@ def _setup(system: NonholonomicSystem, shapes: Any, tau: Any, parameters: Mappin
         gait, forms = shapes, shapes.expressions
     else:
         names, exprs = _gait_formulas(shapes)
-        used = {s.name for e in exprs for s in e.free_symbols if s != T_SYMBOL}
+        used = {n for e in exprs for n in _symbol_names(e)} - {T_SYMBOL.name}
         if used:
             shapes = dict(zip(names, exprs)) if names is not None else exprs
         gait = Gait.from_expressions(shapes, parameters={k: v for k, v in values.items() if k in used} or None)
@@ -223,10 +224,14 @@ def _setup(system: NonholonomicSystem, shapes: Any, tau: Any, parameters: Mappin
     free = [i for i in range(system.sigma) if i not in prescribed]
     torques = _Torques(system, free, tau, values)
     local = {T_SYMBOL.name} | {s.name for s in system.q + system.qdot}
-    coefficients = (
-        {s.name for e in list(forms or ()) + list(torques.expressions or ()) for s in e.free_symbols} - local - own
-    )
-    return _Setup(system, gait, prescribed, free, torques, forms, tuple(sorted(coefficients)))
+    coefficients = {n for e in list(forms or ()) + list(torques.expressions or ()) for n in _symbol_names(e)}
+    return _Setup(system, gait, prescribed, free, torques, forms, tuple(sorted(coefficients - local - own)))
+
+
+@functools.lru_cache(maxsize=1024)
+def _symbol_names(e: sp.Expr) -> frozenset[str]:
+    """The names of ``e``'s symbols (each call of a run with formulas asks them of the same expressions again)."""
+    return frozenset(s.name for s in e.free_symbols)
 
 
 def _by_name(value: Any, names: Sequence[str], argname: str) -> dict[str, float]:
@@ -264,13 +269,16 @@ def initial_state(
     (:math:`\dot g = 0`) with the shape velocities above, an :class:`~geomech.errors.InputError` where that violates the
     constraints (when they involve the shape velocities).
     """
-    return initial_state_of(_setup(system, shapes, None, parameters), t0, q0, rdot0, p0, qdot0, parameters)
+    q, qd, _ = initial_state_of(_setup(system, shapes, None, parameters), t0, q0, rdot0, p0, qdot0, parameters)
+    return q, qd
 
 
 def initial_state_of(
     setup: _Setup, t0: float, q0: Any, rdot0: Any, p0: Any, qdot0: Any, parameters: Mapping[str, float] | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`initial_state` for a run whose gait and torques are set up (``_setup``) already."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`initial_state` for a run whose gait and torques are set up (``_setup``) already, with the
+    nonholonomic momentum where it was given (``p0``, or 0 by default, with constraints; else None): the BKMM state
+    starts from it as given, not from its round trip through the velocities."""
     system = setup.system
     parameters = {k: v for k, v in scalar_values(parameters).items() if k not in setup.coefficients}
     names = [s.name for s in system.q]
@@ -298,7 +306,7 @@ def initial_state_of(
                 f"{system.name} cannot start at rest with these shape velocities: |A(q0) qdot0| = {res:.3g} "
                 "(its constraints involve the shape velocities); give `p0` instead."
             )
-        return q, qd
+        return q, qd, None
     if qdot0 is not None:
         qd = (
             np.array([_by_name(qdot0, [s.name for s in system.qdot], "qdot0").get(s.name, 0.0) for s in system.qdot])
@@ -313,7 +321,7 @@ def initial_state_of(
                 f"`qdot0` violates the constraints: |A(q0) qdot0| = {res:.3g}; give a velocity in D, or "
                 "give `rdot0` and `p0` and let the group velocity follow from eq. (1.1)."
             )
-        return q, qd
+        return q, qd, None
     rd = _shape_rates(system, setup, rdot0, rd_p)
     lam_inv = _group_rates(system)
     if system.c == 0:
@@ -327,7 +335,7 @@ def initial_state_of(
             )
         M = lda().mass_matrix(q)
         B = np.linalg.inv(lam_inv(q[:k]))
-        return q, np.r_[np.linalg.solve(M[:k, :k], B.T @ p - M[:k, k:] @ rd), rd]
+        return q, np.r_[np.linalg.solve(M[:k, :k], B.T @ p - M[:k, k:] @ rd), rd], None
     red = bkmm_reduction(system)
     p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
     if p.size != red.m:
@@ -337,7 +345,7 @@ def initial_state_of(
         )
     rn = red.numeric(parameters)
     xi = rn.xi(q[system.k :], rd, p)
-    return q, np.concatenate([lam_inv(q[: system.k]) @ xi, rd])
+    return q, np.concatenate([lam_inv(q[: system.k]) @ xi, rd]), p
 
 
 def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.ndarray) -> np.ndarray:

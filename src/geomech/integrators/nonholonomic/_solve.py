@@ -88,7 +88,7 @@ def solve_lagrangian(
             max_events=max_events,
             wrt=wrt,
         )
-    q_init, qd_init = initial_state_of(setup, t0, q0, rdot0, p0, qdot0, parameters)
+    q_init, qd_init, p_init = initial_state_of(setup, t0, q0, rdot0, p0, qdot0, parameters)
     h = times.h
     if isinstance(method, DiscreteLagrangeDAlembert):
         assert h is not None  # a fixed-step method: solve() has set the step
@@ -139,7 +139,7 @@ def solve_lagrangian(
             if isinstance(method, LagrangeDAlembert):
                 raw = run_full(*args, events, max_events)
             else:
-                raw = run_reduced(*args, events, max_events, wrt)
+                raw = run_reduced(*args, events, max_events, wrt, p_init)
         n_rhs, internal = raw.nfev, raw.steps
     run_time = time.perf_counter() - start
     extra: dict[str, Any] = {} if raw.loop_time is None else {"loop_time": raw.loop_time}
