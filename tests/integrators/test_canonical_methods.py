@@ -311,3 +311,41 @@ def test_the_eigenbasis_blocks_solve_newtons_system(s):
     got = r.copy()
     gauss_blocks_solve(Cc, piv, np.empty((s, d), complex), T, Ti, partner, got, s, d)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+
+def test_a_singular_eigenbasis_block_goes_on_with_the_stage_jacobians(monkeypatch):
+    """A block I - h lam_k J of the eigenbasis found singular (here: made to fail once, the loop run as Python)
+    does not end the run: that step goes on with Newton's full method on the stage Jacobians, and the run meets
+    the one whose blocks all factor."""
+    from geomech.integrators import _codegen
+    from geomech.integrators._problem import make_problem
+
+    body = gm.RigidBody([3.0, 2.0, 1.0])
+    method = gm.integrators.GaussLegendre(3)  # with the attitude, s d = 36: the eigenbasis
+    problem = make_problem(body, attitude=True)
+    module, used = problem.module(frozenset(method.features & {"gf", "split"}), "python")
+    assert used == "python"
+    FP = module.addresses(_codegen.model_functions(method.kernel))
+    P = np.ascontiguousarray(method.constants(problem), dtype=float)
+    Y0 = np.r_[1.0, 0.3, 0.2, np.eye(3).ravel()][None]
+
+    def run():
+        OUT, INFO = np.empty((1, 2, 12)), np.zeros((1, 5))
+        module.gauss_run(FP, Y0.copy(), 0.1, 4, 4, OUT, INFO, 1e-14, 20, P, problem.prm[None, :])
+        return OUT, INFO
+
+    good, info = run()
+    assert info[0, 0] == 0
+    factor = module.gauss_run.__globals__["lu_factor"]
+    failed = []
+
+    def singular_once(M, piv, n):
+        if M.dtype == complex and not failed:
+            failed.append(n)
+            return False
+        return factor(M, piv, n)
+
+    monkeypatch.setitem(module.gauss_run.__globals__, "lu_factor", singular_once)
+    fallback, info = run()
+    assert failed == [12] and info[0, 0] == 0
+    np.testing.assert_allclose(fallback, good, rtol=0, atol=1e-12)

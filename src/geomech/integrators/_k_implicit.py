@@ -216,8 +216,9 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     cheaper factorisation pays for only on larger systems: measured, 2.2 to 2.7 times faster at d = 12 and 18 (a
     body with attitude, with three rotors) and at s d = 36 (d = 6, s = 6), slower at s d = 12 and 18 (d = 6 with
     s = 2 and 3; d = 3 with s = 3), a tie at d = 3, s = 6. Smaller systems build the s d x s d matrix from the s
-    exact stage Jacobians. Either way, where the corrections contract slowly the step goes on with Newton's full
-    method on the s d unknowns, the stage Jacobians exact, the matrix rebuilt at every iterate.
+    exact stage Jacobians. Either way, where the corrections contract slowly, or a block is singular, the step
+    goes on with Newton's full method on the s d unknowns, the stage Jacobians exact, the matrix rebuilt at every
+    iterate.
 
     P = (s, A (row-major), b, c, J, gamma_1..gamma_J, lam, T, T^-1 (each entry's real and imaginary part), each
     eigenvalue's partner: methods._canonical.gauss_transform).
@@ -331,18 +332,7 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                                 acc += a[i * s + j] * F[j, u]
                             r[i * d + u] = hh * acc - Z[i * d + u]
                     resid = max_abs(r)
-                    if fresh and exact:
-                        for i in range(s):
-                            for u in range(d):
-                                for j in range(s):
-                                    hij = -hh * a[i * s + j]
-                                    for v in range(d):
-                                        M[i * d + u, j * d + v] = hij * Js[j, u, v]
-                                M[i * d + u, i * d + u] += 1.0
-                        if not lu_factor(M, piv, n):
-                            code = ST_SINGULAR
-                            break
-                    elif fresh:
+                    if fresh and not exact:
                         singular = False
                         for e in range(s):  # (k is the step)
                             if partner[e] < -1.5:
@@ -354,6 +344,23 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                             if not lu_factor(Cc[e], pivc[e], d):
                                 singular = True
                         if singular:
+                            # a block singular at the one Jacobian (where I - h A (x) J(mean) is, which the stage
+                            # Jacobians' matrix need not be): the step goes on with Newton's full method
+                            full = True
+                            exact = True
+                            for i in range(s):
+                                stage_point(y, Z, i, tmp)
+                                call_model4(f_jac, tmp, F[i], Js[i], prm)
+                            nrhs += s
+                    if fresh and exact:
+                        for i in range(s):
+                            for u in range(d):
+                                for j in range(s):
+                                    hij = -hh * a[i * s + j]
+                                    for v in range(d):
+                                        M[i * d + u, j * d + v] = hij * Js[j, u, v]
+                                M[i * d + u, i * d + u] += 1.0
+                        if not lu_factor(M, piv, n):
                             code = ST_SINGULAR
                             break
                     if exact:
