@@ -156,6 +156,15 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
         middle = times(at(u, k // 2), at(u, k // 2)) if k % 2 == 0 and first <= k // 2 <= last else None
         return plus(twice, middle)
 
+    # a divisor that is the same at every order (b^[0] of a quotient, 2 w^[0] of a root, a^[0] of a power) divided
+    # into 1 once, the orders multiplying by it: a division costs several multiplications' time
+    reciprocals: dict[tuple[str, str], Any] = {}
+
+    def reciprocal(key: tuple[str, str], value: Any) -> Any:
+        if key not in reciprocals:
+            reciprocals[key] = b.fdiv(num(1.0), value)
+        return reciprocals[key]
+
     for k in range(order):
         for op in tape.ops:
             kind, w = op[0], op[1]
@@ -168,14 +177,20 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
             elif kind == "quot":
                 top = at(op[2], k) if op[3] is None else scaled(op[2], at(op[3], k))
                 rest = minus(top, cauchy(op[4], w, k, 1, k))
-                value = None if rest is None else b.fdiv(rest, at(op[4], 0))
+                if rest is None:
+                    value = None
+                elif k == 0:
+                    value = b.fdiv(rest, at(op[4], 0))
+                else:
+                    value = mul(rest, reciprocal(("quot", w), at(op[4], 0)))
             elif kind == "sqrt":
                 a = op[2]
                 if k == 0:
                     value = call("sqrt", at(a, 0))
                 else:
                     rest = minus(at(a, k), cauchy(w, w, k, 1, k - 1))
-                    value = None if rest is None else b.fdiv(rest, mul(num(2.0), at(w, 0)))
+                    half = reciprocal(("sqrt", w), mul(num(2.0), at(w, 0)))
+                    value = None if rest is None else mul(rest, half)
             elif kind == "pow":
                 a, e = op[2], op[3]
                 if k == 0:
@@ -192,7 +207,8 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
                             factor = b.fsub(mul(consts[e], num(float(k - j))), num(float(j)))
                         terms.append(mul(factor, term))
                     acc = total(terms)
-                    value = None if acc is None else b.fdiv(acc, mul(num(float(k)), at(a, 0)))
+                    inv = reciprocal(("pow", w), at(a, 0))
+                    value = None if acc is None else mul(acc, mul(num(1.0 / k), inv))
             else:  # "int": w = f(a), f'(a) = r
                 f, a, r = op[2], op[3], op[4]
                 if k == 0:
@@ -204,11 +220,11 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
                         term = times(aj if j == 1 or aj is None else mul(num(float(j)), aj), at(r, k - j))
                         terms.append(term)
                     acc = total(terms)
-                    value = None if acc is None else b.fdiv(acc, num(float(k)))
+                    value = None if acc is None else mul(acc, num(1.0 / k))
             series[(w, k)] = value
         for i, o in enumerate(tape.outputs):
             v = at(o, k)
-            v = None if v is None else b.fdiv(v, num(float(k + 1)))
+            v = None if v is None else mul(v, num(1.0 / (k + 1)))
             b.store(num(0.0) if v is None else v, address(X, i * stride + k + 1), align=8)
             series[(f"_x{i}", k + 1)] = v
     b.ret_void()
