@@ -132,6 +132,17 @@ def test_products_share_their_common_factors_and_constant_factors_fold_into_sums
     assert dict(tape.constants)[dict((r, c) for c, r in tape.ops[-1][2])["_x1"]] == "2*_p0"
 
 
+def test_tan_is_one_function_whose_derivative_its_square_gives():
+    """tan by its own recurrence (w' = (1 + w^2) a'): one function and one product, 1 + tan^2 the derivative's row
+    itself, where sin / cos took two functions and a quotient (its coefficients are checked as Lie derivatives
+    above, FIELDS["trigonometric"])."""
+    tape = taylor_tape([], [x, y], [sp.tan(x / 3), 1 + sp.tan(x / 3) ** 2], [])
+    kinds = [op[0] for op in tape.ops]
+    assert (kinds.count("int"), kinds.count("mul"), kinds.count("quot")) == (1, 1, 0)
+    (tan,) = [op for op in tape.ops if op[0] == "int"]
+    assert tan[2] == "tan" and tape.outputs[1] == tan[4]
+
+
 def test_a_function_without_a_recurrence_is_refused_by_name():
     code = StraightLine()
     values = code.values([sp.Abs(x), y])

@@ -35,7 +35,7 @@ __all__ = ["horner_address", "horner_ir", "taylor_ir", "unrolled_address", "simd
 #: loop over the orders (LLVM's time grows with the code, about 1 s for 10,000 multiply-adds).
 UNROLL_LIMIT = 60_000
 #: The C library's functions the code calls (the intrinsics lower to some of them too).
-_LIBM = ("exp", "log", "sin", "cos", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos")
+_LIBM = ("exp", "log", "sin", "cos", "tan", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos")
 _LIBM_MORE = ("asinh", "acosh", "atanh")
 _INTRINSICS = {"exp", "log", "sin", "cos"}
 

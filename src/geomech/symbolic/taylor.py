@@ -4,7 +4,7 @@ Zou's and heyoka's Taylor methods).
 
 :func:`taylor_tape` takes the assignments of a right-hand side (``name = expr``, in order: those
 :class:`~geomech.symbolic.compile.StraightLine` records) and splits every expression into elementary operations
-(sums, products, quotients, powers, exp, log, sin and cos, sinh and cosh, the inverse trigonometric functions):
+(sums, products, quotients, powers, exp, log, sin, cos and tan, sinh, cosh and tanh, the inverse functions):
 a :class:`TaylorTape`, plain data. Its :meth:`~TaylorTape.source` prints a numba function
 ``name(X, W, order, prm)``: ``X[:, 0]`` holds the state x(t0); it fills ``X[:, k]``, k = 1..order, with the
 Taylor coefficients x^[k] = x^(k)(t0)/k!, each operation's own coefficients kept in a row of the work array
@@ -22,7 +22,8 @@ each is the coefficient of t^k of an identity between series):
 - w = sqrt(a): w^[k] = (a^[k] - sum_{j=1..k-1} w^[j] w^[k-j]) / (2 w^[0]);
 - w = a^e, e a constant: w^[k] = sum_{j=0..k-1} (e (k - j) - j) a^[k-j] w^[j] / (k a^[0]);
 - w = F(a) with F' = r: w' = r(a) a', so w^[k] = (1/k) sum_{j=1..k} j a^[j] r^[k-j] (exp: r = w; log:
-  r = 1/a; sin and cos: r = cos a and -sin a, the one the other's; atan: r = 1/(1 + a^2); ...).
+  r = 1/a; sin and cos: r = cos a and -sin a, the one the other's; tan: r = 1 + w^2, one product, where
+  sin a / cos a took two functions and a quotient; atan: r = 1/(1 + a^2); ...).
 
 The generated code calls the helpers ``tk_mul``, ``tk_quot``, ``tk_sqrt``, ``tk_pow`` and ``tk_int`` of the
 Taylor loop's template (``geomech.integrators._k_taylor``), compiled with it.
@@ -50,6 +51,7 @@ _DEFINED_BY_DERIVATIVE = {
     sp.cos: -sp.sin(_X),
     sp.sinh: sp.cosh(_X),
     sp.cosh: sp.sinh(_X),
+    sp.tan: 1 + _WV**2,
     sp.tanh: 1 - _WV**2,
     sp.atan: 1 / (1 + _X**2),
     sp.asin: 1 / sp.sqrt(1 - _X**2),
@@ -60,7 +62,6 @@ _DEFINED_BY_DERIVATIVE = {
 }
 #: The functions written by others (for real arguments, in sympy's conventions).
 _REWRITTEN = {
-    sp.tan: lambda u: sp.sin(u) / sp.cos(u),
     sp.cot: lambda u: sp.cos(u) / sp.sin(u),
     sp.sec: lambda u: 1 / sp.cos(u),
     sp.csc: lambda u: 1 / sp.sin(u),
