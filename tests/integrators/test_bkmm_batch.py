@@ -118,6 +118,7 @@ def test_torque_coefficients_and_a_state_batch():
 def test_the_compiled_observation_is_the_python_one(monkeypatch):
     s = snakeboard(**SNAKE)
     kw = dict(t_final=1.0, saveat=4, shapes={"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **TOL)
+    monkeypatch.setattr(_observe, "_COMPILED", set())  # none compiled yet in this process, as far as it knows
     monkeypatch.setattr(_observe, "_compiled_observation", lambda name, compiled, rows: False)
     python = solve(s, BKMM(), parameters={"a": [0.5, 1.0]}, **kw)
     monkeypatch.setattr(_observe, "_compiled_observation", lambda name, compiled, rows: True)
@@ -126,6 +127,26 @@ def test_the_compiled_observation_is_the_python_one(monkeypatch):
     for name in ("energy", "tau", "constraint_residual"):
         x, y = compiled.quantities[name], python.quantities[name]
         np.testing.assert_allclose(x, y, rtol=1e-14, atol=1e-14 * max(1.0, float(np.abs(y).max())))
+
+
+def test_an_observation_in_numba_disk_cache_is_known_before_it_is_loaded():
+    """A module whose observation numba's disk cache holds loads it (milliseconds) rather than observe as Python."""
+    import numba
+
+    from geomech.integrators import _codegen
+    from geomech.integrators.nonholonomic._compiled import bkmm_module
+    from geomech.integrators.nonholonomic._inputs import _setup
+    from geomech.reduction import bkmm_reduction
+
+    s = snakeboard(**SNAKE)
+    shapes = {"psi": "sin(2*pi*t)", "phi": "0.25*sin(2*pi*t)"}
+    # more states than the Python observation takes: compiled, and written to the disk cache
+    solve(s, BKMM(), t_final=1.0, saveat=_observe.PYTHON_ROWS + 1, shapes=shapes, **TOL)
+    made = bkmm_module(_setup(s, shapes, None), bkmm_reduction(s))
+    assert made is not None
+    assert _codegen.on_disk(made[0].observe_all)
+    assert not _codegen.on_disk(numba.njit(lambda x: x))  # no disk cache
+    assert not _codegen.on_disk(lambda x: x)  # not a kernel
 
 
 def test_the_observation_is_compiled_once_python_has_cost_as_much(monkeypatch):

@@ -31,6 +31,21 @@ def test_derivatives_are_exact_and_T_is_the_period():
         gm.solve(snakeboard(**SNAKE), "bkmm", t_final=1.0, shapes={"psi": "sign(t - 0.5)", "phi": "0"})
 
 
+def test_a_gait_at_one_time_is_its_formulas_there_however_often_asked():
+    """The values at a time are kept for the next run from the same start: the same numbers, which no caller can
+    change, and right at every time however many times came between."""
+    g = gm.Gait.from_expressions({"psi": "cos(3*t)", "phi": "t**3"})
+    first = g(0.25)
+    for t in [0.25, *np.linspace(-1.0, 1.0, 40), 0.25, 0.7]:
+        r, rd, rdd = g(t)
+        expected = [[np.cos(3 * t), t**3], [-3 * np.sin(3 * t), 3 * t**2], [-9 * np.cos(3 * t), 6 * t]]
+        np.testing.assert_allclose([r, rd, rdd], expected, rtol=1e-14, atol=1e-14)
+    for kept, again in zip(first, g(0.25)):
+        np.testing.assert_array_equal(kept, again)
+        with pytest.raises(ValueError, match="read-only"):
+            kept[0] = 1.0
+
+
 def test_a_gait_without_period_drives_a_simulation_but_is_not_a_loop():
     s = snakeboard(**SNAKE)
     gait = gm.Gait.from_expressions({"psi": "0.3*t", "phi": "0.2"})

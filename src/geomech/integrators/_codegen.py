@@ -288,6 +288,16 @@ def _twins(model_src: str) -> str:
 RHS = ("rhs",)
 
 
+def on_disk(function: Any) -> bool:
+    """Whether numba's disk cache holds machine code of the kernel ``function`` (a dispatcher with ``cache=True``):
+    loading it costs milliseconds where compiling it costs seconds. False where it cannot tell (no cache, another
+    numba's internals)."""
+    try:
+        return os.path.exists(function._cache._cache_file._index_path)
+    except AttributeError:
+        return False
+
+
 def rhs_address(module: Any) -> int:
     """The address of ``module``'s right-hand side for :func:`._fptr.call_model` (its C twin compiled, or loaded
     from numba's cache, on first request; for the Python backend, its index)."""

@@ -44,6 +44,8 @@ class Gait:
     names: tuple[str, ...] | None = None
     expressions: tuple[sp.Expr, ...] | None = None
     _all: Callable | None = field(default=None, repr=False)
+    #: a gait of formulas at the last few times asked (every run from t0 asks for its start)
+    _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def _eval(self, i: int, t: Any) -> np.ndarray:
         t = np.asarray(t, dtype=float)
@@ -60,11 +62,19 @@ class Gait:
         return self._eval(2, t)
 
     def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(r, rdot, rddot)`` at the time ``t``."""
-        if self._all is not None:
-            v = self._all(float(t))
-            return v[0], v[1], v[2]
-        return self.r(float(t)), self.rdot(float(t)), self.rddot(float(t))
+        """``(r, rdot, rddot)`` at the time ``t`` (for a gait of formulas, read-only arrays)."""
+        t = float(t)
+        if self._all is None:
+            return self.r(t), self.rdot(t), self.rddot(t)
+        known = self._memo.get(t)
+        if known is None:
+            v = self._all(t)
+            v.setflags(write=False)
+            known = (v[0], v[1], v[2])
+            if len(self._memo) >= 16:
+                self._memo.pop(next(iter(self._memo), None), None)
+            self._memo[t] = known
+        return known
 
     @property
     def periodic(self) -> bool:

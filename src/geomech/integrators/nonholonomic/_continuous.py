@@ -157,11 +157,40 @@ def run_reduced(
     formulas, unless ``backend`` is "python"; otherwise stepped by scipy with the equations in Python."""
     system = setup.system
     red = bkmm_reduction(system)
-    rn = red.numeric(parameters)
-    rates = _group_rates(system)
     k, sigma, m = system.k, system.sigma, red.m
     F, P = setup.free_shapes, setup.prescribed
     nF = len(F)
+    if p_init is None:
+        p_init = red.numeric(parameters).momentum(q_init, qd_init)
+    y0 = np.concatenate([q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, [0.0]])
+    taylor = method.solver == TAYLOR
+    work = method.work
+    compiled = _compiled_or_refused(
+        system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities, work)
+    )
+    if compiled is None and sensitivities is not None:
+        raise InputError(VARIATIONAL_NEEDS)
+    if compiled is not None:
+        module, made = compiled
+        run = run_compiled(
+            module,
+            made,
+            made.rows({**system.parameters, **dict(parameters or {})}, 1),
+            y0[None] if sensitivities is None else augment(y0[None], len(sensitivities)),
+            t0,
+            times,
+            method,
+            tolerances,
+            max_evaluations,
+            1,
+            None if events is None else compile_lagrangian_events(setup, made, bkmm_slots(setup, m), events),
+            max_events,
+        )
+        failure = run.failures[0][1] if run.failures else None
+        return run.raw(setup, m, 0, failure)
+    # stepped by scipy, the equations in Python
+    rn = red.numeric(parameters)
+    rates = _group_rates(system)
 
     def unpack(t: float, y: np.ndarray):
         g = y[:k]
@@ -194,8 +223,6 @@ def run_reduced(
         tau_v[F], tau_v[P] = tau_f, z[nF:]
         return q, qd, xi, z[:nF], tau_v, rn.pdot(r, rd, p)
 
-    work = method.work
-
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         q, qd, _, rdd_f, tau_v, pdot = evaluate_all(t, y)
         return np.r_[qd[:k], qd[k:][F], rdd_f, pdot, tau_v @ qd[k:] if work else 0.0]
@@ -204,33 +231,6 @@ def run_reduced(
         q, qd, _, _, tau_v, _ = evaluate_all(t, y)
         return q, qd, tau_v
 
-    if p_init is None:
-        p_init = rn.momentum(q_init, qd_init)
-    y0 = np.concatenate([q_init[:k], q_init[k:][F], qd_init[k:][F], p_init, [0.0]])
-    taylor = method.solver == TAYLOR
-    compiled = _compiled_or_refused(
-        system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities, work)
-    )
-    if compiled is None and sensitivities is not None:
-        raise InputError(VARIATIONAL_NEEDS)
-    if compiled is not None:
-        module, made = compiled
-        run = run_compiled(
-            module,
-            made,
-            made.rows({**system.parameters, **dict(parameters or {})}, 1),
-            y0[None] if sensitivities is None else augment(y0[None], len(sensitivities)),
-            t0,
-            times,
-            method,
-            tolerances,
-            max_evaluations,
-            1,
-            None if events is None else compile_lagrangian_events(setup, made, bkmm_slots(setup, m), events),
-            max_events,
-        )
-        failure = run.failures[0][1] if run.failures else None
-        return run.raw(setup, m, 0, failure)
     budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
     return run_stepped(
         "BKMM", setup, rhs, evaluate, y0, t0, times, method, tolerances, budget, parameters, events, max_events

@@ -274,11 +274,20 @@ def initial_state(
 
 
 def initial_state_of(
-    setup: _Setup, t0: float, q0: Any, rdot0: Any, p0: Any, qdot0: Any, parameters: Mapping[str, float] | None
+    setup: _Setup,
+    t0: float,
+    q0: Any,
+    rdot0: Any,
+    p0: Any,
+    qdot0: Any,
+    parameters: Mapping[str, float] | None,
+    group_velocity: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """:func:`initial_state` for a run whose gait and torques are set up (``_setup``) already, with the
     nonholonomic momentum where it was given (``p0``, or 0 by default, with constraints; else None): the BKMM state
-    starts from it as given, not from its round trip through the velocities."""
+    starts from it as given, not from its round trip through the velocities. Without ``group_velocity`` (BKMM's
+    state, which holds the momentum instead), the group's velocities that follow from that momentum are not
+    computed: NaN in the velocities returned with it."""
     system = setup.system
     parameters = {k: v for k, v in scalar_values(parameters).items() if k not in setup.coefficients}
     names = [s.name for s in system.q]
@@ -323,7 +332,6 @@ def initial_state_of(
             )
         return q, qd, None
     rd = _shape_rates(system, setup, rdot0, rd_p)
-    lam_inv = _group_rates(system)
     if system.c == 0:
         # no constraints: p is the body momentum dl/dxi, and M_gg qdot_g + M_gr rdot = B^T p (B = Lambda^{-1})
         k = system.k
@@ -334,7 +342,7 @@ def initial_state_of(
                 f"{system.group.name}'s algebra), got {p.size}."
             )
         M = lda().mass_matrix(q)
-        B = np.linalg.inv(lam_inv(q[:k]))
+        B = np.linalg.inv(_group_rates(system)(q[:k]))
         return q, np.r_[np.linalg.solve(M[:k, :k], B.T @ p - M[:k, k:] @ rd), rd], None
     red = bkmm_reduction(system)
     p = np.zeros(red.m) if p0 is None else V.finite(p0, "p0").ravel()
@@ -343,9 +351,11 @@ def initial_state_of(
             f"Expected `p0` to have {red.m} entries (the nonholonomic momentum of {system.name}, basis: "
             f"{red.normalization}), got {p.size}."
         )
-    rn = red.numeric(parameters)
+    rn = red.numeric(parameters)  # (where the basis degenerates at these values, it says so)
+    if not group_velocity:
+        return q, np.concatenate([np.full(system.k, np.nan), rd]), p
     xi = rn.xi(q[system.k :], rd, p)
-    return q, np.concatenate([lam_inv(q[: system.k]) @ xi, rd]), p
+    return q, np.concatenate([_group_rates(system)(q[: system.k]) @ xi, rd]), p
 
 
 def _shape_rates(system: NonholonomicSystem, setup: Any, rdot0: Any, rd_p: np.ndarray) -> np.ndarray:

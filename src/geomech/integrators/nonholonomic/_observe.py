@@ -1,6 +1,7 @@
 """The observation of a compiled Lagrangian run's saved states: what each state shows (q, qdot, the shape forces,
 the energy, the constraints), by the generated module's ``observe_all`` (:mod:`._compiled`), as Python for a few
-small runs and compiled once the Python has cost about what a compilation does."""
+small runs and compiled once the Python has cost about what a compilation does; loaded at once where numba's disk
+cache has it (milliseconds, the cost of a few hundred states as Python)."""
 
 from __future__ import annotations
 
@@ -22,12 +23,14 @@ PYTHON_ROWS = 4000
 _PYTHON: dict[str, Any] = {}
 #: the states each module (by name) has observed as Python in this process
 _PYTHON_SEEN: dict[str, int] = {}
+#: the modules (by name) whose observation is compiled and loaded in this process
+_COMPILED: set[str] = set()
 
 
 def _compiled_observation(name: str, compiled: bool, rows: int) -> bool:
-    """Whether ``rows`` states of module ``name`` are observed by the compiled code (made now where it is not, when
-    ``compiled`` is False), or as Python: compiled once the module's states observed as Python in this process would
-    pass PYTHON_ROWS, when the Python has cost about what a compilation does."""
+    """Whether ``rows`` states of module ``name`` are observed by the compiled code (``compiled``: compiled already, or
+    on disk; made now where it is not), or as Python: compiled once the module's states observed as Python in this
+    process would pass PYTHON_ROWS, when the Python has cost about what a compilation does."""
     if compiled:
         return True
     seen = _PYTHON_SEEN.get(name, 0) + rows
@@ -46,7 +49,11 @@ def observe(module: Any, made: LagrangianSource, Y: np.ndarray, PRM: np.ndarray,
     OUT = np.empty((Y.shape[0], made.observed))
     observe_all = module.observe_all
     seconds = 0.0
-    if not _compiled_observation(module.__name__, bool(observe_all.signatures), Y.shape[0]):
+    if module.__name__ in _COMPILED:
+        observe_all(Y, OUT, PRM, per)
+        return OUT, seconds
+    ready = bool(observe_all.signatures) or _codegen.on_disk(observe_all)
+    if not _compiled_observation(module.__name__, ready, Y.shape[0]):
         namespace = _PYTHON.get(made.source)
         if namespace is None:  # the same source as plain Python
             namespace = dict(_codegen.python_helpers())
@@ -60,5 +67,6 @@ def observe(module: Any, made: LagrangianSource, Y: np.ndarray, PRM: np.ndarray,
         start = time.perf_counter()
         observe_all(Y[:1], OUT[:1], PRM[:1], 1)
         seconds = time.perf_counter() - start
+    _COMPILED.add(module.__name__)
     observe_all(Y, OUT, PRM, per)
     return OUT, seconds

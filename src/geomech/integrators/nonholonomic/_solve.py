@@ -88,7 +88,10 @@ def solve_lagrangian(
             max_events=max_events,
             wrt=wrt,
         )
-    q_init, qd_init, p_init = initial_state_of(setup, t0, q0, rdot0, p0, qdot0, parameters)
+    # BKMM's state holds the momentum, not the group's velocities
+    q_init, qd_init, p_init = initial_state_of(
+        setup, t0, q0, rdot0, p0, qdot0, parameters, group_velocity=not isinstance(method, BKMM)
+    )
     h = times.h
     if isinstance(method, DiscreteLagrangeDAlembert):
         assert h is not None  # a fixed-step method: solve() has set the step

@@ -46,36 +46,37 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
     :math:`J = \\mathrm{Ad}^*_{g^{-1}}p`, conserved), NaN where the run did not reach."""
     s = setup.system
     # without constraints the momentum is the body momentum, computed without deriving the reduction
-    m = s.k if s.c == 0 else bkmm_reduction(s).m
     N = len(raw.q)
-    ok = np.all(np.isfinite(raw.q), axis=1) & np.all(np.isfinite(raw.qd), axis=1)
-    momentum = np.full((N, m), np.nan)
-    energy = np.full(N, np.nan)
-    residual = np.full((N, s.c), np.nan)
-    spatial = np.full((N, s.k), np.nan)
-    if raw.energy is not None and raw.momentum is not None:
-        energy, momentum = raw.energy, raw.momentum
-    elif ok.any():
-        q, qd = raw.q[ok], raw.qd[ok]
-        lda = lagrange_dalembert(s).numeric(parameters)
-        momentum[ok] = (
-            body_momentum(s, lda, q, qd)
-            if s.c == 0
-            else bkmm_reduction(s).numeric(parameters).momentum(q, qd).reshape(len(q), -1)
-        )
-        energy[ok] = lda.energy(q, qd)
-        residual[ok] = lda.constraint_residual(q, qd).reshape(len(q), s.c)
-    if s.c == 0:
-        spatial = spatial_momentum(s, raw.q, momentum)
-    if raw.residual is not None:
-        residual = raw.residual
+    if raw.energy is not None and raw.momentum is not None and raw.residual is not None:
+        energy, momentum, residual = raw.energy, raw.momentum, raw.residual  # a compiled run observed them
+    else:
+        # without constraints the momentum is the body momentum, computed without deriving the reduction
+        m = s.k if s.c == 0 else bkmm_reduction(s).m
+        ok = np.all(np.isfinite(raw.q), axis=1) & np.all(np.isfinite(raw.qd), axis=1)
+        momentum = np.full((N, m), np.nan)
+        energy = np.full(N, np.nan)
+        residual = np.full((N, s.c), np.nan)
+        if raw.energy is not None and raw.momentum is not None:
+            energy, momentum = raw.energy, raw.momentum
+        elif ok.any():
+            q, qd = raw.q[ok], raw.qd[ok]
+            lda = lagrange_dalembert(s).numeric(parameters)
+            momentum[ok] = (
+                body_momentum(s, lda, q, qd)
+                if s.c == 0
+                else bkmm_reduction(s).numeric(parameters).momentum(q, qd).reshape(len(q), -1)
+            )
+            energy[ok] = lda.energy(q, qd)
+            residual[ok] = lda.constraint_residual(q, qd).reshape(len(q), s.c)
+        if raw.residual is not None:
+            residual = raw.residual
     return {
         "energy": energy,
         "momentum": momentum,
         "tau": raw.tau,
         "work": raw.work,
         "constraint_residual": residual,
-        **({"spatial_momentum": spatial} if s.c == 0 else {}),
+        **({"spatial_momentum": spatial_momentum(s, raw.q, momentum)} if s.c == 0 else {}),
         **raw.variational,
     }
 
