@@ -356,9 +356,9 @@ class RotorBody:
         lam_syms, J_syms = self.symbols()
         out: dict[str, float] = {}
         if lam_syms is not None:
-            out.update({str(s): float(v) for s, v in zip(lam_syms, np.diag(self.inertia))})
+            out.update({s.name: float(v) for s, v in zip(lam_syms, np.diag(self.inertia))})
         if self.rotor_inertia is not None:
-            out.update({str(s): float(v) for s, v in zip(J_syms, self.rotor_inertia)})
+            out.update({s.name: float(v) for s, v in zip(J_syms, self.rotor_inertia)})
         return out
 
     # -- open-loop equations (eqs. 26, 38) -----------------------------------------------------------
