@@ -52,7 +52,7 @@ time from one period, at a cost that does not grow with t. Speed and accuracy be
 Where the time goes: `sol.stats` has `compile_time` (numba's or LLVM's, once per model and method, then a load
 from the disk cache), `run_time`, and for a compiled run `loop_time`, the calls into the compiled loop alone;
 the rest of `run_time` and of the call is the Python around the loop (the set-up, the initial state, the bound on
-the work, the quantities at the saved times, the Solution: 0.3 to 0.9 ms a call, where a small problem's loop
+the work, the quantities at the saved times, the Solution: 0.3 to 0.6 ms a call, where a small problem's loop
 takes tens of microseconds). Many small runs are faster as one call over a batch, which pays it once.
 
 Ensembles and sensitivities: the leading axes of the initial state are a batch, and so are those of
