@@ -128,6 +128,18 @@ def test_rot_z_by_quarter_turn_maps_x_to_y():
     np.testing.assert_allclose(so3.rot_y(np.pi / 2) @ [0, 0, 1.0], [1.0, 0, 0], atol=1e-15)
 
 
+def test_a_rotation_is_told_from_a_reflection_alone_and_in_a_batch():
+    """An orthogonal matrix with determinant -1 (-R for a rotation R) is refused, one or in a batch; R passes."""
+    from geomech._validate import rotation_matrix
+
+    R = so3.exp(np.array([0.3, -1.2, 2.0]))
+    np.testing.assert_array_equal(rotation_matrix(R, "R"), R)
+    np.testing.assert_array_equal(rotation_matrix(np.stack([R, R.T]), "R"), np.stack([R, R.T]))
+    for bad in (-R, np.stack([R, -R]), -R.T):
+        with pytest.raises(InputError, match="`R` to be a rotation matrix"):
+            rotation_matrix(bad, "R")
+
+
 def test_error_messages():
     with pytest.raises(ShapeError, match=r"^Expected `v` to have shape \(\.\.\., 3\), got \(4,\)\.$"):
         so3.hat(np.zeros(4))

@@ -160,6 +160,8 @@ def rotor_initial_states(
             f"Expected the batch shapes of `m0` {m.shape[:-1]}, `R0` {R.shape[:-2]}, `Gamma0` {Gam.shape[:-1]} and "
             f"`gamma0` {gam.shape[:-1]} to broadcast."
         ) from None
+    if not shape:  # one state: its parts as they are
+        return np.concatenate([m, R.ravel(), Gam, gam] + ([[float(t0)]] if problem.timed else []))[None], shape
     parts = [
         np.broadcast_to(m, shape + (3,)),
         np.broadcast_to(R, shape + (3, 3)).reshape(shape + (9,)),
