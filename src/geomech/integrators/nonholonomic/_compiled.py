@@ -127,7 +127,11 @@ class LagrangianSource:
         """The ``prm`` rows of a batch of ``B`` members (one row where no value is an array): each name's value,
         a scalar or an array of ``B`` (a batch's members, flattened)."""
         names = self.parameters + self.coefficients
-        arrays = [np.asarray(values[n], dtype=float).reshape(-1) for n in names]
+        given = [values[n] for n in names]
+        if all(type(v) is float for v in given):  # one run's numbers: one row as they are
+            k = len(self.parameters)
+            return np.array([given[:k] + list(self.constants) + given[k:]])
+        arrays = [np.asarray(v, dtype=float).reshape(-1) for v in given]
         n_rows = B if any(a.size > 1 for a in arrays) else 1
         out = np.empty((n_rows, len(names) + len(self.constants)))
         k = len(self.parameters)

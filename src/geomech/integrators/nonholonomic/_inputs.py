@@ -382,8 +382,11 @@ def _require_positive_kinetic_energy(
     if missing:
         system.parameter_values({})  # the system's own message, naming them
     values_in = [merged[s.name] for s in system.parameter_symbols]
+    known = _CHECKED.get(system)
     if B == 1 and all(isinstance(v, (float, int, np.floating, np.integer)) for v in values_in):
         P = np.array([values_in], dtype=float).reshape(1, -1)  # one configuration, numbers: a row as they are
+        if known is not None and (Q.tobytes(), P.tobytes()) in known:  # these values passed (a repeated run)
+            return
     else:
         P = (
             np.stack([np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (B,)) for v in values_in], axis=-1)
@@ -391,8 +394,7 @@ def _require_positive_kinetic_energy(
             else np.zeros((B, 0))
         )
     x = np.concatenate([Q, P], axis=1)
-    key = (id(system), x.shape, x.tobytes())
-    known = _CHECKED.get(system)
+    key = (Q.tobytes(), P.tobytes()) if B == 1 else (x.shape, x.tobytes())
     if known is not None and key in known:  # these values passed: a repeated run (a benchmark, a sweep) skips it
         return
     mass, constraints = _metric_functions(system)
