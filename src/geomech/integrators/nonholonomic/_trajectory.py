@@ -45,7 +45,6 @@ def quantities(setup: _Setup, raw: _Raw, parameters: Mapping | None) -> dict[str
     constraint residual, and without constraints the spatial momentum (the momentum map
     :math:`J = \\mathrm{Ad}^*_{g^{-1}}p`, conserved), NaN where the run did not reach."""
     s = setup.system
-    # without constraints the momentum is the body momentum, computed without deriving the reduction
     N = len(raw.q)
     if raw.energy is not None and raw.momentum is not None and raw.residual is not None:
         energy, momentum, residual = raw.energy, raw.momentum, raw.residual  # a compiled run observed them
