@@ -118,7 +118,6 @@ def test_torque_coefficients_and_a_state_batch():
 def test_the_compiled_observation_is_the_python_one(monkeypatch):
     s = snakeboard(**SNAKE)
     kw = dict(t_final=1.0, saveat=4, shapes={"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **TOL)
-    monkeypatch.setattr(_observe, "_COMPILED", set())  # none compiled yet in this process, as far as it knows
     monkeypatch.setattr(_observe, "_compiled_observation", lambda name, compiled, rows: False)
     python = solve(s, BKMM(), parameters={"a": [0.5, 1.0]}, **kw)
     monkeypatch.setattr(_observe, "_compiled_observation", lambda name, compiled, rows: True)
@@ -144,8 +143,10 @@ def test_an_observation_in_numba_disk_cache_is_known_before_it_is_loaded():
     solve(s, BKMM(), t_final=1.0, saveat=_observe.PYTHON_ROWS + 1, shapes=shapes, **TOL)
     made = bkmm_module(_setup(s, shapes, None), bkmm_reduction(s))
     assert made is not None
-    assert _codegen.on_disk(made[0].observe_all)
-    assert not _codegen.on_disk(numba.njit(lambda x: x))  # no disk cache
+    assert _codegen.on_disk(made[0].observe_all) and _codegen.loaded(made[0].observe_all)
+    fresh = numba.njit(lambda x: x)
+    assert not _codegen.on_disk(fresh) and not _codegen.loaded(fresh)  # no disk cache, not yet compiled
+    assert fresh(2.0) == 2.0 and _codegen.loaded(fresh)
     assert not _codegen.on_disk(lambda x: x)  # not a kernel
 
 

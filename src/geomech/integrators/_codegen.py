@@ -288,6 +288,22 @@ def _twins(model_src: str) -> str:
 RHS = ("rhs",)
 
 
+#: The kernels with machine code in this process (compiled, or loaded from numba's disk cache).
+_LOADED: set = set()
+
+
+def loaded(function: Any) -> bool:
+    """Whether the kernel ``function`` (a numba dispatcher) has machine code in this process: compiled, or loaded
+    from the disk cache, by an earlier call. Remembered once true (numba's ``signatures`` builds a list at every
+    call of a run)."""
+    if function in _LOADED:
+        return True
+    if function.signatures:
+        _LOADED.add(function)
+        return True
+    return False
+
+
 def on_disk(function: Any) -> bool:
     """Whether numba's disk cache holds machine code of the kernel ``function`` (a dispatcher with ``cache=True``):
     loading it costs milliseconds where compiling it costs seconds. False where it cannot tell (no cache, another

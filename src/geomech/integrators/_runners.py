@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
-from ._codegen import RHS, rhs_address
+from ._codegen import RHS, loaded, rhs_address
 from ._problem import Problem
 from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
@@ -249,7 +249,7 @@ def run_embedded(
     args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart)
     compile_time = 0.0
     fp = rhs_address(module) if module.ready(RHS) else 0
-    if used == "numba" and not (module.ready(RHS) and module.erk_run.signatures):
+    if used == "numba" and not (module.ready(RHS) and loaded(module.erk_run)):
         # the first call compiles (or loads numba's disk cache) the model's C right-hand side and, once for all
         # models, the loop: timed apart on a one-step problem
         start = time.perf_counter()
@@ -394,7 +394,7 @@ def run_taylor(
             codes["horner", Y0.shape[1], order, lanes] = horner_address(Y0.shape[1], order, lanes)
             compile_time += time.perf_counter() - start
         hfp = codes["horner", Y0.shape[1], order, lanes]
-    if "warm" not in codes:
+    if not loaded(module.taylor_run):
         # the first call compiles the loop with the model's coefficients (or loads numba's disk cache): timed apart
         start = time.perf_counter()
         module.taylor_run(
@@ -421,7 +421,6 @@ def run_taylor(
             PRM[:1],
         )
         compile_time += time.perf_counter() - start
-        codes["warm"] = True
     event_args = (ev.address, ev.directions, ev.terminal)
 
     def call(a: int, b: int) -> None:

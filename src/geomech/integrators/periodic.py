@@ -153,7 +153,7 @@ class PeriodicOrbitPropagator:
         shift = np.array([angle_period or 0.0, 0.0])
         compile_time = 0.0
         fp = _codegen.rhs_address(module) if module.ready(_codegen.RHS) else 0
-        if self.backend == "numba" and not (module.ready(_codegen.RHS) and module.orbit_return.signatures):
+        if self.backend == "numba" and not (module.ready(_codegen.RHS) and _codegen.loaded(module.orbit_return)):
             # the model's C right-hand side and, once for all models, the loops: compiled (or loaded) apart
             start = time.perf_counter()
             fp = _codegen.rhs_address(module)

@@ -478,7 +478,7 @@ def solve(
         P = np.ascontiguousarray(method.constants(problem), dtype=float)
         h_step, nsteps, every = float(times.h), times.n_steps, times.save_every  # type: ignore[arg-type]
         FP = module.addresses(calls) if module.ready(calls) else None
-        if used == "numba" and not (FP is not None and kern.signatures):
+        if used == "numba" and not (FP is not None and _codegen.loaded(kern)):
             # the first call compiles (or loads numba's disk cache) the model's C functions and, once for all
             # models, the loop: timed apart on a one-step problem
             from numba.core.errors import NumbaError

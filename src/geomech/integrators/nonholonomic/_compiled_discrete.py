@@ -28,6 +28,7 @@ import sympy as sp
 
 from ...symbolic.compile import StraightLine
 from ...systems.gait import T_SYMBOL
+from .. import _codegen
 from ..solution import Failure, Status
 from ._compiled import _TIME, LagrangianSource, _generate_lda, _made, _module
 from ._trajectory import _Raw
@@ -420,7 +421,7 @@ def run_compiled_discrete(
     qd0 = np.ascontiguousarray(qd_init, dtype=float)
     arrays = (out["q"], out["qd"], out["tau"], out["work"], out["residual"], INFO)
     compile_time = 0.0
-    if not module.dlda_run.signatures:  # compiled (or loaded from numba's cache) by a run of no step, timed apart
+    if not _codegen.loaded(module.dlda_run):  # compiled (or loaded from the disk cache) by a run of no step, timed
         start = time.perf_counter()
         module.dlda_run(q0, qd0, 0.0, 1.0, 0, 1.0, 1, FR, PR, prm, KEEP[:0], *[a.copy() for a in arrays])
         compile_time = time.perf_counter() - start

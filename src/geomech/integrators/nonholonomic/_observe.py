@@ -23,8 +23,6 @@ PYTHON_ROWS = 4000
 _PYTHON: dict[str, Any] = {}
 #: the states each module (by name) has observed as Python in this process
 _PYTHON_SEEN: dict[str, int] = {}
-#: the modules (by name) whose observation is compiled and loaded in this process
-_COMPILED: set[str] = set()
 
 
 def _compiled_observation(name: str, compiled: bool, rows: int) -> bool:
@@ -49,10 +47,7 @@ def observe(module: Any, made: LagrangianSource, Y: np.ndarray, PRM: np.ndarray,
     OUT = np.empty((Y.shape[0], made.observed))
     observe_all = module.observe_all
     seconds = 0.0
-    if module.__name__ in _COMPILED:
-        observe_all(Y, OUT, PRM, per)
-        return OUT, seconds
-    ready = bool(observe_all.signatures) or _codegen.on_disk(observe_all)
+    ready = _codegen.loaded(observe_all) or _codegen.on_disk(observe_all)
     if not _compiled_observation(module.__name__, ready, Y.shape[0]):
         namespace = _PYTHON.get(made.source)
         if namespace is None:  # the same source as plain Python
@@ -63,10 +58,9 @@ def observe(module: Any, made: LagrangianSource, Y: np.ndarray, PRM: np.ndarray,
             _PYTHON[made.source] = namespace
         namespace["observe_all"](Y, OUT, PRM, per)
         return OUT, seconds
-    if not observe_all.signatures:  # compiled (or loaded) on a row, timed apart
+    if not _codegen.loaded(observe_all):  # compiled (or loaded) on a row, timed apart
         start = time.perf_counter()
         observe_all(Y[:1], OUT[:1], PRM[:1], 1)
         seconds = time.perf_counter() - start
-    _COMPILED.add(module.__name__)
     observe_all(Y, OUT, PRM, per)
     return OUT, seconds
