@@ -69,7 +69,8 @@ class CompiledEvents:
 
     @classmethod
     def none(cls) -> CompiledEvents:
-        return cls((), 0, np.zeros(0), np.zeros(0))
+        """No events: one value for every run without them."""
+        return _NO_EVENTS
 
     def stepped(self, prm: np.ndarray, d: int) -> StepEvents:
         """The events of one trajectory (its parameter row ``prm``, its state of length ``d``) for
@@ -90,6 +91,10 @@ class CompiledEvents:
         for c, row in enumerate(rows[: EVT.shape[1]]):
             EVT[b, c] = row
         ECOUNT[b] = len(rows)
+
+
+#: no events (empty arrays, which nothing can write into; writable, as the compiled loops' signatures take them)
+_NO_EVENTS = CompiledEvents((), 0, np.zeros(0), np.zeros(0))
 
 
 def _specs(events: Any) -> dict[str, Event]:

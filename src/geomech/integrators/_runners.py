@@ -15,6 +15,7 @@ from ..errors import InputError
 from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, loaded, rhs_address
+from ._events import CompiledEvents
 from ._problem import Problem
 from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
@@ -237,8 +238,6 @@ def run_embedded(
     ``problem_system`` (its ``chart``: component, lower and upper bound) or at a terminal event; returns (accepted
     steps, compile time, the compiled loop's seconds, the events recorded (B, max_events, 2 + d), their counts
     (B,))."""
-    from ._events import CompiledEvents
-
     ev = CompiledEvents.none() if events is None else events
     EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
     ECOUNT = np.zeros(Y0.shape[0])
@@ -354,8 +353,6 @@ def run_taylor(
     coefficients are the module's tape (``TAYLOR_TAPE``) unrolled for the order (:mod:`._taylor_llvm`, compiled once
     per order: its time is counted in the compile time), or with ``compact`` (default: where the unrolled code would
     pass ``UNROLL_LIMIT`` multiply-adds) the module's loop over the orders, ``taylor_coeffs``."""
-    from ._events import CompiledEvents
-
     ev = CompiledEvents.none() if events is None else events
     EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
     ECOUNT = np.zeros(Y0.shape[0])
