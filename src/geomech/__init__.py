@@ -8,7 +8,7 @@ from . import analysis, errors, integrators, lie
 from ._version import __version__
 from .analysis import monte_carlo, sweep
 from .errors import GeomechError
-from .integrators import Solution, solve
+from .integrators import Solution, prepare, solve
 from .reduction import GeneralizedSerretAndoyer, SerretAndoyerChart
 from .symbolic.compile import M_SYMBOLS
 from .systems import (
@@ -45,6 +45,7 @@ __all__ = [
     "integrators",
     "lie",
     "monte_carlo",
+    "prepare",
     "solve",
     "sweep",
     "__version__",

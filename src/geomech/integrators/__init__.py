@@ -43,7 +43,7 @@ from .periodic import PeriodicOrbitPropagator
 from .quadrature import QuadraturePropagator
 from .serret_andoyer_propagator import SerretAndoyerPropagator
 from .solution import QUANTITIES, Failure, Solution, Status
-from .solve import DEFAULT_SAVEAT, compatible_methods, methods_for, solve
+from .solve import DEFAULT_SAVEAT, Prepared, compatible_methods, methods_for, prepare, solve
 
 __all__ = [
     "BKMM",
@@ -77,6 +77,7 @@ __all__ = [
     "NonholonomicHamilton",
     "OrbitIntegral",
     "PeriodicOrbit",
+    "Prepared",
     "Quadrature",
     "SerretAndoyerAtlas",
     "PeriodicOrbitPropagator",
@@ -93,5 +94,6 @@ __all__ = [
     "get_method",
     "initial_state",
     "methods_table",
+    "prepare",
     "solve",
 ]

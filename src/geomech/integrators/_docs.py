@@ -53,7 +53,14 @@ Where the time goes: `sol.stats` has `compile_time` (numba's or LLVM's, once per
 from the disk cache), `run_time`, and for a compiled run `loop_time`, the calls into the compiled loop alone;
 the rest of `run_time` and of the call is the Python around the loop (the set-up, the initial state, the bound on
 the work, the quantities at the saved times, the Solution: 0.3 to 0.6 ms a call, where a small problem's loop
-takes tens of microseconds). Many small runs are faster as one call over a batch, which pays it once.
+takes tens of microseconds). Many small runs are faster as one call over a batch, which pays it once. Runs one
+after another (an optimiser's, a Monte Carlo loop's) take a prepared problem, as heyoka's integrator object is
+built once and propagated many times: `prepared = geomech.prepare(system, method, t_final=..., rtol=...)` checks
+the method against the system, the times, the tolerances, the torque law and the events, and finds the compiled
+model, once; `prepared.solve(m0=..., parameters=...)` then runs from each start with each parameters' values
+(`attitude=True` to give `R0` at each call). `solve(...)` is `prepare(...).solve(...)`: the same checks and the
+same run. A prepared call spends about 0.1 ms less in Python than `solve` (0.26 ms against 0.37 ms for the
+roller racer by Taylor's method).
 
 Ensembles and sensitivities: the leading axes of the initial state are a batch, and so are those of
 `parameters={name: array}` (the named parameters of a system built from a formula: each trajectory reads its

@@ -75,7 +75,7 @@ def run_full(
     (the Dormand-Prince loops) where the solver has a compiled twin and the gait and torques are formulas, unless
     ``backend`` is "python"; otherwise stepped by scipy with the equations in Python."""
     system = setup.system
-    compiled = _compiled_or_refused(system, method, backend, events, lambda: lda_module(setup, float(method.baumgarte)))
+    compiled = _compiled_or_refused(setup, method, backend, events, lambda: lda_module(setup, float(method.baumgarte)))
     if compiled is not None:
         module, made = compiled
         fr = setup.free_coordinates()
@@ -166,7 +166,7 @@ def run_reduced(
     taylor = method.solver == TAYLOR
     work = method.work
     compiled = _compiled_or_refused(
-        system, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities, work)
+        setup, method, backend, events, lambda: bkmm_module(setup, red, taylor, sensitivities, work), sensitivities
     )
     if compiled is None and sensitivities is not None:
         raise InputError(VARIATIONAL_NEEDS)
@@ -269,21 +269,27 @@ def run_stepped(
     return _Raw(Q, QD, TAU, Y[:, -1], failure, nfev, steps=n_steps, events=table)
 
 
-def _compiled_or_refused(system: Any, method: Any, backend: str, events: Any, module: Callable) -> Any:
+def _compiled_or_refused(setup: _Setup, method: Any, backend: str, events: Any, module: Callable, *key: Any) -> Any:
     """The compiled module and source of a run (``module()``) where the method's solver has a compiled twin and
     ``backend`` is not "python", or None; raises where ``backend`` is "numba" or ``events`` are asked for and the run
-    cannot be compiled."""
+    cannot be compiled. Found once per ``setup`` (a prepared problem's runs share it), method, backend and ``key``."""
+    memo = (method, backend, events is None, *key)
+    if memo in setup.compiled:
+        return setup.compiled[memo]
+    system = setup.system
     if method.solver == TAYLOR:
-        return _taylor_or_refused(system, method, backend, module)
-    pair = compiled_pair(method.solver) if backend != "python" else None
-    compiled = module() if pair is not None else None
-    if compiled is None and backend == "numba":
-        raise InputError(
-            f"backend='numba' runs {type(method).__name__} with the solvers {sorted(COMPILED_SOLVERS)} on a gait and "
-            f"torques given as formulas (and numba installed); got solver {method.solver!r}"
-            + ("" if pair is None else ", and a gait or torque given as a Python callable")
-            + "."
-        )
+        compiled = _taylor_or_refused(system, method, backend, module)
+    else:
+        pair = compiled_pair(method.solver) if backend != "python" else None
+        compiled = module() if pair is not None else None
+        if compiled is None and backend == "numba":
+            raise InputError(
+                f"backend='numba' runs {type(method).__name__} with the solvers {sorted(COMPILED_SOLVERS)} on a gait "
+                f"and torques given as formulas (and numba installed); got solver {method.solver!r}"
+                + ("" if pair is None else ", and a gait or torque given as a Python callable")
+                + "."
+            )
+    setup.compiled[memo] = compiled
     return compiled
 
 

@@ -7,7 +7,7 @@ import dataclasses
 import functools
 import weakref
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -116,6 +116,8 @@ class _Setup:
     gait_forms: tuple[sp.Expr, ...] | None = None
     #: the names of the gait's and the torques' coefficients that are not parameters of the system, sorted
     coefficients: tuple[str, ...] = ()
+    #: the compiled equations of the runs made with this set-up, by method and options (found once)
+    compiled: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n(self) -> int:

@@ -26,7 +26,14 @@ from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair
 from ._continuous import VARIATIONAL_NEEDS, run_compiled, run_full, run_reduced
 from ._discrete import run_discrete
 from ._hamiltonian import run_hamiltonian
-from ._inputs import _by_name, _require_positive_kinetic_energy, _setup, check_parameter_names, initial_state_of
+from ._inputs import (
+    _by_name,
+    _require_positive_kinetic_energy,
+    _setup,
+    check_parameter_names,
+    initial_state_of,
+    scalar_values,
+)
 from ._observe import observe
 from ._trajectory import quantities, spatial_momentum
 
@@ -34,158 +41,189 @@ from ._trajectory import quantities, spatial_momentum
 MAX_DISCRETE_STEPS = 1_000_000
 
 
-def solve_lagrangian(
-    system: Any,
-    method: Method,
-    times: Times,
-    *,
-    t0: float,
-    q0: Any,
-    qdot0: Any,
-    rdot0: Any,
-    p0: Any,
-    shapes: Any,
-    tau: Any,
-    parameters: Mapping[str, float] | None,
-    tolerances: tuple[float, float] | None,
-    max_steps: Any,
-    max_evaluations: Any,
-    memory_limit: float,
-    newton_tol: float,
-    max_newton: int,
-    backend: str = "auto",
-    threads: int | None = None,
-    events: Any = None,
-    max_events: int = 1000,
-    sensitivities: Any = None,
-) -> Solution:
-    """Integrate a :class:`~geomech.systems.NonholonomicSystem` with one of the Lagrangian methods (internal:
-    :func:`~geomech.solve` has checked the method and the times)."""
-    setup = _setup(system, shapes, tau, parameters)
-    check_parameter_names(setup, parameters)
-    wrt = _sensitivity_names(setup, method, backend, events, sensitivities)
-    if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert, NonholonomicHamilton)):
-        raise InputError(events_need_adaptive(system.name) + f" Got {method!r}.")
-    shape = _batch_shape(parameters, q0, rdot0, p0)
-    if shape is not None:
-        return _solve_batch(
-            setup,
-            method,
-            times,
-            shape,
-            t0=t0,
-            q0=q0,
-            qdot0=qdot0,
-            rdot0=rdot0,
-            p0=p0,
-            parameters=parameters,
-            tolerances=tolerances,
-            max_evaluations=max_evaluations,
-            memory_limit=memory_limit,
-            backend=backend,
-            threads=threads,
-            events=events,
-            max_events=max_events,
-            wrt=wrt,
-        )
-    # BKMM's state holds the momentum, not the group's velocities
-    q_init, qd_init, p_init = initial_state_of(
-        setup, t0, q0, rdot0, p0, qdot0, parameters, group_velocity=not isinstance(method, BKMM)
-    )
-    h = times.h
-    if isinstance(method, DiscreteLagrangeDAlembert):
-        assert h is not None  # a fixed-step method: solve() has set the step
-        limit = MAX_DISCRETE_STEPS if max_steps == V.MAX_STEPS else max_steps
-        V.work_budget(
-            float(times.n_steps),
-            float(limit),
-            f"The number of steps ({times.n_steps:.3g} of h = {abs(h):.3g})",
-            "max_steps",
-            "take a larger h or a shorter span",
-            seconds_each=2e-4,
-        )
-    n_values = float(times.n_saved) * (3 * system.n + system.sigma + system.c + 4)
-    V.memory_budget(
-        n_values,
-        float(memory_limit),
-        f"Keeping {times.n_saved:.3g} states",
-        "memory_limit",
-        "save fewer times (`saveat`)",
-    )
-    start = time.perf_counter()
-    if isinstance(method, DiscreteLagrangeDAlembert):
-        assert h is not None
-        raw = run_discrete(
-            setup,
-            q_init,
-            qd_init,
-            t0,
-            h,
-            times.n_steps,
-            newton_tol,
-            max_newton,
-            parameters,
-            method.discretization,
-            backend,
-            times.kernel_steps() if times.k is None else times.k,
-        )
-        n_rhs, internal = 0, raw.nfev
-    else:
-        assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
-        budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
-        if isinstance(method, NonholonomicHamilton):
-            raw = run_hamiltonian(
-                setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters, events, max_events
+class PreparedLagrangian:
+    """A Lagrangian system on G x S with one of the Lagrangian methods, the times and the options, ready for
+    :meth:`solve` from initial states with the parameters' values (internal: :class:`~geomech.integrators.Prepared`
+    has checked the method and the times). The gait and torques are made into functions once for each distinct
+    values of their coefficients."""
+
+    def __init__(
+        self,
+        system: Any,
+        method: Method,
+        times: Times,
+        *,
+        t0: float,
+        shapes: Any,
+        tau: Any,
+        tolerances: tuple[float, float] | None,
+        max_steps: Any,
+        max_evaluations: Any,
+        memory_limit: float,
+        newton_tol: float,
+        max_newton: int,
+        backend: str = "auto",
+        threads: int | None = None,
+        events: Any = None,
+        max_events: int = 1000,
+        sensitivities: Any = None,
+    ) -> None:
+        if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert, NonholonomicHamilton)):
+            raise InputError(events_need_adaptive(system.name) + f" Got {method!r}.")
+        self.system, self.method, self.times, self.t0 = system, method, times, t0
+        self.shapes, self.tau, self.tolerances = shapes, tau, tolerances
+        self.max_steps, self.max_evaluations, self.memory_limit = max_steps, max_evaluations, memory_limit
+        self.newton_tol, self.max_newton, self.backend, self.threads = newton_tol, max_newton, backend, threads
+        self.events, self.max_events, self.sensitivities = events, max_events, sensitivities
+        self._setups: dict[tuple, list] = {}
+        self.labels = tuple(q.name for q in system.q) + tuple(q.name for q in system.qdot)
+
+    def setup(self, parameters: Mapping[str, Any] | None) -> list:
+        """``[set-up, sensitivities, parameter values]``: the gait and torques with the values in ``parameters`` (a
+        batch's first member's; the compiled loop reads every member's), checked against the names the system and
+        its formulas know; the names of the sensitivities; the system's parameter values by name (None until a run
+        of one trajectory asks for them). Made once for each distinct values (the last 16 kept)."""
+        key = tuple(sorted(scalar_values(parameters).items()))
+        made = self._setups.get(key)
+        if made is None:
+            setup = _setup(self.system, self.shapes, self.tau, parameters)
+            check_parameter_names(setup, parameters)
+            made = [setup, _sensitivity_names(setup, self.method, self.backend, self.events, self.sensitivities), None]
+            if len(self._setups) >= 16:  # the oldest dropped first
+                self._setups.pop(next(iter(self._setups)))
+            self._setups[key] = made
+        return made
+
+    def solve(self, *, q0: Any, qdot0: Any, rdot0: Any, p0: Any, parameters: Mapping[str, Any] | None) -> Solution:
+        """One run (or a batch: arrays in ``parameters``, initial states with leading axes) from ``q0`` with
+        ``qdot0``, or with ``rdot0`` and ``p0``."""
+        system, method, times, t0 = self.system, self.method, self.times, self.t0
+        tolerances, max_evaluations, backend, events = self.tolerances, self.max_evaluations, self.backend, self.events
+        max_events, newton_tol, max_newton = self.max_events, self.newton_tol, self.max_newton
+        made = self.setup(parameters)
+        setup, wrt = made[0], made[1]
+        shape = _batch_shape(parameters, q0, rdot0, p0)
+        if shape is not None:
+            return _solve_batch(
+                setup,
+                method,
+                times,
+                shape,
+                t0=t0,
+                q0=q0,
+                qdot0=qdot0,
+                rdot0=rdot0,
+                p0=p0,
+                parameters=parameters,
+                tolerances=tolerances,
+                max_evaluations=max_evaluations,
+                memory_limit=self.memory_limit,
+                backend=backend,
+                threads=self.threads,
+                events=events,
+                max_events=max_events,
+                wrt=wrt,
             )
-        else:  # the two that run compiled: the equations with multipliers, or BKMM's
-            args = (setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend)
-            if isinstance(method, LagrangeDAlembert):
-                raw = run_full(*args, events, max_events)
-            else:
-                raw = run_reduced(*args, events, max_events, wrt, p_init)
-        n_rhs, internal = raw.nfev, raw.steps
-    run_time = time.perf_counter() - start
-    extra: dict[str, Any] = {} if raw.loop_time is None else {"loop_time": raw.loop_time}
-    failures: tuple[Failure, ...] = () if raw.failure is None else (raw.failure,)
-    name = type(method).__name__
-    if failures:
-        message = f"{name} on {system.name}: {failures[0].describe()}."
-    elif times.h is not None:
-        message = f"{name}: {times.n_steps} steps of h = {abs(times.h):g} from t = {t0:g}."
-    else:
-        message = (
-            f"{name} ({getattr(method, 'solver', '')}): {len(times.t)} outputs from t = {t0:g} to {times.t[-1]:g}."
+        # BKMM's state holds the momentum, not the group's velocities
+        q_init, qd_init, p_init = initial_state_of(
+            setup, t0, q0, rdot0, p0, qdot0, parameters, group_velocity=not isinstance(method, BKMM)
         )
-    qv = np.concatenate([raw.q, raw.qd], axis=1)
-    return Solution(
-        t=times.t,
-        states=qv,
-        system=system,
-        method=method,
-        layout="qv",
-        labels=tuple(s.name for s in system.q) + tuple(s.name for s in system.qdot),
-        quantities={
-            key: v
-            for key, v in quantities(setup, raw, parameters).items()
-            if key != "work" or not isinstance(method, BKMM) or method.work
-        },
-        status=failures[0].kind if failures else Status.SUCCESS,
-        message=message,
-        failures=failures,
-        stats=run_stats(
-            times.n_steps,
-            internal,
-            n_rhs,
-            run_time - raw.compile_time,
-            n_newton=raw.newton,
-            backend=raw.backend,
-            compile_time=raw.compile_time,
-            **extra,
-        ),
-        parameters={k.name: float(v) for k, v in system.parameter_values(parameters).items()},
-        group_dim=system.k,
-        events=raw.events,
-    )
+        h = times.h
+        if isinstance(method, DiscreteLagrangeDAlembert):
+            assert h is not None  # a fixed-step method: solve() has set the step
+            limit = MAX_DISCRETE_STEPS if self.max_steps == V.MAX_STEPS else self.max_steps
+            V.work_budget(
+                float(times.n_steps),
+                float(limit),
+                f"The number of steps ({times.n_steps:.3g} of h = {abs(h):.3g})",
+                "max_steps",
+                "take a larger h or a shorter span",
+                seconds_each=2e-4,
+            )
+        n_values = float(times.n_saved) * (3 * system.n + system.sigma + system.c + 4)
+        V.memory_budget(
+            n_values,
+            float(self.memory_limit),
+            f"Keeping {times.n_saved:.3g} states",
+            "memory_limit",
+            "save fewer times (`saveat`)",
+        )
+        start = time.perf_counter()
+        if isinstance(method, DiscreteLagrangeDAlembert):
+            assert h is not None
+            raw = run_discrete(
+                setup,
+                q_init,
+                qd_init,
+                t0,
+                h,
+                times.n_steps,
+                newton_tol,
+                max_newton,
+                parameters,
+                method.discretization,
+                backend,
+                times.kernel_steps() if times.k is None else times.k,
+            )
+            n_rhs, internal = 0, raw.nfev
+        else:
+            assert isinstance(method, (LagrangeDAlembert, BKMM, NonholonomicHamilton)) and tolerances is not None
+            budget = MAX_EVALUATIONS if max_evaluations is None else max_evaluations
+            if isinstance(method, NonholonomicHamilton):
+                raw = run_hamiltonian(
+                    setup, q_init, qd_init, t0, times.t, method, tolerances, budget, parameters, events, max_events
+                )
+            else:  # the two that run compiled: the equations with multipliers, or BKMM's
+                args = (setup, q_init, qd_init, t0, times.t, method, tolerances, max_evaluations, parameters, backend)
+                if isinstance(method, LagrangeDAlembert):
+                    raw = run_full(*args, events, max_events)
+                else:
+                    raw = run_reduced(*args, events, max_events, wrt, p_init)
+            n_rhs, internal = raw.nfev, raw.steps
+        run_time = time.perf_counter() - start
+        extra: dict[str, Any] = {} if raw.loop_time is None else {"loop_time": raw.loop_time}
+        failures: tuple[Failure, ...] = () if raw.failure is None else (raw.failure,)
+        name = type(method).__name__
+        if failures:
+            message = f"{name} on {system.name}: {failures[0].describe()}."
+        elif times.h is not None:
+            message = f"{name}: {times.n_steps} steps of h = {abs(times.h):g} from t = {t0:g}."
+        else:
+            message = (
+                f"{name} ({getattr(method, 'solver', '')}): {len(times.t)} outputs from t = {t0:g} to {times.t[-1]:g}."
+            )
+        qv = np.concatenate([raw.q, raw.qd], axis=1)
+        if made[2] is None:
+            made[2] = {k.name: float(v) for k, v in system.parameter_values(parameters).items()}
+        return Solution(
+            t=times.t,
+            states=qv,
+            system=system,
+            method=method,
+            layout="qv",
+            labels=self.labels,
+            quantities={
+                key: v
+                for key, v in quantities(setup, raw, parameters).items()
+                if key != "work" or not isinstance(method, BKMM) or method.work
+            },
+            status=failures[0].kind if failures else Status.SUCCESS,
+            message=message,
+            failures=failures,
+            stats=run_stats(
+                times.n_steps,
+                internal,
+                n_rhs,
+                run_time - raw.compile_time,
+                n_newton=raw.newton,
+                backend=raw.backend,
+                compile_time=raw.compile_time,
+                **extra,
+            ),
+            parameters=dict(made[2]),
+            group_dim=system.k,
+            events=raw.events,
+        )
 
 
 def _sensitivity_names(setup: Any, method: Method, backend: str, events: Any, sensitivities: Any) -> tuple | None:
