@@ -9,7 +9,7 @@ import sympy as sp
 
 import geomech as gm
 from geomech.errors import InputError
-from geomech.integrators import BKMM, IncompatibleMethodError, Prepared
+from geomech.integrators import BKMM, Event, IncompatibleMethodError, Prepared
 from geomech.systems import CanonicalSystem
 from geomech.systems.control import StructurePreservingControl
 from geomech.systems.nonholonomic_examples import snakeboard
@@ -120,3 +120,28 @@ def test_a_prepared_gait_after_many_values_is_a_fresh_preparation():
         prepared.solve(parameters={"a": 1.0, "b": 2.0})
     with pytest.raises(InputError, match="Lagrangian system"):
         prepared.solve(m0=[1.0, 0.0, 0.0])
+
+
+def test_a_prepared_problem_locates_its_events_at_every_call_whatever_the_coefficients():
+    """psi = a sin(2 pi t) passes upwards through 0 at every whole t, whatever a: the events are the gait's, found
+    at each call with that call's a (the events made once with the prepared problem, from the events given then)."""
+    s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+    events = {"back": Event("psi", direction=1)}
+    prepared = gm.prepare(
+        s,
+        BKMM(solver="taylor"),
+        t_final=3.5,
+        saveat=2,
+        rtol=1e-10,
+        atol=1e-10,
+        shapes={"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"},
+        events=events,
+    )
+    events["phi"] = Event("phi")  # the prepared problem keeps the events it was given
+    for a in (0.5, 1.2, 0.5):
+        sol = prepared.solve(parameters={"a": a})
+        assert set(sol.events) == {"back"}
+        rows = sol.events["back"]
+        np.testing.assert_allclose(rows[:, 1], [1.0, 2.0, 3.0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rows[:, 2 + s.k], 0.0, rtol=0, atol=1e-9)  # psi there
+        np.testing.assert_allclose(rows[:, 2 + s.n + s.k], 2 * np.pi * a, rtol=1e-9)  # its rate, a's

@@ -183,9 +183,14 @@ def compile_lagrangian_events(setup: Any, made: Any, slots: list[str | None], ev
     are named by ``slots`` (None for one no formula reads: the work; "t" the time) and whose ``prm`` holds the
     system's parameters, the numbers of the gait and torques, then their coefficients: formulas in the state's
     entries, every shape and its rate (a prescribed shape's from its gait), ``t``, the parameters and the
-    coefficients."""
+    coefficients. Made once per set-up (a prepared problem's runs share it), events and layout of the state."""
     from ..systems.gait import T_SYMBOL
 
+    memo = getattr(setup, "compiled", None)
+    made_key = ("events", id(events), made.equations, tuple(slots), made.parameters, len(made.constants))
+    made_key += (made.coefficients,)
+    if memo is not None and made_key in memo:
+        return memo[made_key]
     specs = _specs(events)
     system = setup.system
     state = tuple(sp.Symbol(f"_y{i}", real=True) for i in range(len(slots)))
@@ -212,7 +217,10 @@ def compile_lagrangian_events(setup: Any, made: Any, slots: list[str | None], ev
                 f"({', '.join(sorted(names))}) nor its parameters or the gait's coefficients."
             )
         outputs.append(expr)
-    return _compiled(specs, outputs, state, tuple(prm))
+    compiled = _compiled(specs, outputs, state, tuple(prm))
+    if memo is not None:  # (the set-up holds its events: their id is theirs while it lives)
+        memo[made_key] = compiled
+    return compiled
 
 
 def stepped_lagrangian_events(

@@ -74,7 +74,9 @@ class PreparedLagrangian:
         self.shapes, self.tau, self.tolerances = shapes, tau, tolerances
         self.max_steps, self.max_evaluations, self.memory_limit = max_steps, max_evaluations, memory_limit
         self.newton_tol, self.max_newton, self.backend, self.threads = newton_tol, max_newton, backend, threads
-        self.events, self.max_events, self.sensitivities = events, max_events, sensitivities
+        # the events as given now (a copy: the runs' compiled events are made once from them)
+        self.events = dict(events) if isinstance(events, Mapping) else events
+        self.max_events, self.sensitivities = max_events, sensitivities
         self._setups: dict[tuple, list] = {}
         self.labels = tuple(q.name for q in system.q) + tuple(q.name for q in system.qdot)
 
