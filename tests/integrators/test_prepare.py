@@ -107,8 +107,11 @@ def test_a_prepared_gait_with_coefficients_is_its_values_at_every_call():
 
 def test_a_prepared_gait_after_many_values_is_a_fresh_preparation():
     s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
-    kw = dict(t_final=0.5, saveat=2, rtol=1e-10, atol=1e-10, shapes={"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"})
+    gait = {"psi": "a*sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+    kw = dict(t_final=0.5, saveat=2, rtol=1e-10, atol=1e-10, shapes=dict(gait))
     prepared = gm.prepare(s, BKMM(), **kw)
+    kw["shapes"]["psi"] = "0"  # the prepared problem keeps the gait it was given
+    kw["shapes"] = gait
     values = np.linspace(0.1, 2.0, 20)  # more than the distinct values kept
     for a in values:
         prepared.solve(parameters={"a": float(a)}, rdot0={"phi": 0.0})

@@ -71,10 +71,12 @@ class PreparedLagrangian:
         if events is not None and not isinstance(method, (BKMM, LagrangeDAlembert, NonholonomicHamilton)):
             raise InputError(events_need_adaptive(system.name) + f" Got {method!r}.")
         self.system, self.method, self.times, self.t0 = system, method, times, t0
-        self.shapes, self.tau, self.tolerances = shapes, tau, tolerances
+        # the gait, torques and events as given now (copies of mappings: what each call makes from them is kept)
+        self.shapes = dict(shapes) if isinstance(shapes, Mapping) else shapes
+        self.tau = dict(tau) if isinstance(tau, Mapping) else tau
+        self.tolerances = tolerances
         self.max_steps, self.max_evaluations, self.memory_limit = max_steps, max_evaluations, memory_limit
         self.newton_tol, self.max_newton, self.backend, self.threads = newton_tol, max_newton, backend, threads
-        # the events as given now (a copy: the runs' compiled events are made once from them)
         self.events = dict(events) if isinstance(events, Mapping) else events
         self.max_events, self.sensitivities = max_events, sensitivities
         self._setups: dict[tuple, list] = {}
