@@ -66,6 +66,8 @@ def test_what_a_prepared_problem_cannot_run_is_refused_before_any_start():
         gm.prepare(body, "dop853", t_final=1.0, tau={"psi": "t"})
     with pytest.raises(InputError, match="max_newton"):
         gm.prepare(body, "implicit_midpoint", t_final=1.0, h=0.1, max_newton=0)
+    with pytest.raises(InputError, match="`R0` applies to left-invariant systems"):
+        gm.prepare(OSCILLATOR, "dop853", t_final=1.0).solve(y0=[1.0, 0.0], R0=np.eye(3))
 
 
 def test_a_prepared_body_with_rotors_is_each_member_of_a_batch():

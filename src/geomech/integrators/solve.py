@@ -483,7 +483,11 @@ class Prepared:
         """Run from the initial state(s) with the values of ``parameters``: the arguments as :func:`solve`'s (leading
         axes a batch); ``R0`` where the problem was prepared with ``attitude=True``, and only then."""
         problem, method, system, times, t0 = self.problem, self.method, self.system, self.times, self.t0
-        if (R0 is not None) != self.attitude and problem.kind != "lagrangian":
+        if R0 is not None and problem.kind not in ("lie_poisson", "rotor"):
+            raise InputError(
+                f"`R0` applies to left-invariant systems on T*SO(3) and bodies with rotors; {problem.name} is neither."
+            )
+        if (R0 is not None) != self.attitude:
             raise InputError(
                 f"This problem was prepared with attitude={self.attitude}: "
                 + (
@@ -502,7 +506,7 @@ class Prepared:
                 + (" (its group coordinates are part of `q0`)." if problem.kind == "lagrangian" else ".")
             )
         if problem.kind == "group":
-            given = (("y0", y0), ("m0", m0), ("R0", R0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0))
+            given = (("y0", y0), ("m0", m0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0))
             for name, value in given + (("parameters", parameters),):
                 if value is not None:
                     raise InputError(_group_start(problem, system, name))
@@ -520,7 +524,7 @@ class Prepared:
             )
             return _finish(solution, self.raise_on_failure)
         if problem.kind == "lagrangian":
-            for name, value in (("y0", y0), ("m0", m0), ("R0", R0)):
+            for name, value in (("y0", y0), ("m0", m0)):
                 if value is not None:
                     raise InputError(
                         f"{problem.name} is a Lagrangian system: give its initial state as `q0` with `qdot0`, or "
