@@ -187,7 +187,7 @@ def compile_lagrangian_events(setup: Any, made: Any, slots: list[str | None], ev
     from ..systems.gait import T_SYMBOL
 
     memo = getattr(setup, "compiled", None)
-    made_key = ("events", id(events), made.equations, tuple(slots), made.parameters, len(made.constants))
+    made_key: tuple = ("events", id(events), made.equations, tuple(slots), made.parameters, len(made.constants))
     made_key += (made.coefficients,)
     if memo is not None and made_key in memo:
         return memo[made_key]
