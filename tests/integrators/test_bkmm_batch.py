@@ -9,8 +9,7 @@ import pytest
 
 from geomech import solve
 from geomech.errors import InputError
-from geomech.integrators import BKMM, Status
-from geomech.integrators.nonholonomic import _observe
+from geomech.integrators import BKMM, Status, _observe
 from geomech.systems.nonholonomic_examples import kinematic_car, roller_racer, rolling_disk, snakeboard
 
 SNAKE = dict(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)

@@ -44,6 +44,7 @@ from ...symbolic.compile import StraightLine, number_form
 from ...symbolic.taylor import taylor_tape
 from ...systems.gait import T_SYMBOL
 from .. import _codegen
+from .._observe import OBSERVE_ALL
 from ..methods import DormandPrince
 
 __all__ = [
@@ -282,6 +283,7 @@ _GENERATORS = (
     "integrators/nonholonomic/_compiled.py",
     "integrators/nonholonomic/_compiled_discrete.py",
     "integrators/_codegen.py",
+    "integrators/_observe.py",
     "reduction/reduced_numeric.py",
     "symbolic/compile.py",
     "symbolic/taylor.py",
@@ -607,7 +609,7 @@ def _module_text(body: str, seen: str) -> str:
         + body
         + "\n\n@kernel\ndef observe(y, out, prm):\n"
         + seen
-        + _OBSERVE_ALL
+        + OBSERVE_ALL
     )
 
 
@@ -706,24 +708,6 @@ def _generate_lda(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int
     out = code.values(outputs)
     code.line("\n".join(f"out[{i}] = {code.code(v)}" for i, v in enumerate(out)))
     return _module_text(code.body(), seen.body())
-
-
-# the observation of saved states: rows of Y (n_members x n_saved, flattened), member i // per's parameters
-_OBSERVE_ALL = """
-
-@kernel
-def observe_all(Y, OUT, PRM, per):
-    for i in range(Y.shape[0]):
-        finite = True
-        for j in range(Y.shape[1]):
-            if not math.isfinite(Y[i, j]):
-                finite = False
-        if finite:
-            observe(Y[i], OUT[i], PRM[i // per if PRM.shape[0] > 1 else 0])
-        else:
-            for j in range(OUT.shape[1]):
-                OUT[i, j] = math.nan
-"""
 
 
 def bkmm_slots(setup: Any, m: int) -> list[str | None]:

@@ -25,13 +25,13 @@ from .._adaptive import (
     projected_cost_error,
 )
 from .._events import compile_lagrangian_events, event_table, stepped_lagrangian_events
+from .._observe import observe
 from .._runners import INFO_COLUMNS, run_embedded, run_taylor
 from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
 from ._compiled import COMPILED_SOLVERS, bkmm_module, bkmm_slots, compiled_pair, lda_module, lda_slots
 from ._inputs import _group_rates, _Setup, scalar_values
-from ._observe import observe
 from ._trajectory import _accelerations, _Raw
 
 #: What the variational equations of a Lagrangian system need.

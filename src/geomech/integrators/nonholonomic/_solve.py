@@ -18,6 +18,7 @@ from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
 from .._batch import batch_index
 from .._events import compile_lagrangian_events, events_need_adaptive
+from .._observe import observe
 from .._times import Times
 from .._variational import augment, named_sensitivities
 from ..methods import BKMM, TAYLOR, DiscreteLagrangeDAlembert, LagrangeDAlembert, Method, NonholonomicHamilton
@@ -34,7 +35,6 @@ from ._inputs import (
     initial_state_of,
     scalar_values,
 )
-from ._observe import observe
 from ._trajectory import quantities, spatial_momentum
 
 #: Default ceiling on steps of the discrete Lagrange-d'Alembert integrator (a Python loop, about 0.2 ms a step).
