@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import geomech as gm
-from geomech.integrators import IncompatibleMethodError
+from geomech.integrators import IncompatibleMethodError, _observe
 from geomech.lie import so3
 from geomech.systems.control import StructurePreservingControl
 from geomech.systems.rotors import RotorBody
@@ -161,3 +161,22 @@ def test_a_batch_of_inertias_is_the_bodies_built_with_them():
         np.testing.assert_allclose(batch.energy[i], one.energy, rtol=0, atol=1e-13)
         np.testing.assert_allclose(batch.tau[i], one.tau, rtol=0, atol=1e-14)
     assert np.ptp(batch.tau[:, -1, 0]) > 1e-4  # the members' torques differ
+
+
+def test_the_energy_and_torques_at_many_saved_states_are_the_body_and_control_own():
+    """More saved states than the observation runs as Python: the generated observation compiled (or loaded), its
+    energy and torques against the body's H_f and the control's feedback (their own Python), a batch of inertias
+    each member's with its own values."""
+    n_saved = _observe.PYTHON_ROWS + 1
+    kw = dict(t_final=20.0, saveat=n_saved, rtol=1e-10, atol=1e-10, tau=CONTROL)
+    sol = gm.solve(BODY, "dop853", m0=M0, Gamma0=CONTROL.rotor_momentum(M0), R0=R0, **kw)
+    assert sol.energy.shape == (n_saved,) and sol.tau.shape == (n_saved, 3)
+    np.testing.assert_allclose(sol.energy, BODY.hamiltonian(sol.m, sol.Gamma), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sol.tau, CONTROL.feedback(sol.m, sol.Gamma), rtol=0, atol=1e-13)
+    assert np.ptp(np.abs(sol.tau)) > 1e-3  # torques that vary along the run
+    lam1 = np.array([2.8, 3.3])
+    batch = gm.solve(BODY, "dop853", m0=M0, Gamma0=np.zeros(3), parameters={"lambda1": lam1}, **kw)
+    for i, value in enumerate(lam1):
+        body = BODY.with_parameters(lambda1=value)
+        np.testing.assert_allclose(batch.energy[i], body.hamiltonian(batch.m[i], batch.Gamma[i]), rtol=0, atol=1e-12)
+    assert abs(batch.energy[0, 0] - batch.energy[1, 0]) > 1e-3  # each member with its own inertia

@@ -67,6 +67,7 @@ class Problem:
     timed: bool = False
     energy_expression: Any = None  # its H_f in (m, Gamma) and the parameters, for a batch of parameter values
     torque_expressions: Any = None  # and its torques in the state and the parameters
+    observation: Any = None  # both generated (an ._observe.Observation), for the saved states of a law not in time
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -197,13 +198,27 @@ class Problem:
             n = self.core.n_rotors
             m, Gam = states[..., :3], states[..., 12 : 12 + n]
             R = states[..., 3:12].reshape(states.shape[:-1] + (3, 3))
+            out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
+            if rows is not None and self.observation is not None and not self.timed and _codegen.numba_available():
+                from ._observe import observe
+
+                module = _codegen.compiled_module(self.observation.source, "ro")
+                shown, _ = observe(
+                    module,
+                    self.observation,
+                    states.reshape(-1, states.shape[-1]),
+                    np.ascontiguousarray(rows.reshape(int(np.prod(rows.shape[:-1])), rows.shape[-1])),
+                    states.shape[-2],
+                )
+                shown = shown.reshape(states.shape[:-1] + (1 + n,))
+                out["energy"], out["tau"] = shown[..., 0], shown[..., 1:]
+                return out
             if rows is None:
                 energy = np.full(states.shape[:-1], np.nan)
                 energy[ok] = self.core.hamiltonian(m[ok], Gam[ok])
             else:
                 energy = self._energy_with(states, rows, ok)
             out["energy"] = energy
-            out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
             if rows is None or self.timed:  # (a law in time does not read the body's parameters)
                 out["tau"] = torques_along(self, t, states)
             else:

@@ -22,9 +22,10 @@ import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, NumericalError
-from ..symbolic.compile import M_SYMBOLS, compile_vector, number_form, runtime_parameters
+from ..symbolic.compile import M_SYMBOLS, FunctionSpec, compile_vector, kernel_source, number_form, runtime_parameters
 from ..systems.gait import T_SYMBOL, Gait
 from ..systems.rotors import RotorBody, torque_function
+from ._observe import OBSERVE_ALL, Observation
 
 __all__ = ["bind_torque", "rotor_initial_states", "rotor_labels"]
 
@@ -127,6 +128,15 @@ def _formulas(body: RotorBody, tau: Any, timed: bool) -> dict[str, Any] | None:
     rates = [sp.diff(H, g) for g in Gam]
     field = sp.ImmutableMatrix(list(m.cross(w)) + list(R * W) + list(u) + rates + ([sp.Integer(1)] if timed else []))
     runtime = runtime_parameters(field, variables, {**body.parameter_values(), **law_values})
+    # what a saved state shows, the energy H_f and the torques, generated as the Lagrangian runs' observation is
+    # (not for a law in time: the saved states are observed without their time)
+    observation = None
+    if not timed:
+        try:
+            spec = FunctionSpec("observe", ([H, *u],), variables, parameters=runtime["parameter_symbols"])
+            observation = Observation(kernel_source([spec]) + OBSERVE_ALL, 1 + n)
+        except NotImplementedError:  # a function numba lacks: the formulas by numpy
+            observation = None
     # H_f in (m, Gamma) and the body's parameters: the energy of each member of a batch of parameter values
     # and the torques, for the same (a feedback reads the body's parameters through w)
     return {
@@ -134,6 +144,7 @@ def _formulas(body: RotorBody, tau: Any, timed: bool) -> dict[str, Any] | None:
         "variables": variables,
         "energy_expression": H,
         "torque_expressions": tuple(u),
+        "observation": observation,
         **runtime,
     }
 

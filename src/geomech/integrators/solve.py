@@ -750,12 +750,12 @@ class Prepared:
             states, variational["stm"], sensitivity = split(states, d_state, len(wrt))
             if wrt:
                 variational["parameter_sensitivity"] = sensitivity
-        # a batch's quantities with each member's parameters; a body with rotors under a law of formulas has its
-        # energy and torques from them (compiled once), not from the body's and the law's Python
+        # a batch's quantities with each member's parameters; a body with rotors under a law of formulas, compiled,
+        # has its energy and torques from them (generated once), not from the body's and the law's Python
         rows = None
         if swept:
             rows = PRM.reshape(batch_shape + PRM.shape[1:])
-        elif problem.kind == "rotor" and problem.energy_expression is not None:
+        elif problem.kind == "rotor" and problem.energy_expression is not None and used == "numba":
             rows = np.broadcast_to(PRM[0], batch_shape + PRM.shape[1:])
         inv = problem.invariants(states, times.t, rows)
         inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
