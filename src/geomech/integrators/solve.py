@@ -2,23 +2,19 @@
 
 from __future__ import annotations
 
-import os
-import time
 from typing import Any
 
 import numpy as np
 
 from .. import _validate as V
-from ..errors import ConvergenceError, InputError, NumericalError
+from ..errors import InputError
 from . import _codegen
-from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
-from ._batch import batch_index, initial_states, left_chart, parameter_batch
-from ._events import compile_events, event_table
+from ._events import compile_events
+from ._prepared import Prepared, group_start
 from ._problem import Problem, make_problem
-from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic, run_taylor
 from ._times import DEFAULT_SAVEAT, time_grid
 from ._times import tolerances as method_tolerances
-from ._variational import augment, sensitivity_names, split, variational_module
+from ._variational import sensitivity_names, variational_module
 from .methods import (
     REGISTRY,
     RK4,
@@ -28,19 +24,13 @@ from .methods import (
     IncompatibleMethodError,
     Kind,
     Method,
-    PeriodicOrbit,
-    Quadrature,
-    SerretAndoyerAtlas,
     SolveIVP,
     Taylor,
     get_method,
 )
-from .solution import STATUS, Failure, Solution, Status, run_stats
+from .solution import Solution
 
 __all__ = ["solve", "prepare", "Prepared", "compatible_methods", "methods_for", "DEFAULT_SAVEAT"]
-
-#: The cores a batch is spread over by default (read once: ``os.cpu_count`` reads the system's files each time).
-CORES = os.cpu_count() or 1
 
 
 def compatible_methods(system: Any, *, attitude: bool = False) -> list[str]:
@@ -318,521 +308,122 @@ def prepare(
     -------
     Prepared
     """
+    method = get_method(method)
+    if backend not in ("auto", "numba", "python"):
+        raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
+    if not isinstance(attitude, (bool, np.bool_)):
+        raise InputError(f"Expected `attitude` to be True or False, got {attitude!r}.")
+    problem = make_problem(system, attitude=bool(attitude))
+    _check_compatible(problem, method)
+    if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) or max_events < 1:
+        raise InputError(f"Expected `max_events` to be a positive integer, got {max_events!r}.")
+    times = time_grid(method, t0, t_final, h, saveat, rtol, atol)
+    newton_tol = V.positive_scalar(newton_tol, "newton_tol")
+    if isinstance(max_newton, bool) or not isinstance(max_newton, (int, np.integer)) or max_newton < 1:
+        raise InputError(f"Expected `max_newton` to be a positive integer, got {max_newton!r}.")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
+        raise InputError(f"Expected `threads` to be a positive integer or None, got {threads!r}.")
+    tolerances = method_tolerances(method, rtol, atol) if method.kind is Kind.ADAPTIVE else None
+    lagrangian: Any = None
+    compiled_events: Any = None
+    wrt: tuple[str, ...] | None = None
+    module: Any = None
+    used = "python"
+    constants = None
+    if problem.kind == "group":
+        for name, value in (("shapes", shapes), ("tau", tau), ("events", events)):
+            if value is not None:
+                raise InputError(group_start(problem, system, name))
+    elif problem.kind == "lagrangian":
+        from .nonholonomic._solve import PreparedLagrangian
+
+        lagrangian = PreparedLagrangian(
+            system,
+            method,
+            times,
+            t0=float(t0),
+            shapes=shapes,
+            tau=tau,
+            tolerances=tolerances,
+            max_steps=max_steps,
+            max_evaluations=max_evaluations,
+            memory_limit=memory_limit,
+            newton_tol=newton_tol,
+            max_newton=int(max_newton),
+            backend=backend,
+            threads=threads,
+            events=events,
+            max_events=int(max_events),
+            sensitivities=sensitivities,
+        )
+    else:
+        if shapes is not None:
+            raise InputError(f"`shapes` applies to Lagrangian systems on G x S; {problem.name} is not one.")
+        if problem.kind == "rotor":
+            from ._rotor import bind_torque
+
+            problem = bind_torque(problem, tau)
+            if problem.model_expression is None and "fjac" in _codegen.model_functions(method.kernel or ""):
+                raise IncompatibleMethodError(
+                    f"{method!r} solves implicit equations with their Jacobian, and the torque law of "
+                    f"{problem.name} is Python code without one: give the torques as formulas (a Gait from "
+                    "expressions, a StructurePreservingControl with a formula for phi), or take an explicit "
+                    "method (rk4, dop853, solve_ivp)."
+                )
+        elif tau is not None:
+            raise InputError(
+                f"`tau` applies to Lagrangian systems on G x S and bodies with rotors; {problem.name} is neither."
+            )
+        wrt = sensitivity_names(problem, sensitivities)
+        explicit = (RK4, AdamsBashforthMoulton4, DormandPrince, SolveIVP, AdaptiveAdams)
+        if wrt is not None and not isinstance(method, explicit):
+            raise IncompatibleMethodError(
+                f"`sensitivities` integrates the variational equations with an explicit method (rk4, abm4, "
+                f"dop853, dopri5, adams, solve_ivp); {method!r} is not one."
+            )
+        if wrt is not None:
+            module, used = variational_module(problem, wrt, backend)
+        else:
+            module, used = problem.module(frozenset(method.features & {"gf", "split", "taylor"}), backend)
+        if isinstance(method, Taylor) and used != "numba":
+            raise InputError(
+                f"Taylor's method runs compiled, from the formulas of a system (numba installed, backend 'auto' "
+                f"or 'numba'); {problem.name} has no compiled model here."
+            )
+        if events is not None:
+            if wrt is not None:
+                raise InputError("`events` and `sensitivities` are not taken together; run them apart.")
+            if not isinstance(method, (DormandPrince, Taylor, SolveIVP)):
+                raise IncompatibleMethodError(
+                    f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, "
+                    f"dopri5), on the steps' polynomials of Taylor's method (taylor), or on the dense output of "
+                    f"scipy's solvers (solve_ivp); {method!r} is not one of them."
+                )
+            compiled_events = compile_events(problem, events, used)
+        if method.kind is Kind.FIXED_STEP:
+            constants = np.ascontiguousarray(method.constants(problem), dtype=float)
     return Prepared(
-        system,
-        method,
-        t_final=t_final,
-        h=h,
-        saveat=saveat,
-        rtol=rtol,
-        atol=atol,
-        t0=t0,
-        attitude=attitude,
-        shapes=shapes,
-        tau=tau,
+        system=system,
+        method=method,
+        problem=problem,
+        times=times,
+        t0=float(t0),
+        t_final=float(t_final),
+        attitude=bool(attitude),
+        backend=backend,
+        tolerances=tolerances,
+        newton_tol=newton_tol,
+        max_newton=int(max_newton),
+        threads=threads,
+        max_events=int(max_events),
         max_steps=max_steps,
         max_evaluations=max_evaluations,
         memory_limit=memory_limit,
-        newton_tol=newton_tol,
-        max_newton=max_newton,
         raise_on_failure=raise_on_failure,
-        backend=backend,
-        threads=threads,
-        sensitivities=sensitivities,
-        events=events,
-        max_events=max_events,
+        lagrangian=lagrangian,
+        compiled_events=compiled_events,
+        wrt=wrt,
+        constants=constants,
+        module=module,
+        used=used,
     )
-
-
-class Prepared:
-    """A system and a method made ready to solve, with the times, the tolerances and the options, made by
-    :func:`prepare` (which takes the arguments this class does); :meth:`solve` runs it from an initial state with
-    the parameters' values. Reusable and independent of earlier calls: each call is the run :func:`solve` makes
-    with the same arguments."""
-
-    def __init__(self, system: Any, method: Any, **options: Any) -> None:
-        method = get_method(method)
-        backend = options["backend"]
-        if backend not in ("auto", "numba", "python"):
-            raise InputError(f"Expected `backend` to be 'auto', 'numba' or 'python', got {backend!r}.")
-        attitude = options["attitude"]
-        if not isinstance(attitude, (bool, np.bool_)):
-            raise InputError(f"Expected `attitude` to be True or False, got {attitude!r}.")
-        problem = make_problem(system, attitude=bool(attitude))
-        _check_compatible(problem, method)
-        max_events, max_newton, threads = options["max_events"], options["max_newton"], options["threads"]
-        if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) or max_events < 1:
-            raise InputError(f"Expected `max_events` to be a positive integer, got {max_events!r}.")
-        rtol, atol = options["rtol"], options["atol"]
-        self.times = time_grid(method, options["t0"], options["t_final"], options["h"], options["saveat"], rtol, atol)
-        self.t0 = float(options["t0"])
-        self.newton_tol = V.positive_scalar(options["newton_tol"], "newton_tol")
-        if isinstance(max_newton, bool) or not isinstance(max_newton, (int, np.integer)) or max_newton < 1:
-            raise InputError(f"Expected `max_newton` to be a positive integer, got {max_newton!r}.")
-        if threads is not None and (
-            isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
-        ):
-            raise InputError(f"Expected `threads` to be a positive integer or None, got {threads!r}.")
-        self.system, self.method, self.attitude, self.backend = system, method, bool(attitude), backend
-        self.max_newton, self.threads, self.max_events = int(max_newton), threads, int(max_events)
-        self.max_steps, self.max_evaluations = options["max_steps"], options["max_evaluations"]
-        self.memory_limit, self.raise_on_failure = options["memory_limit"], options["raise_on_failure"]
-        self.t_final = float(options["t_final"])
-        self.tolerances = method_tolerances(method, rtol, atol) if method.kind is Kind.ADAPTIVE else None
-        self.lagrangian: Any = None
-        self.compiled_events: Any = None
-        self.wrt: tuple[str, ...] | None = None
-        self.module: Any = None
-        self.used = "python"
-        shapes, tau, events = options["shapes"], options["tau"], options["events"]
-        self.events = events
-        if problem.kind == "group":
-            for name, value in (("shapes", shapes), ("tau", tau), ("events", events)):
-                if value is not None:
-                    raise InputError(_group_start(problem, system, name))
-        elif problem.kind == "lagrangian":
-            from .nonholonomic._solve import PreparedLagrangian
-
-            self.lagrangian = PreparedLagrangian(
-                system,
-                method,
-                self.times,
-                t0=self.t0,
-                shapes=shapes,
-                tau=tau,
-                tolerances=self.tolerances,
-                max_steps=self.max_steps,
-                max_evaluations=self.max_evaluations,
-                memory_limit=self.memory_limit,
-                newton_tol=self.newton_tol,
-                max_newton=self.max_newton,
-                backend=backend,
-                threads=threads,
-                events=events,
-                max_events=self.max_events,
-                sensitivities=options["sensitivities"],
-            )
-        else:
-            if shapes is not None:
-                raise InputError(f"`shapes` applies to Lagrangian systems on G x S; {problem.name} is not one.")
-            if problem.kind == "rotor":
-                from ._rotor import bind_torque
-
-                problem = bind_torque(problem, tau)
-                if problem.model_expression is None and "fjac" in _codegen.model_functions(method.kernel or ""):
-                    raise IncompatibleMethodError(
-                        f"{method!r} solves implicit equations with their Jacobian, and the torque law of "
-                        f"{problem.name} is Python code without one: give the torques as formulas (a Gait from "
-                        "expressions, a StructurePreservingControl with a formula for phi), or take an explicit "
-                        "method (rk4, dop853, solve_ivp)."
-                    )
-            elif tau is not None:
-                raise InputError(
-                    f"`tau` applies to Lagrangian systems on G x S and bodies with rotors; {problem.name} is neither."
-                )
-            self.wrt = sensitivity_names(problem, options["sensitivities"])
-            if self.wrt is not None and not isinstance(
-                method, (RK4, AdamsBashforthMoulton4, DormandPrince, SolveIVP, AdaptiveAdams)
-            ):
-                raise IncompatibleMethodError(
-                    f"`sensitivities` integrates the variational equations with an explicit method (rk4, abm4, "
-                    f"dop853, dopri5, adams, solve_ivp); {method!r} is not one."
-                )
-            if self.wrt is not None:
-                self.module, self.used = variational_module(problem, self.wrt, backend)
-            else:
-                self.module, self.used = problem.module(frozenset(method.features & {"gf", "split", "taylor"}), backend)
-            if isinstance(method, Taylor) and self.used != "numba":
-                raise InputError(
-                    f"Taylor's method runs compiled, from the formulas of a system (numba installed, backend 'auto' "
-                    f"or 'numba'); {problem.name} has no compiled model here."
-                )
-            if events is not None:
-                if self.wrt is not None:
-                    raise InputError("`events` and `sensitivities` are not taken together; run them apart.")
-                if not isinstance(method, (DormandPrince, Taylor, SolveIVP)):
-                    raise IncompatibleMethodError(
-                        f"`events` are located by the continuous extension of the compiled embedded pairs (dop853, "
-                        f"dopri5), on the steps' polynomials of Taylor's method (taylor), or on the dense output of "
-                        f"scipy's solvers (solve_ivp); {method!r} is not one of them."
-                    )
-                self.compiled_events = compile_events(problem, events, self.used)
-        self.problem = problem
-
-    def __repr__(self) -> str:
-        return (
-            f"Prepared({self.problem.name}, {self.method!r}, t0={self.t0:g}, t_final={self.t_final:g}, "
-            f"{len(self.times.t)} outputs)"
-        )
-
-    def solve(
-        self,
-        *,
-        y0: Any = None,
-        m0: Any = None,
-        R0: Any = None,
-        q0: Any = None,
-        qdot0: Any = None,
-        rdot0: Any = None,
-        p0: Any = None,
-        Gamma0: Any = None,
-        gamma0: Any = None,
-        g0: Any = None,
-        parameters: Any = None,
-    ) -> Solution:
-        """Run from the initial state(s) with the values of ``parameters``: the arguments as :func:`solve`'s (leading
-        axes a batch); ``R0`` where the problem was prepared with ``attitude=True``, and only then."""
-        problem, method, system, times, t0 = self.problem, self.method, self.system, self.times, self.t0
-        if R0 is not None and problem.kind not in ("lie_poisson", "rotor"):
-            raise InputError(
-                f"`R0` applies to left-invariant systems on T*SO(3) and bodies with rotors; {problem.name} is neither."
-            )
-        if (R0 is not None) != self.attitude:
-            raise InputError(
-                f"This problem was prepared with attitude={self.attitude}: "
-                + (
-                    "give `R0`, the initial attitude."
-                    if self.attitude
-                    else "prepare it with attitude=True to give `R0`."
-                )
-            )
-        if problem.kind != "rotor":
-            for name, value in (("Gamma0", Gamma0), ("gamma0", gamma0)):
-                if value is not None:
-                    raise InputError(f"`{name}` applies to bodies with rotors; {problem.name} is not one.")
-        if problem.kind != "group" and g0 is not None:
-            raise InputError(
-                f"`g0` is the start of a body velocity on a group (a GroupFlow); {problem.name} is not one"
-                + (" (its group coordinates are part of `q0`)." if problem.kind == "lagrangian" else ".")
-            )
-        if problem.kind == "group":
-            given = (("y0", y0), ("m0", m0), ("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0))
-            for name, value in given + (("parameters", parameters),):
-                if value is not None:
-                    raise InputError(_group_start(problem, system, name))
-            from ._group_flow import solve_group_flow
-
-            solution = solve_group_flow(
-                system,
-                method,
-                times,
-                t0=t0,
-                g0=g0,
-                tolerances=self.tolerances,
-                max_evaluations=MAX_EVALUATIONS if self.max_evaluations is None else self.max_evaluations,
-                memory_limit=self.memory_limit,
-            )
-            return _finish(solution, self.raise_on_failure)
-        if problem.kind == "lagrangian":
-            for name, value in (("y0", y0), ("m0", m0)):
-                if value is not None:
-                    raise InputError(
-                        f"{problem.name} is a Lagrangian system: give its initial state as `q0` with `qdot0`, or "
-                        f"with `rdot0` and `p0`; not `{name}`."
-                    )
-            solution = self.lagrangian.solve(q0=q0, qdot0=qdot0, rdot0=rdot0, p0=p0, parameters=parameters)
-            return _finish(solution, self.raise_on_failure)
-        for name, value in (("q0", q0), ("qdot0", qdot0), ("rdot0", rdot0), ("p0", p0)):
-            if value is not None:
-                raise InputError(f"`{name}` applies to Lagrangian systems on G x S; {problem.name} is not one.")
-        if problem.kind == "rotor":
-            if y0 is not None:
-                raise InputError(
-                    f"{problem.name} is a body with rotors: give its initial state as `m0` and `Gamma0` (with `R0` "
-                    "and `gamma0`), not `y0`."
-                )
-            from ._rotor import rotor_initial_states
-
-            Y0, batch_shape = rotor_initial_states(problem, m0, R0, Gamma0, gamma0, t0)
-        else:
-            Y0, batch_shape = initial_states(problem, y0, m0, R0)
-        swept, swept_shape = parameter_batch(problem, method, parameters)
-        if swept:
-            try:
-                full = np.broadcast_shapes(batch_shape, swept_shape)
-            except ValueError:
-                raise InputError(
-                    f"Expected the batch of initial states {batch_shape} and of `parameters` {swept_shape} to "
-                    "broadcast."
-                ) from None
-            Y0 = np.broadcast_to(Y0.reshape(batch_shape + Y0.shape[1:]), full + Y0.shape[1:]).reshape(-1, Y0.shape[1])
-            Y0, batch_shape = Y0.copy(), full
-            swept = {k: np.broadcast_to(v, full).reshape(-1) for k, v in swept.items()}
-        wrt = self.wrt
-        d_state = Y0.shape[1]
-        if wrt is not None:
-            Y0 = augment(Y0, len(wrt))
-        B, d = Y0.shape
-        if method.kind is Kind.FIXED_STEP:
-            V.work_budget(
-                float(B) * times.n_steps,
-                float(self.max_steps),
-                f"The number of steps ({times.n_steps:.3g} of {B} trajectory(ies))",
-                "max_steps",
-                "take a larger h or a shorter span",
-                seconds_each=1e-7,
-            )
-        V.memory_budget(
-            float(B) * times.n_kernel_saved * (d + 1),
-            float(self.memory_limit),
-            f"Keeping {times.n_kernel_saved:.3g} states of {B} trajectory(ies)",
-            "memory_limit",
-            "save fewer times (`saveat`)",
-        )
-        if method.kind is Kind.FIXED_STEP:
-            saved_steps = times.kernel_steps()
-            saved_t = t0 + float(times.h) * saved_steps.astype(float)  # type: ignore[arg-type]
-        else:
-            saved_t = times.t
-            saved_steps = np.arange(len(saved_t))
-        OUT = np.empty((B, len(saved_steps), d))
-        INFO = np.zeros((B, INFO_COLUMNS))
-        module, used = self.module, self.used
-        if swept and used != "numba":
-            raise InputError(
-                f"A batch of `parameters` runs in the compiled loops, which {problem.name} cannot use here (backend "
-                f"{self.backend!r}, or numba missing): give one value per parameter."
-            )
-        # the parameter values: one row for all trajectories, or one per trajectory for a batch of them
-        PRM = problem.parameter_rows(swept) if swept else np.ascontiguousarray(problem.prm[None, :])
-        compiled_events = self.compiled_events
-        max_events = self.max_events
-        event_rows: dict[str, np.ndarray] = {}
-        if compiled_events is not None:
-            V.memory_budget(
-                float(B) * max_events * (d + 2),
-                float(self.memory_limit),
-                f"Recording {max_events} events of {B} trajectory(ies)",
-                "memory_limit",
-                "lower `max_events`",
-            )
-        tolerances, tol, max_newton, threads = self.tolerances, self.newton_tol, self.max_newton, self.threads
-        compile_time = 0.0
-        loop_time: float | None = None  # the compiled loop's seconds, where there is one
-        t_start = time.perf_counter()
-        reasons: dict[int, str] = {}
-        reached: dict[int, float] = {}
-        along: dict[str, np.ndarray] = {}
-        switches = np.zeros((0, 4))
-        if isinstance(method, SerretAndoyerAtlas):
-            assert tolerances is not None
-            switches, along = run_atlas(problem, method, Y0, t0, saved_t, tolerances, OUT, INFO, reasons, reached)
-            internal = 0
-        elif isinstance(method, SolveIVP):
-            assert tolerances is not None
-            budget = MAX_EVALUATIONS if self.max_evaluations is None else self.max_evaluations
-            ivp_args = (module, PRM, method, Y0, t0, saved_t, tolerances, budget, OUT, INFO, reasons, reached)
-            internal, EVT, ECOUNT = run_ivp(*ivp_args, compiled_events, max_events)
-            if compiled_events is not None:
-                event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
-        elif isinstance(method, (DormandPrince, Taylor)):
-            assert tolerances is not None
-            budget = MAX_EVALUATIONS_COMPILED if self.max_evaluations is None else self.max_evaluations
-            n_threads = threads if threads is not None else (CORES if B > 1 else 1)
-            common = (
-                Y0,
-                t0,
-                saved_t,
-                tolerances,
-                V.positive_scalar(budget, "max_evaluations"),
-                OUT,
-                INFO,
-                reasons,
-                reached,
-                int(n_threads) if B > 1 else 1,
-                compiled_events,
-                max_events,
-            )
-            if isinstance(method, Taylor):
-                internal, compile_time, loop_time, EVT, ECOUNT = run_taylor(
-                    module, PRM, *common, system, method.compact
-                )
-            else:
-                internal, compile_time, loop_time, EVT, ECOUNT = run_embedded(
-                    module, used, system, PRM, method, *common
-                )
-            t_start += compile_time
-            if compiled_events is not None:
-                event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
-        elif isinstance(method, AdaptiveAdams):
-            assert tolerances is not None
-            with np.errstate(all="ignore"):
-                internal = run_adaptive(module, PRM, method, Y0, t0, saved_t, tolerances, OUT, INFO)
-        elif isinstance(method, (PeriodicOrbit, Quadrature)):
-            internal, compile_time = run_periodic(problem.core, method, Y0, saved_t - t0, OUT, INFO, reasons)
-            t_start += compile_time
-        else:
-            kern = getattr(module, method.kernel)
-            calls = _codegen.model_functions(method.kernel)
-            P = np.ascontiguousarray(method.constants(problem), dtype=float)
-            h_step, nsteps, every = float(times.h), times.n_steps, times.save_every  # type: ignore[arg-type]
-            FP = module.addresses(calls) if module.ready(calls) else None
-            if used == "numba" and not (FP is not None and _codegen.loaded(kern)):
-                # the first call compiles (or loads numba's disk cache) the model's C functions and, once for all
-                # models, the loop: timed apart on a one-step problem
-                from numba.core.errors import NumbaError
-
-                try:
-                    FP = module.addresses(calls)
-                    kern(
-                        FP,
-                        Y0[:1].copy(),
-                        h_step,
-                        1,
-                        1,
-                        np.empty((1, 2, d)),
-                        np.zeros((1, 5)),
-                        tol,
-                        int(max_newton),
-                        P,
-                        PRM[:1],
-                    )
-                except NumbaError:
-                    # a function sympy prints but numba cannot compile: the same loop in Python, from now on
-                    if self.backend == "numba":
-                        raise
-                    module, used = problem.module(frozenset(method.features & {"gf", "split"}), "python")
-                    self.module, self.used = module, used
-                    kern = getattr(module, method.kernel)
-                    FP = module.addresses(calls)
-                compile_time = time.perf_counter() - t_start
-                t_start = time.perf_counter()
-            n_threads = threads if threads is not None else CORES
-            if used != "numba" or B < 2 or B * nsteps < 20_000:
-                n_threads = 1
-            with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
-                loop_time = run_compiled(
-                    kern,
-                    module.addresses(calls) if FP is None else FP,
-                    Y0,
-                    h_step,
-                    nsteps,
-                    every,
-                    OUT,
-                    INFO,
-                    tol,
-                    int(max_newton),
-                    P,
-                    PRM,
-                    int(n_threads),
-                )
-            internal = B * nsteps
-        run_time = time.perf_counter() - t_start
-
-        failures = []
-        for b in np.flatnonzero(INFO[:, 0] != 0):
-            step = int(INFO[b, 1])
-            if method.kind is Kind.FIXED_STEP:
-                when = t0 + (step - 1) * float(times.h)  # type: ignore[arg-type]
-            elif int(b) in reached:
-                when = reached[int(b)]
-            else:
-                when = float(saved_t[max(step - 1, 0)])
-            failures.append(
-                Failure(
-                    kind=STATUS.get(int(INFO[b, 0]), Status.NONFINITE),
-                    batch_index=batch_index(int(b), batch_shape),
-                    step=step,
-                    time=when,
-                    residual=float(INFO[b, 2]),
-                    detail=reasons.get(int(b), ""),
-                )
-            )
-        failures += left_chart(system, OUT, INFO, saved_steps, saved_t, batch_shape)
-        pick = times.pick
-        if pick is not None:
-            OUT = OUT[:, pick]
-        if problem.timed:
-            OUT = OUT[..., :-1]  # the time, appended to the state for a torque law that reads it
-        states = OUT.reshape(batch_shape + OUT.shape[1:])
-        variational: dict[str, np.ndarray] = {}
-        if wrt is not None:
-            states, variational["stm"], sensitivity = split(states, d_state, len(wrt))
-            if wrt:
-                variational["parameter_sensitivity"] = sensitivity
-        # a batch's quantities with each member's parameters; a body with rotors under a law of formulas, compiled,
-        # has its energy and torques from them (generated once), not from the body's and the law's Python
-        rows = None
-        if swept:
-            rows = PRM.reshape(batch_shape + PRM.shape[1:])
-        elif problem.kind == "rotor" and problem.energy_expression is not None and used == "numba":
-            rows = np.broadcast_to(PRM[0], batch_shape + PRM.shape[1:])
-        inv = problem.invariants(states, times.t, rows)
-        inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
-        inv.update(variational)
-        status = failures[0].kind if failures else Status.SUCCESS
-        name = type(method).__name__
-        if failures:
-            extra = f" ({len(failures)} of {B} trajectories failed)" if B > 1 else ""
-            message = f"{name} on {problem.name}: {failures[0].describe()}{extra}."
-            if failures[0].kind in (Status.NEWTON_FAILED, Status.SINGULAR_JACOBIAN):
-                message += (
-                    f" Reduce h (now {abs(float(times.h)):g}), or loosen newton_tol (now {tol:g}) / raise max_newton "  # type: ignore[arg-type]
-                    f"(now {max_newton})."
-                )
-        elif method.kind is Kind.FIXED_STEP:
-            message = f"{name}: {times.n_steps} steps of h = {abs(float(times.h)):g} from t = {t0:g}."  # type: ignore[arg-type]
-        elif isinstance(method, Quadrature):
-            message = (
-                f"Quadrature: {len(saved_t)} outputs from t = {t0:g}, each from the time-of-flight integral along the "
-                "level curve."
-            )
-        elif isinstance(method, PeriodicOrbit):
-            message = (
-                f"PeriodicOrbit: {len(saved_t)} outputs from t = {t0:g}, each from one stored period ({internal} mesh "
-                "steps in all)."
-            )
-        elif isinstance(method, SerretAndoyerAtlas):
-            message = (
-                f"{name}: {len(saved_t)} outputs from t = {t0:g} to {self.t_final:g}, {len(switches)} chart switches."
-            )
-        else:
-            message = f"{name}: {len(saved_t)} outputs from t = {t0:g} to {self.t_final:g}, {internal} internal steps."
-        solution = Solution(
-            t=times.t,
-            states=states,
-            system=system,
-            method=method,
-            layout=problem.layout,
-            labels=problem.labels,
-            quantities={k: v for k, v in inv.items() if v is not None},
-            status=status,
-            message=message,
-            failures=tuple(failures),
-            stats=run_stats(
-                times.n_steps,
-                internal,
-                int(INFO[:, 4].sum()),
-                run_time,
-                n_newton=int(INFO[:, 3].sum()),
-                backend=used,
-                compile_time=compile_time,
-                **({"chart_switches": len(switches)} if isinstance(method, SerretAndoyerAtlas) else {}),
-                **({"loop_time": loop_time} if loop_time is not None and used == "numba" else {}),
-            ),
-            parameters={
-                **dict(getattr(problem.core, "parameters", {}) or {}),
-                **{k: v.reshape(batch_shape) for k, v in swept.items()},
-            },
-            events={"chart_switch": switches} if isinstance(method, SerretAndoyerAtlas) else event_rows,
-        )
-        return _finish(solution, self.raise_on_failure)
-
-
-def _group_start(problem: Problem, system: Any, name: str) -> str:
-    """What a body velocity on a group starts from, told to a call that gave ``name``."""
-    return (
-        f"{problem.name} is a body velocity on {system.group.name}: give its start as `g0` (an element or its "
-        f"coordinates), not `{name}`."
-    )
-
-
-def _finish(solution: Solution, raise_on_failure: bool) -> Solution:
-    """``solution``, or its failure raised with the partial solution attached."""
-    if solution.failures and raise_on_failure:
-        failing = solution.status in (Status.NEWTON_FAILED, Status.ADAPTIVE_FAILED)
-        cls = ConvergenceError if failing else NumericalError
-        exc = cls(solution.message + " Pass raise_on_failure=False to get the partial solution instead.")
-        exc.solution = solution  # type: ignore[attr-defined]
-        raise exc
-    return solution
