@@ -41,6 +41,17 @@ from ._trajectory import quantities, spatial_momentum
 MAX_DISCRETE_STEPS = 1_000_000
 
 
+@dataclasses.dataclass(eq=False)
+class _Made:
+    """What a prepared Lagrangian problem keeps for one set of coefficients' values: the set-up (the gait and torques
+    as functions), the names the sensitivities are taken with respect to (None for none), and the system's
+    parameter values by name (None until a run of one trajectory asks for them)."""
+
+    setup: Any
+    wrt: tuple | None
+    values: dict[str, float] | None = None
+
+
 class PreparedLagrangian:
     """A Lagrangian system on G x S with one of the Lagrangian methods, the times and the options, ready for
     :meth:`solve` from initial states with the parameters' values (internal: :class:`~geomech.integrators.Prepared`
@@ -79,20 +90,19 @@ class PreparedLagrangian:
         self.newton_tol, self.max_newton, self.backend, self.threads = newton_tol, max_newton, backend, threads
         self.events = dict(events) if isinstance(events, Mapping) else events
         self.max_events, self.sensitivities = max_events, sensitivities
-        self._setups: dict[tuple, list] = {}
+        self._setups: dict[tuple, _Made] = {}
         self.labels = tuple(q.name for q in system.q) + tuple(q.name for q in system.qdot)
 
-    def setup(self, parameters: Mapping[str, Any] | None) -> list:
-        """``[set-up, sensitivities, parameter values]``: the gait and torques with the values in ``parameters`` (a
-        batch's first member's; the compiled loop reads every member's), checked against the names the system and
-        its formulas know; the names of the sensitivities; the system's parameter values by name (None until a run
-        of one trajectory asks for them). Made once for each distinct values (the last 16 kept)."""
+    def setup(self, parameters: Mapping[str, Any] | None) -> _Made:
+        """The gait and torques made into functions with the values in ``parameters`` (a batch's first member's; the
+        compiled loop reads every member's) and checked against the names the system and its formulas know, with
+        the names of the sensitivities: made once for each distinct values (the last 16 kept)."""
         key = tuple(sorted(scalar_values(parameters).items()))
         made = self._setups.get(key)
         if made is None:
             setup = _setup(self.system, self.shapes, self.tau, parameters)
             check_parameter_names(setup, parameters)
-            made = [setup, _sensitivity_names(setup, self.method, self.backend, self.events, self.sensitivities), None]
+            made = _Made(setup, _sensitivity_names(setup, self.method, self.backend, self.events, self.sensitivities))
             if len(self._setups) >= 16:  # the oldest dropped first
                 self._setups.pop(next(iter(self._setups)))
             self._setups[key] = made
@@ -105,7 +115,7 @@ class PreparedLagrangian:
         tolerances, max_evaluations, backend, events = self.tolerances, self.max_evaluations, self.backend, self.events
         max_events, newton_tol, max_newton = self.max_events, self.newton_tol, self.max_newton
         made = self.setup(parameters)
-        setup, wrt = made[0], made[1]
+        setup, wrt = made.setup, made.wrt
         shape = _batch_shape(parameters, q0, rdot0, p0)
         if shape is not None:
             return _solve_batch(
@@ -197,8 +207,8 @@ class PreparedLagrangian:
                 f"{name} ({getattr(method, 'solver', '')}): {len(times.t)} outputs from t = {t0:g} to {times.t[-1]:g}."
             )
         qv = np.concatenate([raw.q, raw.qd], axis=1)
-        if made[2] is None:
-            made[2] = {k.name: float(v) for k, v in system.parameter_values(parameters).items()}
+        if made.values is None:
+            made.values = {k.name: float(v) for k, v in system.parameter_values(parameters).items()}
         return Solution(
             t=times.t,
             states=qv,
@@ -224,7 +234,7 @@ class PreparedLagrangian:
                 compile_time=raw.compile_time,
                 **extra,
             ),
-            parameters=dict(made[2]),
+            parameters=dict(made.values),
             group_dim=system.k,
             events=raw.events,
         )
