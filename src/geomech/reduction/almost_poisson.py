@@ -329,11 +329,16 @@ class AlmostPoissonStructure(Derived, NumericCache):
             ZK[(b, a)] = -ZK[(a, b)]
             for i in range(n):
                 out[(i, n + a, n + b)] = ZK[(a, b)][i]
-        if d >= 3:
-            # p = M X G^{-1} pt: the coefficient of pt_e in -<p, cyc> is -(M X G^{-1})[:, e] . cyc
+        if d >= 3 and all(entry == 0 for v in ZK.values() for entry in v):
+            # D integrable (or no constraints): every ZK vanishes, and with it the cyclic sums
+            out.update({(n + a, n + b, n + c): sp.Integer(0) for a, b, c in combinations(range(d), 3)})
+        elif d >= 3:
+            # p = M X G^{-1} pt: the coefficient of pt_e in -<p, cyc> is -(M X G^{-1})[:, e] . cyc, simplified once
+            # from the cyclic sum as it comes (simplifying its entries first made them larger: 55k characters each
+            # for the tilted sleigh, converted back to expressions and read again)
             P = simplify_matrix(simplify_matrix(sp.Matrix(s.mass_matrix) * X) * sp.Matrix(self.metric_inverse))
             for a, b, c in combinations(range(d), 3):
-                cyc = simplify_matrix(
+                cyc = (
                     _lie_bracket(X[:, a], ZK[(b, c)], q)
                     + _lie_bracket(X[:, b], ZK[(c, a)], q)
                     + _lie_bracket(X[:, c], ZK[(a, b)], q)
