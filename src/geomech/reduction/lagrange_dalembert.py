@@ -23,8 +23,10 @@ from ..symbolic import (
     clear_denominators,
     column,
     compile_matrix,
+    derivative,
     expand_terms,
     inverse,
+    jacobian,
     quadratic_form,
     shared_property,
     shared_value,
@@ -221,13 +223,14 @@ class LagrangeDAlembert(Derived, _NumericMixin):
         v = xi + rd
         Mb = sp.hessian(l, v)
         Nb = _simp_matrix(Zb.T * Mb * Zb)
-        mu = sp.Matrix([sp.diff(l, x) for x in xi])
-        pr = sp.Matrix(sig, 1, [sp.diff(l, x) for x in rd])
+        mu = sp.Matrix([derivative(l, x) for x in xi])
+        pr = sp.Matrix(sig, 1, [derivative(l, x) for x in rd])
         C = s.group.structure_constants
         ad_star = sp.Matrix(
             k, 1, [sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k)) for d in range(k)]
         )
-        h = sp.Matrix.vstack(_dt(mu, r, rd) - ad_star, _dt(pr, r, rd) - sp.Matrix(sig, 1, [sp.diff(l, x) for x in r]))
+        dl_dr = sp.Matrix(sig, 1, [derivative(l, x) for x in r])
+        h = sp.Matrix.vstack(_dt(mu, r, rd) - ad_star, _dt(pr, r, rd) - dl_dr)
         Ab = sp.Matrix.hstack(*(sp.Matrix(a) for a in s.body_constraints))
         e = -Nb * (_dt(Ab, r, rd) * column(v)) + Zb.T * h
         Tb = sp.Matrix.vstack(
@@ -249,7 +252,7 @@ class LagrangeDAlembert(Derived, _NumericMixin):
             for i in range(len(w)):
                 for j in range(i, len(w)):
                     terms.append(simplify_expr(Cw[i, j] + Cw[j, i] if i != j else Cw[i, i]) * w[i] * w[j])
-            terms += [simplify_expr(sp.diff(ftau[a], t)) * t for t in self.tau]
+            terms += [simplify_expr(derivative(ftau[a], t)) * t for t in self.tau]
             out.append(sp.Add(*terms))
         return sp.ImmutableMatrix(sp.Matrix(len(out), 1, out))
 
@@ -400,8 +403,8 @@ def _lda_fields(system: NonholonomicSystem) -> tuple:
     tau = suffixed_symbols("", [f"tau_{r.name}" for r in s.shape])
     L = s.lagrangian
     M = sp.Matrix(s.mass_matrix)
-    p = sp.Matrix([sp.diff(L, v) for v in s.qdot])
-    f = sp.Matrix([sp.diff(L, q) for q in s.q]) - p.jacobian(s.q) * column(s.qdot)
+    p = sp.Matrix([derivative(L, v) for v in s.qdot])
+    f = sp.Matrix([derivative(L, q) for q in s.q]) - jacobian(p, s.q) * column(s.qdot)
     A = sp.Matrix(s.constraint_matrix)
     Adq = _dt(A, s.q, s.qdot) * column(s.qdot)
     return (

@@ -60,6 +60,7 @@ from ..symbolic import (
     NumericCache,
     clear_denominators,
     column,
+    derivative,
     quadratic_blocks,
     shared_property,
     simplified_inverse,
@@ -180,7 +181,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         in coordinates."""
         s = self.system
         xi = s.group.body_velocity_matrix * column(s.qdot[: s.k])
-        mu = sp.Matrix([sp.diff(s.body_lagrangian, x) for x in s.xi]).subs(dict(zip(s.xi, xi)), simultaneous=True)
+        mu = sp.Matrix([derivative(s.body_lagrangian, x) for x in s.xi]).subs(dict(zip(s.xi, xi)), simultaneous=True)
         return _simp_matrix(sp.Matrix(self.basis).T * mu)
 
     @shared_property
@@ -268,8 +269,8 @@ class NonholonomicReduction(Derived, _NumericMixin):
                         s.sigma,
                         s.sigma,
                         lambda al, be, a=a: (
-                            sp.diff(A[a, be], r[al])
-                            - sp.diff(A[a, al], r[be])
+                            derivative(A[a, be], r[al])
+                            - derivative(A[a, al], r[be])
                             - sum(C[a][b][d] * A[b, al] * A[d, be] for b in range(k) for d in range(k))
                         ),
                     )
@@ -289,7 +290,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
                     self.m,
                     s.sigma,
                     lambda i, be, a=a: (
-                        sp.diff(E[a, i], r[be])
+                        derivative(E[a, i], r[be])
                         + sum(C[a][b][d] * E[b, i] * A[d, be] for b in range(k) for d in range(k))
                     ),
                 )
@@ -367,11 +368,11 @@ class NonholonomicReduction(Derived, _NumericMixin):
         Qs, Rs, Ss = [], [], []
         for al in range(s.sigma):
             chris = sum(
-                (sp.diff(M[al, g], r[b]) - sp.diff(M[b, g], r[al]) / 2) * rd[b] * rd[g]
+                (derivative(M[al, g], r[b]) - derivative(M[b, g], r[al]) / 2) * rd[b] * rd[g]
                 for b in range(s.sigma)
                 for g in range(s.sigma)
             )
-            vert = -(p.T * sp.diff(Iinv, r[al]) * p)[0, 0] / 2 if self.m else sp.Integer(0)
+            vert = -(p.T * derivative(Iinv, r[al]) * p)[0, 0] / 2 if self.m else sp.Integer(0)
             curv = sum(mu[a] * (sp.Matrix(self.curvature[a])[al, :] * rd)[0, 0] for a in range(s.k))
             fterm = (
                 sum(mu[a] * (sp.Matrix(self.F[a])[:, al].T * Om)[0, 0] for a in range(s.k)) if self.m else sp.Integer(0)
@@ -394,7 +395,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         rd, p = column(self.rdot), column(self.p)
         out = []
         for al, r in enumerate(self.r):
-            e = (rd.T * Q[al] * rd + rd.T * R[al] * p)[0, 0] - simplify_expr(sp.diff(self.potential, r))
+            e = (rd.T * Q[al] * rd + rd.T * R[al] * p)[0, 0] - simplify_expr(derivative(self.potential, r))
             if self.m:
                 e += (p.T * S[al] * p)[0, 0]
             out.append(e)
@@ -418,8 +419,8 @@ class NonholonomicReduction(Derived, _NumericMixin):
         ad_star = sp.Matrix([sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k)) for d in range(k)])
         l = s.body_lagrangian
         sub = dict(zip(s.xi, xi))
-        pi_r = sp.Matrix([sp.diff(l, v) for v in rd]).subs(sub, simultaneous=True)
-        dl_dr = sp.Matrix([sp.diff(l, v) for v in r]).subs(sub, simultaneous=True)
+        pi_r = sp.Matrix([derivative(l, v) for v in rd]).subs(sub, simultaneous=True)
+        dl_dr = sp.Matrix([derivative(l, v) for v in r]).subs(sub, simultaneous=True)
         return -sp.Matrix(self.connection).T * (ddt(mu) - ad_star) + ddt(pi_r) - dl_dr
 
     def _latex_names(self) -> dict:

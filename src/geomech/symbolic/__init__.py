@@ -2,6 +2,7 @@
 (:mod:`.simplify`), compiled to numeric functions (:mod:`.compile`) and their derivations cached in memory and
 on disk (:mod:`.cache`)."""
 
+from ._derivative import derivative, jacobian
 from .cache import DISK_CACHE, DiskCache, NumericCache, shared_property, shared_value
 from .charts import GroupChart, group_chart
 from .compile import (
@@ -18,6 +19,7 @@ from .formula import FUNCTIONS, parse_formula, to_expression
 from .simplify import (
     clear_denominators,
     expand_terms,
+    half_quadratic,
     inverse,
     quadratic_blocks,
     quadratic_coefficients,
@@ -31,6 +33,8 @@ from .simplify import (
 )
 
 __all__ = [
+    "derivative",
+    "jacobian",
     "GroupChart",
     "group_chart",
     "DISK_CACHE",
@@ -51,6 +55,7 @@ __all__ = [
     "to_expression",
     "clear_denominators",
     "expand_terms",
+    "half_quadratic",
     "inverse",
     "quadratic_blocks",
     "quadratic_coefficients",

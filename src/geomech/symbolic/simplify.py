@@ -14,6 +14,7 @@ import sympy as sp
 from sympy.simplify.fu import TR2
 
 from ..errors import SymbolicError
+from ._derivative import derivative
 
 __all__ = [
     "simplify_expr",
@@ -505,7 +506,7 @@ def simplified_inverse(M: sp.MatrixBase) -> sp.ImmutableMatrix:
 def time_derivative(expr: Any, coords: Sequence[sp.Symbol], rates: Sequence[sp.Symbol]) -> Any:
     """Time derivative of an expression (or matrix) that depends on time through ``coords`` only."""
     zero = sp.zeros(*expr.shape) if isinstance(expr, sp.MatrixBase) else sp.Integer(0)
-    return sum((sp.diff(expr, c) * v for c, v in zip(coords, rates)), zero)
+    return sum((derivative(expr, c) * v for c, v in zip(coords, rates)), zero)
 
 
 def quadratic_coefficients(expr: Any, variables: Sequence[sp.Symbol]) -> dict[tuple[int, ...], sp.Expr]:
@@ -575,6 +576,18 @@ def quadratic_form(expr: Any, variables: Sequence[sp.Symbol]) -> sp.Matrix:
     """The symmetric matrix :math:`Q` of the quadratic part :math:`x^T Q x` of ``expr`` in ``variables`` (half
     its Hessian)."""
     return quadratic_blocks(expr, variables)[0]
+
+
+def half_quadratic(Q: Any, variables: Sequence[sp.Symbol]) -> sp.Expr:
+    r""":math:`\tfrac12 x^TQx` of a symmetric matrix ``Q`` as a sum of its entries times monomials,
+    :math:`\sum_a \tfrac12 Q_{aa}x_a^2 + \sum_{a<b} Q_{ab}x_ax_b`: a kinetic energy or a Hamiltonian written
+    with the (simplified) entries of its metric, rather than one fraction over their common denominator."""
+    Q, x = sp.Matrix(Q), list(variables)
+    if Q.shape != (len(x), len(x)):
+        raise ValueError(f"Expected a {len(x)} x {len(x)} matrix for the variables {x}, got {Q.shape}.")
+    terms = [Q[a, a] * x[a] ** 2 / 2 for a in range(len(x))]
+    terms += [Q[a, b] * x[a] * x[b] for a in range(len(x)) for b in range(a + 1, len(x))]
+    return sp.Add(*terms)
 
 
 def clear_denominators(v: sp.MatrixBase) -> sp.Matrix:

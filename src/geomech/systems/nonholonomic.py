@@ -34,6 +34,7 @@ import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError, ShapeError, SymbolicError
+from ..symbolic._derivative import derivative
 from ..symbolic.cache import DISK_CACHE, MISSING
 from ..symbolic.charts import GroupChart, group_chart
 from ..symbolic.formula import parse_formula
@@ -460,7 +461,7 @@ class NonholonomicSystem:
     @cached_property
     def energy(self) -> sp.Expr:
         r""":math:`E = \dot q\cdot\partial L/\partial\dot q - L`."""
-        return sp.expand(sum(v * sp.diff(self.lagrangian, v) for v in self.qdot) - self.lagrangian)
+        return sp.expand(sum(v * derivative(self.lagrangian, v) for v in self.qdot) - self.lagrangian)
 
     @cached_property
     def body_substitution(self) -> dict:
@@ -514,7 +515,7 @@ class NonholonomicSystem:
         if any(e.free_symbols & qdot for e in self.mass_matrix):
             return False
         at_rest = {v: sp.Integer(0) for v in self.qdot}
-        return all(self.lagrangian.diff(v).xreplace(at_rest) == 0 for v in self.qdot)
+        return all(derivative(self.lagrangian, v).xreplace(at_rest) == 0 for v in self.qdot)
 
     def _check_mechanical(self) -> None:
         L = self.lagrangian
