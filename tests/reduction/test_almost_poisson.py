@@ -151,16 +151,44 @@ def test_theorem_1_1_reconstruction_is_eq_1_1():
     assert all(simplify_expr(e) == 0 for e in (pr.reconstruction.subs(sub) - red.reconstruction))
 
 
-def test_reduced_legendre_transform_and_constrained_lagrangian():
-    """l_c = 1/2 rdot^T M rdot + 1/2 Omega^T I Omega - V (no cross term) and (pt_r, p) = (M rdot, I Omega)."""
-    pr = poisson_reduction(EXAMPLES["roller_racer"]())
-    red = pr.reduction
-    rd, om = sp.Matrix(red.rdot), sp.Matrix(pr.omega)
-    lc = ((rd.T * red.shape_mass * rd)[0, 0] + (om.T * red.locked_inertia * om)[0, 0]) / 2 - red.potential
+@pytest.mark.parametrize("name", ["roller_racer", "snakeboard_bkmm", "chaplygin_sleigh", "rolling_disk"])
+def test_reduced_legendre_transform_and_constrained_lagrangian(name):
+    """l_c(r, rdot, Omega) is l(r, rdot, -A rdot + Omega^i e_i) by its definition (the body Lagrangian with that
+    body velocity put in), and equals 1/2 rdot^T M rdot + 1/2 Omega^T I Omega - V (no cross term: the horizontal
+    space is kinetic-orthogonal to S); (pt_r, p) = (M rdot, I Omega)."""
+    pr = poisson_reduction(EXAMPLES[name]())
+    red, s = pr.reduction, pr.reduction.system
+    rd, om = sp.Matrix(len(red.rdot), 1, list(red.rdot)), sp.Matrix(len(pr.omega), 1, list(pr.omega))
+    xi = -sp.Matrix(red.connection) * rd + sp.Matrix(red.basis) * om
+    by_definition = s.body_lagrangian.subs(dict(zip(s.xi, xi)), simultaneous=True)
+    assert simplify_expr(pr.constrained_lagrangian - by_definition) == 0
+    M, Il = sp.Matrix(red.shape_mass), sp.Matrix(red.locked_inertia)
+    lc = (((rd.T * M * rd)[0, 0] if red.rdot else 0) + (om.T * Il * om)[0, 0]) / 2 - red.potential
     assert simplify_expr(pr.constrained_lagrangian - lc) == 0
     ptr, p = pr.legendre()
     assert all(simplify_expr(e) == 0 for e in ptr - sp.Matrix(red.shape_mass) * rd)
     assert all(simplify_expr(e) == 0 for e in p - sp.Matrix(red.locked_inertia) * om)
+
+
+@pytest.mark.parametrize("name", ["snakeboard", "roller_racer", "rolling_disk"])
+def test_almost_poisson_hamiltonian_is_the_energy_of_the_velocity_in_d(name, rng):
+    """H_M(q, pt) is the energy 1/2 v^T M v + V of the velocity v = X G^{-1} pt in D (whose induced momenta
+    X^T M v are pt), at random points: computed from the mass matrix, apart from G^{-1}'s simplified entries."""
+    ap = almost_poisson(EXAMPLES[name]())
+    s = ap.system
+    syms = ap.z + list(s.parameter_symbols)
+    H = sp.lambdify(syms, ap.hamiltonian)
+    X, Mm = sp.lambdify(syms, sp.Matrix(ap.X)), sp.lambdify(syms, sp.Matrix(s.mass_matrix))
+    V = sp.lambdify(syms, s.potential)
+    for _ in range(3):
+        pv = s._random_point(rng, ap.z)
+        args = [pv[v] for v in syms]
+        Xn, Mn = np.asarray(X(*args), dtype=float), np.asarray(Mm(*args), dtype=float)
+        pt = np.array([pv[v] for v in ap.pt])
+        v = Xn @ np.linalg.solve(Xn.T @ Mn @ Xn, pt)
+        np.testing.assert_allclose(Xn.T @ Mn @ v, pt, rtol=1e-12, atol=1e-12)
+        energy = 0.5 * v @ Mn @ v + float(V(*args))
+        assert abs(float(H(*args)) - energy) < 1e-11 * max(1.0, abs(energy))
 
 
 def test_reduced_bracket_of_the_snakeboard_is_not_poisson():
