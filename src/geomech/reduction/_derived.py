@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.printing.str import StrPrinter
 
 from ..errors import InputError
 from ..symbolic.cache import shared_value
@@ -26,17 +27,42 @@ class Labelled(tuple):
         return {label: value for label, _, value in self}
 
 
-def _as_text(value: Any) -> Any:
+class TextPrinter(StrPrinter):
+    """sympy's ``str``, with the text of every subexpression remembered: a derivation's formulas share long
+    subexpressions (a determinant in every entry of an inverse, a metric's entries in its Hamiltonian), each printed
+    once. :meth:`text` gives ``str(expr)``, character for character (the top level is printed afresh: a Float there
+    keeps all its digits, below it is printed as sympy prints it inside an expression)."""
+
+    def __init__(self) -> None:
+        super().__init__({"order": None})
+        self._memo: dict[sp.Basic, str] = {}
+
+    def _print(self, expr: Any, **kwargs: Any) -> str:
+        if kwargs or self._print_level < 1 or not isinstance(expr, sp.Basic):
+            return super()._print(expr, **kwargs)
+        try:
+            return self._memo[expr]
+        except KeyError:
+            out = self._memo[expr] = super()._print(expr)
+            return out
+
+    def text(self, expr: Any) -> str:
+        """``str(expr)``."""
+        self._print_level = 0
+        return self.doprint(expr)
+
+
+def _as_text(value: Any, text: Any = str) -> Any:
     if isinstance(value, Labelled):
-        return {label: _as_text(v) for label, _, v in value}
+        return {label: _as_text(v, text) for label, _, v in value}
     if isinstance(value, sp.MatrixBase):
-        return [[str(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
+        return [[text(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
     if isinstance(value, sp.Basic):
-        return str(value)
+        return text(value)
     if isinstance(value, Mapping):
-        return {str(k): _as_text(v) for k, v in value.items()}
+        return {str(k): _as_text(v, text) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_as_text(v) for v in value]
+        return [_as_text(v, text) for v in value]
     if isinstance(value, (np.floating, np.integer)):
         return value.item()
     return value
@@ -45,21 +71,22 @@ def _as_text(value: Any) -> Any:
 TEXT_LIMIT = 600  # characters of one expression in readable text; JSON and LaTeX always hold all of it
 
 
-def _short(expr: Any) -> str:
-    text = str(expr)
-    if len(text) <= TEXT_LIMIT:
-        return text
-    return f"<{len(text)} characters, {sp.count_ops(expr)} operations: see the JSON or LaTeX output or the attribute>"
+def _short(expr: Any, text: Any = str) -> str:
+    printed = text(expr)
+    if len(printed) <= TEXT_LIMIT:
+        return printed
+    ops = sp.count_ops(expr)
+    return f"<{len(printed)} characters, {ops} operations: see the JSON or LaTeX output or the attribute>"
 
 
-def _short_text(value: Any) -> Any:
+def _short_text(value: Any, text: Any = str) -> Any:
     if isinstance(value, sp.Basic):
-        return _short(value)
+        return _short(value, text)
     if isinstance(value, (list, tuple)):
-        return [_short_text(v) for v in value]
+        return [_short_text(v, text) for v in value]
     if isinstance(value, sp.MatrixBase):
-        return [[_short(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
-    return _as_text(value)
+        return [[_short(value[i, j], text) for j in range(value.cols)] for i in range(value.rows)]
+    return _as_text(value, text)
 
 
 class Derived:
@@ -96,17 +123,19 @@ class Derived:
         """Readable text, one ``name = value`` block per derived object; an expression longer than
         ``TEXT_LIMIT`` characters is replaced by its size (the JSON and LaTeX outputs hold it in full)."""
         lines = [self.title] if self.title else []
+        text = TextPrinter().text
         for name, _, value in self.items():
             if isinstance(value, Labelled):
                 lines.append(f"{name}:")
-                lines += [f"  {label} = {_short_text(v)}" for label, _, v in value]
+                lines += [f"  {label} = {_short_text(v, text)}" for label, _, v in value]
             elif isinstance(value, sp.MatrixBase):
                 rows = [
-                    "[" + ", ".join(_short(value[i, j]) for j in range(value.cols)) + "]" for i in range(value.rows)
+                    "[" + ", ".join(_short(value[i, j], text) for j in range(value.cols)) + "]"
+                    for i in range(value.rows)
                 ]
                 lines.append(f"{name} = [" + (",\n" + " " * (len(name) + 4)).join(rows) + "]")
             else:
-                lines.append(f"{name} = {_short_text(value)}")
+                lines.append(f"{name} = {_short_text(value, text)}")
         return "\n".join(lines)
 
     def to_dict(self, forms: tuple[str, ...] = ("text", "latex")) -> dict:
@@ -116,15 +145,17 @@ class Derived:
         unknown = sorted(set(forms) - {"text", "latex"})
         if unknown:
             raise InputError(f"`forms` takes 'text' and 'latex', got {unknown}.")
-        printers = {"text": _as_text, "latex": self._latex}
         out: dict[str, Any] = {"title": self.title}
         for form in ("text", "latex"):
             if form in forms:
-                out[form] = shared_value(self, f"to_dict_{form}", partial(self._printed, printers[form]))
+                out[form] = shared_value(self, f"to_dict_{form}", partial(self._printed, form))
         return copy.deepcopy(out)
 
-    def _printed(self, render: Any) -> dict:
-        return {name: render(value) for name, _, value in self.items()}
+    def _printed(self, form: str) -> dict:
+        if form == "latex":
+            return {name: self._latex(value) for name, _, value in self.items()}
+        text = TextPrinter().text  # one memo for every item: they share subexpressions
+        return {name: _as_text(value, text) for name, _, value in self.items()}
 
     def to_json(self, **kwargs: Any) -> str:
         """:meth:`to_dict` as a JSON string."""
