@@ -152,3 +152,19 @@ def test_simplified_inverse_is_the_inverse_and_cancels_the_determinant():
     singular = sp.Matrix([[sp.sin(a) ** 2, sp.cos(a)], [1 - sp.cos(a) ** 2, sp.cos(a)]])
     with pytest.raises(ValueError):
         simplified_inverse(singular)
+
+
+def test_tangents_sums_and_multiples_of_angles_are_brought_to_sines_and_cosines_of_the_coordinates():
+    """The passes simplify_expr makes only where they apply (tan -> sin/cos, sums and multiples of angles
+    expanded): identities that need them vanish, and an expression without them comes back equal to itself."""
+    from geomech.symbolic import simplify_expr
+
+    x, y, a = sp.symbols("x y a")
+    assert simplify_expr(sp.tan(x) * sp.cos(x) - sp.sin(x)) == 0
+    assert simplify_expr(sp.cot(y) * sp.sin(y) ** 2 - sp.sin(2 * y) / 2) == 0
+    assert simplify_expr(sp.sin(x + y) - sp.sin(x) * sp.cos(y) - sp.cos(x) * sp.sin(y)) == 0
+    assert simplify_expr(sp.cos(2 * x) + 2 * sp.sin(x) ** 2 - 1) == 0
+    plain = a * sp.sin(x) / (2 + sp.cos(y)) + sp.cos(x) ** 3
+    assert sp.expand(simplify_expr(plain) - plain) == 0 or sp.simplify(simplify_expr(plain) - plain) == 0
+    long = sum(sp.Integer(k) * sp.sin(x) ** (k % 3) * sp.cos(y) ** (k % 2) * a**k for k in range(1, 60))
+    assert sp.simplify(simplify_expr(long / (1 + a**2)) - long / (1 + a**2)) == 0

@@ -79,8 +79,14 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     expr = sp.sympify(expr)
     if not expr.free_symbols:
         return sp.simplify(expr)
-    e = sp.expand_trig(TR2(expr))
-    args = sorted({t.args[0] for t in e.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key)
+    # tan -> sin/cos and sums and multiples of angles expanded, each a pass that rebuilds the whole tree: made only
+    # where they have something to do (in the derivations, sines and cosines of the coordinates, most of the time)
+    e = TR2(expr) if expr.has(sp.tan, sp.cot) else expr
+    trig = e.atoms(sp.sin, sp.cos)
+    if any(not (t.args[0].is_Symbol or t.args[0].is_Number) for t in trig):
+        e = sp.expand_trig(e)
+        trig = e.atoms(sp.sin, sp.cos)
+    args = sorted({t.args[0] for t in trig}, key=sp.default_sort_key)
     pairs, fwd, back = [], {}, {}
     # named after the angle (not Dummy): the same polynomial is then the same expression in every call, and the
     # factorizations of denominators are shared (_FACTORS); Dummy if two angles print alike
@@ -113,18 +119,24 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     if not n_:
         return sp.Integer(0)
     n_, den = _cancel_factors(n_, den, R, len(pairs))
-    num = n_.as_expr()
     # The denominator is kept as the product of its irreducible factors (readable, and no costly gcd).
     den = sp.Mul(
         *[f.as_expr() ** k for f, k in sorted(den.items(), key=lambda fk: sp.default_sort_key(fk[0].as_expr())) if k]
     )
+    for S, C in pairs:
+        den = _pythagoras(den, S, C)
     if len(n_.terms()) <= _FACTOR_MAX_TERMS:
         num = _factor(n_)
-    for S, C in pairs:
-        num, den = _pythagoras(num, S, C), _pythagoras(den, S, C)
+        for S, C in pairs:
+            num = _pythagoras(num, S, C)
+        num = num.xreplace(back)
+    else:
+        # a long numerator, not factored (and so no (S - 1)(S + 1) to write as -C^2): built in the sines and
+        # cosines at once, where building it in S, C and replacing them walked it twice more
+        num = n_.as_expr(*[back.get(g, g) for g in gens])
     if den.could_extract_minus_sign():
         num, den = -num, -den
-    return (num / den).xreplace(back)
+    return num / den.xreplace(back)
 
 
 @lru_cache(maxsize=4096)
