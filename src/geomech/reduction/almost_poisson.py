@@ -516,7 +516,7 @@ class PoissonReduction(Derived, NumericCache):
         """:math:`\\mu` in ``(r, ptr, p)``: :math:`\\mu_r M^{-1}\\tilde p_r + \\mu_p p`."""
         red = self.reduction
         rd = sp.Matrix([derivative(self.hamiltonian, a) for a in self.ptr])
-        return red.mu.subs(dict(zip(red.rdot, rd)), simultaneous=True)
+        return red.mu.xreplace(dict(zip(red.rdot, rd)))
 
     @shared_property
     def tensor(self) -> sp.ImmutableMatrix:
@@ -588,7 +588,7 @@ class PoissonReduction(Derived, NumericCache):
         sig = len(red.r)
         rd = sp.Matrix(sig, 1, list(red.rdot))
         M = sp.Matrix(red.shape_mass)
-        eq = sp.Matrix(self.equations).subs(dict(zip(self.ptr, M * rd)), simultaneous=True)
+        eq = sp.Matrix(self.equations).xreplace(dict(zip(self.ptr, M * rd)))
         Mdot = sum((derivative(M, r) * v for r, v in zip(red.r, red.rdot)), sp.zeros(sig, sig))
         out = [eq[2 * sig + i] - red.momentum_rhs[i] for i in range(red.m)]
         out += [(Mdot * rd)[al] + red.shape_forces[al] - eq[sig + al] for al in range(sig)]

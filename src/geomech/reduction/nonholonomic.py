@@ -181,7 +181,7 @@ class NonholonomicReduction(Derived, _NumericMixin):
         in coordinates."""
         s = self.system
         xi = s.group.body_velocity_matrix * column(s.qdot[: s.k])
-        mu = sp.Matrix([derivative(s.body_lagrangian, x) for x in s.xi]).subs(dict(zip(s.xi, xi)), simultaneous=True)
+        mu = sp.Matrix([derivative(s.body_lagrangian, x) for x in s.xi]).xreplace(dict(zip(s.xi, xi)))
         return _simp_matrix(sp.Matrix(self.basis).T * mu)
 
     @shared_property
@@ -419,8 +419,8 @@ class NonholonomicReduction(Derived, _NumericMixin):
         ad_star = sp.Matrix([sum(mu[a] * C[a][b][d] * xi[b] for a in range(k) for b in range(k)) for d in range(k)])
         l = s.body_lagrangian
         sub = dict(zip(s.xi, xi))
-        pi_r = sp.Matrix([derivative(l, v) for v in rd]).subs(sub, simultaneous=True)
-        dl_dr = sp.Matrix([derivative(l, v) for v in r]).subs(sub, simultaneous=True)
+        pi_r = sp.Matrix([derivative(l, v) for v in rd]).xreplace(sub)
+        dl_dr = sp.Matrix([derivative(l, v) for v in r]).xreplace(sub)
         return -sp.Matrix(self.connection).T * (ddt(mu) - ad_star) + ddt(pi_r) - dl_dr
 
     def _latex_names(self) -> dict:
@@ -567,7 +567,7 @@ def _derive_bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
     xi, rd = list(s.xi), list(s.shape_dot)
     half_Il, Gam, half_mrr = quadratic_blocks(l, xi, rd)
     Il, mrr = 2 * half_Il, 2 * half_mrr
-    V = -l.subs({v: 0 for v in xi + rd})
+    V = -l.xreplace({v: sp.Integer(0) for v in xi + rd})
     if any(e.free_symbols & set(s.group.coordinates) for e in list(Il) + list(Gam) + list(mrr)):
         raise SymbolicError(f"{s.name}: the body Lagrangian still depends on the group variables; check G-invariance.")
     p = tuple(sp.Symbol(f"p{i + 1}", real=True) for i in range(E.cols))

@@ -75,8 +75,8 @@ def invariance_report(system: Any, *, samples: int = 3, seed: int = 11) -> Invar
     :meth:`~geomech.systems.nonholonomic.NonholonomicSystem.check_invariance` (its docstring says how)."""
     rng = np.random.default_rng(seed)
     gq = system.group.coordinates
-    L_body = system.lagrangian.subs(system.body_substitution)
-    L_id = L_body.subs(system.reference_substitution)
+    L_body = system.lagrangian_in_body_velocity
+    L_id = L_body.xreplace(system.reference_substitution)
     variables = list(gq + system.shape + system.xi + system.shape_dot)
     f_both = compile_vector([L_body, L_id], variables + list(system.parameter_symbols))
     lag_ok = True

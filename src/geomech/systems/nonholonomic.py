@@ -456,7 +456,7 @@ class NonholonomicSystem:
     @cached_property
     def potential(self) -> sp.Expr:
         """:math:`V(q) = -L(q, 0)`."""
-        return -self.lagrangian.subs({v: 0 for v in self.qdot})
+        return -self.lagrangian.xreplace({v: sp.Integer(0) for v in self.qdot})
 
     @cached_property
     def energy(self) -> sp.Expr:
@@ -475,16 +475,21 @@ class NonholonomicSystem:
         return dict(zip(self.group.coordinates, self.group.reference))
 
     @cached_property
+    def lagrangian_in_body_velocity(self) -> sp.Expr:
+        r""":math:`L(g, r, \xi, \dot r)`: the Lagrangian with the group's rates written by the body velocity
+        (:attr:`body_substitution`; xreplace, as subs, since no rate appears in a value)."""
+        return self.lagrangian.xreplace(self.body_substitution)
+
+    @cached_property
     def body_lagrangian(self) -> sp.Expr:
         r"""The reduced Lagrangian :math:`l(r, \xi, \dot r) = L(e, r, \xi, \dot r)` (G-invariance assumed)."""
-        L = self.lagrangian.subs(self.body_substitution).subs(self.reference_substitution)
-        return sp.expand(L)
+        return sp.expand(self.lagrangian_in_body_velocity.xreplace(self.reference_substitution))
 
     @cached_property
     def body_constraints(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
         r""":math:`(A_\xi(r), A_r(r))` with :math:`\mathcal D = \{A_\xi\xi + A_r\dot r = 0\}` at the identity."""
-        Lam_inv = self.group.body_velocity_inverse.subs(self.reference_substitution)
-        A = self.constraint_matrix.subs(self.reference_substitution)
+        Lam_inv = self.group.body_velocity_inverse.xreplace(self.reference_substitution)
+        A = self.constraint_matrix.xreplace(self.reference_substitution)
         Ag = sp.Matrix(A[:, : self.k]) * Lam_inv
         return (sp.ImmutableMatrix(Ag.applyfunc(simplify_expr)), sp.ImmutableMatrix(A[:, self.k :]))
 
