@@ -168,3 +168,23 @@ def test_tangents_sums_and_multiples_of_angles_are_brought_to_sines_and_cosines_
     assert sp.expand(simplify_expr(plain) - plain) == 0 or sp.simplify(simplify_expr(plain) - plain) == 0
     long = sum(sp.Integer(k) * sp.sin(x) ** (k % 3) * sp.cos(y) ** (k % 2) * a**k for k in range(1, 60))
     assert sp.simplify(simplify_expr(long / (1 + a**2)) - long / (1 + a**2)) == 0
+
+
+def test_expand_terms_of_a_polynomial_in_sines_and_cosines_is_sympys_expand():
+    """The ring's expansion of a polynomial in symbols, sines and cosines is sympy.expand's sum, term for term;
+    whatever lies outside (a denominator, a Float, a root, an unexpanded angle) is expanded by sympy."""
+    from geomech.symbolic import expand_terms
+
+    x, y, a = sp.symbols("x y a")
+    rng = random.Random(5)
+    atoms = [x, y, a, sp.sin(x), sp.cos(y), sp.sin(x + y), sp.Rational(3, 7), sp.Integer(-2)]
+    for _ in range(25):
+        e = sp.Integer(0)
+        for _ in range(rng.randint(1, 4)):
+            term = sp.Integer(1)
+            for _ in range(rng.randint(1, 3)):
+                term *= (rng.choice(atoms) + rng.choice(atoms)) ** rng.randint(1, 3)
+            e += term
+        assert expand_terms(e) == sp.expand(e)
+    for other in (x / (1 + y), 0.5 * (x + y) ** 2, sp.sin(x * (1 + y)) * (a + 1) ** 2, sp.exp(x) * (x + 1)):
+        assert expand_terms(other) == sp.expand(other)
