@@ -51,6 +51,8 @@ def test_matrices_nonsymbols_and_the_jacobian():
     f = sp.Function("f")
     assert derivative(f(x) ** 2, f(x)) == sp.diff(f(x) ** 2, f(x))  # a function as the variable: sympy's route
     assert derivative(f(x) * x, x) == sp.diff(f(x) * x, x)
+    F = sp.Matrix([[f(x) ** 2, x * f(x)]])
+    assert derivative(F, f(x)) == sp.diff(F, f(x)) == sp.Matrix([[2 * f(x), x]])
     col = sp.Matrix([x**2 * sp.cos(y), y * z, sp.sqrt(x + z)])
     assert jacobian(col, [x, y, z]) == col.jacobian([x, y, z])
     assert jacobian(col.T, [z, x]) == col.T.jacobian([z, x])

@@ -74,10 +74,10 @@ def _d(e: sp.Basic, x: sp.Symbol) -> Any:
 def derivative(expr: Any, x: sp.Symbol) -> Any:
     """:math:`\\partial\\,\\mathrm{expr}/\\partial x` for an expression or a matrix (entry by entry) and a symbol:
     sympy's ``diff(expr, x)``, the same expression, with every node's derivative remembered."""
+    if not isinstance(x, sp.Symbol):  # a function or a derivative as the variable: sympy's own route
+        return sp.diff(expr, x)
     if isinstance(expr, sp.MatrixBase):
         return expr.applyfunc(lambda e: _d(sp.sympify(e), x))
-    if not isinstance(x, sp.Symbol):
-        return sp.diff(expr, x)
     return _d(sp.sympify(expr), x)
 
 
