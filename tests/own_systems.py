@@ -43,3 +43,45 @@ def free_body_in_euler_angles(inertia=(3, 2, 1)) -> NonholonomicSystem:
     omega = G.body_velocity_matrix * sp.Matrix(sp.symbols("a_dot b_dot c_dot"))
     L = (omega.T * sp.diag(*[sp.nsimplify(float(i)) for i in inertia]) * omega)[0] / 2
     return NonholonomicSystem.from_lagrangian(L, G, (), [], name="free body (Euler angles)")
+
+
+def skate_in_space(mass=1.5, inertia=(0.4, 0.7, 0.9), blade=True) -> NonholonomicSystem:
+    """A rigid body in space on SE(3) (position and Z-Y-X angles) that cannot slide along its body axis 2 (without
+    ``blade``: the free body): the constraint is on the body velocity, hence invariant under the group, as is the
+    kinetic energy."""
+    from geomech.lie import SE3
+
+    G = group_chart(SE3("x", "y", "z", "yaw", "pitch", "roll"))
+    qdot = sp.Matrix(sp.symbols("x_dot y_dot z_dot yaw_dot pitch_dot roll_dot"))
+    xi = G.body_velocity_matrix * qdot  # (v, omega) in the body frame
+    v, omega = xi[:3, :], xi[3:, :]
+    m = sp.nsimplify(mass)
+    L = m / 2 * (v.T * v)[0] + (omega.T * sp.diag(*[sp.nsimplify(i) for i in inertia]) * omega)[0] / 2
+    name = "skate in space" if blade else "free body in space"
+    return NonholonomicSystem.from_lagrangian(L, G, (), [xi[1]] if blade else [], name=name)
+
+
+def rolling_disk(R=0.5, m=2.0, J=0.3, I=0.25) -> NonholonomicSystem:
+    """The vertical disk rolling without slipping on SE(2) x S^1: position and heading (x, y, phi), the rolling
+    angle theta; no shape. The heading and rolling rates are constant and the contact point moves on a circle."""
+    from geomech.lie import SE2, SO2
+
+    G = group_chart(SE2("x", "y", "phi") * SO2("theta"))
+    xd, yd, phid, thd = sp.symbols("x_dot y_dot phi_dot theta_dot")
+    phi = sp.Symbol("phi")
+    r, mm, JJ, II = (sp.nsimplify(a) for a in (R, m, J, I))
+    L = mm / 2 * (xd**2 + yd**2) + JJ / 2 * phid**2 + II / 2 * thd**2
+    constraints = [xd - r * sp.cos(phi) * thd, yd - r * sp.sin(phi) * thd]
+    return NonholonomicSystem.from_lagrangian(L, G, (), constraints, name="rolling disk")
+
+
+def planar_body_with_arm() -> NonholonomicSystem:
+    """A body translating in the plane and turning freely on R^2 x S^1, carrying an arm (shape r) whose motion
+    drives the translation x by the constraint x' = cos(r) r' and is coupled to the turning by the inertia."""
+    from geomech.lie import SO2, Rn
+
+    G = group_chart(Rn("x", "y") * SO2("th"))
+    xd, yd, thd, rd = sp.symbols("x_dot y_dot th_dot r_dot")
+    r = sp.Symbol("r")
+    L = (xd**2 + yd**2) + sp.Rational(3, 5) / 2 * thd**2 + rd**2 / 2 + sp.Rational(1, 5) * sp.cos(r) * thd * rd
+    return NonholonomicSystem.from_lagrangian(L, G, ("r",), [xd - sp.cos(r) * rd], name="planar body with arm")

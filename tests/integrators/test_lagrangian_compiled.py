@@ -194,8 +194,15 @@ def test_the_compiled_discrete_map_reports_a_failed_step(max_newton):
         assert np.array_equal(np.isnan(x), np.isnan(y)), key
         np.testing.assert_allclose(y[np.isfinite(y)], x[np.isfinite(x)], rtol=0, atol=1e-12)
     assert np.isnan(b.q[-1]).all() and np.isfinite(b.q[max_newton - 1]).all()
-    with pytest.raises(InputError, match="backend='numba'"):
-        solve(s, DiscreteLagrangeDAlembert("group"), t_final=0.1, h=0.05, shapes=GAIT, backend="numba")
+    by_callable = Gait.from_callable(
+        lambda t: [np.sin(2 * np.pi * t), 0.5 * np.sin(2 * np.pi * t)],
+        lambda t: [2 * np.pi * np.cos(2 * np.pi * t), np.pi * np.cos(2 * np.pi * t)],
+        rddot=lambda t: [-4 * np.pi**2 * np.sin(2 * np.pi * t), -2 * np.pi**2 * np.sin(2 * np.pi * t)],
+        names=["psi", "phi"],
+    )
+    for disc in ("midpoint", "group"):
+        with pytest.raises(InputError, match="backend='numba'"):
+            solve(s, DiscreteLagrangeDAlembert(disc), t_final=0.1, h=0.05, shapes=by_callable, backend="numba")
 
 
 def test_a_later_process_loads_the_generated_equations_from_disk(monkeypatch, tmp_path):

@@ -67,6 +67,7 @@ _TEMPLATES = (
     "_k_canonical.py",
     "_k_liepoisson.py",
     "_k_taylor.py",
+    "_k_groups.py",
 )
 _PREAMBLE_START = "# >>> template preamble"
 _PREAMBLE_END = "# <<< template preamble"

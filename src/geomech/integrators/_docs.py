@@ -41,12 +41,12 @@ of an AVX vector unit; 8 with AVX-512, 2 without AVX), each member stepping on i
 member where it ends: 2.5 times less time a member than one at a time. Adaptive Adams wraps scipy's VODE/LSODA.
 Events (`events={"apex": Event("m1", direction=-1)}`) are located on the continuous extension of the step that
 crosses them by the Dormand-Prince pairs, Taylor's method and scipy's solvers (`SolveIVP("Radau")`, ...).
-The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map) run compiled where the
-gait and torques are formulas,
-BKMM also by Taylor's method (`BKMM(solver="taylor")`, from the reduction's closed forms), and otherwise under
-scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in exponential
-coordinates about a moving centre. The exact propagators give the state of a one-degree-of-freedom system at any
-time from one period, at a cost that does not grow with t. Speed and accuracy beside scipy and heyoka:
+The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map with either discrete
+Lagrangian, the group's on SO(2), R^n, SE(2), SO(3), SE(3) and their products) run compiled where the gait and
+torques are formulas, BKMM also by Taylor's method (`BKMM(solver="taylor")`, from the reduction's closed
+forms), and otherwise under scipy's solve_ivp solvers. The Runge-Kutta-Munthe-Kaas methods step on the group in
+exponential coordinates about a moving centre. The exact propagators give the state of a one-degree-of-freedom
+system at any time from one period, at a cost that does not grow with t. Speed and accuracy beside scipy and heyoka:
 `benchmarks/README.md`.
 
 Where the time goes: `sol.stats` has `compile_time` (numba's or LLVM's, once per model and method, then a load

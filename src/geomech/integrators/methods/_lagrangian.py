@@ -212,9 +212,11 @@ class DiscreteLagrangeDAlembert(Method):
     constraints both are variational, hence symplectic). Structure: a Lagrangian system on G x S with
     constraints. Cost per step: Newton on (free coordinates + constraints) unknowns, each iteration the first and
     second derivatives of L and the constraint matrix (midpoint), or the reduced Lagrangian's first derivatives and
-    the group's log and Jacobians with a difference Jacobian (group). The midpoint map runs compiled where the gait
-    and torques are formulas (the whole run, Newton included, in one numba call: the Python engine's steps, a
-    thousand times faster); the group's, and ``backend="python"``, run in Python. Reference: [CM]; [MW]; [BRM].
+    the group's log and Jacobians with a difference Jacobian (group). Both maps run compiled where the gait and
+    torques are formulas (the whole run, Newton included, in one numba call: the Python engine's steps, hundreds of
+    times faster), the group's on SO(2), R^n, SE(2), SO(3), SE(3) and their products (a general
+    :class:`~geomech.lie.MatrixGroup`, whose logarithm is ``logm``, and ``backend="python"`` run in Python).
+    Reference: [CM]; [MW]; [BRM].
 
     Parameters
     ----------

@@ -26,9 +26,11 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ...symbolic import derivative
 from ...symbolic.compile import StraightLine
 from ...systems.gait import T_SYMBOL
 from .. import _codegen
+from .._group_code import ABELIAN, group_kernels
 from ..solution import Failure, Status
 from ._compiled import _TIME, LagrangianSource, _generate_lda, _made, _module
 from ._trajectory import _Raw
@@ -36,17 +38,19 @@ from ._trajectory import _Raw
 __all__ = ["dlda_module", "no_convergence", "run_compiled_discrete"]
 
 
-def dlda_module(setup: Any) -> tuple[Any, LagrangianSource] | None:
-    """The compiled discrete Lagrange-d'Alembert map (midpoint) of ``setup`` and the layout of the values ``prm`` it
-    reads, or None where it cannot be compiled (numba missing, a callable gait or torque, a function numba
-    lacks)."""
+def dlda_module(setup: Any, discretization: str = "midpoint") -> tuple[Any, LagrangianSource] | None:
+    """The compiled discrete Lagrange-d'Alembert map of ``setup`` with the ``discretization``'s discrete Lagrangian
+    ("midpoint" or "group") and the layout of the values ``prm`` it reads, or None where it cannot be compiled (numba
+    missing, a callable gait or torque, a function numba lacks, a group without closed-form kernels)."""
+    if discretization == "group" and group_kernels(setup.system.group.numeric) is None:
+        return None
 
     def generate(gait: tuple, torques: tuple, n_prm: int, extra: tuple) -> str:
         return _generate_lda(setup, gait, torques, n_prm, sp.Integer(0)) + _generate_discrete(
-            setup, gait, torques, n_prm
+            setup, gait, torques, n_prm, discretization
         )
 
-    return _module(lambda: _made(setup, ("dlda",), (), generate), "dl")
+    return _module(lambda: _made(setup, ("dlda", discretization), (), generate), "dl")
 
 
 def _reads(n_prm: int) -> str:
@@ -57,10 +61,55 @@ def _function(name: str, args: str, code: StraightLine) -> str:
     return f"@kernel\ndef {name}({args}):\n" + code.body()
 
 
-def _generate_discrete(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int) -> str:
+def _generate_discrete(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm: int, discretization: str) -> str:
+    system = setup.system
+    n, c = system.n, system.c
+    params = {p: sp.Symbol(f"_p{i}") for i, p in enumerate(system.parameter_symbols)}
+    L = sp.sympify(system.lagrangian).xreplace(params)
+    q, v = list(system.q), list(system.qdot)
+    Lv = [derivative(L, a) for a in v]
+    A = sp.Matrix(system.constraint_matrix).xreplace(params) if c else sp.zeros(0, n)
+    disc = _midpoint_disc if discretization == "midpoint" else _group_disc
+    parts = disc(setup, torque_forms, n_prm, params)
+
+    # momentum: dL/dqdot at (q, qd)
+    code = StraightLine()
+    code.line("\n".join([f"_q{i} = x[{i}]\n_w{i} = xd[{i}]" for i in range(n)] + [_reads(n_prm)]))
+    node = {**{q[i]: sp.Symbol(f"_q{i}") for i in range(n)}, **{v[i]: sp.Symbol(f"_w{i}") for i in range(n)}}
+    p = code.values([e.xreplace(node) for e in Lv])
+    code.line("\n".join(f"out[{i}] = {code.code(p[i])}" for i in range(n)))
+    parts.append(_function("momentum", "x, xd, out, prm", code))
+
+    # mass_constraints: M(q) and A(q) at a node
+    code = StraightLine()
+    code.line("\n".join([f"_q{i} = x[{i}]" for i in range(n)] + [_reads(n_prm)]))
+    M = sp.Matrix(system.mass_matrix).xreplace(params).xreplace(node)
+    Mv, Av = code.matrix(M), code.matrix(A.xreplace(node)) if c else sp.zeros(0, n)
+    code.line(
+        "\n".join(
+            [f"M[{i}, {j}] = {code.code(Mv[i, j])}" for i in range(n) for j in range(n)]
+            + [f"A[{r}, {j}] = {code.code(Av[r, j])}" for r in range(c) for j in range(n)]
+        )
+    )
+    parts.append(_function("mass_constraints", "x, M, A, prm", code))
+
+    # gait_nodes: the prescribed shapes and their rates at t
+    code = StraightLine()
+    code.line("_t = t\n" + _reads(n_prm))
+    values = code.values(list(gait_forms) + [e.diff(_TIME) for e in gait_forms])
+    npr = len(gait_forms)
+    code.line(
+        "\n".join([f"qp[{j}] = {code.code(values[j])}\nqdp[{j}] = {code.code(values[npr + j])}" for j in range(npr)])
+        or "pass"
+    )
+    parts.append(_function("gait_nodes", "t, qp, qdp, prm", code))
+    return "\n\n\n" + "\n\n\n".join(parts) + _LOOP.replace("NC", str(c))
+
+
+def _midpoint_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) -> list[str]:
+    """``disc`` of the midpoint discrete Lagrangian: its derivatives exact, from the second derivatives of L."""
     system = setup.system
     n, k, c = system.n, system.k, system.c
-    params = {p: sp.Symbol(f"_p{i}") for i, p in enumerate(system.parameter_symbols)}
     L = sp.sympify(system.lagrangian).xreplace(params)
     q, v = list(system.q), list(system.qdot)
     Lq = [sp.diff(L, a) for a in q]
@@ -112,39 +161,112 @@ def _generate_discrete(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm
     stores += [f"JC[{r}, {j}] = {code.code(JC[r][j])}" for r in range(c) for j in range(n)]
     code.line("\n".join(stores) or "pass")
     parts.append(_function("disc", "q0, q1, h, tm, prm, D1, D2, JD, C, JC", code))
+    return parts
 
-    # momentum: dL/dqdot at (q, qd)
-    code = StraightLine()
-    code.line("\n".join([f"_q{i} = x[{i}]\n_w{i} = xd[{i}]" for i in range(n)] + [_reads(n_prm)]))
-    node = {**{q[i]: sp.Symbol(f"_q{i}") for i in range(n)}, **{v[i]: sp.Symbol(f"_w{i}") for i in range(n)}}
-    p = code.values([e.xreplace(node) for e in Lv])
-    code.line("\n".join(f"out[{i}] = {code.code(p[i])}" for i in range(n)))
-    parts.append(_function("momentum", "x, xd, out, prm", code))
 
-    # mass_constraints: M(q) and A(q) at a node
+def _group_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) -> list[str]:
+    """``gresid`` and ``disc`` of the group's discrete Lagrangian :math:`h\\,\\ell(\\bar r, \\chi/h, (r_1 - r_0)/h)`,
+    :math:`\\chi = \\log(g_0^{-1}g_1)` (:class:`._discrete._GroupLagrangian`, the same formulas): the element
+    :math:`g_0^{-1}g_1` and the body Lagrangian's gradient as straight-line code, the logarithm and the inverse
+    Jacobians by the group's kernels (``_k_groups.py``), Newton's derivatives in :math:`q_1` by central differences
+    of ``gresid`` (the Python engine's steps)."""
+    system = setup.system
+    chart = system.group
+    n, k, c, sigma = system.n, system.k, system.c, system.sigma
+    kernels = group_kernels(chart.numeric)
+    assert kernels is not None  # dlda_module checked
+    h, tm = sp.Symbol("_h"), sp.Symbol("_tm")
+    a_ = [sp.Symbol(f"_a{i}") for i in range(n)]
+    b_ = [sp.Symbol(f"_b{i}") for i in range(n)]
     code = StraightLine()
-    code.line("\n".join([f"_q{i} = x[{i}]" for i in range(n)] + [_reads(n_prm)]))
-    M = sp.Matrix(system.mass_matrix).xreplace(params).xreplace(node)
-    Mv, Av = code.matrix(M), code.matrix(A.xreplace(node)) if c else sp.zeros(0, n)
     code.line(
-        "\n".join(
-            [f"M[{i}, {j}] = {code.code(Mv[i, j])}" for i in range(n) for j in range(n)]
-            + [f"A[{r}, {j}] = {code.code(Av[r, j])}" for r in range(c) for j in range(n)]
-        )
+        "\n".join([f"_a{i} = q0[{i}]\n_b{i} = q1[{i}]" for i in range(n)] + ["_h = h", "_tm = tm", _reads(n_prm)])
     )
-    parts.append(_function("mass_constraints", "x, M, A, prm", code))
+    coords = list(chart.coordinates)
+    at0 = dict(zip(coords, a_[:k]))
+    at1 = dict(zip(coords, b_[:k]))
+    # chi = log(g0^-1 g1), and J_l^-1(chi), J_r^-1(chi) = J_l^-1(-chi), a factor at a time
+    N = int(chart.numeric.matrix_size)
+    P = code.matrix(sp.Matrix(chart.inverse).xreplace(at0) * sp.Matrix(chart.matrix).xreplace(at1))
+    lines = [f"_P = np.empty(({N}, {N}))"]
+    lines += [f"_P[{i}, {j}] = {code.code(P[i, j])}" for i in range(N) for j in range(N)]
+    lines += [f"_u = np.empty({k})", f"_Jl = np.zeros(({k}, {k}))", f"_Jr = np.zeros(({k}, {k}))"]
+    Jl = sp.zeros(k, k)
+    Jr = sp.zeros(k, k)
+    for name, row, first, m in kernels:
+        if name == "rn":
+            lines.append(f"log_rn(_P, {row}, {m}, _u, {first})")
+        else:
+            lines.append(f"log_{name}(_P, {row}, _u, {first})")
+        if name in ABELIAN:  # the Jacobians are the identity
+            for i in range(first, first + m):
+                Jl[i, i] = Jr[i, i] = sp.Integer(1)
+            continue
+        lines.append(f"jlinv_{name}(_u, {first}, 1.0, _Jl, {first})\njlinv_{name}(_u, {first}, -1.0, _Jr, {first})")
+        for i in range(first, first + m):
+            for j in range(first, first + m):
+                Jl[i, j], Jr[i, j] = sp.Symbol(f"_jl{i}_{j}"), sp.Symbol(f"_jr{i}_{j}")
+                lines.append(f"_jl{i}_{j} = _Jl[{i}, {j}]\n_jr{i}_{j} = _Jr[{i}, {j}]")
+    lines += [f"_x{i} = _u[{i}]" for i in range(k)]
+    code.line("\n".join(lines))
+    chi = [sp.Symbol(f"_x{i}") for i in range(k)]
+    # the body Lagrangian's gradient at (r_bar, chi / h, (r1 - r0) / h)
+    rbar = [code.value((a_[k + i] + b_[k + i]) / 2) for i in range(sigma)]
+    rd = [code.value((b_[k + i] - a_[k + i]) / h) for i in range(sigma)]
+    ell = sp.sympify(system.body_lagrangian).xreplace(params)
+    x = list(system.shape) + list(system.xi) + list(system.qdot[k:])
+    point = {**dict(zip(system.shape, rbar)), **{xi: chi[a] / h for a, xi in enumerate(system.xi)}}
+    point.update(zip(system.qdot[k:], rd))
+    grad = code.values([derivative(ell, y).xreplace(point) for y in x])
+    lr, lxi, lrd = grad[:sigma], sp.Matrix(grad[sigma : sigma + k]), grad[sigma + k :]
+    Lam = sp.Matrix(chart.body_velocity_matrix)
+    group1 = code.values(list(-(Lam.xreplace(at0).T * (Jl.T * lxi))))
+    group2 = code.values(list(Lam.xreplace(at1).T * (Jr.T * lxi)))
+    # the torques on the free shapes at the midpoint, as the midpoint discretisation's
+    q, v = list(system.q), list(system.qdot)
+    mid = {T_SYMBOL: tm}
+    mid.update((q[i], (a_[i] + b_[i]) / 2) for i in range(n))
+    mid.update((v[i], (b_[i] - a_[i]) / h) for i in range(n))
+    F = [sp.Integer(0)] * sigma
+    for jj, j in enumerate(setup.free_shapes):
+        F[j] = code.value(torque_forms[jj].xreplace(mid).xreplace(params))
+    D1 = group1 + code.values([h / 2 * (lr[i] + F[i]) - lrd[i] for i in range(sigma)])
+    D2 = group2 + code.values([h / 2 * (lr[i] + F[i]) + lrd[i] for i in range(sigma)])
+    stores = [f"D1[{i}] = {code.code(D1[i])}\nD2[{i}] = {code.code(D2[i])}" for i in range(n)]
+    if c:
+        Axi, Ar = system.body_constraints
+        Ab = sp.Matrix.hstack(sp.Matrix(Axi), sp.Matrix(Ar)).xreplace(params).xreplace(dict(zip(system.shape, rbar)))
+        step = chi + [b_[k + i] - a_[k + i] for i in range(sigma)]
+        C = code.values([sum((Ab[r, i] * step[i] for i in range(n)), sp.Integer(0)) for r in range(c)])
+        stores += [f"C[{r}] = {code.code(C[r])}" for r in range(c)]
+    code.line("\n".join(stores))
+    return [_function("gresid", "q0, q1, h, tm, prm, D1, D2, C", code), _GROUP_DISC]
 
-    # gait_nodes: the prescribed shapes and their rates at t
-    code = StraightLine()
-    code.line("_t = t\n" + _reads(n_prm))
-    values = code.values(list(gait_forms) + [e.diff(_TIME) for e in gait_forms])
-    npr = len(gait_forms)
-    code.line(
-        "\n".join([f"qp[{j}] = {code.code(values[j])}\nqdp[{j}] = {code.code(values[npr + j])}" for j in range(npr)])
-        or "pass"
-    )
-    parts.append(_function("gait_nodes", "t, qp, qdp, prm", code))
-    return "\n\n\n" + "\n\n\n".join(parts) + _LOOP.replace("NC", str(c))
+
+_GROUP_DISC = """@kernel
+def disc(q0, q1, h, tm, prm, D1, D2, JD, C, JC):
+    # the residuals at (q0, q1), and their derivatives in q1 by central differences (steps 1e-6 (1 + |q1_j|))
+    gresid(q0, q1, h, tm, prm, D1, D2, C)
+    n = q1.shape[0]
+    c = C.shape[0]
+    qq = q1.copy()
+    Dp = np.empty(n)
+    Dm = np.empty(n)
+    E = np.empty(n)
+    Cp = np.empty(c)
+    Cm = np.empty(c)
+    for j in range(n):
+        e = 1e-6 * (1.0 + abs(q1[j]))
+        qq[j] = q1[j] + e
+        gresid(q0, qq, h, tm, prm, Dp, E, Cp)
+        qq[j] = q1[j] - e
+        gresid(q0, qq, h, tm, prm, Dm, E, Cm)
+        qq[j] = q1[j]
+        for i in range(n):
+            JD[i, j] = (Dp[i] - Dm[i]) / (2.0 * e)
+        for r in range(c):
+            JC[r, j] = (Cp[r] - Cm[r]) / (2.0 * e)
+"""
 
 
 _LOOP = """

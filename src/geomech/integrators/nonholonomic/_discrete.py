@@ -180,15 +180,16 @@ def run_discrete(
     :math:`\sum_k h\,\tau_{k+1/2}\cdot(r_{k+1} - r_k)/h`, the shape forces :math:`\tau_{k+1/2}` those of the
     continuous equations at the midpoint (the free coordinates' midpoint and difference quotient, the gait at
     :math:`t_{k+1/2}`). A Newton failure ends the run: the later nodes are NaN and the failure is returned as data.
-    The midpoint map runs compiled (:mod:`._compiled_discrete`) where the gait and torques are formulas, unless
-    ``backend`` is "python".
+    The map runs compiled (:mod:`._compiled_discrete`) where the gait and torques are formulas (and, for the group's
+    discrete Lagrangian, the group has closed-form kernels), unless ``backend`` is "python".
     """
     system = s = setup.system
-    compiled = dlda_module(setup) if discretization == "midpoint" and backend != "python" else None
+    compiled = dlda_module(setup, discretization) if backend != "python" else None
     if compiled is None and backend == "numba":
         raise InputError(
-            "backend='numba' runs the discrete Lagrange-d'Alembert map with the midpoint discretization, the gait "
-            "and torques given as formulas (and numba installed)."
+            "backend='numba' runs the discrete Lagrange-d'Alembert map where the gait and torques are formulas (and "
+            "numba is installed), with the group's discrete Lagrangian on SO(2), R^n, SE(2), SO(3), SE(3) and their "
+            f"products ({system.group.name} here): give backend='auto' or 'python' to run it in Python."
         )
     keep = np.arange(nsteps + 1) if keep is None else np.asarray(keep, dtype=int)
     if compiled is not None:
