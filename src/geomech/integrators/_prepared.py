@@ -147,6 +147,7 @@ max_evaluations, memory_limit, raise_on_failure :
                 tolerances=self.tolerances,
                 max_evaluations=MAX_EVALUATIONS if self.max_evaluations is None else self.max_evaluations,
                 memory_limit=self.memory_limit,
+                backend=self.backend,
             )
             return finish(solution, self.raise_on_failure)
         if problem.kind == "lagrangian":

@@ -137,6 +137,16 @@ class DormandPrince(Method):
         return embedded_pair(self.pair)
 
 
+#: scipy's solvers (of BKMM, of RKMK) that have a compiled twin: the same pairs, the same error control
+COMPILED_SOLVERS = {"DOP853": "DOP853", "RK45": "DOPRI5"}
+
+
+def compiled_pair(solver: str) -> DormandPrince | None:
+    """The compiled embedded pair for a scipy ``solver`` name, or None (Radau, BDF, LSODA, RK23 stay scipy's)."""
+    name = COMPILED_SOLVERS.get(solver)
+    return None if name is None else DormandPrince(name)
+
+
 @dataclass(frozen=True)
 class Taylor(Method):
     """Taylor's method, compiled: the Taylor coefficients of the solution generated from the system's formulas.

@@ -23,20 +23,23 @@ class RKMK(ScipyStepped):
     """Runge-Kutta-Munthe-Kaas with an adaptive scipy solver in exponential coordinates about a moving centre.
 
     The ODE :math:`\\dot u = J_r(u)^{-1}\\xi(t, g_c\\exp u)` is solved by ``solver`` (DOP853 by default) from
-    :math:`u = 0`; when :math:`|u|` reaches ``chart_radius`` (well inside the injectivity radius of exp) the
-    centre moves to :math:`g_c\\exp u` and the solve restarts (never on an abelian group, where exp is a
-    global chart of the cover). The angles of the group's angle components are carried unwrapped. Kind:
-    adaptive (``rtol``, ``atol``; default 1e-10, 1e-12). Order: that of ``solver`` (DOP853: 8). Stays on the
-    group to round-off. Structure: a body velocity on a Lie group (the reconstruction equation). Cost per
-    evaluation: the body velocity, one exp and one inverse right Jacobian of the group; as many evaluations
-    as the tolerances require (Python, not compiled).
+    :math:`u = 0`; when a component of :math:`u` reaches :math:`\\pm` ``chart_radius`` (well inside the
+    injectivity radius of exp) the centre moves to :math:`g_c\\exp u` and the solve restarts (never on an abelian
+    group, where exp is a global chart of the cover). The angles of the group's angle components are carried
+    unwrapped. Kind: adaptive (``rtol``, ``atol``; default 1e-10, 1e-12). Order: that of ``solver`` (DOP853: 8).
+    Stays on the group to round-off. Structure: a body velocity on a Lie group (the reconstruction equation).
+    Cost per evaluation: the body velocity, one exp and one inverse right Jacobian of the group; as many
+    evaluations as the tolerances require. Compiled (the whole run in one numba call, the compiled Dormand-Prince
+    pair of the same name, the exit of the box located on its continuous extension) where the body velocity is
+    formulas on SO(2), R^n, SE(2), SO(3), SE(3) or their products and ``solver`` is DOP853 or RK45; scipy's
+    ``solve_ivp`` in Python otherwise, or with ``backend="python"``.
     Reference: [MK]; [IMNZ] section 6; [HNW] II.5.
 
     Parameters
     ----------
     solver : {"DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA"}
     chart_radius : float
-        :math:`|u|` at which the centre moves (0 < chart_radius <= 2).
+        The largest :math:`|u_i|` about a centre (0 < chart_radius <= 2).
     """
 
     chart_radius: float = 1.0
@@ -61,7 +64,8 @@ class RKMK4(Method):
     :math:`u = 0`, then :math:`g_{k+1} = g_k\\exp(u_1)`. Kind: fixed step. Order 4; explicit; not symplectic
     nor symmetric; stays on the group to round-off. Structure: a body velocity on a Lie group (the
     reconstruction equation). Cost per step: 4 evaluations of the body velocity, 4 exps and 3 inverse right
-    Jacobians (Python, not compiled). Reference: [MK]; [IMNZ] section 6.
+    Jacobians; compiled (the whole run in one numba call) where the body velocity is formulas on SO(2), R^n,
+    SE(2), SO(3), SE(3) or their products, in Python otherwise. Reference: [MK]; [IMNZ] section 6.
     """
 
     structure: ClassVar[Structure] = Structure.GROUP_FLOW

@@ -45,7 +45,7 @@ from ...symbolic.taylor import taylor_tape
 from ...systems.gait import T_SYMBOL
 from .. import _codegen
 from .._observe import OBSERVE_ALL
-from ..methods import DormandPrince
+from ..methods._embedded import COMPILED_SOLVERS, compiled_pair
 
 __all__ = [
     "COMPILED_SOLVERS",
@@ -59,17 +59,9 @@ __all__ = [
     "lda_source",
 ]
 
-#: scipy's solvers of the BKMM method that have a compiled twin: the same pairs, the same error control
-COMPILED_SOLVERS = {"DOP853": "DOP853", "RK45": "DOPRI5"}
 
 #: Above this 1-norm condition number a matrix of the equations is singular (as in ReducedNumeric).
 COND_MAX = 1e13
-
-
-def compiled_pair(solver: str) -> DormandPrince | None:
-    """The compiled embedded pair for a BKMM ``solver`` name, or None (Radau, BDF, LSODA, RK23 stay scipy's)."""
-    name = COMPILED_SOLVERS.get(solver)
-    return None if name is None else DormandPrince(name)
 
 
 def _inverse(code: StraightLine, M: sp.Matrix, what: str) -> sp.Matrix:
