@@ -26,7 +26,8 @@ Measured, in one run: the max-norm error of (g, p) at the end against the wall t
 ``solve(s, BKMM(), ...)``, ``solve(s, BKMM(solver="taylor"), ...)`` and ``solve(s, LagrangeDAlembert(), ...)``
 from the Python call to the Solution (compiled; BKMM also in Python), the compiled runs also from a problem
 prepared once (``prepare(s, method, ...).solve(p0=...)``, as heyoka's integrator is built once), the compiled
-discrete Lagrange-d'Alembert map (midpoint) at fixed steps, the compiled loop alone (``stats["loop_time"]``), and
+discrete Lagrange-d'Alembert map (the midpoint and the group's discrete Lagrangians, and the group's in Python) at
+fixed steps, the compiled loop alone (``stats["loop_time"]``), and
 heyoka's ``propagate_until`` from a reset state (its construction and JIT compilation apart, as geomech's
 compilation is). Writes
 ``results/nonholonomic.json`` and ``results/nonholonomic.md``.
@@ -51,7 +52,7 @@ from work_precision import (  # the harness of the work-precision benchmark (thi
 )
 
 import geomech as gm
-from geomech.integrators import BKMM, LagrangeDAlembert, prepare, solve
+from geomech.integrators import BKMM, DiscreteLagrangeDAlembert, LagrangeDAlembert, prepare, solve
 from geomech.reduction import bkmm_reduction
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh, roller_racer, snakeboard
 
@@ -172,14 +173,15 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
                 n_rhs=sol.stats["n_rhs"],
             )
         )
-    for h in DISCRETE_STEPS[1:] if quick else DISCRETE_STEPS:
+    for disc, h in itertools.product(("midpoint", "group"), DISCRETE_STEPS[1:] if quick else DISCRETE_STEPS):
         kw = dict(h=h, **common)
-        first = solve(s, "discrete_lagrange_dalembert", **kw)
-        wall, sol = best_of(lambda kw=kw: solve(s, "discrete_lagrange_dalembert", **kw), repeats)
-        loop = min(solve(s, "discrete_lagrange_dalembert", **kw).stats["loop_time"] for _ in range(repeats))
+        dlda = DiscreteLagrangeDAlembert(disc)
+        first = solve(s, dlda, **kw)
+        wall, sol = best_of(lambda kw=kw, dlda=dlda: solve(s, dlda, **kw), repeats)
+        loop = min(solve(s, dlda, **kw).stats["loop_time"] for _ in range(repeats))
         rows.append(
             dict(
-                who=f"geomech discrete Lagrange-d'Alembert compiled (midpoint, h = {h:g})",
+                who=f"geomech discrete Lagrange-d'Alembert compiled ({disc}, h = {h:g})",
                 tol=h,
                 error=error(sol),
                 wall_ms=wall * 1e3,
@@ -187,6 +189,17 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
                 compile_s=first.stats["compile_time"],
             )
         )
+    # the group's map in Python, the engine it had before it was compiled
+    kw = dict(h=DISCRETE_STEPS[0], backend="python", **common)
+    wall, sol = best_of(lambda kw=kw: solve(s, DiscreteLagrangeDAlembert("group"), **kw), 2, budget=10.0)
+    rows.append(
+        dict(
+            who=f"geomech discrete Lagrange-d'Alembert Python (group, h = {DISCRETE_STEPS[0]:g})",
+            tol=DISCRETE_STEPS[0],
+            error=error(sol),
+            wall_ms=wall * 1e3,
+        )
+    )
     rows += heyoka_rows(hy, sys_hy, y0, T, ref, HEYOKA_TOLS[1::2] if quick else HEYOKA_TOLS, repeats)
     return dict(
         problem=name,

@@ -15,6 +15,7 @@ given as formulas on a group with closed-form kernels (``_k_groups.py``): the ge
 from __future__ import annotations
 
 import time
+import weakref
 from typing import Any
 
 import numpy as np
@@ -29,19 +30,23 @@ from .methods._embedded import compiled_pair
 __all__ = ["group_flow_module", "run_rkmk4", "run_rkmk"]
 
 
+#: each flow's module (or None), made once: generating the source prints its formulas (a millisecond)
+_MODULES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def group_flow_module(system: Any) -> Any | None:
     """The compiled module of ``system``'s body velocity, or None where it cannot be compiled (a callable body
     velocity, a group without kernels, numba missing, a function numba lacks)."""
     if system.formulas is None or not _codegen.numba_available():
         return None
-    kernels = group_kernels(system.group.numeric)
-    if kernels is None:
-        return None
-    try:
-        source = _source(system, kernels)
-    except NotImplementedError:
-        return None
-    return _codegen.compiled_module(source, "gf")
+    if system not in _MODULES:
+        kernels = group_kernels(system.group.numeric)
+        try:
+            source = None if kernels is None else _source(system, kernels)
+        except NotImplementedError:
+            source = None
+        _MODULES[system] = None if source is None else _codegen.compiled_module(source, "gf")
+    return _MODULES[system]
 
 
 def _source(system: Any, kernels: list) -> str:
@@ -80,19 +85,23 @@ def gf_exp(u, E):
 
 @kernel
 def gf_field(t, u, Gc, out, prm):
-    # u' = J_r(u)^-1 xi(t, Gc exp(u))
-    E = np.empty((NMAT, NMAT))
+    # u' = J_r(u)^-1 xi(t, Gc exp(u)), with one scratch array (exp(u), the element, J_r^-1, xi)
+    buf = np.empty(2 * NMAT * NMAT + KDIM * KDIM + KDIM)
+    E = buf[: NMAT * NMAT].reshape((NMAT, NMAT))
+    G = buf[NMAT * NMAT : 2 * NMAT * NMAT].reshape((NMAT, NMAT))
+    J = buf[2 * NMAT * NMAT : 2 * NMAT * NMAT + KDIM * KDIM].reshape((KDIM, KDIM))
+    w = buf[2 * NMAT * NMAT + KDIM * KDIM :]
     gf_exp(u, E)
-    G = np.empty((NMAT, NMAT))
     for i in range(NMAT):
         for j in range(NMAT):
             s = 0.0
             for l in range(NMAT):
                 s += Gc[i, l] * E[l, j]
             G[i, j] = s
-    w = np.empty(KDIM)
     gf_xi(t, G, w, prm)
-    J = np.zeros((KDIM, KDIM))
+    for i in range(KDIM):
+        for j in range(KDIM):
+            J[i, j] = 0.0
     JAC_LINES
     for i in range(KDIM):
         s = 0.0
@@ -105,11 +114,7 @@ def gf_field(t, u, Gc, out, prm):
 def rhs(y, out, prm):
     # the state (u, t), the centre in prm's last NMAT^2 entries
     base = prm.shape[0] - NMAT * NMAT
-    Gc = np.empty((NMAT, NMAT))
-    for i in range(NMAT):
-        for j in range(NMAT):
-            Gc[i, j] = prm[base + NMAT * i + j]
-    gf_field(y[KDIM], y, Gc, out, prm)
+    gf_field(y[KDIM], y, prm[base:].reshape((NMAT, NMAT)), out, prm)
     out[KDIM] = 1.0
 """
 

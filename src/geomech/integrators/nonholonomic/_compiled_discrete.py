@@ -103,7 +103,9 @@ def _generate_discrete(setup: Any, gait_forms: tuple, torque_forms: tuple, n_prm
         or "pass"
     )
     parts.append(_function("gait_nodes", "t, qp, qdp, prm", code))
-    return "\n\n\n" + "\n\n\n".join(parts) + _LOOP.replace("NC", str(c))
+    # the group's Newton matrix is a difference quotient: computed once a step (a chord iteration), as in Python
+    chord = "True" if discretization == "group" else "False"
+    return "\n\n\n" + "\n\n\n".join(parts) + _LOOP.replace("NC", str(c)).replace("CHORD", chord)
 
 
 def _midpoint_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) -> list[str]:
@@ -160,7 +162,7 @@ def _midpoint_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) ->
     stores += [f"C[{r}] = {code.code(C[r])}" for r in range(c)]
     stores += [f"JC[{r}, {j}] = {code.code(JC[r][j])}" for r in range(c) for j in range(n)]
     code.line("\n".join(stores) or "pass")
-    parts.append(_function("disc", "q0, q1, h, tm, prm, D1, D2, JD, C, JC", code))
+    parts.append(_function("disc", "q0, q1, h, tm, prm, D1, D2, JD, C, JC, jac", code))
     return parts
 
 
@@ -244,9 +246,11 @@ def _group_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) -> li
 
 
 _GROUP_DISC = """@kernel
-def disc(q0, q1, h, tm, prm, D1, D2, JD, C, JC):
-    # the residuals at (q0, q1), and their derivatives in q1 by central differences (steps 1e-6 (1 + |q1_j|))
+def disc(q0, q1, h, tm, prm, D1, D2, JD, C, JC, jac):
+    # the residuals at (q0, q1), and (jac) their derivatives in q1 by central differences (steps 1e-6 (1 + |q1_j|))
     gresid(q0, q1, h, tm, prm, D1, D2, C)
+    if not jac:
+        return
     n = q1.shape[0]
     c = C.shape[0]
     qq = q1.copy()
@@ -312,6 +316,7 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
     lam = np.zeros(c)
     R = np.empty(m)
     J = np.empty((m, m))
+    Jk = np.empty((m, m))  # Newton's matrix as assembled (J is overwritten by the solve)
     qp = np.empty(npr)
     qdp = np.empty(npr)
     y = np.empty(2 * nf + 2)
@@ -360,8 +365,10 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
         dprev = 0.0
         status = ST_NEWTON
         rmax = np.inf
+        finishing = False
         for it in range(maxit):
-            disc(cur, q1, h, tm, prm, D1, D2, JD, C, JC)
+            fresh = it == 0 or not CHORD
+            disc(cur, q1, h, tm, prm, D1, D2, JD, C, JC, fresh)
             for ii in range(nf):
                 i = FR[ii]
                 r = base[i] + D1[i]
@@ -374,16 +381,20 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
             if it > 0 and rmax < tol * scale:
                 status = ST_OK
                 break
-            for ii in range(nf):
-                for jj in range(nf):
-                    J[ii, jj] = JD[FR[ii], FR[jj]]
+            if fresh:
+                for ii in range(nf):
+                    for jj in range(nf):
+                        Jk[ii, jj] = JD[FR[ii], FR[jj]]
+                    for a in range(c):
+                        Jk[ii, nf + a] = lamw * A0[a, FR[ii]]
                 for a in range(c):
-                    J[ii, nf + a] = lamw * A0[a, FR[ii]]
-            for a in range(c):
-                for jj in range(nf):
-                    J[nf + a, jj] = JC[a, FR[jj]]
-                for b in range(c):
-                    J[nf + a, nf + b] = 0.0
+                    for jj in range(nf):
+                        Jk[nf + a, jj] = JC[a, FR[jj]]
+                    for b in range(c):
+                        Jk[nf + a, nf + b] = 0.0
+            for ii in range(m):
+                for jj in range(m):
+                    J[ii, jj] = Jk[ii, jj]
             if not lu_solve(J, R, m):
                 status = ST_SINGULAR
                 break
@@ -396,9 +407,16 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
             if not math.isfinite(dn):
                 status = ST_NONFINITE
                 break
-            if newton_done(dn, dprev, it, max(1.0, max_abs(q1)), tol):
+            if finishing:
                 status = ST_OK
                 break
+            if newton_done(dn, dprev, it, max(1.0, max_abs(q1)), tol):
+                if not CHORD:
+                    status = ST_OK
+                    break
+                # a chord iteration converges linearly: one more makes the residual (a momentum, dz's size times
+                # |D1| / h) round-off too, so that the discrete momentum map is kept to round-off (as in Python)
+                finishing = True
             dprev = dn
         if status == ST_OK and not math.isfinite(max_abs(q1)):
             status = ST_NONFINITE
@@ -433,7 +451,7 @@ def dlda_run(q_init, qd_init, t0, h, nsteps, tol, maxit, FR, PR, prm, KEEP, Q, Q
             for a in range(c):
                 RES[row_first, a] = res[a]
         # the next step's base, D2 L_d + h/2 F of this one, is the momentum at the node
-        disc(cur, q1, h, tm, prm, D1, D2, JD, C, JC)
+        disc(cur, q1, h, tm, prm, D1, D2, JD, C, JC, False)
         for i in range(n):
             base[i] = D2[i]
         lamw = h
