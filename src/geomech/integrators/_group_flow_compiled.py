@@ -92,12 +92,7 @@ def gf_field(t, u, Gc, out, prm):
     J = buf[2 * NMAT * NMAT : 2 * NMAT * NMAT + KDIM * KDIM].reshape((KDIM, KDIM))
     w = buf[2 * NMAT * NMAT + KDIM * KDIM :]
     gf_exp(u, E)
-    for i in range(NMAT):
-        for j in range(NMAT):
-            s = 0.0
-            for l in range(NMAT):
-                s += Gc[i, l] * E[l, j]
-            G[i, j] = s
+    gk_matmul(Gc, E, G)
     gf_xi(t, G, w, prm)
     for i in range(KDIM):
         for j in range(KDIM):
@@ -124,12 +119,7 @@ _LOOPS = """
 def gf_move(Gc, u, ang, AC, OUTG, OUTA, row, E, T):
     # the element Gc exp(u) (and the unwrapped angles ang + u[AC]) into row `row` of OUTG, OUTA (row < 0: none)
     gf_exp(u, E)
-    for i in range(NMAT):
-        for j in range(NMAT):
-            s = 0.0
-            for l in range(NMAT):
-                s += Gc[i, l] * E[l, j]
-            T[i, j] = s
+    gk_matmul(Gc, E, T)
     if row >= 0:
         for i in range(NMAT):
             for j in range(NMAT):
@@ -229,16 +219,7 @@ def rkmk_run(fp, G0, A0, AC, t0, TS, OUTG, OUTA, INFO, rtol, atol, max_evals, A,
         budget = max_evals - nfev
         action = erk_begin(0, Y0, tc, TSs, OUTs, I1, W, S, CH)
         while action != ERK_DONE:
-            if action == ERK_F0:
-                call_model(fp, W[EW_Y], K[0], prm)
-            elif action == ERK_F1:
-                call_model(fp, W[EW_TMP], K[1], prm)
-            elif action == ERK_STEP:
-                erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], STAGE1, ns, prm)
-                erk_combine(W, K, B, ns, S[EK_H])
-                call_model(fp, W[EW_YNEW], K[ns], prm)
-            else:
-                erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], ns + 1, A.shape[0], prm)
+            erk_evaluate(action, fp, A, B, ns, K, W, S, prm)
             action = erk_after(
                 action, 0, tc, TSs, OUTs, I1, rtol, atol, budget, E, E2, D, ns, q, dop853, CH, K, F, W, S,
                 0, no_dir, no_dir, no_evt, no_count, prm,

@@ -343,6 +343,21 @@ def erk_after(
 
 
 @kernel
+def erk_evaluate(action, fp, A, B, ns, K, W, S, prm):
+    """The evaluations of the model (at the address ``fp``) that the control logic asked for (``action``)."""
+    if action == ERK_F0:
+        call_model(fp, W[EW_Y], K[0], prm)
+    elif action == ERK_F1:
+        call_model(fp, W[EW_TMP], K[1], prm)
+    elif action == ERK_STEP:
+        erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], STAGE1, ns, prm)
+        erk_combine(W, K, B, ns, S[EK_H])
+        call_model(fp, W[EW_YNEW], K[ns], prm)
+    else:
+        erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], ns + 1, A.shape[0], prm)
+
+
+@kernel
 def erk_run(
     fp,
     Y0,
@@ -395,16 +410,7 @@ def erk_run(
         if EDIR.shape[0] > 0:
             call_model(efp, W[EW_Y], W[EW_GOLD], prm)
         while action != ERK_DONE:
-            if action == ERK_F0:
-                call_model(fp, W[EW_Y], K[0], prm)
-            elif action == ERK_F1:
-                call_model(fp, W[EW_TMP], K[1], prm)
-            elif action == ERK_STEP:
-                erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], STAGE1, ns, prm)
-                erk_combine(W, K, B, ns, S[EK_H])
-                call_model(fp, W[EW_YNEW], K[ns], prm)
-            else:
-                erk_stages(fp, W[EW_Y], S[EK_H], A, K, W[EW_TMP], ns + 1, A.shape[0], prm)
+            erk_evaluate(action, fp, A, B, ns, K, W, S, prm)
             action = erk_after(
                 action,
                 b,

@@ -370,6 +370,18 @@ def gk_mul3(A, B, C):
 
 
 @kernel
+def gk_matmul(A, B, C):
+    """C = A B for square matrices (C apart from A and B)."""
+    n = A.shape[0]
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for k in range(n):
+                s += A[i, k] * B[k, j]
+            C[i, j] = s
+
+
+@kernel
 def jlinv_se3(u, a, s, J, b):
     """[[J^-1, -J^-1 Q J^-1], [0, J^-1]] at xi = s u = (v, omega): J the SO(3) Jacobian of omega, Q Barfoot's."""
     W = np.empty((3, 3))
