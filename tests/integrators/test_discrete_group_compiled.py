@@ -23,7 +23,7 @@ from geomech.integrators import _k_groups as K
 from geomech.integrators._group_code import group_kernels
 from geomech.lie import SE2, SE3, SO2, SO3, MatrixGroup, Rn
 from geomech.lie import _common as series
-from geomech.systems.nonholonomic_examples import snakeboard_bkmm
+from geomech.systems.nonholonomic_examples import roller_racer, snakeboard_bkmm
 
 GROUP = DiscreteLagrangeDAlembert("group")
 
@@ -125,6 +125,10 @@ CASES = {
     "SE2_gait": (
         lambda: snakeboard_bkmm(m=1.0, r=1.0, J0=0.3, J1=0.1),
         lambda s: dict(shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, q0={"theta": 0.3}, qdot0="rest"),
+    ),
+    "SE2_torque": (
+        lambda: roller_racer(m1=1.0, m2=0.8, I1=0.3, I2=0.2, d1=0.5, d2=0.6),
+        lambda s: dict(tau={"phi": "0.3*sin(3*t) - 0.05*phi_dot + 0.1*x"}, q0={"phi": 0.2}),
     ),
     "SE3_constraint": (skate_in_space, _skate_start),
     "SE2xSO2_constraints": (
