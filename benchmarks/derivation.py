@@ -13,6 +13,7 @@ first run): the time to build the system and of the first solve, of which loadin
 solve. Writes ``results/derivation.json`` and ``results/derivation.md``.
 
     PYTHONPATH=src python benchmarks/derivation.py [--repeats 3] [--limit 120] [--only snakeboard ...]
+    PYTHONPATH=src python benchmarks/derivation.py --cache empty   # a user's first run: the cache empty, then filled
 """
 
 from __future__ import annotations
@@ -66,22 +67,23 @@ MODEL_CASES = {
 }
 
 
-def one(name: str, limit: float, pycache: str) -> dict[str, Any]:
-    env = {**os.environ, "GEOMECH_CACHE_DIR": "off", "PYTHONPYCACHEPREFIX": pycache}
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    start = time.perf_counter()
-    try:
-        done = subprocess.run(
-            [sys.executable, "-c", CHILD, *MODEL_CASES.get(name, [name])],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=limit,
-            check=False,
-        )
-    except subprocess.TimeoutExpired:
-        return dict(code=None, error=[f"more than {limit:g} s"])
-    wall = time.perf_counter() - start
+def one(name: str, limit: float, pycache: str, cache: str = "off") -> dict[str, Any]:
+    with tempfile.TemporaryDirectory() as empty:
+        env = {**os.environ, "GEOMECH_CACHE_DIR": empty if cache == "empty" else "off", "PYTHONPYCACHEPREFIX": pycache}
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        start = time.perf_counter()
+        try:
+            done = subprocess.run(
+                [sys.executable, "-c", CHILD, *MODEL_CASES.get(name, [name])],
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=limit,
+                check=False,
+            )
+        except subprocess.TimeoutExpired:
+            return dict(code=None, error=[f"more than {limit:g} s"])
+        wall = time.perf_counter() - start
     if done.returncode != 0 or not done.stdout.strip():
         return dict(code=done.returncode, error=done.stderr.strip().splitlines()[-1:] or ["no output"])
     return {**json.loads(done.stdout.strip().splitlines()[-1]), "command_s": wall}
@@ -130,6 +132,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--only", nargs="*", default=None)
     parser.add_argument("--limit", type=float, default=120.0, help="seconds an example may take")
+    parser.add_argument(
+        "--cache",
+        choices=("off", "empty"),
+        default="off",
+        help="the derivation cache off, or an empty private directory for each run (a user's first run, which writes "
+        "every derivation to it); 'empty' writes results/derivation_empty_cache.*",
+    )
     args = parser.parse_args(argv)
     rows: list[dict[str, Any]] = []
     slow: list[tuple[str, str]] = []
@@ -137,9 +146,9 @@ def main(argv: list[str] | None = None) -> int:
         names = args.only or examples() + list(MODEL_CASES)
         one(names[0], args.limit, pycache)  # compiles the bytecode of everything a derivation imports
         for name in names:
-            runs = [one(name, args.limit, pycache)]
+            runs = [one(name, args.limit, pycache, args.cache)]
             if runs[0].get("code") is not None:  # a run past the limit is not repeated
-                runs += [one(name, args.limit, pycache) for _ in range(args.repeats - 1)]
+                runs += [one(name, args.limit, pycache, args.cache) for _ in range(args.repeats - 1)]
             ok = [r for r in runs if r.get("code") == 0]
             if not ok:
                 why = runs[0].get("error") or [runs[0].get("code")]
@@ -153,11 +162,13 @@ def main(argv: list[str] | None = None) -> int:
                 f"derivation {best['derive_s']:.2f} s)",
                 file=sys.stderr,
             )
-        load = load_rows(pycache, args.repeats)
+        load = load_rows(pycache, args.repeats) if args.cache == "off" else []
     results = HERE / "results"
     results.mkdir(exist_ok=True)
+    stem = "derivation" if args.cache == "off" else "derivation_empty_cache"
     meta = dict(python=platform.python_version(), machine=platform.machine(), processor=platform.processor())
-    (results / "derivation.json").write_text(
+    meta["cache"] = args.cache
+    (results / f"{stem}.json").write_text(
         json.dumps(dict(meta=meta, rows=rows, not_derived=slow, load=load), indent=1) + "\n"
     )
     lines = [
@@ -182,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{r['next_ms']:.2f} |"
         for r in load
     ]
-    (results / "derivation.md").write_text("\n".join(lines) + "\n")
+    (results / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     return 0
 

@@ -24,7 +24,7 @@ __all__ = ["DiskCache", "DISK_CACHE", "MISSING", "NumericCache", "cache_dir", "s
 _SHARED: dict = {}
 
 #: Bump when the layout of cached entries changes.
-_CACHE_FORMAT = "1"
+_CACHE_FORMAT = "2"
 #: The modules whose code determines the derived objects: their source is part of every on-disk key, so that an
 #: edited derivation never reads results of the code before it.
 _SOURCES = (
@@ -80,9 +80,9 @@ class DiskCache:
         if root is None:
             return None
         h = hashlib.sha256(_code_fingerprint().encode())
-        h.update(sp.srepr(system_key).encode())
+        h.update(key_text(system_key).encode())
         h.update(b"\0")
-        h.update(sp.srepr(key).encode())
+        h.update(key_text(key).encode())
         digest = h.hexdigest()
         return root / digest[:2] / f"{digest}.pkl"
 
@@ -95,7 +95,7 @@ class DiskCache:
         try:
             with path.open("rb") as fh:
                 stored_key, value = pickle.load(fh)
-            if stored_key != sp.srepr(key):
+            if stored_key != _key_digest(key):
                 raise ValueError("key mismatch")
         except Exception:  # a damaged or foreign file: recompute (and overwrite) rather than fail
             self.misses += 1
@@ -108,11 +108,41 @@ class DiskCache:
         if path is None:
             return
         try:
-            data = pickle.dumps((sp.srepr(key), value), protocol=pickle.HIGHEST_PROTOCOL)
+            data = pickle.dumps((_key_digest(key), value), protocol=pickle.HIGHEST_PROTOCOL)
             path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
             write_atomic(path, data)
         except (OSError, pickle.PicklingError, TypeError, AttributeError, RecursionError):
             pass
+
+
+#: The text of each key's parts (srepr), by part: a derivation's keys all hold the system's symbolic content
+#: (120,000 characters for the three-link chain, a tenth of a second to print) and its derived matrices, and every
+#: look-up of the disk cache printed them again.
+_TEXT: dict = {}
+_TEXT_LIMIT = 4096
+
+
+def key_text(key: Any) -> str:
+    """``key`` printed exactly (sympy's ``srepr`` of each part: the same text in every process), a tuple's parts
+    printed once per process."""
+    if isinstance(key, tuple):
+        return "(" + ", ".join(key_text(part) for part in key) + ("," if len(key) == 1 else "") + ")"
+    try:
+        return _TEXT[(type(key), key)]
+    except KeyError:
+        pass
+    except TypeError:  # unhashable: printed every time
+        return sp.srepr(key)
+    text = sp.srepr(key)
+    if len(_TEXT) >= _TEXT_LIMIT:
+        _TEXT.clear()
+    _TEXT[(type(key), key)] = text
+    return text
+
+
+def _key_digest(key: Any) -> str:
+    """What a stored entry keeps of its key: the digest of its text (a check against a file renamed or damaged)."""
+    return hashlib.sha256(key_text(key).encode()).hexdigest()
 
 
 MISSING = object()
