@@ -184,7 +184,8 @@ def test_ctrl_c_at_any_moment_is_one_line_and_status_130(delay, tmp_path):
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)
-    assert p.returncode == 130 and err.decode() == "geomech: interrupted\n"
+    # the message says which path an interrupt took where it did not end the command as Ctrl-C (seen once under load)
+    assert p.returncode == 130 and err.decode() == "geomech: interrupted\n", (p.returncode, err.decode()[-600:])
     assert not (tmp_path / "out").exists()
 
 
