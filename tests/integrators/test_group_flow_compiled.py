@@ -164,3 +164,7 @@ def test_parameters_go_with_formulas():
         GroupFlow(SO3(), lambda t, g: np.zeros(3), parameters={"a": 1.0})
     flow = GroupFlow("SE2", ["v", "0", "w"], parameters={"v": 2.0, "w": 0.5})
     assert np.array_equal(flow.velocity(0.0, np.eye(3)), [2.0, 0.0, 0.5])
+    # numbers are formulas too: a constant velocity, whose flow is the exponential
+    xi = np.array([0.3, -1.2, 2.5])
+    sol = solve(GroupFlow("SE2", xi), "rkmk4", t_final=3.0, h=0.01, saveat=4, g0=np.eye(3), backend="numba")
+    np.testing.assert_allclose(sol.element, SE2().exp(sol.t[:, None] * xi), rtol=0, atol=1e-12)

@@ -69,6 +69,8 @@ class GroupFlow:
                 raise InputError("`parameters` give the values of formulas of `xi`; a callable `xi` takes none.")
             object.__setattr__(self, "_evaluate", self.xi)
             return
+        if isinstance(self.xi, np.ndarray) and self.xi.ndim == 1:  # numbers (a constant velocity) or text
+            object.__setattr__(self, "xi", self.xi.tolist())
         if isinstance(self.xi, (str, bytes)) or not isinstance(self.xi, Sequence):
             raise InputError(
                 f"Expected `xi` to be a callable xi(t, g) -> body velocity or {self.k} formulas "
