@@ -21,17 +21,15 @@ state (its construction and JIT compilation apart, as geomech's compilation is).
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from work_precision import best_of, heyoka_timed, quadruple_reference
+from work_precision import best_of, heyoka_timed, peer_options, quadruple_reference
 
 import geomech as gm
 from geomech import GroupFlow, solve
@@ -66,13 +64,8 @@ def orthogonality(R: np.ndarray) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer tolerances and repeats")
-    args = ap.parse_args(argv)
-    try:
-        import heyoka as hy
-    except ImportError:
-        print("group_flow.py: heyoka is not installed (pip install 'heyoka>=7,<8')", file=sys.stderr)
+    args, hy = peer_options(__doc__, "group_flow.py", argv)
+    if hy is None:
         return 2
     repeats = 3 if args.quick else 7
     system = heyoka_system(hy)

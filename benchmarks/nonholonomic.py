@@ -35,11 +35,9 @@ compilation is). Writes
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 import platform
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +46,7 @@ import sympy as sp
 from work_precision import (  # the harness of the work-precision benchmark (this script's directory)
     best_of,
     heyoka_rows,
+    peer_options,
     quadruple_reference,
 )
 
@@ -214,13 +213,8 @@ def run_case(hy: Any, name: str, case: dict, quick: bool, repeats: int) -> dict[
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer tolerances and repeats")
-    args = ap.parse_args(argv)
-    try:
-        import heyoka as hy
-    except ImportError:
-        print("nonholonomic.py: heyoka is not installed (pip install 'heyoka>=7,<8')", file=sys.stderr)
+    args, hy = peer_options(__doc__, "nonholonomic.py", argv)
+    if hy is None:
         return 2
     repeats = 3 if args.quick else 7
     cases = [run_case(hy, name, case, args.quick, repeats) for name, case in CASES.items()]

@@ -27,10 +27,8 @@ a reset state (its construction and JIT compilation apart, as geomech's compilat
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +36,7 @@ import numpy as np
 from work_precision import (  # the harness of the work-precision benchmark (this script's directory)
     best_of,
     heyoka_rows,
+    peer_options,
     quadruple_reference,
 )
 
@@ -77,13 +76,8 @@ def heyoka_system(hy: Any) -> list:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer tolerances and repeats")
-    args = ap.parse_args(argv)
-    try:
-        import heyoka as hy
-    except ImportError:
-        print("rotors.py: heyoka is not installed (pip install 'heyoka>=7,<8')", file=sys.stderr)
+    args, hy = peer_options(__doc__, "rotors.py", argv)
+    if hy is None:
         return 2
     repeats = 3 if args.quick else 7
     body = RotorBody.three_rotors(list(LAMBDA), list(J))

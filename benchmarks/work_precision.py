@@ -180,6 +180,20 @@ class FreeBody(Problem):
 
 
 # -- timing ---------------------------------------------------------------------------------------------
+def peer_options(doc: str, script: str, argv: list[str] | None) -> tuple[argparse.Namespace, Any]:
+    """The options of a benchmark beside heyoka (``--quick``) and heyoka itself, or None where it is not installed
+    (said on stderr): the scripts' common start."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer tolerances and repeats")
+    args = ap.parse_args(argv)
+    try:
+        import heyoka as hy
+    except ImportError:
+        print(f"{script}: heyoka is not installed (pip install 'heyoka>=7,<8')", file=sys.stderr)
+        return args, None
+    return args, hy
+
+
 def best_of(fn: Callable[[], Any], repeats: int, budget: float = 3.0) -> tuple[float, Any]:
     """Best wall time of up to ``repeats`` calls (fewer once ``budget`` seconds are spent), and the last result."""
     best, spent, out = math.inf, 0.0, None
