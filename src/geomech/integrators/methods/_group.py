@@ -20,7 +20,7 @@ from ._general import ScipyStepped
 
 @dataclass(frozen=True)
 class RKMK(ScipyStepped):
-    """Runge-Kutta-Munthe-Kaas with an adaptive scipy solver in exponential coordinates about a moving centre.
+    """Runge-Kutta-Munthe-Kaas with an adaptive solver (scipy's, or its compiled twin) in exponential coordinates.
 
     The ODE :math:`\\dot u = J_r(u)^{-1}\\xi(t, g_c\\exp u)` is solved by ``solver`` (DOP853 by default) from
     :math:`u = 0`; when a component of :math:`u` reaches :math:`\\pm` ``chart_radius`` (well inside the
