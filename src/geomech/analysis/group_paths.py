@@ -7,7 +7,7 @@ body velocities and each term alone. Each path is a :class:`~geomech.Solution` o
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -22,7 +22,7 @@ __all__ = ["integrate_path", "decompose_displacement"]
 
 def integrate_path(
     group: Any,
-    xi: Callable[[float, np.ndarray], Any],
+    xi: Callable[[float, np.ndarray], Any] | Sequence[Any],
     g0: Any,
     t_eval: Any,
     *,
@@ -32,7 +32,8 @@ def integrate_path(
     h: float | None = None,
     name: str = "reconstruction",
 ) -> Solution:
-    """:math:`g^{-1}\\dot g = \\xi(t, g)` from ``g0`` (an element or its coordinates) at the times ``t_eval``
+    """:math:`g^{-1}\\dot g = \\xi(t, g)` (``xi`` a callable or formulas, as :class:`~geomech.systems.GroupFlow`
+    takes them: formulas run compiled) from ``g0`` (an element or its coordinates) at the times ``t_eval``
     (the first is the start), by ``method`` (``"rkmk"``: adaptive, with ``rtol``/``atol``; ``"rkmk4"``: the
     fixed step ``h``, the times on its grid): :func:`~geomech.solve` on a :class:`~geomech.systems.GroupFlow`."""
     t = V.finite(t_eval, "t_eval").ravel()
