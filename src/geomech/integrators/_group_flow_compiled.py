@@ -62,15 +62,8 @@ def _source(system: Any, kernels: list) -> str:
     xi = "@kernel\ndef gf_xi(t, G, out, prm):\n" + code.body()
     exp = "\n    ".join(exp_lines(kernels, "u", "E"))
     jac = "\n    ".join(jacobian_lines(kernels, "u", -1.0, "J"))
-    return (
-        (
-            xi
-            + _FIELD.replace("EXP_LINES", exp).replace("JAC_LINES", jac)
-            + _LOOPS.replace("KDIM", str(k)).replace("NMAT", str(N))
-        )
-        .replace("KDIM", str(k))
-        .replace("NMAT", str(N))
-    )
+    text = xi + _FIELD.replace("EXP_LINES", exp).replace("JAC_LINES", jac) + _LOOPS
+    return text.replace("KDIM", str(k)).replace("NMAT", str(N))
 
 
 _FIELD = """

@@ -137,6 +137,13 @@ def _midpoint_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) ->
         F[k + j] = code.value(torque_forms[jj].xreplace(at).xreplace(params))
     D1 = code.values([h / 2 * (lq[i] + F[i]) - lv[i] for i in range(n)])
     D2 = code.values([h / 2 * (lq[i] + F[i]) + lv[i] for i in range(n)])
+    dq = [b_[i] - a_[i] for i in range(n)]
+    Abar = A.xreplace(at) if c else A
+    C = code.values([sum(Abar[r, i] * dq[i] for i in range(n)) for r in range(c)])
+    stores = [f"D1[{i}] = {code.code(D1[i])}\nD2[{i}] = {code.code(D2[i])}" for i in range(n)]
+    stores += [f"C[{r}] = {code.code(C[r])}" for r in range(c)]
+    # without `jac` (the next step's base, D2 L_d of the step just solved) the derivatives are not needed
+    code.line("\n".join(stores) + "\nif not jac:\n    return")
     JD = []
     for i in range(n):
         row = []
@@ -147,9 +154,6 @@ def _midpoint_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) ->
             lvv = sp.diff(Lv[i], v[j]).xreplace(at)
             row.append(code.value(h / 2 * (lqq / 2 + lqv / h) - (lvq / 2 + lvv / h)))
         JD.append(row)
-    dq = [b_[i] - a_[i] for i in range(n)]
-    Abar = A.xreplace(at) if c else A
-    C = code.values([sum(Abar[r, i] * dq[i] for i in range(n)) for r in range(c)])
     JC = [
         [
             code.value(Abar[r, j] + sum(sp.diff(A[r, i], q[j]).xreplace(at) * dq[i] for i in range(n)) / 2)
@@ -157,9 +161,7 @@ def _midpoint_disc(setup: Any, torque_forms: tuple, n_prm: int, params: dict) ->
         ]
         for r in range(c)
     ]
-    stores = [f"D1[{i}] = {code.code(D1[i])}\nD2[{i}] = {code.code(D2[i])}" for i in range(n)]
-    stores += [f"JD[{i}, {j}] = {code.code(JD[i][j])}" for i in range(n) for j in range(n)]
-    stores += [f"C[{r}] = {code.code(C[r])}" for r in range(c)]
+    stores = [f"JD[{i}, {j}] = {code.code(JD[i][j])}" for i in range(n) for j in range(n)]
     stores += [f"JC[{r}, {j}] = {code.code(JC[r][j])}" for r in range(c) for j in range(n)]
     code.line("\n".join(stores) or "pass")
     parts.append(_function("disc", "q0, q1, h, tm, prm, D1, D2, JD, C, JC, jac", code))
