@@ -13,7 +13,8 @@ from geomech import LeftInvariantSystem, RigidBody
 from geomech.errors import InputError, SingularityError, SymbolicError
 from geomech.integrators import SerretAndoyerAtlas
 from geomech.lie import so3
-from geomech.reduction import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
+from geomech.reduction import GeneralizedSerretAndoyer, SerretAndoyerChart, reduced_formulas, spatial_frame
+from geomech.symbolic.formula import parse_formula
 
 m1, m2, m3 = sp.symbols("m1 m2 m3", real=True)
 # Not a rigid body: a quartic term and a gyrostat-like linear term; the poles of every chart are NOT
@@ -89,6 +90,34 @@ def test_reduced_hamiltonian_of_the_free_body_is_eq_10():
     eq10 = (sp.sin(l) ** 2 / I1 + sp.cos(l) ** 2 / I2) * (G**2 - L**2) / 2 + L**2 / (2 * I3)
     eq10 = eq10.subs({I1: 3.0, I2: 2.0, I3: 1.25})
     assert sp.simplify(sp.expand_trig(expr - eq10)) == 0
+
+
+@pytest.mark.parametrize("I1", [3.0, -1e308, 1e-300])
+def test_reduced_formulas_agree_with_the_chain_rule_at_any_scale(rng, I1):
+    # the formulas are simplified with the parameters as symbols and the numbers put in after: a value at the
+    # end of the float range is no harder than 3 (simplifying with it in took 20 s: 300-digit integers in
+    # sympy's factorization); checked against the chain rule through grad H, by numbers alone
+    text = "m1**2/(2*I1) + m2**2/(2*I2) + m3**2/(2*I3) + k*m3**4 + c*m1*m3"
+    values = {"I1": I1, "I2": 2.0, "I3": 1.25, "k": 0.1, "c": 0.02}
+    expr = parse_formula(text, "H")
+    sa = GeneralizedSerretAndoyer(LeftInvariantSystem.from_expression(expr, values))
+    G = 1.3
+    y = np.stack([rng.uniform(-np.pi, np.pi, 20), rng.uniform(-0.95, 0.95, 20) * G], -1)
+    for axis in range(3):
+        h, l_dot, L_dot = reduced_formulas(expr, values, axis)
+        assert h.free_symbols <= {sp.Symbol("l", real=True), sp.Symbol("L", real=True), sp.Symbol("G", positive=True)}
+        f = sp.lambdify(["l", "L", "G"], [h, l_dot, L_dot])
+        got = np.array([f(a, b, G) for a, b in y], dtype=float)
+        scale = G**2 * (1 / 1.25 + 0.1 * G**2 + 1 / min(abs(I1), 2.0))
+        np.testing.assert_allclose(got[:, 0], sa.reduced_hamiltonian(y, G, axis), atol=1e-13 * scale)
+        np.testing.assert_allclose(got[:, 1:], sa.reduced_vector_field(y, G, axis), atol=1e-13 * scale)
+    # a name without a value stays a symbol, and giving it after is the same formula
+    part = reduced_formulas(expr, {k: v for k, v in values.items() if k != "k"}, 2)
+    k = next(x for x in part[0].free_symbols if x.name == "k")
+    full = reduced_formulas(expr, values, 2)
+    for a, b in zip(part, full):
+        d = sp.lambdify(["l", "L", "G"], a.subs(k, 0.1) - b)(y[:, 0], y[:, 1], G)
+        assert np.abs(d).max() < 1e-13 * 10
 
 
 def test_symbolic_and_chain_rule_reduced_fields_agree(rng):

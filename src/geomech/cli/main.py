@@ -144,8 +144,7 @@ def reduce_cmd(hamiltonian, params, axis, symbolic, as_json, as_latex) -> None:
     """
     import sympy as sp
 
-    from ..reduction import GeneralizedSerretAndoyer
-    from ..reduction.serret_andoyer import L_SYM, l_SYM
+    from ..reduction.serret_andoyer import reduced_formulas
     from ..symbolic.compile import M_SYMBOLS
     from ..systems import LeftInvariantSystem
     from ..systems._hyperregularity import HyperregularityReport
@@ -155,19 +154,13 @@ def reduce_cmd(hamiltonian, params, axis, symbolic, as_json, as_latex) -> None:
     free = sorted({s.name for s in expr.free_symbols} - {s.name for s in M_SYMBOLS} - set(values))
     if symbolic and free:
         # h_p = H o U_p with the given values substituted and the rest left as symbols; nothing numeric follows
-        from ..reduction.serret_andoyer import SerretAndoyerChart
-
         unknown = sorted(set(values) - {s.name for s in expr.free_symbols})
         if unknown:
             raise click.BadParameter(f"{unknown} do not appear in the Hamiltonian", param_hint="'--param'")
         system = None
-        given = {s: values[s.name] for s in expr.free_symbols if s.name in values}
-        U = dict(zip((s.name for s in M_SYMBOLS), SerretAndoyerChart(axis - 1).U_p))
-        h = sp.simplify(expr.subs(given).xreplace({s: U[s.name] for s in expr.free_symbols if s.name in U}))
     else:
         system = LeftInvariantSystem.from_expression(expr, values)
-        h = GeneralizedSerretAndoyer(system).h_p(axis - 1)
-    ldot, Ldot = sp.simplify(sp.diff(h, L_SYM)), sp.simplify(-sp.diff(h, l_SYM))
+    h, ldot, Ldot = reduced_formulas(expr, values, axis - 1)
     head: dict[str, Any] = {
         "reduced_hamiltonian": str(h),
         "hyperregularity": (

@@ -20,7 +20,7 @@ from .lagrange_dalembert import LagrangeDAlembert, lagrange_dalembert
 from .nonholonomic import NonholonomicReduction, bkmm_reduction, reduced_numeric
 from .quaternion_coordinates import QuaternionCoordinates
 from .reduced_numeric import ReducedNumeric
-from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, spatial_frame
+from .serret_andoyer import GeneralizedSerretAndoyer, SerretAndoyerChart, reduced_formulas, spatial_frame
 
 __all__ = [
     "CoadjointOrbit",
@@ -52,5 +52,6 @@ __all__ = [
     "reduced_hamiltonian",
     "andoyer_hamiltonian",
     "reduced_vector_field",
+    "reduced_formulas",
     "spatial_frame",
 ]

@@ -31,6 +31,7 @@ The formula for :math:`\\dot\\varphi` is the first two components of the body an
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,10 +43,11 @@ from ..errors import InputError, SingularityError
 from ..lie import euler as _euler
 from ..lie import so3 as _so3
 from ..symbolic.compile import M_SYMBOLS
+from ..symbolic.simplify import simplify_expr
 from ..systems.canonical import CanonicalSystem
 from ..systems.left_invariant import LeftInvariantSystem, as_left_invariant
 
-__all__ = ["SerretAndoyerChart", "GeneralizedSerretAndoyer", "spatial_frame"]
+__all__ = ["SerretAndoyerChart", "GeneralizedSerretAndoyer", "reduced_formulas", "spatial_frame"]
 
 #: The chart about body axis k uses m' = C_k^T m with C_k e3 = e_k; C_k permutes the axes cyclically
 #: (a rotation), so the Lie-Poisson structure, hence canonicity of (l, L), is unchanged.
@@ -138,6 +140,21 @@ class SerretAndoyerChart:
         )
 
 
+def reduced_formulas(
+    hamiltonian: sp.Expr, values: Mapping[str, float] | None = None, axis: int = 2
+) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+    """:math:`h_p = H\\circ U_p` (eq. 21) in the chart about ``axis`` and its canonical equations
+    :math:`\\dot l = \\partial h_p/\\partial L`, :math:`\\dot L = -\\partial h_p/\\partial l`, as sympy expressions
+    in ``l, L, G`` with ``values`` (by parameter name) substituted, the names without a value left as symbols,
+    each simplified by :func:`~geomech.symbolic.simplify.simplify_expr`.
+    """
+    names = {s.name: s for s in hamiltonian.free_symbols}
+    U = {names[m.name]: u for m, u in zip(M_SYMBOLS, SerretAndoyerChart(_axis(axis)).U_p) if m.name in names}
+    subs = {names[k]: sp.Float(v) for k, v in (values or {}).items() if k in names}
+    h = simplify_expr(hamiltonian.xreplace(U).xreplace(subs))
+    return h, simplify_expr(sp.diff(h, L_SYM)), simplify_expr(-sp.diff(h, l_SYM))
+
+
 def spatial_frame(p: Any) -> np.ndarray:
     """A rotation :math:`S` with :math:`S e_3 = p/|p|`: the smallest rotation taking :math:`e_3` to
     :math:`\\hat p` (a half turn about :math:`e_1` when :math:`\\hat p = -e_3`)."""
@@ -204,11 +221,12 @@ class GeneralizedSerretAndoyer:
     def h_p(self, axis: int = 2, *, simplify: bool = True) -> sp.Expr:
         """:math:`h_p(l, L)` as a sympy expression in ``l, L, G`` (needs a formula for H).
 
-        ``simplify=False`` skips sympy's simplification, which is slow and, with float parameters,
-        works in floating point; numerical use needs no simplified form.
+        Simplified by :func:`reduced_formulas`; ``simplify=False`` skips the simplification (numerical use needs
+        no simplified form).
         """
-        h = self._h_p_with_parameters(axis).subs(self._parameter_subs())
-        return sp.simplify(h) if simplify else h
+        if simplify:
+            return reduced_formulas(self._h_p_with_parameters(axis), self.system.parameters, axis)[0]
+        return self._h_p_with_parameters(axis).subs(self._parameter_subs())
 
     def _parameter_subs(self) -> dict[sp.Symbol, float]:
         return {sp.Symbol(k, real=True): v for k, v in self.system.parameters.items()}

@@ -74,7 +74,8 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     expression equal to zero is recognised exactly; even powers of cosines are eliminated) and divided by every
     factor of the denominator it is a multiple of, also where that holds only on the circles
     (:func:`_divide_on_circles`: the spurious :math:`\cos\theta` or :math:`\sin(\theta + \phi)` of a right inverse);
-    a short numerator is factored. Expressions outside this class fall back to ``sympy.trigsimp``.
+    a short numerator is factored. Expressions outside this class fall back to ``sympy.trigsimp`` (with floats
+    as symbols).
     """
     expr = sp.sympify(expr)
     if not expr.free_symbols:
@@ -98,7 +99,7 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
         back[S], back[C] = sp.sin(u), sp.cos(u)
     e = e.xreplace(fwd)
     if e.atoms(sp.Function) or any(not p.exp.is_Integer for p in e.atoms(sp.Pow)):
-        return sp.trigsimp(expr)
+        return _trigsimp(expr)
     # Work in a sparse polynomial ring (much faster than expanding sympy expressions), reduced modulo
     # S^2 + C^2 - 1 always to the same normal form (cosines to the power 0 or 1), so that an expression equal to
     # zero is recognised and a denominator met in several derived objects is the same polynomial everywhere.
@@ -137,6 +138,16 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     if den.could_extract_minus_sign():
         num, den = -num, -den
     return num / den.xreplace(back)
+
+
+def _trigsimp(expr: sp.Expr) -> sp.Expr:
+    """``sympy.trigsimp`` with each Float a symbol: trigsimp factors, and factoring turns a float into the exact
+    rational of its binary value (1e308 into an integer of 309 digits, 12 s in sympy's Wang algorithm for a
+    Serret-Andoyer reduction with I1 = -1e308), where as a symbol it costs nothing; its value is put back after."""
+    floats = {f: sp.Dummy() for f in expr.atoms(sp.Float)}
+    if not floats:
+        return sp.trigsimp(expr)
+    return sp.trigsimp(expr.xreplace(floats)).xreplace({d: f for f, d in floats.items()})
 
 
 @lru_cache(maxsize=4096)
