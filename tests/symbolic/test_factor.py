@@ -188,3 +188,52 @@ def test_expand_terms_of_a_polynomial_in_sines_and_cosines_is_sympys_expand():
         assert expand_terms(e) == sp.expand(e)
     for other in (x / (1 + y), 0.5 * (x + y) ** 2, sp.sin(x * (1 + y)) * (a + 1) ** 2, sp.exp(x) * (x + 1)):
         assert expand_terms(other) == sp.expand(other)
+
+
+def test_expand_terms_of_a_rational_function_is_sympys_sum_of_terms_or_shorter():
+    """With denominators (polynomials, powers of atoms), each term is a monomial over the expanded product of
+    the denominators it carries, as sympy's expand writes it: the same value always, the same text where sympy's
+    result does not depend on the order it builds products in, never more operations."""
+    from geomech.symbolic import expand_terms
+
+    x, y, a, b, c = sp.symbols("x y a b c")
+    rng = random.Random(11)
+    atoms = [x, y, a, b, sp.sin(x), sp.cos(y), sp.sin(x + y), sp.Rational(3, 7), sp.Integer(-2)]
+    atoms += [1 / (a + b), 1 / (2 * a + 2 * c), 1 / a, (a + b) ** -2, 1 / (x**2 + 1)]
+    same = 0
+    for _ in range(300):
+        e = sp.Integer(0)
+        for _ in range(rng.randint(1, 4)):
+            term = sp.Integer(1)
+            for _ in range(rng.randint(1, 3)):
+                term *= (rng.choice(atoms) + rng.choice(atoms)) ** rng.choice([1, 1, 2, 3, -1])
+            e += term
+        got, want = expand_terms(e), sp.expand(e)
+        same += got == want
+        assert sp.count_ops(got) <= sp.count_ops(want)
+        pt = {s: rng.uniform(0.5, 1.5) for s in (x, y, a, b, c)}
+        assert abs(float(got.subs(pt)) - float(want.subs(pt))) <= 1e-12 * max(1.0, abs(float(want.subs(pt))))
+    assert same >= 290
+    # the mechanics' case: denominators in the parameters (a centre of mass), integer and rational coefficients
+    m1, m2, m3 = sp.symbols("m1 m2 m3", positive=True)
+    e = x * (y + sp.sin(x)) ** 2 * m1 / (m1 + m2 + m3) + sp.Rational(3, 2) * y * (x + m2) / (m1 + m2) ** 2
+    assert expand_terms(e) == sp.expand(e)
+    assert len(sp.Add.make_args(expand_terms(e))) == 5
+    # a numerator that is a multiple of its denominator: sympy's expand decides
+    e = (x + 1 / (a + b)) * (a + b)
+    assert expand_terms(e) == sp.expand(e)
+
+
+def test_simplify_expr_reads_sines_of_any_argument_in_its_ring():
+    # a sine of a root or of another function is a generator as it is (its argument is not walked again); a
+    # function outside the sines and cosines sends the expression to trigsimp; a tangent becomes sin/cos
+    from geomech.symbolic import simplify_expr
+
+    x, y = sp.symbols("x y", real=True)
+    u = sp.exp(x) * sp.sqrt(1 + y**2)
+    assert simplify_expr(sp.sin(u) ** 2 + sp.cos(u) ** 2 - 1) == 0
+    assert simplify_expr((sp.sin(u) ** 2 - 1) / (sp.cos(u) * y)) == -sp.cos(u) / y
+    assert simplify_expr(sp.exp(x) * (sp.sin(x) ** 2 + sp.cos(x) ** 2)) == sp.exp(x)
+    assert simplify_expr(sp.tan(x) * sp.cos(x) - sp.sin(x)) == 0
+    assert simplify_expr(sp.sin(x + y) - sp.sin(x) * sp.cos(y) - sp.cos(x) * sp.sin(y)) == 0
+    assert simplify_expr(sp.Integer(3) + sp.sin(2) ** 2 + sp.cos(2) ** 2) == 4

@@ -56,8 +56,14 @@ def _d(e: sp.Basic, x: sp.Symbol) -> Any:
     elif e.is_Mul:
         # Leibniz's rule as Mul._eval_derivative_n_times applies it for a first derivative (the route diff takes):
         # each factor differentiated in turn, the product made by Mul of all the factors at once
+        # (the factors free of x skipped: a Mul with a zero among its factors is built before it is zero)
         args = e.args
-        out = sp.Add(*[sp.Mul(*(args[:i] + (_d(args[i], x),) + args[i + 1 :])) for i in range(len(args))])
+        terms = []
+        for i, a in enumerate(args):
+            da = _d(a, x)
+            if da is not sp.S.Zero:
+                terms.append(sp.Mul(*(args[:i] + (da,) + args[i + 1 :])))
+        out = sp.Add(*terms)
     elif e.is_Pow:
         out = e * (_d(e.exp, x) * sp.log(e.base) + _d(e.base, x) * e.exp / e.base)
     elif type(e) in _TRIG:

@@ -22,7 +22,7 @@ from ..lie.group import LieGroup
 from ..lie.groups import named_group
 from .cache import DISK_CACHE, MISSING
 from .compile import compile_vector
-from .simplify import simplify_expr, vanishes
+from .simplify import expand_terms, simplify_expr, vanishes
 
 __all__ = ["GroupChart", "group_chart"]
 
@@ -138,7 +138,7 @@ class GroupChart:
         """:math:`[\\xi, \\eta]^a = C^a_{bd}\\,\\xi^b \\eta^d`."""
         C, k = self.structure_constants, self.dim
         return sp.Matrix(
-            [sp.expand(sum(C[a][b][d] * xi[b] * eta[d] for b in range(k) for d in range(k))) for a in range(k)]
+            [expand_terms(sum(C[a][b][d] * xi[b] * eta[d] for b in range(k) for d in range(k))) for a in range(k)]
         )
 
     # -- the chart --------------------------------------------------------------------------------------

@@ -78,16 +78,19 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     as symbols).
     """
     expr = sp.sympify(expr)
-    if not expr.free_symbols:
+    scan = _Scan(expr)
+    if not scan.any_symbol:
         return sp.simplify(expr)
     # tan -> sin/cos and sums and multiples of angles expanded, each a pass that rebuilds the whole tree: made only
     # where they have something to do (in the derivations, sines and cosines of the coordinates, most of the time)
-    e = TR2(expr) if expr.has(sp.tan, sp.cot) else expr
-    trig = e.atoms(sp.sin, sp.cos)
-    if any(not (t.args[0].is_Symbol or t.args[0].is_Number) for t in trig):
+    e = expr
+    if scan.tan:
+        e = TR2(e)
+        scan = _Scan(e)
+    if scan.compound:
         e = sp.expand_trig(e)
-        trig = e.atoms(sp.sin, sp.cos)
-    args = sorted({t.args[0] for t in trig}, key=sp.default_sort_key)
+        scan = _Scan(e, expanded=True)
+    args = sorted({t.args[0] for t in scan.trig}, key=sp.default_sort_key)
     pairs, fwd, back = [], {}, {}
     # named after the angle (not Dummy): the same polynomial is then the same expression in every call, and the
     # factorizations of denominators are shared (_FACTORS); Dummy if two angles print alike
@@ -97,17 +100,17 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
         pairs.append((S, C))
         fwd[sp.sin(u)], fwd[sp.cos(u)] = S, C
         back[S], back[C] = sp.sin(u), sp.cos(u)
-    e = e.xreplace(fwd)
-    if e.atoms(sp.Function) or any(not p.exp.is_Integer for p in e.atoms(sp.Pow)):
+    if scan.other:  # another function, or a power that is not an integer's
         return _trigsimp(expr)
     # Work in a sparse polynomial ring (much faster than expanding sympy expressions), reduced modulo
     # S^2 + C^2 - 1 always to the same normal form (cosines to the power 0 or 1), so that an expression equal to
-    # zero is recognised and a denominator met in several derived objects is the same polynomial everywhere.
-    others = sorted(e.free_symbols - {x for pr in pairs for x in pr}, key=sp.default_sort_key)
+    # zero is recognised and a denominator met in several derived objects is the same polynomial everywhere. The
+    # sines and cosines become the ring's generators as they are met (no substituted copy of the tree is made).
+    others = sorted(scan.symbols, key=sp.default_sort_key)
     gens = tuple(C for _, C in pairs) + tuple(S for S, _ in pairs) + tuple(others)
     try:
         R = _ring(gens)
-        n_, den = _Fractions(R, len(pairs)).convert(e)
+        n_, den = _Fractions(R, len(pairs), fwd).convert(e)
     except (
         ValueError,
         TypeError,
@@ -116,7 +119,7 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
         sp.CoercionFailed,
         _Unsupported,
     ):
-        return _simplify_expr_slow(e, pairs, back)
+        return _simplify_expr_slow(e.xreplace(fwd), pairs, back)
     if not n_:
         return sp.Integer(0)
     n_, den = _cancel_factors(n_, den, R, len(pairs))
@@ -138,6 +141,47 @@ def simplify_expr(expr: sp.Expr) -> sp.Expr:
     if den.could_extract_minus_sign():
         num, den = -num, -den
     return num / den.xreplace(back)
+
+
+class _Scan:
+    """One walk of an expression, each distinct subexpression once (sympy's ``atoms``, ``has`` and ``xreplace``
+    walk a shared subtree again wherever it occurs: the derived matrices share most of theirs): its sines and
+    cosines, the symbols met outside their arguments, and what :func:`simplify_expr` must do first or cannot do
+    in its ring (a tangent, a sine of a sum before ``expanded``, another function or a root)."""
+
+    def __init__(self, expr: sp.Expr, *, expanded: bool = False):
+        self.trig: set = set()
+        self.symbols: set = set()
+        self.any_symbol = self.tan = self.compound = self.other = False
+        seen: set = set()
+        stack = [(expr, False)]
+        while stack:
+            item = stack.pop()
+            if item in seen:
+                continue
+            seen.add(item)
+            x, inside = item
+            if x.is_Symbol:
+                self.any_symbol = True
+                if not inside:
+                    self.symbols.add(x)
+                continue
+            if x.is_Atom:
+                continue
+            t = type(x)
+            if t is sp.sin or t is sp.cos:
+                a = x.args[0]
+                if not inside:
+                    self.trig.add(x)
+                    if not (expanded or a.is_Symbol or a.is_Number):
+                        self.compound = True
+                stack.append((a, True))
+                continue
+            if t is sp.tan or t is sp.cot:
+                self.tan = True
+            elif not inside and (x.is_Function or (x.is_Pow and not x.exp.is_Integer)):
+                self.other = True
+            stack.extend((a, inside) for a in x.args)
 
 
 def _trigsimp(expr: sp.Expr) -> sp.Expr:
@@ -235,9 +279,11 @@ class _Fractions:
     modulo the circle relations of the first ``npairs`` cosines (:func:`circle_rem`) after every product.
     """
 
-    def __init__(self, R: Any, npairs: int):
+    def __init__(self, R: Any, npairs: int, atoms: dict | None = None):
         self.R, self.npairs = R, npairs
         self.gen = {g.as_expr(): g for g in R.gens}
+        # sines and cosines read as the generators named by ``atoms`` (sin(u) -> S_u, cos(u) -> C_u)
+        self.gen.update({a: self.gen[g] for a, g in (atoms or {}).items()})
         self.memo: dict = {}
         self.factors: dict = {}
 
@@ -273,7 +319,9 @@ class _Fractions:
             pass
         R = self.R
         out: tuple[Any, dict]
-        if e.is_Symbol:
+        if e.is_Symbol or e.is_Function:
+            if e not in self.gen:
+                raise _Unsupported(type(e).__name__)
             out = (self.gen[e], {})
         elif e.is_Rational:
             out = (R(R.domain.convert(e)), {})
@@ -459,10 +507,15 @@ def _simplify_expr_slow(e: sp.Expr, pairs: list, back: dict) -> sp.Expr:
 
 
 def _expand_in_ring(e: sp.Expr) -> sp.Expr | None:
-    """``sympy.expand(e)`` of a polynomial with rational coefficients in symbols and in sines and cosines of
-    expanded arguments, multiplied out in a sparse polynomial ring whose generators are those atoms (the same sum
-    of terms; sympy's expand of a Lagrange-d'Alembert system took a tenth of the three-link chain's derivation);
-    None for anything else (a denominator, a root, a Float, another function)."""
+    """``sympy.expand(e)`` of a rational function with rational coefficients in symbols and in sines and cosines
+    of expanded arguments whose denominators are products of powers of polynomials, multiplied out in a sparse
+    polynomial ring whose generators are those atoms (the same sum of terms; sympy's expand of a
+    Lagrange-d'Alembert system took a tenth of the three-link chain's derivation). As sympy's expand, each term
+    of the result is a monomial over the expanded product of the denominators it carries (``x (y + 1)/(a + b)``
+    is ``x y/(a + b) + x/(a + b)``, ``x/((a + b) c)`` is ``x/(a c + b c)``). None for anything else (a root, a
+    Float, another function, a denominator within a denominator, a term over a polynomial and a power of an atom
+    at once, a numerator that is a multiple of its denominator's polynomial: there sympy's result depends on the
+    order in which it builds the products, and sympy's expand is used)."""
     atoms: set = set()
     stack, seen = [e], set()
     while stack:
@@ -481,7 +534,7 @@ def _expand_in_ring(e: sp.Expr) -> sp.Expr | None:
             continue
         elif x.is_Add or x.is_Mul:
             stack.extend(x.args)
-        elif x.is_Pow and x.exp.is_Integer and x.exp > 0:
+        elif x.is_Pow and x.exp.is_Integer and x.exp != 0:
             stack.append(x.base)
         else:
             return None
@@ -491,30 +544,98 @@ def _expand_in_ring(e: sp.Expr) -> sp.Expr | None:
     R = _ring(tuple(gens))
     image = dict(zip(gens, R.gens))
     memo: dict = {}
+    # an expression is {denominator: numerator}, the denominator a sorted tuple of (base, exponent) of sympy
+    # expressions, each base a polynomial (its own key the empty tuple), () for none
+    one: tuple = ()
 
-    def convert(x: sp.Expr) -> Any:
+    def times(d1: tuple, d2: tuple) -> tuple:
+        if not d1 or not d2:
+            return d1 or d2
+        out = dict(d1)
+        for base, k in d2:
+            out[base] = out.get(base, 0) + k
+        return tuple(sorted(out.items(), key=lambda bk: sp.default_sort_key(bk[0])))
+
+    def convert(x: sp.Expr) -> dict:
         try:
             return memo[x]
         except KeyError:
             pass
+        out: dict
         if x in image:
-            out = image[x]
+            out = {one: image[x]}
         elif x.is_Rational:
-            out = R(R.domain.convert(x))
+            out = {one: R(R.domain.convert(x))}
         elif x.is_Add:
-            out = R.zero
+            out = {}
             for a in x.args:
-                out += convert(a)
+                for d, n in convert(a).items():
+                    out[d] = out[d] + n if d in out else n
         elif x.is_Mul:
-            out = R.one
+            out = {one: R.one}
             for a in x.args:
-                out *= convert(a)
+                new: dict = {}
+                for d1, n1 in out.items():
+                    for d2, n2 in convert(a).items():
+                        d = times(d1, d2)
+                        new[d] = new[d] + n1 * n2 if d in new else n1 * n2
+                out = new
+        elif x.exp > 0:
+            out = {one: R.one}
+            base = convert(x.base)
+            for _ in range(int(x.exp)):
+                new = {}
+                for d1, n1 in out.items():
+                    for d2, n2 in base.items():
+                        d = times(d1, d2)
+                        new[d] = new[d] + n1 * n2 if d in new else n1 * n2
+                out = new
         else:
-            out = convert(x.base) ** int(x.exp)
+            base = convert(x.base)
+            if set(base) != {one}:
+                raise _Unsupported("a denominator within a denominator")
+            out = {((x.base, -int(x.exp)),): R.one}
         memo[x] = out
         return out
 
-    return convert(e).as_expr(*gens)
+    try:
+        parts = convert(e)
+    except _Unsupported:
+        return None
+    gindex = {g: i for i, g in enumerate(gens)}
+    terms = []
+    for d, n in parts.items():
+        if not n:
+            continue
+        if not d:
+            terms.append(n.as_expr(*gens))
+            continue
+        # powers of atoms in the denominator cancel against the numerator's monomials (sympy's Mul combines
+        # x * x**-2 as it is built); the polynomial bases stay whole, and where the numerator is a multiple of one
+        # (sympy may have cancelled it as it built a product) sympy's own expand decides
+        atom_k = [0] * len(gens)
+        den = R.one
+        for base, k in d:
+            if base in gindex:
+                atom_k[gindex[base]] += k
+            else:
+                b = convert(base)[one]
+                if exact_quotient(n, b) is not None:
+                    return None
+                den *= b**k
+        if den != 1 and any(atom_k):  # both: where sympy cancels the atoms depends on the order it builds in
+            return None
+        dens: dict = {}
+        for mon, c in n.iterterms():
+            kept = tuple(max(m - k, 0) for m, k in zip(mon, atom_k))
+            rest = tuple(max(k - m, 0) for m, k in zip(mon, atom_k))
+            # the coefficient's denominator joins the term's denominator, expanded with it (9/(7 (b + y)) is
+            # 9/(7 b + 7 y) in sympy's expand)
+            key = (rest, c.denominator)
+            if key not in dens:
+                dens[key] = sp.Pow((den * R({rest: R.domain(int(c.denominator))})).as_expr(*gens), -1)
+            terms.append(R({kept: R.domain(int(c.numerator))}).as_expr(*gens) * dens[key])
+    return sp.Add(*terms)
 
 
 def expand_terms(e: Any) -> Any:

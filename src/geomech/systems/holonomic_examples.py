@@ -13,6 +13,7 @@ from .. import _validate as V
 from ..errors import InputError, ShapeError, SingularityError
 from ..lie.groups import SO2
 from ..symbolic.compile import bind_expression
+from ..symbolic.simplify import expand_terms
 from .holonomic import HolonomicSystem
 
 
@@ -248,7 +249,12 @@ def three_link_chain(
         | {f"J{i + 1}": float(Js[i]) for i in range(3)}
     )
     return HolonomicSystem.from_lagrangian(
-        sp.expand(T), "SE2", [a1, a2], parameters=values, shape_angles=(0, 1), name=f"three-link chain ({origin} frame)"
+        expand_terms(T),
+        "SE2",
+        [a1, a2],
+        parameters=values,
+        shape_angles=(0, 1),
+        name=f"three-link chain ({origin} frame)",
     )
 
 

@@ -38,7 +38,7 @@ from ..symbolic._derivative import derivative
 from ..symbolic.cache import DISK_CACHE, MISSING
 from ..symbolic.charts import GroupChart, group_chart
 from ..symbolic.formula import parse_formula
-from ..symbolic.simplify import quadratic_coefficients, simplify_expr
+from ..symbolic.simplify import expand_terms, quadratic_coefficients, simplify_expr
 from ._invariance import InvarianceReport, invariance_report
 
 __all__ = [
@@ -461,7 +461,7 @@ class NonholonomicSystem:
     @cached_property
     def energy(self) -> sp.Expr:
         r""":math:`E = \dot q\cdot\partial L/\partial\dot q - L`."""
-        return sp.expand(sum(v * derivative(self.lagrangian, v) for v in self.qdot) - self.lagrangian)
+        return expand_terms(sum(v * derivative(self.lagrangian, v) for v in self.qdot) - self.lagrangian)
 
     @cached_property
     def body_substitution(self) -> dict:
@@ -483,7 +483,7 @@ class NonholonomicSystem:
     @cached_property
     def body_lagrangian(self) -> sp.Expr:
         r"""The reduced Lagrangian :math:`l(r, \xi, \dot r) = L(e, r, \xi, \dot r)` (G-invariance assumed)."""
-        return sp.expand(self.lagrangian_in_body_velocity.xreplace(self.reference_substitution))
+        return expand_terms(self.lagrangian_in_body_velocity.xreplace(self.reference_substitution))
 
     @cached_property
     def body_constraints(self) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:

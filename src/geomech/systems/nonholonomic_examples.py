@@ -28,7 +28,7 @@ from typing import Any
 import sympy as sp
 
 from ..lie.groups import SE2, SO3
-from ..symbolic.simplify import simplify_expr
+from ..symbolic.simplify import expand_terms, simplify_expr
 from .nonholonomic import NonholonomicSystem
 
 __all__ = [
@@ -255,7 +255,7 @@ def _sleigh() -> NonholonomicSystem:
     xd, yd, thd = _v("x", "y", "theta")
     L = m / 2 * ((xd - a * sp.sin(th) * thd) ** 2 + (yd + a * sp.cos(th) * thd) ** 2) + I / 2 * thd**2
     return NonholonomicSystem.from_lagrangian(
-        sp.expand(L),
+        expand_terms(L),
         SE2(x, y, th),
         (),
         [_no_slip(xd, yd, th)],
@@ -320,7 +320,7 @@ def _geared(scaled: bool) -> NonholonomicSystem:
     )
     factor = (2 + sp.sin(psi)) if scaled else 1
     return NonholonomicSystem.from_lagrangian(
-        sp.expand(L),
+        expand_terms(L),
         SE2(x, y, th),
         (psi,),
         [factor * (thd - k * psid)],
@@ -396,7 +396,7 @@ def _ball() -> NonholonomicSystem:
     # the contact point, a distance r below the centre, does not slip: x' + Omega x (-r e3) = 0
     cons = [xd - r * Om[1], yd + r * Om[0]]
     return NonholonomicSystem.from_lagrangian(
-        sp.expand(L),
+        expand_terms(L),
         SE2(x, y, ph),
         (th, ps),
         cons,
