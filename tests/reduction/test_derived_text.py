@@ -34,3 +34,39 @@ def test_a_reductions_text_is_strs():
             assert printed[name] == [[str(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
         elif isinstance(value, sp.Basic):
             assert printed[name] == str(value)
+
+
+def test_sums_print_in_sympys_order_of_terms():
+    """The printer orders a sum's terms itself (remembering each factor and base across sums): the order of
+    sympy's ``as_ordered_terms``, for sums of monomials in symbols, functions, roots, numbers such as sqrt(2) and
+    pi, complex and float coefficients, non-commutative symbols, and sympy's case of 1 - x."""
+    a, b = sp.symbols("a b", commutative=False)
+    rng = random.Random(7)
+    atoms = [
+        x,
+        y,
+        z,
+        sp.sin(x),
+        sp.cos(y + z),
+        sp.sqrt(2),
+        sp.pi,
+        sp.I,
+        sp.Float(0.25),
+        sp.Rational(-3, 7),
+        sp.sqrt(1 + x**2),
+        1 / (1 + y),
+        sp.exp(z),
+        a,
+        b,
+        sp.Integer(2),
+    ]
+    text = TextPrinter().text
+    exprs = [1 - x, 2 - 3 * sp.pi, sp.pi - 2 * x, -1 + x, 1 - x * y, 3 - 2 * x, -x + sp.sqrt(2)]
+    for _ in range(300):
+        e = sp.Integer(0)
+        for _ in range(rng.randint(1, 6)):
+            e += sp.Mul(*[rng.choice(atoms) ** rng.choice([1, 1, 2, -1]) for _ in range(rng.randint(1, 3))])
+        exprs.append(e)
+    for e in exprs:
+        assert text(e) == str(e)
+        assert text(sp.Matrix([[e, e + x]])[0, 1]) == str(e + x)

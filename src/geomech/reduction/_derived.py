@@ -36,6 +36,25 @@ class TextPrinter(StrPrinter):
     def __init__(self) -> None:
         super().__init__({"order": None})
         self._memo: dict[sp.Basic, str] = {}
+        self._factors: dict[sp.Basic, tuple] = {}
+        self._keys: dict[sp.Basic, Any] = {}
+
+    def _as_ordered_terms(self, expr: Any, order: Any = None) -> list:
+        """``expr.as_ordered_terms()`` (sympy's order of a sum's terms: by their monomials in the sum's bases,
+        sorted), with what it finds of each factor and each base's sort key remembered across the sums: they
+        recur in thousands of sums, and sympy's ordering was most of a derivation's printing."""
+        if order is not None or self.order is not None or not expr.is_Add:
+            return super()._as_ordered_terms(expr, order=order)
+        args = expr.args
+        if len(args) == 2:  # sympy's special case: a positive number first, before minus a product
+            number = [a for a in args if isinstance(a, (sp.Number, sp.NumberSymbol))]
+            if len(number) == 1:
+                other = args[1] if args[0] is number[0] else args[0]
+                if isinstance(other, sp.Mul):
+                    m = sorted(sp.Mul.make_args(other), key=lambda x: not isinstance(x, (sp.Number, sp.NumberSymbol)))
+                    if len(m) == 2 and isinstance(m[0], sp.Number) and number[0].is_positive and m[0].is_negative:
+                        return [number[0], other]
+        return _ordered_terms(args, self._factors, self._keys)
 
     def _print(self, expr: Any, **kwargs: Any) -> str:
         if kwargs or self._print_level < 1 or not isinstance(expr, sp.Basic):
@@ -50,6 +69,56 @@ class TextPrinter(StrPrinter):
         """``str(expr)``."""
         self._print_level = 0
         return self.doprint(expr)
+
+
+def _ordered_terms(args: tuple, factors: dict, keys: dict) -> list:
+    """The terms ``args`` of a sum in the order of sympy's ``Expr.as_ordered_terms`` with its default order
+    (lex in the bases sorted by ``default_sort_key``, then the non-commutative parts, then the complex coefficient),
+    stable as sympy's sort; ``factors`` and ``keys`` remember each factor's part and each base's key."""
+    from sympy.core.exprtools import decompose_power
+
+    rows, bases = [], set()
+    for term in args:
+        c, rest = term.as_coeff_Mul()
+        coeff = complex(float(c)) if c.is_Rational else complex(c)
+        cpart: dict = {}
+        nc: list = []
+        if rest is not sp.S.One:
+            for f in sp.Mul.make_args(rest):
+                try:
+                    kind, value = factors[f]
+                except KeyError:
+                    kind, value = None, None
+                    if f.is_number:
+                        try:
+                            kind, value = "number", complex(f)
+                        except (TypeError, ValueError):
+                            pass
+                    if kind is None:
+                        kind, value = ("power", decompose_power(f)) if f.is_commutative else ("nc", f)
+                    factors[f] = kind, value
+                if kind == "number":
+                    coeff *= value
+                elif kind == "power":
+                    cpart[value[0]] = value[1]
+                    bases.add(value[0])
+                else:
+                    nc.append(value)
+        rows.append((term, coeff, cpart, tuple(nc)))
+    for b in bases:
+        if b not in keys:
+            keys[b] = sp.default_sort_key(b)
+    index = {b: i for i, b in enumerate(sorted(bases, key=keys.__getitem__))}
+
+    def key(row: tuple) -> tuple:
+        _, coeff, cpart, nc = row
+        monom = [0] * len(index)
+        for b, e in cpart.items():
+            monom[index[b]] = e
+        re, im = coeff.real, coeff.imag
+        return tuple(-e for e in monom), tuple(e.sort_key() for e in nc), ((bool(im), im), (re, im))
+
+    return [row[0] for row in sorted(rows, key=key)]
 
 
 def _as_text(value: Any, text: Any = str) -> Any:
