@@ -237,3 +237,33 @@ def test_simplify_expr_reads_sines_of_any_argument_in_its_ring():
     assert simplify_expr(sp.tan(x) * sp.cos(x) - sp.sin(x)) == 0
     assert simplify_expr(sp.sin(x + y) - sp.sin(x) * sp.cos(y) - sp.cos(x) * sp.sin(y)) == 0
     assert simplify_expr(sp.Integer(3) + sp.sin(2) ** 2 + sp.cos(2) ** 2) == 4
+
+
+def test_the_test_point_never_rejects_a_multiple_on_the_circles_and_rejects_the_rest():
+    # num = q f + h (S1^2 + C1^2 - 1) + k (S2^2 + C2^2 - 1) is a multiple of f on the circles, however q, h, k are
+    # drawn; the point's test must never say otherwise (it would change a simplification), and the division by the
+    # norm must agree with it; one term more and both say no
+    from geomech.symbolic import simplify as S
+
+    C1, C2, S1, S2, m, k = sp.symbols("C1 C2 S1 S2 m k")
+    R = S._ring((C1, C2, S1, S2, m, k))
+    C1, C2, S1, S2, m, k = R.gens
+    rng = random.Random(2)
+    monomials = [R.one, C1, C2, S1, S2, m, k, C1 * S2, m * k, m**2, C2 * S1 * m]
+    rejected = 0
+    for _ in range(40):
+        f = sum(rng.randint(-3, 3) * rng.choice(monomials) for _ in range(4)) + m * (1 + C1 * S2)
+        q = sum(rng.randint(-3, 3) * rng.choice(monomials) * rng.choice(monomials) for _ in range(5))
+        h, g = (sum(rng.randint(-2, 2) * rng.choice(monomials) for _ in range(3)) for _ in range(2))
+        num = q * f + h * (S1**2 + C1**2 - 1) + g * (S2**2 + C2**2 - 1)
+        if not num:
+            continue
+        top = S.circle_rem(num, 2)
+        assert not S._not_a_multiple_at_a_point(S._to_flint(top), S._to_flint(f), 2)
+        quotient = S._divide_on_circles(top, f, R, 2)
+        assert quotient is not None and S.circle_rem(quotient * f - top, 2) == 0
+        off = S.circle_rem(top + k**3 * S1, 2)
+        if S._not_a_multiple_at_a_point(S._to_flint(off), S._to_flint(f), 2):
+            rejected += 1
+            assert S._divide_on_circles(off, f, R, 2) is None
+    assert rejected >= 30

@@ -421,7 +421,9 @@ def _divide_on_circles_flint(num: Any, f: Any, npairs: int) -> Any:
             p = divmod(p, r)[1]
         return p
 
-    norm = _to_flint(f)
+    norm, top = _to_flint(f), _to_flint(num)
+    if _not_a_multiple_at_a_point(top, norm, npairs):
+        return None
     conj = norm**0
     for i in range(npairs):
         if norm.degrees()[i] > 0:
@@ -430,10 +432,55 @@ def _divide_on_circles_flint(num: Any, f: Any, npairs: int) -> Any:
             if len(norm) > _CIRCLE_MAX_NORM:
                 return None
     try:
-        q = rem(_to_flint(num) * conj) / norm
+        q = rem(top * conj) / norm
     except DomainError:  # not a multiple on the circles
         return None
     return _from_flint(q, f.ring)
+
+
+def _not_a_multiple_at_a_point(num: Any, f: Any, npairs: int) -> bool:
+    r"""True where ``f`` surely does not divide ``num`` on the circles (FLINT polynomials of :func:`_fmpq_context`):
+    if :math:`\mathrm{num} = q f` modulo the circles, then at a point of the circles (rational:
+    :math:`S = 2t/(1 + t^2)`, :math:`C = (1 - t^2)/(1 + t^2)`) with every other generator a number but one, ``v``,
+    :math:`\mathrm{num}(v) = q(v) f(v)` exactly, so a nonzero remainder of the division of one polynomial in ``v``
+    by the other proves that the division on the circles fails, for the cost of two substitutions (most divisions
+    tried fail, and the test by the norm multiplies the numerator by the conjugates and reduces it). False where
+    it cannot tell: no generator outside the angles in ``f``, or ``f(v)`` a number at the point."""
+    n = num.context().nvars()
+    degrees = f.degrees()
+    free = [j for j in range(2 * npairs, n) if degrees[j] > 0]
+    if not free:
+        return False
+    v = min(free, key=lambda j: degrees[j])
+    flint = _flint()
+    point: dict = {}
+    for i in range(n):
+        if i == v or (npairs <= i < 2 * npairs):
+            continue
+        if i < npairs:  # a point of the circle of angle i, its sine and cosine together
+            t = flint.fmpq(_POINT[i % len(_POINT)], 7)
+            point[f"x{i}"] = (1 - t**2) / (1 + t**2)
+            point[f"x{npairs + i}"] = 2 * t / (1 + t**2)
+        else:
+            point[f"x{i}"] = flint.fmpq(_POINT[i % len(_POINT)], 5)
+    fv, nv = (_univariate(p.subs(point), v) for p in (f, num))
+    if fv.degree() < 1:
+        return False
+    return bool(divmod(nv, fv)[1])
+
+
+#: Numerators of the test point's coordinates (no pattern among them that a mechanical formula would share).
+_POINT = (3, 11, 5, 17, 2, 13, 19, 4, 23, 9, 29, 6, 31, 8)
+
+
+def _univariate(p: Any, v: int) -> Any:
+    """A FLINT polynomial in one generator (index ``v``; the others substituted) as an ``fmpq_poly``."""
+    coeffs: dict[int, Any] = {}
+    for mon, c in zip(p.monoms(), p.coeffs()):
+        coeffs[mon[v]] = c
+    if not coeffs:
+        return _flint().fmpq_poly([])
+    return _flint().fmpq_poly([coeffs.get(k, 0) for k in range(max(coeffs) + 1)])
 
 
 def circle_rem(p: Any, npairs: int) -> Any:
