@@ -267,3 +267,30 @@ def test_the_test_point_never_rejects_a_multiple_on_the_circles_and_rejects_the_
             rejected += 1
             assert S._divide_on_circles(off, f, R, 2) is None
     assert rejected >= 30
+
+
+def test_a_polynomial_as_an_expression_is_sympys_own():
+    # the same arguments in the same order (srepr), for polynomials in symbols, sines and cosines with rational
+    # coefficients, constants, one term, zero; other symbols (a product, a root) by sympy's as_expr
+    from geomech.symbolic.simplify import _ring, as_expr
+
+    x, y, a, u = sp.symbols("x y a u")
+    R = _ring((x, y, a, u))
+    X, Y, A, U = R.gens
+    rng = random.Random(4)
+    atoms = [x, y, sp.sin(u), sp.cos(u)]
+    for _ in range(200):
+        p = R.zero
+        for _ in range(rng.randint(0, 30)):
+            p += (
+                sp.QQ(rng.randint(-9, 9), rng.randint(1, 4))
+                * X ** rng.randint(0, 3)
+                * Y ** rng.randint(0, 2)
+                * (A ** rng.randint(0, 4) * U ** rng.randint(0, 2))
+            )
+        for symbols in (None, [x, y, sp.sin(u), sp.cos(u)], rng.sample(atoms, 4)):
+            want = p.as_expr(*(symbols or ()))
+            got = as_expr(p, symbols)
+            assert got == want and sp.srepr(got) == sp.srepr(want)
+    p = X**2 * Y + 3 * X
+    assert sp.srepr(as_expr(p, [x * y, sp.sqrt(a), a, u])) == sp.srepr(p.as_expr(x * y, sp.sqrt(a), a, u))
