@@ -72,3 +72,36 @@ def test_vanishes_decides_identities_and_rejects_near_misses():
     assert not vanishes(sp.sin(a) ** 2 - sp.Rational(1, 2))
     assert not vanishes(sp.Float("1e-12") * a)  # small but not zero: the exact screen sees it
     assert vanishes(sp.Integer(0)) and vanishes([])
+
+
+def test_evaluate_on_the_graph_agrees_with_the_compiled_function():
+    # elementary functions, integer, half and general powers, numbers (pi, rationals, floats), a constant entry
+    # broadcast, a matrix, a function outside numpy's (compiled alone), complex points (a complex-step derivative)
+    import numpy as np
+    import sympy as sp
+
+    from geomech.errors import SymbolicError
+    from geomech.symbolic.compile import compile_vector, evaluate
+
+    x, y, z = sp.symbols("x y z", real=True)
+    shared = (x * y + sp.sin(z)) ** 2 / (1 + y**2)
+    exprs = [
+        [shared + sp.cos(shared), sp.exp(x) * sp.sqrt(1 + y**2) - sp.Rational(3, 7) * sp.pi],
+        [1 / sp.sqrt(2 + z**2) + (1 + x**2) ** sp.Rational(1, 3) + sp.Float(0.25) * sp.tan(y), sp.Integer(3)],
+        [sp.atan(x) * sp.tanh(y) + sp.log(2 + z) + sp.Abs(x - y) + (2 + x**2) ** y, sp.erf(y**2 / 4)],
+    ]
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-1.5, 1.5, (7, 3))
+    want = compile_vector(exprs, [x, y, z])(pts)
+    got = evaluate(exprs, [x, y, z], pts)
+    assert got.shape == (7, 3, 2)
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(evaluate(sp.Matrix(exprs), [x, y, z], pts[0]), want[0], rtol=1e-13, atol=1e-13)
+    # complex step: d/dx of shared at the points, against the derivative's formula
+    h = 1e-30
+    stepped = pts.astype(complex)
+    stepped[:, 0] += 1j * h
+    d = evaluate([shared], [x, y, z], stepped, dtype=complex)[:, 0].imag / h
+    np.testing.assert_allclose(d, compile_vector([sp.diff(shared, x)], [x, y, z])(pts)[:, 0], rtol=1e-12)
+    with pytest.raises(SymbolicError, match="not among the variables"):
+        evaluate([x + y], [x], pts[:, :1])

@@ -73,7 +73,7 @@ from ..symbolic import (
     simplify_expr,
     simplify_matrix,
 )
-from ..symbolic.compile import compile_matrix, compile_vector
+from ..symbolic.compile import evaluate
 from ..symbolic.formula import to_expression
 from ..systems.nonholonomic import NonholonomicSystem
 from ._derived import Derived, Labelled
@@ -306,16 +306,14 @@ class AlmostPoissonStructure(Derived, NumericCache):
         s, keys = self.system, self._keys()
         rng = np.random.default_rng(seed)
         syms = self.z + list(s.parameter_symbols)
-        f = compile_vector(
-            [[self.jacobiator_direct[k] for k in keys], [self.jacobiator_curvature[k] for k in keys]], syms
-        )
+        both = [[self.jacobiator_direct[k] for k in keys], [self.jacobiator_curvature[k] for k in keys]]
         args = []
         for _ in range(points):
             pv = s._random_point(rng, self.z)
             if parameters:
                 pv.update({p: float(parameters[p.name]) for p in s.parameter_symbols if p.name in parameters})
             args.append([pv[v] for v in syms])
-        return f(np.array(args, dtype=float).reshape(points, len(syms)))
+        return evaluate(both, syms, np.array(args, dtype=float).reshape(points, len(syms)))
 
     @shared_property
     def jacobiators(self) -> dict:
@@ -361,7 +359,7 @@ class AlmostPoissonStructure(Derived, NumericCache):
         s, keys, z = self.system, self._keys(), self.z
         rng = np.random.default_rng(seed)
         syms = z + list(s.parameter_symbols)
-        f = compile_matrix(sp.Matrix(self.tensor), syms, dtype=complex)
+        tensor = sp.Matrix(self.tensor)
         N, h = len(z), 1e-30
         out = np.empty((points, len(keys)))
         for j in range(points):
@@ -372,7 +370,7 @@ class AlmostPoissonStructure(Derived, NumericCache):
             # the point, and the point stepped by i h along each coordinate: one vectorised evaluation
             stepped = np.tile(args, (N + 1, 1))
             stepped[1 + np.arange(N), np.arange(N)] += 1j * h
-            values = f(stepped)
+            values = evaluate(tensor, syms, stepped, dtype=complex)
             J, dJ = values[0].real, values[1:].imag / h
             out[j] = [J[a, :] @ dJ[:, b, c] + J[b, :] @ dJ[:, c, a] + J[c, :] @ dJ[:, a, b] for a, b, c in keys]
         return out
