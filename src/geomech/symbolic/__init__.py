@@ -12,6 +12,7 @@ from .compile import (
     compile_matrix,
     compile_scalar,
     compile_vector,
+    evaluate,
     stack_last,
     suffixed_symbols,
 )
@@ -49,6 +50,7 @@ __all__ = [
     "compile_matrix",
     "compile_scalar",
     "compile_vector",
+    "evaluate",
     "stack_last",
     "FUNCTIONS",
     "parse_formula",

@@ -18,6 +18,7 @@ from ..errors import SymbolicError
 from ._derivative import derivative
 
 __all__ = [
+    "as_expr",
     "simplify_expr",
     "simplify_matrix",
     "tidy_trig",
