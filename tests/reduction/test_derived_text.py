@@ -70,3 +70,44 @@ def test_sums_print_in_sympys_order_of_terms():
     for e in exprs:
         assert text(e) == str(e)
         assert text(sp.Matrix([[e, e + x]])[0, 1]) == str(e + x)
+
+
+def test_the_latex_printer_gives_sympys_latex_with_shared_parts():
+    """The LaTeX of the derived objects: ``sympy.latex`` with the system's symbol names, character for character,
+    for sums, fractions, powers of functions (printed as sin^2), roots, floats, matrices, with each subexpression's
+    text remembered across expressions (a second pass answered from the memo)."""
+    from geomech.reduction._derived import LatexText
+
+    theta = sp.Symbol("theta")
+    names = {x: r"\xi", theta: r"\vartheta"}
+    rng = random.Random(5)
+    atoms = [
+        x,
+        y,
+        z,
+        theta,
+        sp.sin(theta),
+        sp.cos(y) ** 2,
+        sp.sqrt(1 + x**2),
+        1 / (1 + y),
+        sp.Float(0.125),
+        sp.Rational(-3, 7),
+        sp.pi,
+        sp.exp(z),
+        sp.Integer(2),
+    ]
+    exprs = [1 - x, sp.sin(theta) ** 2 / (1 + sp.cos(theta) ** 3), sp.Matrix([[x / y, 1 - theta], [sp.sqrt(x), 0]])]
+    for _ in range(200):
+        e = sp.Integer(0)
+        for _ in range(rng.randint(1, 5)):
+            e += sp.Mul(*[rng.choice(atoms) ** rng.choice([1, 1, 2, -1]) for _ in range(rng.randint(1, 3))])
+        exprs.append(e)
+        exprs.append(e / (1 + e))
+    printer = LatexText(names)
+    for e in exprs + exprs[::-1]:
+        assert printer.text(e) == sp.latex(e, symbol_names=names)
+    red = bkmm_reduction(EXAMPLES["snakeboard"]())
+    printed = red.to_dict(("latex",))["latex"]
+    for name, _, value in red.items():
+        if isinstance(value, (sp.Basic, sp.MatrixBase)):
+            assert printed[name] == sp.latex(value, symbol_names=red._latex_names())

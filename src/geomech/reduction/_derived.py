@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
 from ..errors import InputError
@@ -27,14 +28,16 @@ class Labelled(tuple):
         return {label: value for label, _, value in self}
 
 
-class TextPrinter(StrPrinter):
-    """sympy's ``str``, with the text of every subexpression remembered: a derivation's formulas share long
-    subexpressions (a determinant in every entry of an inverse, a metric's entries in its Hamiltonian), each printed
-    once. :meth:`text` gives ``str(expr)``, character for character (the top level is printed afresh: a Float there
-    keeps all its digits, below it is printed as sympy prints it inside an expression)."""
+class _Remembering:
+    """A printer's text of every subexpression remembered, and a sum's terms ordered with each factor and base
+    remembered across sums (:func:`_ordered_terms`): a derivation's formulas share long subexpressions (a
+    determinant in every entry of an inverse, a metric's entries in its Hamiltonian), each printed once. The top
+    level is printed afresh and a call with options (sympy's exponent of a function) is not remembered."""
 
-    def __init__(self) -> None:
-        super().__init__({"order": None})
+    _print_level: int
+    order: Any
+
+    def _init_memo(self) -> None:
         self._memo: dict[sp.Basic, str] = {}
         self._factors: dict[sp.Basic, tuple] = {}
         self._keys: dict[sp.Basic, Any] = {}
@@ -44,7 +47,7 @@ class TextPrinter(StrPrinter):
         sorted), with what it finds of each factor and each base's sort key remembered across the sums: they
         recur in thousands of sums, and sympy's ordering was most of a derivation's printing."""
         if order is not None or self.order is not None or not expr.is_Add:
-            return super()._as_ordered_terms(expr, order=order)
+            return super()._as_ordered_terms(expr, order=order)  # type: ignore[misc]
         args = expr.args
         if len(args) == 2:  # sympy's special case: a positive number first, before minus a product
             number = [a for a in args if isinstance(a, (sp.Number, sp.NumberSymbol))]
@@ -58,15 +61,40 @@ class TextPrinter(StrPrinter):
 
     def _print(self, expr: Any, **kwargs: Any) -> str:
         if kwargs or self._print_level < 1 or not isinstance(expr, sp.Basic):
-            return super()._print(expr, **kwargs)
+            return super()._print(expr, **kwargs)  # type: ignore[misc]
         try:
             return self._memo[expr]
         except KeyError:
-            out = self._memo[expr] = super()._print(expr)
+            out = self._memo[expr] = super()._print(expr)  # type: ignore[misc]
             return out
+
+
+class TextPrinter(_Remembering, StrPrinter):
+    """sympy's ``str``, with the text of every subexpression remembered (:class:`_Remembering`). :meth:`text` gives
+    ``str(expr)``, character for character (the top level is printed afresh: a Float there keeps all its digits,
+    below it is printed as sympy prints it inside an expression)."""
+
+    def __init__(self) -> None:
+        super().__init__({"order": None})
+        self._init_memo()
 
     def text(self, expr: Any) -> str:
         """``str(expr)``."""
+        self._print_level = 0
+        return self.doprint(expr)
+
+
+class LatexText(_Remembering, LatexPrinter):
+    """sympy's ``latex`` with ``symbol_names``, with the text of every subexpression remembered
+    (:class:`_Remembering`): :meth:`text` gives ``sympy.latex(expr, symbol_names=names)``, character for
+    character (a derivation's LaTeX took as long as the derivation)."""
+
+    def __init__(self, names: Mapping[sp.Basic, str]) -> None:
+        super().__init__({"symbol_names": dict(names)})
+        self._init_memo()
+
+    def text(self, expr: Any) -> str:
+        """``sympy.latex(expr, symbol_names=names)``."""
         self._print_level = 0
         return self.doprint(expr)
 
@@ -170,14 +198,14 @@ class Derived:
     def _latex_names(self) -> dict:
         return {}
 
-    def _latex(self, value: Any) -> str:
-        names = self._latex_names()
+    def _latex(self, value: Any, printer: LatexText | None = None) -> str:
+        printer = printer or LatexText(self._latex_names())
         if isinstance(value, Labelled):
-            return r",\; ".join(f"{tex} = {self._latex(v)}" for _, tex, v in value)
+            return r",\; ".join(f"{tex} = {self._latex(v, printer)}" for _, tex, v in value)
         if isinstance(value, (list, tuple)):
-            return r",\; ".join(self._latex(v) for v in value)
+            return r",\; ".join(self._latex(v, printer) for v in value)
         if isinstance(value, (sp.Basic, sp.MatrixBase)):
-            return sp.latex(value, symbol_names=names)
+            return printer.text(value)
         if isinstance(value, str):  # prose (how a basis was normalised, ...): text, not a product of symbols
             from .._display import latex_text
 
@@ -222,7 +250,8 @@ class Derived:
 
     def _printed(self, form: str) -> dict:
         if form == "latex":
-            return {name: self._latex(value) for name, _, value in self.items()}
+            printer = LatexText(self._latex_names())  # one memo for every item, as the text's
+            return {name: self._latex(value, printer) for name, _, value in self.items()}
         text = TextPrinter().text  # one memo for every item: they share subexpressions
         return {name: _as_text(value, text) for name, _, value in self.items()}
 
