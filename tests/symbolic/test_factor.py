@@ -6,7 +6,7 @@ import random
 import pytest
 import sympy as sp
 
-from geomech.symbolic.simplify import factor_list
+from geomech.symbolic.polys import factor_list
 
 
 def _polynomials():
@@ -47,7 +47,8 @@ def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded(monkeypa
     has thousands of terms: the three-link chain's locked inertia), by FLINT's polynomials and by sympy's (the
     fallback) alike; a factor that does not divide is not found to; a norm longer than _CIRCLE_MAX_NORM terms is not
     tried."""
-    from geomech.symbolic import simplify as S
+    from geomech.symbolic import polys as S
+    from geomech.symbolic.simplify import simplify_expr
 
     R, Ca, Cb, Sa, Sb, m, r, J = sp.ring("Ca Cb Sa Sb m r J", sp.QQ)
     rel = [Ca**2 + Sa**2 - 1, Cb**2 + Sb**2 - 1]
@@ -84,13 +85,13 @@ def test_division_on_the_circles_finds_a_spurious_factor_and_is_bounded(monkeypa
     top = sp.expand(sp.expand_trig(sp.sin(a + b)) * (sp.cos(a) - mm)).subs(sp.cos(a) ** 2, 1 - sp.sin(a) ** 2)
     e = top / sp.expand_trig(sp.sin(a + b))
     assert sp.cancel(e) != sp.cos(a) - mm  # no polynomial cancellation shows it
-    assert S.simplify_expr(e) == sp.cos(a) - mm
+    assert simplify_expr(e) == sp.cos(a) - mm
 
 
 def test_circle_remainder_is_the_division_by_the_circle_relations():
     """The simplifier's term-by-term reduction modulo C^2 + S^2 - 1 against sympy's multivariate division by the
     relations (a Groebner basis: the remainder is unique), on random polynomials with high cosine powers."""
-    from geomech.symbolic.simplify import circle_rem
+    from geomech.symbolic.polys import circle_rem
 
     R, Ca, Cb, Sa, Sb, m = sp.ring("Ca Cb Sa Sb m", sp.QQ)
     rel = [Ca**2 + Sa**2 - 1, Cb**2 + Sb**2 - 1]
@@ -243,7 +244,7 @@ def test_divisions_on_the_circles_find_every_multiple_and_reject_the_rest():
     # num = q f + h (S1^2 + C1^2 - 1) + k (S2^2 + C2^2 - 1) is a multiple of f on the circles, however q, h, k are
     # drawn; the point's test must never say otherwise (it would change a simplification), and the division by the
     # norm must agree with it; one term more and both say no
-    from geomech.symbolic import simplify as S
+    from geomech.symbolic import polys as S
 
     C1, C2, S1, S2, m, k = sp.symbols("C1 C2 S1 S2 m k")
     R = S._ring((C1, C2, S1, S2, m, k))
@@ -274,7 +275,7 @@ def test_divisions_on_the_circles_find_every_multiple_and_reject_the_rest():
 def test_a_polynomial_as_an_expression_is_sympys_own():
     # the same arguments in the same order (srepr), for polynomials in symbols, sines and cosines with rational
     # coefficients, constants, one term, zero; other symbols (a product, a root) by sympy's as_expr
-    from geomech.symbolic.simplify import _ring, as_expr
+    from geomech.symbolic.polys import _ring, as_expr
 
     x, y, a, u = sp.symbols("x y a u")
     R = _ring((x, y, a, u))

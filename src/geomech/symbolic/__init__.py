@@ -1,6 +1,6 @@
 """The symbolic layer, below the mechanics: user formulas parsed by a whitelist (:mod:`.formula`), simplified
-(:mod:`.simplify`), compiled to numeric functions (:mod:`.compile`) and their derivations cached in memory and
-on disk (:mod:`.cache`)."""
+(:mod:`.simplify`, over the polynomial rings of :mod:`.polys`), compiled to numeric functions (:mod:`.compile`)
+and their derivations cached in memory and on disk (:mod:`.cache`)."""
 
 from ._derivative import derivative, jacobian
 from .cache import DISK_CACHE, DiskCache, NumericCache, shared_property, shared_value
@@ -17,9 +17,9 @@ from .compile import (
     suffixed_symbols,
 )
 from .formula import FUNCTIONS, parse_formula, to_expression
+from .polys import expand_terms
 from .simplify import (
     clear_denominators,
-    expand_terms,
     half_quadratic,
     inverse,
     quadratic_blocks,

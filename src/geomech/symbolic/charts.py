@@ -22,7 +22,8 @@ from ..lie.group import LieGroup
 from ..lie.groups import named_group
 from .cache import DISK_CACHE, MISSING
 from .compile import compile_vector
-from .simplify import expand_terms, simplify_expr, vanishes
+from .polys import expand_terms
+from .simplify import simplify_expr, vanishes
 
 __all__ = ["GroupChart", "group_chart"]
 

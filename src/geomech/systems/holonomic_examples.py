@@ -13,7 +13,7 @@ from .. import _validate as V
 from ..errors import InputError, ShapeError, SingularityError
 from ..lie.groups import SO2
 from ..symbolic.compile import bind_expression
-from ..symbolic.simplify import expand_terms
+from ..symbolic.polys import expand_terms
 from .holonomic import HolonomicSystem
 
 

@@ -38,7 +38,8 @@ from ..symbolic._derivative import derivative
 from ..symbolic.cache import DISK_CACHE, MISSING
 from ..symbolic.charts import GroupChart, group_chart
 from ..symbolic.formula import parse_formula
-from ..symbolic.simplify import expand_terms, quadratic_coefficients, simplify_expr
+from ..symbolic.polys import expand_terms
+from ..symbolic.simplify import quadratic_coefficients, simplify_expr
 from ._invariance import InvarianceReport, invariance_report
 
 __all__ = [

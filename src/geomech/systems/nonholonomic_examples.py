@@ -28,7 +28,8 @@ from typing import Any
 import sympy as sp
 
 from ..lie.groups import SE2, SO3
-from ..symbolic.simplify import expand_terms, simplify_expr
+from ..symbolic.polys import expand_terms
+from ..symbolic.simplify import simplify_expr
 from .nonholonomic import NonholonomicSystem
 
 __all__ = [
