@@ -77,12 +77,19 @@ _BY_MODEL: dict[tuple[str, str], Any] = {}
 
 
 def numba_available() -> bool:
-    """Whether numba can be imported (the compiled backend); without it the loops run as Python."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:  # pragma: no cover - numba is a dependency, kept optional for odd platforms
-        return False
-    return os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0")
+    """Whether numba can be imported (the compiled backend); without it the loops run as Python. Known once numba
+    is imported (numba reads NUMBA_DISABLE_JIT at its import): every run asks."""
+    global _NUMBA
+    if _NUMBA is None:
+        try:
+            import numba  # noqa: F401
+        except ImportError:  # pragma: no cover - numba is a dependency, kept optional for odd platforms
+            return False
+        _NUMBA = os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0")
+    return _NUMBA
+
+
+_NUMBA: bool | None = None
 
 
 def cache_dir() -> Path:

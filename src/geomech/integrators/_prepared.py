@@ -17,7 +17,17 @@ from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
 from ._batch import batch_index, initial_states, left_chart, parameter_batch
 from ._events import event_table
 from ._problem import Problem
-from ._runners import INFO_COLUMNS, run_atlas, run_compiled, run_embedded, run_ivp, run_periodic, run_taylor
+from ._rotor import rotor_initial_states
+from ._runners import (
+    INFO_COLUMNS,
+    failed_rows,
+    run_atlas,
+    run_compiled,
+    run_embedded,
+    run_ivp,
+    run_periodic,
+    run_taylor,
+)
 from ._times import Times
 from ._variational import augment, split
 from .methods import (
@@ -168,8 +178,6 @@ max_evaluations, memory_limit, raise_on_failure :
                     f"{problem.name} is a body with rotors: give its initial state as `m0` and `Gamma0` (with `R0` "
                     "and `gamma0`), not `y0`."
                 )
-            from ._rotor import rotor_initial_states
-
             Y0, batch_shape = rotor_initial_states(problem, m0, R0, Gamma0, gamma0, t0)
         else:
             Y0, batch_shape = initial_states(problem, y0, m0, R0)
@@ -349,7 +357,7 @@ max_evaluations, memory_limit, raise_on_failure :
         run_time = time.perf_counter() - t_start
 
         failures = []
-        for b in np.flatnonzero(INFO[:, 0] != 0):
+        for b in failed_rows(INFO):
             step = int(INFO[b, 1])
             if method.kind is Kind.FIXED_STEP:
                 when = t0 + (step - 1) * float(times.h)  # type: ignore[arg-type]
@@ -385,7 +393,7 @@ max_evaluations, memory_limit, raise_on_failure :
         if swept:
             rows = PRM.reshape(batch_shape + PRM.shape[1:])
         elif problem.kind == "rotor" and problem.energy_expression is not None and used == "numba":
-            rows = np.broadcast_to(PRM[0], batch_shape + PRM.shape[1:])
+            rows = np.broadcast_to(PRM[0], batch_shape + PRM.shape[1:]) if batch_shape else PRM[0]
         inv = problem.invariants(states, times.t, rows)
         inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
         inv.update(variational)

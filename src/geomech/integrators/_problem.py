@@ -9,6 +9,7 @@ Lie-Poisson problem with state ``m`` or, given an initial attitude, ``(m, R)``.
 from __future__ import annotations
 
 import functools
+import math
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -69,9 +70,9 @@ class Problem:
     torque_expressions: Any = None  # and its torques in the state and the parameters
     observation: Any = None  # both generated (an ._observe.Observation), for the saved states of a law not in time
 
-    @property
+    @functools.cached_property
     def labels(self) -> tuple[str, ...]:
-        """A name for each component of the state."""
+        """A name for each component of the state (made once: every run's Solution carries them)."""
         if self.kind == "canonical":
             return tuple(str(v) for v in self.variables)
         if self.kind == "lagrangian":
@@ -186,8 +187,18 @@ class Problem:
         momentum, and the torques of a body with rotors; NaN where a state is not finite. ``rows``: the parameter
         rows of a batch of parameter values (``(..., n_prm)``, the batch's shape), the energy then evaluated with
         each trajectory's own."""
-        ok = np.all(np.isfinite(states), axis=-1)
         out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
+        # a body with rotors under a law of formulas not in time: the compiled observation (NaN where a state is not
+        # finite)
+        observed = (
+            self.kind == "rotor"
+            and rows is not None
+            and self.observation is not None
+            and not self.timed
+            and _codegen.numba_available()
+        )
+        if not observed:
+            ok = np.all(np.isfinite(states), axis=-1)
         if rows is not None and self.kind != "rotor":
             out.update(self._lie_poisson_views(states) if self.kind == "lie_poisson" else {})
             out["energy"] = self._energy_with(states, rows, ok)
@@ -198,16 +209,18 @@ class Problem:
             n = self.core.n_rotors
             m, Gam = states[..., :3], states[..., 12 : 12 + n]
             R = states[..., 3:12].reshape(states.shape[:-1] + (3, 3))
-            out["spatial_momentum"] = np.einsum("...ij,...j->...i", R, m)
-            if rows is not None and self.observation is not None and not self.timed and _codegen.numba_available():
+            out["spatial_momentum"] = np.matmul(R, m[..., None])[..., 0]
+            if observed:
                 from ._observe import observe
+
+                assert rows is not None and self.observation is not None
 
                 module = _codegen.compiled_module(self.observation.source, "ro")
                 shown, _ = observe(
                     module,
                     self.observation,
                     states.reshape(-1, states.shape[-1]),
-                    np.ascontiguousarray(rows.reshape(int(np.prod(rows.shape[:-1])), rows.shape[-1])),
+                    np.ascontiguousarray(rows.reshape(math.prod(rows.shape[:-1]), rows.shape[-1])),
                     states.shape[-2],
                 )
                 shown = shown.reshape(states.shape[:-1] + (1 + n,))

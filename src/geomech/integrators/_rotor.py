@@ -164,8 +164,9 @@ def rotor_initial_states(
     Gam = V.trailing_shape(np.atleast_1d(np.asarray(Gamma0, dtype=float)), "Gamma0", (n,))
     R = np.eye(3) if R0 is None else V.rotation_matrix(R0, "R0")
     gam = np.zeros(n) if gamma0 is None else V.trailing_shape(np.atleast_1d(gamma0), "gamma0", (n,))
+    batches = (m.shape[:-1], R.shape[:-2], Gam.shape[:-1], gam.shape[:-1])
     try:
-        shape = np.broadcast_shapes(m.shape[:-1], R.shape[:-2], Gam.shape[:-1], gam.shape[:-1])
+        shape = np.broadcast_shapes(*batches) if any(batches) else ()
     except ValueError:
         raise InputError(
             f"Expected the batch shapes of `m0` {m.shape[:-1]}, `R0` {R.shape[:-2]}, `Gamma0` {Gam.shape[:-1]} and "

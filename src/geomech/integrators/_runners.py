@@ -55,6 +55,13 @@ def _threaded(call: Any, B: int, threads: int) -> float:
         return time.perf_counter() - start
 
 
+def failed_rows(INFO: np.ndarray) -> list[int]:
+    """The members whose status (``INFO[:, 0]``) is not 0 (a run of one member read as a number: every call asks)."""
+    if INFO.shape[0] == 1:
+        return [] if INFO[0, 0] == 0 else [0]
+    return np.flatnonzero(INFO[:, 0] != 0).tolist()
+
+
 def rows(PRM: np.ndarray, a: int, b: int) -> np.ndarray:
     """The parameter rows of trajectories a:b: all of ``PRM`` when it has one row (shared), else its rows a:b."""
     return PRM if PRM.shape[0] == 1 else PRM[a:b]
@@ -304,13 +311,12 @@ def _adaptive_outcome(
 ) -> None:
     """The members of an adaptive loop stopped by a terminal event made successes (their outputs after it NaN); why
     each failed member stopped (``reasons``), and where (``reached``)."""
-    if not INFO[:, 0].any():  # every member a success
+    if not failed_rows(INFO):  # every member a success
         return
     stopped = INFO[:, 0] == 9
     INFO[stopped, 0] = 0
     rtol, atol = tolerances
-    for row in np.flatnonzero(INFO[:, 0] != 0):
-        b = int(row)
+    for b in failed_rows(INFO):
         reached[b] = float(INFO[b, 5])
         code = int(INFO[b, 0])
         if code == 8:

@@ -353,6 +353,11 @@ class RotorBody:
 
     def parameter_values(self) -> dict[str, float]:
         """Values of the symbols of :meth:`symbols` by name (the rotors' only when they are known)."""
+        return dict(self._parameter_values)
+
+    @functools.cached_property
+    def _parameter_values(self) -> dict[str, float]:
+        # made once (the body is immutable, its arrays read-only): every run's Solution carries them
         lam_syms, J_syms = self.symbols()
         out: dict[str, float] = {}
         if lam_syms is not None:

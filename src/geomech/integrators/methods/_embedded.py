@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -19,7 +20,7 @@ def taylor_order(tolerances: tuple[float, float]) -> int:
     """The order of Taylor's method at ``tolerances`` (rtol, atol): ``ceil(-ln(eps) / 2) + 1``, eps the smaller,
     between 4 and 40 (Jorba & Zou's choice, heyoka's: the cost of the coefficients, p^2 a step, against the steps)."""
     eps = min(tolerances)
-    return int(min(40, max(4, np.ceil(-0.5 * np.log(eps)) + 1)))
+    return min(40, max(4, math.ceil(-0.5 * math.log(eps)) + 1))
 
 
 @dataclass(frozen=True, eq=False)

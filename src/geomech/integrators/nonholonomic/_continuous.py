@@ -26,7 +26,7 @@ from .._adaptive import (
 )
 from .._events import compile_lagrangian_events, event_table, stepped_lagrangian_events
 from .._observe import observe
-from .._runners import INFO_COLUMNS, run_embedded, run_taylor
+from .._runners import INFO_COLUMNS, failed_rows, run_embedded, run_taylor
 from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
@@ -447,7 +447,7 @@ def run_compiled(
     OBS = OBS.reshape(B, n, made.observed)
     compile_time += seconds
     failures = []
-    for b in np.flatnonzero(INFO[:, 0] != 0).tolist():
+    for b in failed_rows(INFO):
         code = int(INFO[b, 0])
         kind = {8: Status.BUDGET_EXHAUSTED, 4: Status.ADAPTIVE_FAILED}.get(code, SINGULAR)
         if kind is Status.BUDGET_EXHAUSTED:
