@@ -423,3 +423,23 @@ def test_the_coordinate_route_agrees_with_the_body_velocity_route(name, monkeypa
     assert lda._body_complement is None
     assert all(simplify_expr(e) == 0 for e in lda.constraint_complement - Z)
     assert all(simplify_expr(e) == 0 for e in lda.multipliers_on_distribution() - lam)
+
+
+def test_the_default_reduction_is_one_object_per_system_with_that_systems_values():
+    s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+    heavy = s.with_parameters(m=3.0)
+    red = bkmm_reduction(s)
+    assert bkmm_reduction(s) is red and red.system is s
+    other = bkmm_reduction(heavy)
+    assert other is not red and other.system is heavy and bkmm_reduction(heavy) is other
+    # the numeric twins follow each system's own values and the values asked for, remembered or not
+    r, rd, p = np.array([0.3, 0.2]), np.array([0.5, -0.4]), np.full(red.m, 0.7)
+    light_xi = red.numeric().xi(r, rd, p)
+    heavy_xi = other.numeric().xi(r, rd, p)
+    assert np.abs(light_xi - heavy_xi).max() > 1e-2 * np.abs(light_xi).max()
+    np.testing.assert_allclose(red.numeric({"m": 3.0}).xi(r, rd, p), heavy_xi, rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(red.numeric().xi(r, rd, p), light_xi)
+    # a basis given is its own reduction (a sympy matrix, mutable or not, is one)
+    for basis in (red.basis, sp.Matrix(red.basis)):
+        given = bkmm_reduction(s, basis)
+        assert given is not red and given.basis == red.basis

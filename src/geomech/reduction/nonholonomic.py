@@ -48,7 +48,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -477,17 +477,24 @@ class NonholonomicReduction(Derived, _NumericMixin):
         the shape (:class:`~geomech.reduction.reduced_numeric.ReducedNumeric`), from the system's data alone: no
         symbolic attribute above is derived for it. Built once per system, basis and parameter values."""
         given = tuple(sorted({**self.system.parameters, **(parameters or {})}.items()))
-        key = (sp.ImmutableMatrix(self.basis), given)
         try:
-            hash(key)
+            return self._numerics[given]  # this reduction's (a prepared problem's runs ask at each call)
+        except KeyError:
+            pass
         except TypeError:  # values that are not plain numbers: built each time (and checked there)
             self._check_basis_at(parameters)
             return ReducedNumeric(self, parameters)
+        key = (sp.ImmutableMatrix(self.basis), given)
         known = _NUMERIC.setdefault(self.system, {})
         if key not in known:
             self._check_basis_at(parameters)
             known[key] = ReducedNumeric(self, parameters)
+        self._numerics[given] = known[key]
         return known[key]
+
+    @cached_property
+    def _numerics(self) -> dict:
+        return {}
 
 
 #: the numeric twins built so far, by system (weakly), basis and parameter values
@@ -589,10 +596,10 @@ def _derive_bkmm_fields(system: NonholonomicSystem, basis_key: Any) -> tuple:
 def _basis_matrix(system: NonholonomicSystem, basis: Any) -> sp.ImmutableMatrix:
     """A caller's basis as a sympy matrix, text entries parsed one by one by the whitelist (``sp.Matrix`` of
     strings would sympify them)."""
-    if isinstance(basis, (str, bytes)) or not hasattr(basis, "__iter__"):
-        raise TypeError("not a matrix")
-    if isinstance(basis, sp.MatrixBase):
+    if isinstance(basis, sp.MatrixBase):  # (an immutable matrix has no __iter__)
         rows = basis.tolist()
+    elif isinstance(basis, (str, bytes)) or not hasattr(basis, "__iter__"):
+        raise TypeError("not a matrix")
     else:
         rows = [list(row) if isinstance(row, (list, tuple, np.ndarray)) else [row] for row in basis]
     names = {s.name: s for s in (*system.q, *system.parameter_symbols)}
@@ -620,6 +627,15 @@ def bkmm_reduction(system: NonholonomicSystem, basis: Any = None) -> Nonholonomi
     """
     if not isinstance(system, NonholonomicSystem):
         raise InputError(f"Expected `system` to be a NonholonomicSystem, got {type(system).__name__}.")
+    if basis is None:  # the default basis: one reduction per system object (every run asks for it)
+        known = system.derived_cache.get("bkmm")
+        if known is None:
+            known = system.derived_cache["bkmm"] = _bkmm_reduction(system, None)
+        return known
+    return _bkmm_reduction(system, basis)
+
+
+def _bkmm_reduction(system: NonholonomicSystem, basis: Any) -> NonholonomicReduction:
     key: tuple[str, Any] | None
     if basis is None and system.body_basis is not None:
         key = ("model", system.body_basis)

@@ -385,6 +385,12 @@ class NonholonomicSystem:
         )
 
     @cached_property
+    def derived_cache(self) -> dict:
+        """Objects derived from this system object, kept with it for its lifetime (its default BKMM reduction, which
+        keeps this object's parameter values: not shared with a system equal in content)."""
+        return {}
+
+    @cached_property
     def _hash(self) -> int:
         return hash(self.key)
 
@@ -394,31 +400,31 @@ class NonholonomicSystem:
     def __eq__(self, other: object) -> bool:
         return isinstance(other, NonholonomicSystem) and (other is self or self.key == other.key)
 
-    # ---------------- basic objects ----------------
-    @property
+    # ---------------- basic objects (made once: every run reads them) ----------------
+    @cached_property
     def q(self) -> tuple[sp.Symbol, ...]:
         return self.group.coordinates + self.shape
 
-    @property
+    @cached_property
     def n(self) -> int:
         return len(self.q)
 
-    @property
+    @cached_property
     def k(self) -> int:
         """Dimension of the group."""
         return self.group.dim
 
-    @property
+    @cached_property
     def sigma(self) -> int:
         """Dimension of the shape space."""
         return len(self.shape)
 
-    @property
+    @cached_property
     def c(self) -> int:
         """Number of constraints."""
         return self.constraint_matrix.rows
 
-    @property
+    @cached_property
     def shape_dot(self) -> tuple[sp.Symbol, ...]:
         return self.qdot[self.k :]
 
