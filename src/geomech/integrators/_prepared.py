@@ -27,6 +27,7 @@ from ._runners import (
     run_ivp,
     run_periodic,
     run_taylor,
+    total,
 )
 from ._times import Times
 from ._variational import augment, split
@@ -439,9 +440,9 @@ max_evaluations, memory_limit, raise_on_failure :
             stats=run_stats(
                 times.n_steps,
                 internal,
-                int(INFO[:, 4].sum()),
+                total(INFO, 4),
                 run_time,
-                n_newton=int(INFO[:, 3].sum()),
+                n_newton=total(INFO, 3),
                 backend=used,
                 compile_time=compile_time,
                 **({"chart_switches": len(switches)} if isinstance(method, SerretAndoyerAtlas) else {}),

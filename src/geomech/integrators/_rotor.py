@@ -78,13 +78,12 @@ def bind_torque(problem: Any, tau: Any) -> Any:
     n = body.n_rotors
     u_fn = torque_function(tau, n)  # validates tau
     timed = not (tau is None or hasattr(tau, "feedback"))
-    bound = dataclasses.replace(problem, dim=12 + 2 * n + int(timed), law=tau, torque=u_fn, timed=timed)
     key = _law_key(tau)
     known = _FORMULAS.setdefault(body, {})
     if key not in known:
         known[key] = _formulas(body, tau, timed)
-    formulas = known[key]
-    return bound if formulas is None else dataclasses.replace(bound, **formulas)
+    formulas = known[key] or {}
+    return dataclasses.replace(problem, dim=12 + 2 * n + int(timed), law=tau, torque=u_fn, timed=timed, **formulas)
 
 
 _FORMULAS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -62,6 +62,15 @@ def failed_rows(INFO: np.ndarray) -> list[int]:
     return np.flatnonzero(INFO[:, 0] != 0).tolist()
 
 
+#: No chart's bounds (rows: component, lower, upper), read by the compiled loops, never written.
+NO_CHART = np.zeros((0, 3))
+
+
+def total(INFO: np.ndarray, column: int) -> int:
+    """The sum of a column of the members' counts (steps, evaluations), one member's read as a number."""
+    return int(INFO[0, column]) if INFO.shape[0] == 1 else int(INFO[:, column].sum())
+
+
 def rows(PRM: np.ndarray, a: int, b: int) -> np.ndarray:
     """The parameter rows of trajectories a:b: all of ``PRM`` when it has one row (shared), else its rows a:b."""
     return PRM if PRM.shape[0] == 1 else PRM[a:b]
@@ -251,7 +260,8 @@ def run_embedded(
     pair = method.tableau()
     rtol, atol = tolerances
     budget = float(max_evaluations)
-    chart = np.array(getattr(problem_system, "chart", ()) or np.zeros((0, 3)), dtype=float).reshape(-1, 3)
+    bounds = getattr(problem_system, "chart", ())
+    chart = np.array(bounds, dtype=float).reshape(-1, 3) if bounds else NO_CHART
     args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart)
     compile_time = 0.0
     fp = rhs_address(module) if module.ready(RHS) else 0
@@ -303,7 +313,7 @@ def run_embedded(
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
         loop_time = _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
     _adaptive_outcome(INFO, times, tolerances, reasons, reached)
-    return int(INFO[:, 6].sum()), compile_time, loop_time, EVT, ECOUNT
+    return total(INFO, 6), compile_time, loop_time, EVT, ECOUNT
 
 
 def _adaptive_outcome(
@@ -366,7 +376,8 @@ def run_taylor(
     order = taylor_order(tolerances)
     budget = float(max_evaluations)
     rows_w = int(module.TAYLOR_ROWS)
-    chart = np.array(getattr(problem_system, "chart", ()) or np.zeros((0, 3)), dtype=float).reshape(-1, 3)
+    bounds = getattr(problem_system, "chart", ())
+    chart = np.array(bounds, dtype=float).reshape(-1, 3) if bounds else NO_CHART
     compile_time = 0.0
     # the coefficients' code for this order: (address of the unrolled code or 0 for the loop, constants), chosen
     # and compiled once per module, order and choice
@@ -449,7 +460,6 @@ def run_taylor(
             rows(PRM, a, b),
         )
 
-    with np.errstate(all="ignore"):
-        loop_time = _threaded(call, Y0.shape[0], threads)
+    loop_time = _threaded(call, Y0.shape[0], threads)  # (compiled: numpy's floating-point state is not involved)
     _adaptive_outcome(INFO, times, tolerances, reasons, reached)
-    return int(INFO[:, 6].sum()), compile_time, loop_time, EVT, ECOUNT
+    return total(INFO, 6), compile_time, loop_time, EVT, ECOUNT

@@ -62,11 +62,20 @@ class Times:
         if self.h is None:
             if self.given is not None:
                 return self.given
-            t = np.linspace(self.t0, self.t_final, self.count)
-            t[-1] = self.t_final
-            return t
+            return evenly_spaced(self.t0, self.t_final, self.count)
         steps = self.k if self.k is not None else self.kernel_steps()
         return self.t0 + self.h * steps.astype(float)
+
+
+def evenly_spaced(start: float, stop: float, count: int) -> np.ndarray:
+    """``np.linspace(start, stop, count)``, the same numbers (its arithmetic: start + k step, the last one stop)
+    without its generality's cost (16 us for two times, a third of a short run's Python)."""
+    step = (stop - start) / (count - 1) if count > 1 else 0.0
+    if step == 0.0:
+        return np.linspace(start, stop, count)
+    t = np.arange(count, dtype=float) * step + start
+    t[-1] = stop
+    return t
 
 
 def time_grid(method: Method, t0: Any, t_final: Any, h: Any, saveat: Any, rtol: Any, atol: Any) -> Times:

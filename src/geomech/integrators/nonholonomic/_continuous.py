@@ -26,7 +26,7 @@ from .._adaptive import (
 )
 from .._events import compile_lagrangian_events, event_table, stepped_lagrangian_events
 from .._observe import observe
-from .._runners import INFO_COLUMNS, failed_rows, run_embedded, run_taylor
+from .._runners import INFO_COLUMNS, failed_rows, run_embedded, run_taylor, total
 from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
@@ -378,8 +378,8 @@ def run_compiled(
     )
     pair = compiled_pair(method.solver)
     assert pair is not None or method.solver == TAYLOR
-    Y0 = np.ascontiguousarray(np.concatenate([Y0, np.full((Y0.shape[0], 1), float(t0))], axis=1))
-    B, d = Y0.shape
+    B, d = Y0.shape[0], Y0.shape[1] + 1
+    Y0 = np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1)
     t_end = float(times[-1])
     OUT = np.empty((B, len(times), d))
     INFO = np.zeros((B, INFO_COLUMNS))
@@ -389,8 +389,9 @@ def run_compiled(
 
     def run(members: np.ndarray, budget: float) -> tuple[int, float]:
         """``members`` with ``budget`` evaluations each, into OUT, INFO, reasons and reached."""
-        out = np.empty((members.size, len(times), d))
-        info = np.zeros((members.size, INFO_COLUMNS))
+        whole = members.size == B  # every member, in order (a small batch's pilot): in place
+        out = OUT if whole else np.empty((members.size, len(times), d))
+        info = INFO if whole else np.zeros((members.size, INFO_COLUMNS))
         why: dict[int, str] = {}
         when: dict[int, float] = {}
         rows = PRM if PRM.shape[0] == 1 else PRM[members]
@@ -401,10 +402,22 @@ def run_compiled(
             else functools.partial(run_embedded, module, "numba", None, rows, pair)
         )
         n, seconds, loop, evt, count = engine(
-            Y0[members], t0, times, tolerances, budget, out, info, why, when, threads, events, max_events
+            Y0 if whole else Y0[members],
+            t0,
+            times,
+            tolerances,
+            budget,
+            out,
+            info,
+            why,
+            when,
+            threads,
+            events,
+            max_events,
         )
         looped.append(loop)
-        OUT[members], INFO[members] = out, info
+        if not whole:
+            OUT[members], INFO[members] = out, info
         if events is not None:
             EVT[members], ECOUNT[members] = evt, count
         for i, b in enumerate(members.tolist()):
@@ -420,7 +433,12 @@ def run_compiled(
     EVT = np.zeros((B, max_events if events is not None else 0, 2 + d))
     ECOUNT = np.zeros(B)
     steps, compile_time = run(pilot, min(limit, PILOT))
-    spent = pilot[INFO[pilot, 0] == 8] if limit > PILOT else np.zeros(0, dtype=int)
+    if limit <= PILOT:
+        spent = np.zeros(0, dtype=int)
+    elif B <= 8:  # the pilot is the batch
+        spent = np.array([b for b in failed_rows(INFO) if INFO[b, 0] == 8], dtype=int)
+    else:
+        spent = pilot[INFO[pilot, 0] == 8]
     if spent.size:
         t_far = INFO[spent, 5]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -480,4 +498,4 @@ def run_compiled(
         if k:
             variational["parameter_sensitivity"] = states[..., d0 + d0 * d0 :].reshape(B, n, d0, k)
         states = states[..., :d0]
-    return CompiledRun(states, OBS, failures, int(INFO[:, 4].sum()), steps, compile_time, loop_time, table, variational)
+    return CompiledRun(states, OBS, failures, total(INFO, 4), steps, compile_time, loop_time, table, variational)
