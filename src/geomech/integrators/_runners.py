@@ -66,6 +66,12 @@ def failed_rows(INFO: np.ndarray) -> list[int]:
 NO_CHART = np.zeros((0, 3))
 
 
+def chart_bounds(system: Any) -> np.ndarray:
+    """The bounds of ``system``'s chart as the compiled loops read them, rows (component, lower, upper)."""
+    bounds = getattr(system, "chart", ())
+    return np.array(bounds, dtype=float).reshape(-1, 3) if bounds else NO_CHART
+
+
 def total(INFO: np.ndarray, column: int) -> int:
     """The sum of a column of the members' counts (steps, evaluations), one member's read as a number."""
     return int(INFO[0, column]) if INFO.shape[0] == 1 else int(INFO[:, column].sum())
@@ -260,8 +266,7 @@ def run_embedded(
     pair = method.tableau()
     rtol, atol = tolerances
     budget = float(max_evaluations)
-    bounds = getattr(problem_system, "chart", ())
-    chart = np.array(bounds, dtype=float).reshape(-1, 3) if bounds else NO_CHART
+    chart = chart_bounds(problem_system)
     args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart)
     compile_time = 0.0
     fp = rhs_address(module) if module.ready(RHS) else 0
@@ -376,8 +381,7 @@ def run_taylor(
     order = taylor_order(tolerances)
     budget = float(max_evaluations)
     rows_w = int(module.TAYLOR_ROWS)
-    bounds = getattr(problem_system, "chart", ())
-    chart = np.array(bounds, dtype=float).reshape(-1, 3) if bounds else NO_CHART
+    chart = chart_bounds(problem_system)
     compile_time = 0.0
     # the coefficients' code for this order: (address of the unrolled code or 0 for the loop, constants), chosen
     # and compiled once per module, order and choice

@@ -433,12 +433,8 @@ def run_compiled(
     EVT = np.zeros((B, max_events if events is not None else 0, 2 + d))
     ECOUNT = np.zeros(B)
     steps, compile_time = run(pilot, min(limit, PILOT))
-    if limit <= PILOT:
-        spent = np.zeros(0, dtype=int)
-    elif B <= 8:  # the pilot is the batch
-        spent = np.array([b for b in failed_rows(INFO) if INFO[b, 0] == 8], dtype=int)
-    else:
-        spent = pilot[INFO[pilot, 0] == 8]
+    codes = INFO[:, 0] if pilot.size == B else INFO[pilot, 0]  # (a small batch's pilot is the batch)
+    spent = pilot[codes == 8] if limit > PILOT else pilot[:0]
     if spent.size:
         t_far = INFO[spent, 5]
         with np.errstate(divide="ignore", invalid="ignore"):
