@@ -158,7 +158,11 @@ def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str,
             elif isinstance(node, ast.Assign):
                 defined.update(t.id for t in node.targets if isinstance(t, ast.Name))
                 order.append(("", segment))
-    known = defined | set(dir(builtins)) | {"math", "np", "kernel", "call_model", "call_model4", "call_model6"}
+    known = (
+        defined
+        | set(dir(builtins))
+        | {"math", "np", "kernel", "inlined", "call_model", "call_model4", "call_model6", "borrowed", "kept"}
+    )
     reads = {
         name: {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
         - {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
@@ -179,8 +183,9 @@ def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str,
 
 _HEADER_NUMBA = (
     "import math\nimport numpy as np\nimport numba\n"
-    "from geomech.integrators._fptr import Addresses, call_model, call_model4, call_model6\n\n"
-    "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n\n"
+    "from geomech.integrators._fptr import Addresses, borrowed, call_model, call_model4, call_model6, kept\n\n"
+    "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n"
+    "inlined = numba.njit(cache=True, nogil=True, error_model='numpy', inline='always')\n\n"
 )
 # The model functions' addresses for the loops shared by all models (geomech.integrators._fptr): each C twin is
 # compiled (or loaded from numba's cache) on first request only.
@@ -190,7 +195,10 @@ _ADDRESSES = Addresses(globals())
 addresses = _ADDRESSES
 ready = _ADDRESSES.ready
 """
-_HEADER_PYTHON = "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n"
+_HEADER_PYTHON = (
+    "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n\ninlined = kernel\n\n\n"
+    "def borrowed(a):\n    return a\n\n\ndef kept(arrays):\n    return None\n\n"
+)
 
 
 def _load(source: str, tag: str) -> Any:

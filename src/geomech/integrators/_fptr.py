@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from llvmlite import ir
 from numba import types
+from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
@@ -26,10 +27,12 @@ from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
 
 __all__ = [
     "Addresses",
+    "borrowed",
     "c_signature",
     "call_model",
     "call_model4",
     "call_model6",
+    "kept",
 ]
 
 
@@ -108,3 +111,35 @@ def call_model4(typingctx: Any, fp: Any, a: Any, b: Any, c: Any, prm: Any) -> An
 def call_model6(typingctx: Any, fp: Any, a: Any, b: Any, c: Any, e: Any, f: Any, prm: Any) -> Any:
     """``f(a, b, c, e, f, prm)`` of the model function (``gf_all``) at ``fp``."""
     return _typed(fp, (a, b, c, e, f, prm)), _codegen_for(6)
+
+
+@intrinsic
+def borrowed(typingctx: Any, a: Any) -> Any:
+    """``a`` without its reference count: the same data, shape and strides, no owner. numba counts the references
+    of an array atomically each time it is passed to a function it compiled apart (two atomic operations per array
+    and call: in a Taylor step with its dozen arrays, a third of the step); a borrowed array's count is skipped.
+    Valid while ``a`` lives: the loops borrow only their arguments (their caller holds them) and the work arrays
+    they allocate and keep (:func:`kept`) to their end; a borrowed array is never returned or stored."""
+    if not isinstance(a, types.Array):
+        raise TypingError(f"borrowed takes an array, got {a}")
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        ary.parent = cgutils.get_null_value(ary.parent.type)
+        return ary._getvalue()
+
+    return a(a), codegen
+
+
+@intrinsic
+def kept(typingctx: Any, arrays: Any) -> Any:
+    """Nothing, at run time: the arrays of the tuple ``arrays`` live to this point (numba frees an array after its
+    last use; the work arrays a loop uses through :func:`borrowed` views are kept to the loop's end by this)."""
+    if not isinstance(arrays, types.BaseTuple):
+        raise TypingError(f"kept takes a tuple of arrays, got {arrays}")
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return context.get_dummy_value()
+
+    return types.void(arrays), codegen

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import call_model
+from ._fptr import borrowed, call_model, kept
 from ._k_common import (
     STAGE1,
     fail,
@@ -399,10 +399,29 @@ def erk_run(
     rejected steps. Only the model's evaluations are here; the control logic is the shared ``erk_*`` helpers.
     """
     nb, d = Y0.shape
-    K = np.empty((A.shape[0], d))
-    F = np.empty((D.shape[0], d))
-    W = np.empty((10, d))
-    S = np.empty(EK_SIZE)
+    # every array borrowed (:func:`~geomech.integrators._fptr.borrowed`: numba would count its references
+    # atomically at each call that passes it): the arguments, which the caller holds, and the work arrays, kept to
+    # the end
+    Y0 = borrowed(Y0)
+    TS = borrowed(TS)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    A = borrowed(A)
+    B = borrowed(B)
+    E = borrowed(E)
+    E2 = borrowed(E2)
+    D = borrowed(D)
+    CH = borrowed(CH)
+    EDIR = borrowed(EDIR)
+    ETERM = borrowed(ETERM)
+    EVT = borrowed(EVT)
+    ECOUNT = borrowed(ECOUNT)
+    PRM = borrowed(PRM)
+    K_ = np.empty((A.shape[0], d))
+    F_ = np.empty((D.shape[0], d))
+    W_ = np.empty((10, d))
+    S_ = np.empty(EK_SIZE)
+    K, F, W, S = borrowed(K_), borrowed(F_), borrowed(W_), borrowed(S_)
     for b in range(nb):
         prm = param_row(PRM, b)
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)
@@ -439,3 +458,4 @@ def erk_run(
                 ECOUNT,
                 prm,
             )
+    kept((K_, F_, W_, S_))

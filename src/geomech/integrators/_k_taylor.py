@@ -16,8 +16,8 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import call_model
-from ._k_common import fail, finite, kernel, param_row, store
+from ._fptr import borrowed, call_model, kept
+from ._k_common import fail, inlined, kernel, param_row, store
 from ._k_embedded import erk_crossed
 from ._k_explicit import chart_margin
 
@@ -78,26 +78,41 @@ def tk_int(a, r, k):
     return s / k
 
 
-@kernel
-def tk_horner(X, tau, out):
-    """The Taylor polynomial of each row of X at tau."""
-    p = X.shape[1] - 1
-    for i in range(X.shape[0]):
-        s = X[i, p]
-        for j in range(p - 1, -1, -1):
-            s = s * tau + X[i, j]
-        out[i] = s
+@inlined
+def tk_poly(X3, lane, i, tau):
+    """Row i of the Taylor polynomial of the lane's coefficients X3[:, :, lane] at tau (the lane's entries read in
+    place: a view of them would cost numba two atomic reference counts, a third of the loop's time)."""
+    p = X3.shape[1] - 1
+    s = X3[i, p, lane]
+    for j in range(p - 1, -1, -1):
+        s = s * tau + X3[i, j, lane]
+    return s
 
 
-@kernel
-def tk_step(X, y, order, rtol, atol):
-    """The step size the coefficients X allow (inf where the last two vanish; NaN where they are not finite)."""
+@inlined
+def tk_at(X3, lane, tau, out):
+    """The lane's Taylor polynomial at tau into out."""
+    for i in range(X3.shape[0]):
+        out[i] = tk_poly(X3, lane, i, tau)
+
+
+@inlined
+def tk_store(X3, lane, tau, OUT, b, k):
+    """The lane's Taylor polynomial at tau saved as output k of member b."""
+    for i in range(X3.shape[0]):
+        OUT[b, k, i] = tk_poly(X3, lane, i, tau)
+
+
+@inlined
+def tk_step(X3, lane, order, rtol, atol):
+    """The step size the lane's coefficients allow (inf where the last two vanish; NaN where they are not
+    finite)."""
     a1 = 0.0
     a2 = 0.0
-    for i in range(X.shape[0]):
-        sc = atol + rtol * abs(y[i])
-        a1 = max(a1, abs(X[i, order - 1]) / sc)
-        a2 = max(a2, abs(X[i, order]) / sc)
+    for i in range(X3.shape[0]):
+        sc = atol + rtol * abs(X3[i, 0, lane])
+        a1 = max(a1, abs(X3[i, order - 1, lane]) / sc)
+        a2 = max(a2, abs(X3[i, order, lane]) / sc)
     if not (math.isfinite(a1) and math.isfinite(a2)):
         return math.nan
     h = math.inf
@@ -108,8 +123,8 @@ def tk_step(X, y, order, rtol, atol):
     return h * math.exp(-0.7 / (order - 1))
 
 
-@kernel
-def tk_events(X, t, hs, b, limit, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm):
+@inlined
+def tk_events(X3, lane, t, hs, b, limit, GOLDS, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm):
     """The events of a step of size hs from t: each event function's zero on the step's polynomial (bisection to
     the resolution of doubles), recorded in time order in EVT[b] (event, t, state) up to and including the first
     terminal one and up to the fraction ``limit`` of the step (where the run leaves its chart), as the embedded
@@ -117,16 +132,16 @@ def tk_events(X, t, hs, b, limit, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM,
     ne = EDIR.shape[0]
     for j in range(ne):
         THETA[j] = 2.0
-        if not erk_crossed(GOLD[j], GNEW[j], EDIR[j]):
+        if not erk_crossed(GOLDS[lane, j], GNEW[j], EDIR[j]):
             continue
         lo = 0.0
         hi = 1.0
-        below = GOLD[j] < 0.0
+        below = GOLDS[lane, j] < 0.0
         for _ in range(60):
             mid = 0.5 * (lo + hi)
             if mid <= lo or mid >= hi:
                 break
-            tk_horner(X, mid * hs, YT)
+            tk_at(X3, lane, mid * hs, YT)
             call_model(efp, YT, GMID, prm)
             g = GMID[j]
             if (g < 0.0) == below and g != 0.0:
@@ -146,7 +161,7 @@ def tk_events(X, t, hs, b, limit, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM,
                 th = THETA[j]
         if th > 1.0:
             break
-        tk_horner(X, th * hs, YT)
+        tk_at(X3, lane, th * hs, YT)
         for j in range(ne):
             if THETA[j] == th:
                 c = int(ECOUNT[b])
@@ -160,13 +175,13 @@ def tk_events(X, t, hs, b, limit, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM,
     return stop
 
 
-@kernel
-def tk_chart_exit(X, hs, CH, YT):
+@inlined
+def tk_chart_exit(X3, lane, hs, CH, YT):
     """The fraction of a step of size hs at which its polynomial leaves the chart CH (bisection to the resolution
     of doubles), or 2 where its end is inside."""
     if CH.shape[0] == 0:
         return 2.0
-    tk_horner(X, hs, YT)
+    tk_at(X3, lane, hs, YT)
     if chart_margin(YT, CH) > 0.0:
         return 2.0
     lo = 0.0
@@ -175,7 +190,7 @@ def tk_chart_exit(X, hs, CH, YT):
         mid = 0.5 * (lo + hi)
         if mid <= lo or mid >= hi:
             break
-        tk_horner(X, mid * hs, YT)
+        tk_at(X3, lane, mid * hs, YT)
         if chart_margin(YT, CH) > 0.0:
             lo = mid
         else:
@@ -204,19 +219,21 @@ def tk_begin(Y0, b, t0, TS, OUT, INFO, y, CH, efp, EDIR, GOLD, prm):
     return k, status
 
 
-@kernel
+@inlined
 def tk_advance(
-    X, y, t, k, b, TS, OUT, order, rtol, atol, CH, efp, EDIR, ETERM, EVT, ECOUNT, GOLD, GNEW, GMID, THETA, YT, prm
+    X3, lane, t, k, b, TS, OUT, order, rtol, atol, CH, efp, EDIR, ETERM, EVT, ECOUNT, GOLDS, GNEW, GMID, THETA, YT, prm
 ):
-    """A step of member b from (t, y) by its Taylor coefficients X (X[:, 0] = y): the outputs it passes saved, the
-    step ended early where it leaves the chart CH or at a terminal event; returns (t, the index of the first time
-    not reached, status, the steps taken: 0 or 1, the step). Where the status is 0 the caller advances y to the
-    step's end (Horner's rule at the step: the lanes' states at once)."""
+    """A step of member b from (t, y) by the lane's Taylor coefficients X3[:, :, lane] (column 0 the state y): the
+    outputs it passes saved, the step ended early where it leaves the chart CH or at a terminal event; returns (t,
+    the index of the first time not reached, status, the steps taken: 0 or 1, the step). Where the status is 0 the
+    caller advances y to the step's end (Horner's rule at the step: the lanes' states at once). The lane's entries
+    (coefficients, event values GOLDS[lane]) are read in place, not as views: numba counts a view's references
+    atomically, which cost a third of the loop."""
     n = TS.shape[0]
     ne = EDIR.shape[0]
     t_end = TS[n - 1]
     direction = 1.0 if t_end >= t else -1.0
-    h = tk_step(X, y, order, rtol, atol)
+    h = tk_step(X3, lane, order, rtol, atol)
     if not (h > 0.0):  # NaN: coefficients not finite
         return t, k, 2, 0, 0.0
     remaining = abs(t_end - t)
@@ -227,24 +244,24 @@ def tk_advance(
         return t, k, 4, 0, 0.0
     hs = direction * h
     t_new = t_end if last else t + hs
-    leave = tk_chart_exit(X, hs, CH, YT)
+    leave = tk_chart_exit(X3, lane, hs, CH, YT)
     stop = 2.0
     if ne > 0:
-        tk_horner(X, hs, YT)
+        tk_at(X3, lane, hs, YT)
         call_model(efp, YT, GNEW, prm)
-        stop = tk_events(X, t, hs, b, leave, GOLD, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
+        stop = tk_events(X3, lane, t, hs, b, leave, GOLDS, GNEW, GMID, THETA, YT, efp, EDIR, ETERM, EVT, ECOUNT, prm)
         for j in range(ne):
-            GOLD[j] = GNEW[j]
+            GOLDS[lane, j] = GNEW[j]
     end = min(leave, stop)
     if end <= 1.0:  # the chart's end (the outputs before it) or a terminal event (those up to it)
         status = 6 if leave < stop else 9
         t_stop = t + end * hs
         while k < n and (direction * (TS[k] - t_stop) < 0.0 or (status == 9 and TS[k] == t_stop)):
-            tk_horner(X, TS[k] - t, OUT[b, k])
+            tk_store(X3, lane, TS[k] - t, OUT, b, k)
             k += 1
         return t_stop, k, status, 1, 0.0
     while k < n and (last or direction * (TS[k] - t_new) <= 0.0):
-        tk_horner(X, TS[k] - t, OUT[b, k])
+        tk_store(X3, lane, TS[k] - t, OUT, b, k)
         k += 1
     return t_new, k, 0, 1, hs
 
@@ -333,28 +350,58 @@ def taylor_run(
     evaluations (``order`` per step: one pass over the equations per order), the time reached, steps, 0."""
     nb, d = Y0.shape
     stride = order + 1
+    # every array of the loop borrowed (borrowed: numba would count its references atomically at each call that
+    # passes it, a third of the loop's time): the arguments, which the caller holds, and the work arrays, kept to
+    # the end below
+    Y0 = borrowed(Y0)
+    TS = borrowed(TS)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    CH = borrowed(CH)
+    EDIR = borrowed(EDIR)
+    ETERM = borrowed(ETERM)
+    EVT = borrowed(EVT)
+    ECOUNT = borrowed(ECOUNT)
+    PRM = borrowed(PRM)
     # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l; a lane's are read in place
-    XV = np.zeros(d * stride * lanes)
+    XV_ = np.zeros(d * stride * lanes)
+    W_ = np.empty((max(n_rows, 1), stride))
+    K_ = np.zeros(max(n_k, 1))
+    KV_ = np.zeros(max(n_k, 1) * lanes)
+    PV_ = np.zeros(max(PRM.shape[1], 1) * lanes)
+    YS_ = np.empty((lanes, d))
+    GOLDS_ = np.zeros((lanes, d))
+    WORK_ = np.zeros((5, d))  # the event functions' values (new, at a midpoint), the states at a time, the steps
+    THETA_ = np.zeros(max(EDIR.shape[0], 1))
+    MEMBER_ = np.full(lanes, -2)  # the lane's member; -1: none left, -2: not yet given one
+    LANES_ = np.zeros((3, lanes))  # the lanes' times, evaluations and step sizes
+    FLAGS_ = np.zeros((2, lanes), dtype=np.bool_)  # whether the lane's member has ended, whether its state advances
+    COUNTS_ = np.zeros((2, lanes), dtype=np.int64)  # the lanes' first output not reached, steps
+    YV_ = np.zeros(d * lanes)  # the new states of the stepping lanes, entry i of lane l at i lanes + l
+    XV = borrowed(XV_)
     X3 = XV.reshape((d, stride, lanes))
-    W = np.empty((max(n_rows, 1), stride))
-    K = np.zeros(max(n_k, 1))
-    KV = np.zeros(max(n_k, 1) * lanes)
-    PV = np.zeros(max(PRM.shape[1], 1) * lanes)
-    YS = np.empty((lanes, d))
-    GOLDS = np.zeros((lanes, d))
-    GNEW = np.zeros(d)
-    GMID = np.zeros(d)
-    THETA = np.zeros(max(EDIR.shape[0], 1))
-    YT = np.empty(d)
-    MEMBER = np.full(lanes, -2)  # the lane's member; -1: none left, -2: not yet given one
-    T = np.zeros(lanes)
-    KS = np.zeros(lanes, dtype=np.int64)
-    STEPS = np.zeros(lanes, dtype=np.int64)
-    NFEV = np.zeros(lanes)
-    HV = np.zeros(lanes)  # the steps of the lanes whose state advances
-    YV = np.zeros(d * lanes)  # their new states, entry i of lane l at i lanes + l
-    PENDING = np.zeros(lanes, dtype=np.bool_)
-    DONE = np.zeros(lanes, dtype=np.bool_)  # the lane's member has ended
+    W = borrowed(W_)
+    K = borrowed(K_)
+    KV = borrowed(KV_)
+    PV = borrowed(PV_)
+    YS = borrowed(YS_)
+    GOLDS = borrowed(GOLDS_)
+    GNEW = borrowed(WORK_[0])
+    GMID = borrowed(WORK_[1])
+    YT = borrowed(WORK_[2])
+    THETA = borrowed(THETA_)
+    MEMBER = borrowed(MEMBER_)
+    T = borrowed(LANES_[0])
+    NFEV = borrowed(LANES_[1])
+    HV = borrowed(LANES_[2])  # the steps of the lanes whose state advances
+    DONE = borrowed(FLAGS_[0])
+    PENDING = borrowed(FLAGS_[1])
+    KS = borrowed(COUNTS_[0])
+    STEPS = borrowed(COUNTS_[1])
+    YV = borrowed(YV_)
+    # the compact coefficients run with one lane
+    X1 = X3[:, :, 0]
+    prm = PRM[0]
     nxt = 0
     while True:
         running = False
@@ -381,14 +428,14 @@ def taylor_run(
             b = MEMBER[lane]
             if b < 0:
                 continue
-            prm = param_row(PRM, b)
-            X = X3[:, :, lane]
+            if PRM.shape[0] > 1 and (tfp == 0 or EDIR.shape[0] > 0):  # the member's parameters, where they are read
+                prm = PRM[b]
             if tfp == 0:  # the loop over the orders (one lane)
-                taylor_coeffs(X, W, order, prm)
+                taylor_coeffs(X1, W, order, prm)
             NFEV[lane] += order
             t, k, status, stepped, hs = tk_advance(
-                X,
-                YS[lane],
+                X3,
+                lane,
                 T[lane],
                 KS[lane],
                 b,
@@ -403,7 +450,7 @@ def taylor_run(
                 ETERM,
                 EVT,
                 ECOUNT,
-                GOLDS[lane],
+                GOLDS,
                 GNEW,
                 GMID,
                 THETA,
@@ -426,13 +473,13 @@ def taylor_run(
             if not PENDING[lane]:
                 continue
             PENDING[lane] = False
-            y = YS[lane]
-            if hfp != 0:
-                for i in range(d):
-                    y[i] = YV[i * lanes + lane]
-            else:
-                tk_horner(X3[:, :, lane], HV[lane], y)
-            status = 0 if finite(y) else 2
+            status = 0
+            for i in range(d):
+                yi = YV[i * lanes + lane] if hfp != 0 else tk_poly(X3, lane, i, HV[lane])
+                YS[lane, i] = yi
+                if not math.isfinite(yi):
+                    status = 2
             if KS[lane] >= TS.shape[0] or status != 0:
                 tk_end(OUT, INFO, MEMBER[lane], KS[lane], status, NFEV[lane], T[lane], STEPS[lane])
                 DONE[lane] = True
+    kept((XV_, W_, K_, KV_, PV_, YS_, GOLDS_, WORK_, THETA_, MEMBER_, LANES_, FLAGS_, COUNTS_, YV_))
