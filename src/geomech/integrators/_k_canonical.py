@@ -9,7 +9,7 @@ generating-function method ``gf_all(y, g, Hm, gw, Hw, prm)`` and ``gf_grads(y, g
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import call_model
+from ._fptr import borrowed, call_model, kept
 from ._k_common import (
     F_GRAD,
     SAVE0,
@@ -96,13 +96,29 @@ def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, sc
 
 @kernel
 def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, PRM):
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     n = d // 2
-    y, tmp, g, gw = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
-    x, xprev, r = np.empty(n), np.empty(n), np.empty(n)
-    hm, hw = np.empty((d, d)), np.empty((d, d))
-    A = np.empty((n, n))
-    counts = np.zeros(2)  # rhs evaluations, Newton iterations
+    y_, tmp_, g_, gw_ = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    y = borrowed(y_)
+    tmp = borrowed(tmp_)
+    g = borrowed(g_)
+    gw = borrowed(gw_)
+    x_, xprev_, r_ = np.empty(n), np.empty(n), np.empty(n)
+    x = borrowed(x_)
+    xprev = borrowed(xprev_)
+    r = borrowed(r_)
+    hm_, hw_ = np.empty((d, d)), np.empty((d, d))
+    hm = borrowed(hm_)
+    hw = borrowed(hw_)
+    A_ = np.empty((n, n))
+    A = borrowed(A_)
+    counts_ = np.zeros(2)  # rhs evaluations, Newton iterations
+    counts = borrowed(counts_)
     off = n if variant == 0 else 0  # the implicit unknown is p (variant 0) or q
     for b in range(B):
         prm = param_row(PRM, b)
@@ -155,6 +171,7 @@ def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, P
                 break
         INFO[b, 3] = counts[1]
         INFO[b, 4] = counts[0]
+    kept((y_, tmp_, g_, gw_, x_, xprev_, r_, hm_, hw_, A_, counts_))
 
 
 @kernel
@@ -170,9 +187,18 @@ def symplectic_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM)
 def verlet_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Stormer-Verlet for H = T(p) + V(q): p_{1/2} = p - h/2 V'(q), q' = q + h T'(p_{1/2}),
     p' = p_{1/2} - h/2 V'(q'); H_q at the new q is reused by the next step."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     n = d // 2
-    y, g, gq = np.empty(d), np.empty(d), np.empty(n)
+    y_, g_, gq_ = np.empty(d), np.empty(d), np.empty(n)
+    y = borrowed(y_)
+    g = borrowed(g_)
+    gq = borrowed(gq_)
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -197,3 +223,4 @@ def verlet_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 4] = nrhs
+    kept((y_, g_, gq_))

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import call_model
+from ._fptr import borrowed, call_model, kept
 from ._k_common import (
     F_RHS,
     SAVE0,
@@ -47,8 +47,10 @@ def rk4_step(fp, y, h, k1, k2, k3, k4, tmp, prm):
 def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     B, d = Y0.shape
     fp = FP[F_RHS]
-    y = np.empty(d)
-    k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    Y0, OUT, INFO, PRM = borrowed(Y0), borrowed(OUT), borrowed(INFO), borrowed(PRM)  # see erk_run
+    W_ = np.empty((6, d))
+    W = borrowed(W_)
+    y, k1, k2, k3, k4, tmp = W[0], W[1], W[2], W[3], W[4], W[5]
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -62,6 +64,7 @@ def rk4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 4] = 4.0 * done
+    kept((W_,))
 
 
 @kernel
@@ -72,10 +75,11 @@ def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     C: y_{n+1} = y_n + h/24 (9 f* + 19 f_n - 5 f_{n-1} + f_{n-2});  E: f_{n+1} = f(y_{n+1}).
     """
     B, d = Y0.shape
-    y = np.empty(d)
-    F = np.empty((4, d))  # F[j] = f_{n-j}
-    k1, k2, k3, k4, tmp = np.empty(d), np.empty(d), np.empty(d), np.empty(d), np.empty(d)
-    fstar = np.empty(d)
+    Y0, OUT, INFO, PRM = borrowed(Y0), borrowed(OUT), borrowed(INFO), borrowed(PRM)  # see erk_run
+    W_ = np.empty((11, d))
+    W = borrowed(W_)
+    y, k1, k2, k3, k4, tmp, fstar = W[0], W[1], W[2], W[3], W[4], W[5], W[6]
+    F = W[7:11]  # F[j] = f_{n-j}
     fp = FP[F_RHS]
     for b in range(B):
         prm = param_row(PRM, b)
@@ -104,6 +108,7 @@ def abm4_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 4] = nrhs
+    kept((W_,))
 
 
 # -- periodic orbits: one period by an embedded Runge-Kutta pair of order 8(5,3) -------------------------

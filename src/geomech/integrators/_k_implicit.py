@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import call_model, call_model4
+from ._fptr import borrowed, call_model, call_model4, kept
 from ._k_common import (
     F_FJAC,
     F_RHS,
@@ -39,15 +39,29 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     The predictor extrapolates the last two increments (error O(h^3)), so Newton usually stops after two
     iterations at h small.
     """
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     if d == 2:
         midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM)
         return
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     hh = 0.5 * h
-    y, Z, Z1, Z2 = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
-    f, r, tmp = np.empty(d), np.empty(d), np.empty(d)
-    J, A = np.empty((d, d)), np.empty((d, d))
+    y_, Z_, Z1_, Z2_ = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    y = borrowed(y_)
+    Z = borrowed(Z_)
+    Z1 = borrowed(Z1_)
+    Z2 = borrowed(Z2_)
+    f_, r_, tmp_ = np.empty(d), np.empty(d), np.empty(d)
+    f = borrowed(f_)
+    r = borrowed(r_)
+    tmp = borrowed(tmp_)
+    J_, A_ = np.empty((d, d)), np.empty((d, d))
+    J = borrowed(J_)
+    A = borrowed(A_)
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -94,15 +108,24 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                 break
         INFO[b, 3] = nnewton
         INFO[b, 4] = nrhs
+    kept((y_, Z_, Z1_, Z2_, f_, r_, tmp_, J_, A_))
 
 
 @kernel
 def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
     """midpoint_run for d = 2 (one degree of freedom, the reduced Serret-Andoyer systems) on scalars."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    PRM = borrowed(PRM)
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     B = Y0.shape[0]
     hh = 0.5 * h
-    f, J, y = np.empty(2), np.empty((2, 2)), np.empty(2)
+    f_, J_, y_ = np.empty(2), np.empty((2, 2)), np.empty(2)
+    f = borrowed(f_)
+    J = borrowed(J_)
+    y = borrowed(y_)
     for b in range(B):
         prm = param_row(PRM, b)
         y0, y1 = Y0[b, 0], Y0[b, 1]
@@ -156,6 +179,7 @@ def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
                 break
         INFO[b, 3] = nnewton
         INFO[b, 4] = nrhs
+    kept((f_, J_, y_))
 
 
 @kernel
@@ -223,6 +247,12 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     P = (s, A (row-major), b, c, J, gamma_1..gamma_J, lam, T, T^-1 (each entry's real and imaginary part), each
     eigenvalue's partner: methods._canonical.gauss_transform).
     """
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     s = int(P[0])
@@ -234,9 +264,12 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     n = s * d
     # A's eigenbasis: the blocks I - h lam_k J (one of each conjugate pair: partner[k] >= -1)
     o = 2 + s * s + 2 * s + J
-    lam = np.empty(s, np.complex128)
-    Tc = np.empty((s, s), np.complex128)
-    Tic = np.empty((s, s), np.complex128)
+    lam_ = np.empty(s, np.complex128)
+    lam = borrowed(lam_)
+    Tc_ = np.empty((s, s), np.complex128)
+    Tc = borrowed(Tc_)
+    Tic_ = np.empty((s, s), np.complex128)
+    Tic = borrowed(Tic_)
     for e in range(s):
         lam[e] = complex(P[o + 2 * e], P[o + 2 * e + 1])
     o += 2 * s
@@ -245,21 +278,35 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             Tc[i, j] = complex(P[o + 2 * (i * s + j)], P[o + 2 * (i * s + j) + 1])
             Tic[i, j] = complex(P[o + 2 * s * s + 2 * (i * s + j)], P[o + 2 * s * s + 2 * (i * s + j) + 1])
     partner = P[o + 4 * s * s : o + 4 * s * s + s]
-    Cc = np.empty((s, d, d), np.complex128)
-    pivc = np.empty((s, d), np.int64)
-    Wc = np.empty((s, d), np.complex128)
-    J0 = np.empty((d, d))
+    Cc_ = np.empty((s, d, d), np.complex128)
+    Cc = borrowed(Cc_)
+    pivc_ = np.empty((s, d), np.int64)
+    pivc = borrowed(pivc_)
+    Wc_ = np.empty((s, d), np.complex128)
+    Wc = borrowed(Wc_)
+    J0_ = np.empty((d, d))
+    J0 = borrowed(J0_)
     blocks = n >= BLOCKS_MIN
     ntol = 0.01 * tol / J  # Newton's stop (below)
-    y, tmp, f0 = np.empty(d), np.empty(d), np.empty(d)
-    Z, r = np.empty(n), np.empty(n)
-    F = np.empty((s, d))
-    Js = np.empty((s, d, d))
-    M = np.empty((n, n))
-    piv = np.empty(n, np.int64)
+    y_, tmp_, f0_ = np.empty(d), np.empty(d), np.empty(d)
+    y = borrowed(y_)
+    tmp = borrowed(tmp_)
+    f0 = borrowed(f0_)
+    Z_, r_ = np.empty(n), np.empty(n)
+    Z = borrowed(Z_)
+    r = borrowed(r_)
+    F_ = np.empty((s, d))
+    F = borrowed(F_)
+    Js_ = np.empty((s, d, d))
+    Js = borrowed(Js_)
+    M_ = np.empty((n, n))
+    M = borrowed(M_)
+    piv_ = np.empty(n, np.int64)
+    piv = borrowed(piv_)
     # the predictor's weights E[jj, i, j]: the collocation polynomial of sub-step jj (through (0, 0) and
     # (c_j, Z_j)) at 1 + rho c_i, rho the ratio of the next sub-step to this one; fixed by the composition
-    EX = np.empty((J, s, s))
+    EX_ = np.empty((J, s, s))
+    EX = borrowed(EX_)
     for jj in range(J):
         rho = gam[(jj + 1) % J] / gam[jj]
         for i in range(s):
@@ -270,7 +317,10 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                     if m != j:
                         w *= (th - c[m]) / (c[j] - c[m])
                 EX[jj, i, j] = w
-    tmp2, dy, comp = np.empty(s), np.empty(d), np.empty(d)
+    tmp2_, dy_, comp_ = np.empty(s), np.empty(d), np.empty(d)
+    tmp2 = borrowed(tmp2_)
+    dy = borrowed(dy_)
+    comp = borrowed(comp_)
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -424,3 +474,4 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                 break
         INFO[b, 3] = nnewton
         INFO[b, 4] = nrhs
+    kept((lam_, Tc_, Tic_, Cc_, pivc_, Wc_, J0_, y_, tmp_, f0_, Z_, r_, F_, Js_, M_, piv_, EX_, tmp2_, dy_, comp_))

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import call_model4
+from ._fptr import borrowed, call_model4, kept
 from ._k_common import (
     F_GHESS3,
     SAVE0,
@@ -131,18 +131,28 @@ def flow_block(A, axis, tau, n, T, prm):
 @kernel
 def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm):
     """split_run for d = 3 (no attitude), by blocks of 256 trajectories: the throughput loop."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    prm = borrowed(prm)
     B = Y0.shape[0]
     J = int(P[0])
-    axes = np.empty(J, np.int64)
-    taus = np.empty(J)
+    axes_ = np.empty(J, np.int64)
+    axes = borrowed(axes_)
+    taus_ = np.empty(J)
+    taus = borrowed(taus_)
     for j in range(J):
         axes[j] = int(P[1 + j])
         taus[j] = P[1 + J + j] * h
     fsal = J > 1 and axes[0] == axes[J - 1]
     merged = taus[0] + taus[J - 1]
     K = 256
-    A = np.empty((3, K))
-    T = np.empty(K)
+    A_ = np.empty((3, K))
+    A = borrowed(A_)
+    T_ = np.empty(K)
+    T = borrowed(T_)
     for start in range(0, B, K):
         n = min(K, B - start)
         for q in range(n):
@@ -172,6 +182,7 @@ def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm):
                 if not (math.isfinite(OUT[b, j, 0]) and math.isfinite(OUT[b, j, 1]) and math.isfinite(OUT[b, j, 2])):
                     fail(OUT, INFO, b, j, (j - 1) * save_every + 1, ST_NONFINITE, np.nan)
                     break
+    kept((axes_, taus_, A_, T_))
 
 
 @kernel
@@ -179,6 +190,12 @@ def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """One step is the composition P = (J, axes[J], coefficients[J]); when the first and last sub-flows
     are about the same axis, the last one of a step is merged with the first one of the next (the flows
     of one f_i commute) except where a state is saved."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     if d == 3 and PRM.shape[0] == 1:
         split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, PRM[0])
@@ -188,7 +205,8 @@ def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     axes = P[1 : 1 + J]
     coef = P[1 + J : 1 + 2 * J]
     fsal = J > 1 and axes[0] == axes[J - 1]
-    y = np.empty(d)
+    y_ = np.empty(d)
+    y = borrowed(y_)
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -209,6 +227,7 @@ def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 4] = nsteps * J
+    kept((y_,))
 
 
 @kernel
@@ -337,12 +356,33 @@ def lgvi_mu(X, m, param, mu, D, u, v):
 def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Discrete Euler-Lagrange equations of L_d = h l(tau^{-1}(R_k^T R_{k+1}) / h) in momentum form:
     find X with X = h grad H(J_r(X) m_k); then F = tau(X), R_{k+1} = R_k F, m_{k+1} = F^T m_k."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     attitude = d == 12
     param = int(P[0])
-    y, m, X, Xp, Xpp, r = np.empty(d), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    mu, g, u, v, tmp = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    D, hm, A, F = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    y_, m_, X_, Xp_, Xpp_, r_ = np.empty(d), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    y = borrowed(y_)
+    m = borrowed(m_)
+    X = borrowed(X_)
+    Xp = borrowed(Xp_)
+    Xpp = borrowed(Xpp_)
+    r = borrowed(r_)
+    mu_, g_, u_, v_, tmp_ = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    mu = borrowed(mu_)
+    g = borrowed(g_)
+    u = borrowed(u_)
+    v = borrowed(v_)
+    tmp = borrowed(tmp_)
+    D_, hm_, A_, F_ = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    D = borrowed(D_)
+    hm = borrowed(hm_)
+    A = borrowed(A_)
+    F = borrowed(F_)
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -395,6 +435,7 @@ def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                 break
         INFO[b, 3] = nnewton
         INFO[b, 4] = nrhs
+    kept((y_, m_, X_, Xp_, Xpp_, r_, mu_, g_, u_, v_, tmp_, D_, hm_, A_, F_))
 
 
 @kernel
@@ -402,14 +443,27 @@ def cg_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """An explicit Crouch-Grossman method for m' = m x w, R' = R w^, w = grad H(m): every stage and the step
     are products of the rotations exp(h a_ij w_j^) (m <- F^T m, R <- R F), so |m|, R in SO(3) and R m are kept
     to round-off. P = (s, A (row-major, strictly lower), b)."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     attitude = d == 12
     s = int(P[0])
     a = P[1 : 1 + s * s]
     bw = P[1 + s * s : 1 + s * s + s]
-    y, m, X, tmp = np.empty(d), np.empty(3), np.empty(3), np.empty(3)
-    W = np.empty((s, 3))
-    E, hm = np.empty((3, 3)), np.empty((3, 3))
+    y_, m_, X_, tmp_ = np.empty(d), np.empty(3), np.empty(3), np.empty(3)
+    y = borrowed(y_)
+    m = borrowed(m_)
+    X = borrowed(X_)
+    tmp = borrowed(tmp_)
+    W_ = np.empty((s, 3))
+    W = borrowed(W_)
+    E_, hm_ = np.empty((3, 3)), np.empty((3, 3))
+    E = borrowed(E_)
+    hm = borrowed(hm_)
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -437,6 +491,7 @@ def cg_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 4] = nrhs
+    kept((y_, m_, X_, tmp_, W_, E_, hm_))
 
 
 @kernel
@@ -444,15 +499,34 @@ def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Moser-Veselov: h m_k^ = F J_d - J_d F^T with J_d = tr(I)/2 - I; with F = cay(2 f) this reads
     h m + h m x f + f (f . h m) - 2 I f = 0 (Lee, Leok & McClamroch 2007), solved for f by Newton;
     then m_{k+1} = F^T m_k, R_{k+1} = R_k F."""
+    # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
+    Y0 = borrowed(Y0)
+    OUT = borrowed(OUT)
+    INFO = borrowed(INFO)
+    P = borrowed(P)
+    PRM = borrowed(PRM)
     B, d = Y0.shape
     attitude = d == 12
-    inertia = np.empty((3, 3))
+    inertia_ = np.empty((3, 3))
+    inertia = borrowed(inertia_)
     for i in range(3):
         for j in range(3):
             inertia[i, j] = P[3 * i + j]
-    y, m, f, fp, fpp, r = np.empty(d), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    u, tmp, X = np.empty(3), np.empty(3), np.empty(3)
-    A, F, Iinv = np.empty((3, 3)), np.empty((3, 3)), np.linalg.inv(inertia)
+    y_, m_, f_, fp_, fpp_, r_ = np.empty(d), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    y = borrowed(y_)
+    m = borrowed(m_)
+    f = borrowed(f_)
+    fp = borrowed(fp_)
+    fpp = borrowed(fpp_)
+    r = borrowed(r_)
+    u_, tmp_, X_ = np.empty(3), np.empty(3), np.empty(3)
+    u = borrowed(u_)
+    tmp = borrowed(tmp_)
+    X = borrowed(X_)
+    A_, F_, Iinv_ = np.empty((3, 3)), np.empty((3, 3)), np.linalg.inv(inertia)
+    A = borrowed(A_)
+    F = borrowed(F_)
+    Iinv = borrowed(Iinv_)
     for b in range(B):
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)
@@ -503,3 +577,4 @@ def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
             if isave < 0:
                 break
         INFO[b, 3] = nnewton
+    kept((inertia_, y_, m_, f_, fp_, fpp_, r_, u_, tmp_, X_, A_, F_, Iinv_))
