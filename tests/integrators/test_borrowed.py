@@ -29,8 +29,7 @@ def _add_row(W, k, x):
 @numba.njit
 def _work_through_borrowed_arrays(n, d, x):
     W_ = np.zeros((3, d))
-    W = borrowed(W_)
-    X = borrowed(x)
+    W, X = borrowed((W_, x))  # a tuple: each borrowed
     for k in range(n):
         _add_row(W, k, X[k % X.shape[0]])
     total = 0.0

@@ -115,19 +115,29 @@ def call_model6(typingctx: Any, fp: Any, a: Any, b: Any, c: Any, e: Any, f: Any,
 
 @intrinsic
 def borrowed(typingctx: Any, a: Any) -> Any:
-    """``a`` without its reference count: the same data, shape and strides, no owner. numba counts the references
-    of an array atomically each time it is passed to a function it compiled apart (two atomic operations per array
-    and call: in a Taylor step with its dozen arrays, a third of the step); a borrowed array's count is skipped.
-    Valid while ``a`` lives: the loops borrow only their arguments (their caller holds them) and the work arrays
-    they allocate and keep (:func:`kept`) to their end; a borrowed array is never returned or stored."""
-    if not isinstance(a, types.Array):
-        raise TypingError(f"borrowed takes an array, got {a}")
+    """``a`` without its reference count (or each array of the tuple ``a``): the same data, shape and strides, no
+    owner. numba counts the references of an array atomically each time it is passed to a function it compiled
+    apart (two atomic operations per array and call: in a Taylor step with its dozen arrays, a third of the step);
+    a borrowed array's count is skipped. Valid while ``a`` lives: the loops borrow only their arguments (their
+    caller holds them) and the work arrays they allocate and keep (:func:`kept`) to their end; a borrowed array is
+    never returned or stored."""
+    arrays = tuple(a) if isinstance(a, types.BaseTuple) else (a,)
+    if not arrays or not all(isinstance(t, types.Array) for t in arrays):
+        raise TypingError(f"borrowed takes an array or a tuple of arrays, got {a}")
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        ary = context.make_array(signature.args[0])(context, builder, args[0])
-        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
-        ary.parent = cgutils.get_null_value(ary.parent.type)
-        return ary._getvalue()
+        def bare(t: Any, value: Any) -> Any:
+            ary = context.make_array(t)(context, builder, value)
+            ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+            ary.parent = cgutils.get_null_value(ary.parent.type)
+            return ary._getvalue()
+
+        if not isinstance(signature.args[0], types.BaseTuple):
+            return bare(signature.args[0], args[0])
+        out = cgutils.get_null_value(context.get_value_type(signature.return_type))
+        for i, t in enumerate(signature.args[0]):
+            out = builder.insert_value(out, bare(t, builder.extract_value(args[0], i)), i)
+        return out
 
     return a(a), codegen
 

@@ -97,24 +97,15 @@ def _implicit_half(y, x, tmp, g, hm, gw, hw, A, r, n, h, variant, tol, maxit, sc
 @kernel
 def _symplectic_run(Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, variant, PRM):
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, PRM = borrowed((Y0, OUT, INFO, PRM))
     B, d = Y0.shape
     n = d // 2
     y_, tmp_, g_, gw_ = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
-    y = borrowed(y_)
-    tmp = borrowed(tmp_)
-    g = borrowed(g_)
-    gw = borrowed(gw_)
+    y, tmp, g, gw = borrowed((y_, tmp_, g_, gw_))
     x_, xprev_, r_ = np.empty(n), np.empty(n), np.empty(n)
-    x = borrowed(x_)
-    xprev = borrowed(xprev_)
-    r = borrowed(r_)
+    x, xprev, r = borrowed((x_, xprev_, r_))
     hm_, hw_ = np.empty((d, d)), np.empty((d, d))
-    hm = borrowed(hm_)
-    hw = borrowed(hw_)
+    hm, hw = borrowed((hm_, hw_))
     A_ = np.empty((n, n))
     A = borrowed(A_)
     counts_ = np.zeros(2)  # rhs evaluations, Newton iterations
@@ -188,17 +179,11 @@ def verlet_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Stormer-Verlet for H = T(p) + V(q): p_{1/2} = p - h/2 V'(q), q' = q + h T'(p_{1/2}),
     p' = p_{1/2} - h/2 V'(q'); H_q at the new q is reused by the next step."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, P, PRM = borrowed((Y0, OUT, INFO, P, PRM))
     B, d = Y0.shape
     n = d // 2
     y_, g_, gq_ = np.empty(d), np.empty(d), np.empty(n)
-    y = borrowed(y_)
-    g = borrowed(g_)
-    gq = borrowed(gq_)
+    y, g, gq = borrowed((y_, g_, gq_))
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)

@@ -402,26 +402,14 @@ def erk_run(
     # every array borrowed (:func:`~geomech.integrators._fptr.borrowed`: numba would count its references
     # atomically at each call that passes it): the arguments, which the caller holds, and the work arrays, kept to
     # the end
-    Y0 = borrowed(Y0)
-    TS = borrowed(TS)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    A = borrowed(A)
-    B = borrowed(B)
-    E = borrowed(E)
-    E2 = borrowed(E2)
-    D = borrowed(D)
-    CH = borrowed(CH)
-    EDIR = borrowed(EDIR)
-    ETERM = borrowed(ETERM)
-    EVT = borrowed(EVT)
-    ECOUNT = borrowed(ECOUNT)
-    PRM = borrowed(PRM)
+    Y0, TS, OUT, INFO, A, B, E, E2, D, CH, EDIR, ETERM, EVT, ECOUNT, PRM = borrowed(
+        (Y0, TS, OUT, INFO, A, B, E, E2, D, CH, EDIR, ETERM, EVT, ECOUNT, PRM)
+    )
     K_ = np.empty((A.shape[0], d))
     F_ = np.empty((D.shape[0], d))
     W_ = np.empty((10, d))
     S_ = np.empty(EK_SIZE)
-    K, F, W, S = borrowed(K_), borrowed(F_), borrowed(W_), borrowed(S_)
+    K, F, W, S = borrowed((K_, F_, W_, S_))
     for b in range(nb):
         prm = param_row(PRM, b)
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)

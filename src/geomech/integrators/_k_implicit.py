@@ -40,10 +40,7 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     iterations at h small.
     """
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, PRM = borrowed((Y0, OUT, INFO, PRM))
     B, d = Y0.shape
     if d == 2:
         midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM)
@@ -51,17 +48,11 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     hh = 0.5 * h
     y_, Z_, Z1_, Z2_ = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
-    y = borrowed(y_)
-    Z = borrowed(Z_)
-    Z1 = borrowed(Z1_)
-    Z2 = borrowed(Z2_)
+    y, Z, Z1, Z2 = borrowed((y_, Z_, Z1_, Z2_))
     f_, r_, tmp_ = np.empty(d), np.empty(d), np.empty(d)
-    f = borrowed(f_)
-    r = borrowed(r_)
-    tmp = borrowed(tmp_)
+    f, r, tmp = borrowed((f_, r_, tmp_))
     J_, A_ = np.empty((d, d)), np.empty((d, d))
-    J = borrowed(J_)
-    A = borrowed(A_)
+    J, A = borrowed((J_, A_))
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -115,17 +106,12 @@ def midpoint_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
 def midpoint_run_2(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, PRM):
     """midpoint_run for d = 2 (one degree of freedom, the reduced Serret-Andoyer systems) on scalars."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, PRM = borrowed((Y0, OUT, INFO, PRM))
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     B = Y0.shape[0]
     hh = 0.5 * h
     f_, J_, y_ = np.empty(2), np.empty((2, 2)), np.empty(2)
-    f = borrowed(f_)
-    J = borrowed(J_)
-    y = borrowed(y_)
+    f, J, y = borrowed((f_, J_, y_))
     for b in range(B):
         prm = param_row(PRM, b)
         y0, y1 = Y0[b, 0], Y0[b, 1]
@@ -248,11 +234,7 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     eigenvalue's partner: methods._canonical.gauss_transform).
     """
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, P, PRM = borrowed((Y0, OUT, INFO, P, PRM))
     B, d = Y0.shape
     f_rhs, f_jac = FP[F_RHS], FP[F_FJAC]
     s = int(P[0])
@@ -289,12 +271,9 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     blocks = n >= BLOCKS_MIN
     ntol = 0.01 * tol / J  # Newton's stop (below)
     y_, tmp_, f0_ = np.empty(d), np.empty(d), np.empty(d)
-    y = borrowed(y_)
-    tmp = borrowed(tmp_)
-    f0 = borrowed(f0_)
+    y, tmp, f0 = borrowed((y_, tmp_, f0_))
     Z_, r_ = np.empty(n), np.empty(n)
-    Z = borrowed(Z_)
-    r = borrowed(r_)
+    Z, r = borrowed((Z_, r_))
     F_ = np.empty((s, d))
     F = borrowed(F_)
     Js_ = np.empty((s, d, d))
@@ -318,9 +297,7 @@ def gauss_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
                         w *= (th - c[m]) / (c[j] - c[m])
                 EX[jj, i, j] = w
     tmp2_, dy_, comp_ = np.empty(s), np.empty(d), np.empty(d)
-    tmp2 = borrowed(tmp2_)
-    dy = borrowed(dy_)
-    comp = borrowed(comp_)
+    tmp2, dy, comp = borrowed((tmp2_, dy_, comp_))
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)

@@ -132,11 +132,7 @@ def flow_block(A, axis, tau, n, T, prm):
 def split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, prm):
     """split_run for d = 3 (no attitude), by blocks of 256 trajectories: the throughput loop."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    prm = borrowed(prm)
+    Y0, OUT, INFO, P, prm = borrowed((Y0, OUT, INFO, P, prm))
     B = Y0.shape[0]
     J = int(P[0])
     axes_ = np.empty(J, np.int64)
@@ -191,11 +187,7 @@ def split_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     are about the same axis, the last one of a step is merged with the first one of the next (the flows
     of one f_i commute) except where a state is saved."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, P, PRM = borrowed((Y0, OUT, INFO, P, PRM))
     B, d = Y0.shape
     if d == 3 and PRM.shape[0] == 1:
         split_m_run(Y0, h, nsteps, save_every, OUT, INFO, P, PRM[0])
@@ -357,32 +349,16 @@ def lgvi_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     """Discrete Euler-Lagrange equations of L_d = h l(tau^{-1}(R_k^T R_{k+1}) / h) in momentum form:
     find X with X = h grad H(J_r(X) m_k); then F = tau(X), R_{k+1} = R_k F, m_{k+1} = F^T m_k."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, P, PRM = borrowed((Y0, OUT, INFO, P, PRM))
     B, d = Y0.shape
     attitude = d == 12
     param = int(P[0])
     y_, m_, X_, Xp_, Xpp_, r_ = np.empty(d), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    y = borrowed(y_)
-    m = borrowed(m_)
-    X = borrowed(X_)
-    Xp = borrowed(Xp_)
-    Xpp = borrowed(Xpp_)
-    r = borrowed(r_)
+    y, m, X, Xp, Xpp, r = borrowed((y_, m_, X_, Xp_, Xpp_, r_))
     mu_, g_, u_, v_, tmp_ = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    mu = borrowed(mu_)
-    g = borrowed(g_)
-    u = borrowed(u_)
-    v = borrowed(v_)
-    tmp = borrowed(tmp_)
+    mu, g, u, v, tmp = borrowed((mu_, g_, u_, v_, tmp_))
     D_, hm_, A_, F_ = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    D = borrowed(D_)
-    hm = borrowed(hm_)
-    A = borrowed(A_)
-    F = borrowed(F_)
+    D, hm, A, F = borrowed((D_, hm_, A_, F_))
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -444,26 +420,18 @@ def cg_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     are products of the rotations exp(h a_ij w_j^) (m <- F^T m, R <- R F), so |m|, R in SO(3) and R m are kept
     to round-off. P = (s, A (row-major, strictly lower), b)."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, P, PRM = borrowed((Y0, OUT, INFO, P, PRM))
     B, d = Y0.shape
     attitude = d == 12
     s = int(P[0])
     a = P[1 : 1 + s * s]
     bw = P[1 + s * s : 1 + s * s + s]
     y_, m_, X_, tmp_ = np.empty(d), np.empty(3), np.empty(3), np.empty(3)
-    y = borrowed(y_)
-    m = borrowed(m_)
-    X = borrowed(X_)
-    tmp = borrowed(tmp_)
+    y, m, X, tmp = borrowed((y_, m_, X_, tmp_))
     W_ = np.empty((s, 3))
     W = borrowed(W_)
     E_, hm_ = np.empty((3, 3)), np.empty((3, 3))
-    E = borrowed(E_)
-    hm = borrowed(hm_)
+    E, hm = borrowed((E_, hm_))
     for b in range(B):
         prm = param_row(PRM, b)
         load(y, Y0, b)
@@ -500,11 +468,7 @@ def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
     h m + h m x f + f (f . h m) - 2 I f = 0 (Lee, Leok & McClamroch 2007), solved for f by Newton;
     then m_{k+1} = F^T m_k, R_{k+1} = R_k F."""
     # every array borrowed (see erk_run): the arguments, the work arrays kept to the end
-    Y0 = borrowed(Y0)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    P = borrowed(P)
-    PRM = borrowed(PRM)
+    Y0, OUT, INFO, P, PRM = borrowed((Y0, OUT, INFO, P, PRM))
     B, d = Y0.shape
     attitude = d == 12
     inertia_ = np.empty((3, 3))
@@ -513,20 +477,11 @@ def mv_run(FP, Y0, h, nsteps, save_every, OUT, INFO, tol, maxit, P, PRM):
         for j in range(3):
             inertia[i, j] = P[3 * i + j]
     y_, m_, f_, fp_, fpp_, r_ = np.empty(d), np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    y = borrowed(y_)
-    m = borrowed(m_)
-    f = borrowed(f_)
-    fp = borrowed(fp_)
-    fpp = borrowed(fpp_)
-    r = borrowed(r_)
+    y, m, f, fp, fpp, r = borrowed((y_, m_, f_, fp_, fpp_, r_))
     u_, tmp_, X_ = np.empty(3), np.empty(3), np.empty(3)
-    u = borrowed(u_)
-    tmp = borrowed(tmp_)
-    X = borrowed(X_)
+    u, tmp, X = borrowed((u_, tmp_, X_))
     A_, F_, Iinv_ = np.empty((3, 3)), np.empty((3, 3)), np.linalg.inv(inertia)
-    A = borrowed(A_)
-    F = borrowed(F_)
-    Iinv = borrowed(Iinv_)
+    A, F, Iinv = borrowed((A_, F_, Iinv_))
     for b in range(B):
         load(y, Y0, b)
         store(OUT, b, SAVE0, y)

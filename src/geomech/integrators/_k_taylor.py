@@ -353,16 +353,9 @@ def taylor_run(
     # every array of the loop borrowed (borrowed: numba would count its references atomically at each call that
     # passes it, a third of the loop's time): the arguments, which the caller holds, and the work arrays, kept to
     # the end below
-    Y0 = borrowed(Y0)
-    TS = borrowed(TS)
-    OUT = borrowed(OUT)
-    INFO = borrowed(INFO)
-    CH = borrowed(CH)
-    EDIR = borrowed(EDIR)
-    ETERM = borrowed(ETERM)
-    EVT = borrowed(EVT)
-    ECOUNT = borrowed(ECOUNT)
-    PRM = borrowed(PRM)
+    Y0, TS, OUT, INFO, CH, EDIR, ETERM, EVT, ECOUNT, PRM = borrowed(
+        (Y0, TS, OUT, INFO, CH, EDIR, ETERM, EVT, ECOUNT, PRM)
+    )
     # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l; a lane's are read in place
     XV_ = np.zeros(d * stride * lanes)
     W_ = np.empty((max(n_rows, 1), stride))
@@ -380,17 +373,11 @@ def taylor_run(
     YV_ = np.zeros(d * lanes)  # the new states of the stepping lanes, entry i of lane l at i lanes + l
     XV = borrowed(XV_)
     X3 = XV.reshape((d, stride, lanes))
-    W = borrowed(W_)
-    K = borrowed(K_)
-    KV = borrowed(KV_)
-    PV = borrowed(PV_)
-    YS = borrowed(YS_)
-    GOLDS = borrowed(GOLDS_)
+    W, K, KV, PV, YS, GOLDS = borrowed((W_, K_, KV_, PV_, YS_, GOLDS_))
     GNEW = borrowed(WORK_[0])
     GMID = borrowed(WORK_[1])
     YT = borrowed(WORK_[2])
-    THETA = borrowed(THETA_)
-    MEMBER = borrowed(MEMBER_)
+    THETA, MEMBER = borrowed((THETA_, MEMBER_))
     T = borrowed(LANES_[0])
     NFEV = borrowed(LANES_[1])
     HV = borrowed(LANES_[2])  # the steps of the lanes whose state advances
