@@ -121,7 +121,8 @@ def borrowed(typingctx: Any, a: Any) -> Any:
     a borrowed array's count is skipped. Valid while ``a`` lives: the loops borrow only their arguments (their
     caller holds them) and the work arrays they allocate and keep (:func:`kept`) to their end; a borrowed array is
     never returned or stored."""
-    arrays = tuple(a) if isinstance(a, types.BaseTuple) else (a,)
+    given: Any = a  # numba's types are not typed for mypy
+    arrays = tuple(given) if isinstance(a, types.BaseTuple) else (a,)
     if not arrays or not all(isinstance(t, types.Array) for t in arrays):
         raise TypingError(f"borrowed takes an array or a tuple of arrays, got {a}")
 
@@ -135,7 +136,8 @@ def borrowed(typingctx: Any, a: Any) -> Any:
         if not isinstance(signature.args[0], types.BaseTuple):
             return bare(signature.args[0], args[0])
         out = cgutils.get_null_value(context.get_value_type(signature.return_type))
-        for i, t in enumerate(signature.args[0]):
+        elements: Any = signature.args[0]
+        for i, t in enumerate(elements):
             out = builder.insert_value(out, bare(t, builder.extract_value(args[0], i)), i)
         return out
 
