@@ -63,7 +63,8 @@ def _source(system: Any, kernels: list) -> str:
     exp = "\n    ".join(exp_lines(kernels, "u", "E"))
     jac = "\n    ".join(jacobian_lines(kernels, "u", -1.0, "J"))
     text = xi + _FIELD.replace("EXP_LINES", exp).replace("JAC_LINES", jac) + _LOOPS
-    return text.replace("KDIM", str(k)).replace("NMAT", str(N))
+    scratch = 2 * N * N + k * k + k
+    return text.replace("GF_SCRATCH", str(scratch)).replace("KDIM", str(k)).replace("NMAT", str(N))
 
 
 _FIELD = """
@@ -77,9 +78,8 @@ def gf_exp(u, E):
 
 
 @kernel
-def gf_field(t, u, Gc, out, prm):
-    # u' = J_r(u)^-1 xi(t, Gc exp(u)), with one scratch array (exp(u), the element, J_r^-1, xi)
-    buf = np.empty(2 * NMAT * NMAT + KDIM * KDIM + KDIM)
+def gf_field(t, u, Gc, out, prm, buf):
+    # u' = J_r(u)^-1 xi(t, Gc exp(u)), in the scratch array buf (exp(u), the element, J_r^-1, xi), the caller's
     E = buf[: NMAT * NMAT].reshape((NMAT, NMAT))
     G = buf[NMAT * NMAT : 2 * NMAT * NMAT].reshape((NMAT, NMAT))
     J = buf[2 * NMAT * NMAT : 2 * NMAT * NMAT + KDIM * KDIM].reshape((KDIM, KDIM))
@@ -102,7 +102,7 @@ def gf_field(t, u, Gc, out, prm):
 def rhs(y, out, prm):
     # the state (u, t), the centre in prm's last NMAT^2 entries
     base = prm.shape[0] - NMAT * NMAT
-    gf_field(y[KDIM], y, prm[base:].reshape((NMAT, NMAT)), out, prm)
+    gf_field(y[KDIM], y, prm[base:].reshape((NMAT, NMAT)), out, prm, np.empty(GF_SCRATCH))
     out[KDIM] = 1.0
 """
 
@@ -125,16 +125,15 @@ def gf_move(Gc, u, ang, AC, OUTG, OUTA, row, E, T):
 def rkmk4_run(G0, A0, AC, t0, h, nsteps, KEEP, OUTG, OUTA, INFO, prm):
     # RKMK4 from G0 (angles A0) at t0, nsteps steps of h, the nodes KEEP (sorted step indices) kept;
     # INFO = (status, the first row not reached, evaluations); returns the steps done
-    Gc = G0.copy()
-    ang = A0.copy()
-    z = np.zeros(KDIM)
-    k1 = np.empty(KDIM)
-    k2 = np.empty(KDIM)
-    k3 = np.empty(KDIM)
-    k4 = np.empty(KDIM)
-    u = np.empty(KDIM)
-    E = np.empty((NMAT, NMAT))
-    T = np.empty((NMAT, NMAT))
+    # every array borrowed (geomech.integrators._fptr.borrowed): the arguments, the work arrays kept to the end
+    AC, KEEP, OUTG, OUTA, INFO, prm = borrowed((AC, KEEP, OUTG, OUTA, INFO, prm))
+    Gc_, ang_ = G0.copy(), A0.copy()
+    V_ = np.zeros((6, KDIM))
+    M_ = np.empty((2, NMAT, NMAT))
+    buf_ = np.empty(GF_SCRATCH)
+    Gc, ang, V, M, buf = borrowed((Gc_, ang_, V_, M_, buf_))
+    z, k1, k2, k3, k4, u = V[0], V[1], V[2], V[3], V[4], V[5]
+    E, T = M[0], M[1]
     nk = KEEP.shape[0]
     ik = 0
     while ik < nk and KEEP[ik] == 0:
@@ -142,22 +141,23 @@ def rkmk4_run(G0, A0, AC, t0, h, nsteps, KEEP, OUTG, OUTA, INFO, prm):
         ik += 1
     for step in range(1, nsteps + 1):
         t = t0 + (step - 1) * h
-        gf_field(t, z, Gc, k1, prm)
+        gf_field(t, z, Gc, k1, prm, buf)
         for i in range(KDIM):
             u[i] = 0.5 * h * k1[i]
-        gf_field(t + 0.5 * h, u, Gc, k2, prm)
+        gf_field(t + 0.5 * h, u, Gc, k2, prm, buf)
         for i in range(KDIM):
             u[i] = 0.5 * h * k2[i]
-        gf_field(t + 0.5 * h, u, Gc, k3, prm)
+        gf_field(t + 0.5 * h, u, Gc, k3, prm, buf)
         for i in range(KDIM):
             u[i] = h * k3[i]
-        gf_field(t + h, u, Gc, k4, prm)
+        gf_field(t + h, u, Gc, k4, prm, buf)
         INFO[2] += 4.0
         for i in range(KDIM):
             u[i] = h * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) / 6.0
         if not finite(u):
             INFO[0] = 2.0
             INFO[1] = ik
+            kept((Gc_, ang_, V_, M_, buf_))
             return step - 1
         gf_move(Gc, u, ang, AC, OUTG, OUTA, -1, E, T)
         for i in range(NMAT):
@@ -169,6 +169,7 @@ def rkmk4_run(G0, A0, AC, t0, h, nsteps, KEEP, OUTG, OUTA, INFO, prm):
             gf_move(Gc, z, ang, AC, OUTG, OUTA, ik, E, T)
             ik += 1
     INFO[1] = ik
+    kept((Gc_, ang_, V_, M_, buf_))
     return nsteps
 
 
@@ -178,19 +179,16 @@ def rkmk_run(fp, G0, A0, AC, t0, TS, OUTG, OUTA, INFO, rtol, atol, max_evals, A,
     # INFO = (status, the first time not reached, evaluations, accepted steps, rejected steps, time reached, centres)
     n = TS.shape[0]
     d = KDIM + 1
-    prm = prm0.copy()
+    # every array borrowed (geomech.integrators._fptr.borrowed): the arguments, the work arrays kept to the end
+    AC, TS, OUTG, OUTA, INFO, A, B, E, E2, D, CH = borrowed((AC, TS, OUTG, OUTA, INFO, A, B, E, E2, D, CH))
+    prm_, Gc_, ang_ = prm0.copy(), G0.copy(), A0.copy()
+    Y0_, OUT_, I1_ = np.zeros((1, d)), np.full((1, n, d), np.nan), np.zeros((1, 8))
+    K_, F_, W_, S_ = np.empty((A.shape[0], d)), np.empty((D.shape[0], d)), np.empty((10, d)), np.empty(EK_SIZE)
+    M_ = np.empty((2, NMAT, NMAT))
+    prm, Gc, ang, Y0, OUT, I1 = borrowed((prm_, Gc_, ang_, Y0_, OUT_, I1_))
+    K, F, W, S, M = borrowed((K_, F_, W_, S_, M_))
+    Em, T = M[0], M[1]
     base = prm.shape[0] - NMAT * NMAT
-    Gc = G0.copy()
-    ang = A0.copy()
-    Y0 = np.zeros((1, d))
-    OUT = np.full((1, n, d), np.nan)
-    I1 = np.zeros((1, 8))
-    K = np.empty((A.shape[0], d))
-    F = np.empty((D.shape[0], d))
-    W = np.empty((10, d))
-    S = np.empty(EK_SIZE)
-    Em = np.empty((NMAT, NMAT))
-    T = np.empty((NMAT, NMAT))
     no_dir = np.zeros(0)
     no_evt = np.zeros((1, 0, 2 + d))
     no_count = np.zeros(1)
@@ -261,6 +259,7 @@ def rkmk_run(fp, G0, A0, AC, t0, TS, OUTG, OUTA, INFO, rtol, atol, max_evals, A,
     INFO[0] = status
     INFO[1] = first
     INFO[2] = nfev
+    kept((prm_, Gc_, ang_, Y0_, OUT_, I1_, K_, F_, W_, S_, M_))
 """
 
 
