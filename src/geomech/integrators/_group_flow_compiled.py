@@ -100,9 +100,10 @@ def gf_field(t, u, Gc, out, prm, buf):
 
 @kernel
 def rhs(y, out, prm):
-    # the state (u, t), the centre in prm's last NMAT^2 entries
+    # the state (u, t), the centre in prm's last NMAT^2 entries, the field's scratch array the entries before it
+    # (the run's own copy: an array made at each evaluation cost a third of RKMK4's loop)
     base = prm.shape[0] - NMAT * NMAT
-    gf_field(y[KDIM], y, prm[base:].reshape((NMAT, NMAT)), out, prm, np.empty(GF_SCRATCH))
+    gf_field(y[KDIM], y, prm[base:].reshape((NMAT, NMAT)), out, prm, prm[base - GF_SCRATCH : base])
     out[KDIM] = 1.0
 """
 
@@ -303,7 +304,7 @@ def run_rkmk(
     INFO = np.zeros(8)
     CH = np.array([(i, -radius, radius) for i in range(k)] if np.isfinite(radius) else [], dtype=float)
     CH = CH.reshape(-1, 3)
-    prm = np.zeros(N * N)
+    prm = np.zeros(2 * N * N + k * k + k + N * N)  # the field's scratch array, the centre (``rhs``)
     args = (tab.A, tab.b, tab.e, tab.e2, tab.dense, tab.n_stages, tab.error_order, tab.alternating, CH, prm)
     rtol, atol = tolerances
     compile_time = 0.0
