@@ -80,8 +80,7 @@ def tk_int(a, r, k):
 
 @inlined
 def tk_poly(X3, lane, i, tau):
-    """Row i of the Taylor polynomial of the lane's coefficients X3[:, :, lane] at tau (the lane's entries read in
-    place: a view of them would cost numba two atomic reference counts, a third of the loop's time)."""
+    """Row i of the Taylor polynomial of the lane's coefficients X3[:, :, lane] at tau, read in place."""
     p = X3.shape[1] - 1
     s = X3[i, p, lane]
     for j in range(p - 1, -1, -1):
@@ -94,13 +93,6 @@ def tk_at(X3, lane, tau, out):
     """The lane's Taylor polynomial at tau into out."""
     for i in range(X3.shape[0]):
         out[i] = tk_poly(X3, lane, i, tau)
-
-
-@inlined
-def tk_store(X3, lane, tau, OUT, b, k):
-    """The lane's Taylor polynomial at tau saved as output k of member b."""
-    for i in range(X3.shape[0]):
-        OUT[b, k, i] = tk_poly(X3, lane, i, tau)
 
 
 @inlined
@@ -227,8 +219,7 @@ def tk_advance(
     outputs it passes saved, the step ended early where it leaves the chart CH or at a terminal event; returns (t,
     the index of the first time not reached, status, the steps taken: 0 or 1, the step). Where the status is 0 the
     caller advances y to the step's end (Horner's rule at the step: the lanes' states at once). The lane's entries
-    (coefficients, event values GOLDS[lane]) are read in place, not as views: numba counts a view's references
-    atomically, which cost a third of the loop."""
+    (coefficients, event values GOLDS[lane]) are read in place."""
     n = TS.shape[0]
     ne = EDIR.shape[0]
     t_end = TS[n - 1]
@@ -257,11 +248,11 @@ def tk_advance(
         status = 6 if leave < stop else 9
         t_stop = t + end * hs
         while k < n and (direction * (TS[k] - t_stop) < 0.0 or (status == 9 and TS[k] == t_stop)):
-            tk_store(X3, lane, TS[k] - t, OUT, b, k)
+            tk_at(X3, lane, TS[k] - t, OUT[b, k])
             k += 1
         return t_stop, k, status, 1, 0.0
     while k < n and (last or direction * (TS[k] - t_new) <= 0.0):
-        tk_store(X3, lane, TS[k] - t, OUT, b, k)
+        tk_at(X3, lane, TS[k] - t, OUT[b, k])
         k += 1
     return t_new, k, 0, 1, hs
 
@@ -364,7 +355,7 @@ def taylor_run(
     PV_ = np.zeros(max(PRM.shape[1], 1) * lanes)
     YS_ = np.empty((lanes, d))
     GOLDS_ = np.zeros((lanes, d))
-    WORK_ = np.zeros((5, d))  # the event functions' values (new, at a midpoint), the states at a time, the steps
+    WORK_ = np.zeros((3, d))  # the event functions' values (new, at a midpoint), the state at a time
     THETA_ = np.zeros(max(EDIR.shape[0], 1))
     MEMBER_ = np.full(lanes, -2)  # the lane's member; -1: none left, -2: not yet given one
     LANES_ = np.zeros((3, lanes))  # the lanes' times, evaluations and step sizes
@@ -374,9 +365,7 @@ def taylor_run(
     XV = borrowed(XV_)
     X3 = XV.reshape((d, stride, lanes))
     W, K, KV, PV, YS, GOLDS = borrowed((W_, K_, KV_, PV_, YS_, GOLDS_))
-    GNEW = borrowed(WORK_[0])
-    GMID = borrowed(WORK_[1])
-    YT = borrowed(WORK_[2])
+    GNEW, GMID, YT = borrowed((WORK_[0], WORK_[1], WORK_[2]))
     THETA, MEMBER = borrowed((THETA_, MEMBER_))
     T = borrowed(LANES_[0])
     NFEV = borrowed(LANES_[1])
