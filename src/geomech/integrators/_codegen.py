@@ -161,7 +161,7 @@ def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str,
     known = (
         defined
         | set(dir(builtins))
-        | {"math", "np", "kernel", "inlined", "call_model", "call_model4", "call_model6", "borrowed", "kept"}
+        | {"math", "np", "kernel", "inlined", "call_model", "call_model4", "call_model6", "borrowed", "kept", "shaped"}
     )
     reads = {
         name: {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
@@ -183,7 +183,7 @@ def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str,
 
 _HEADER_NUMBA = (
     "import math\nimport numpy as np\nimport numba\n"
-    "from geomech.integrators._fptr import Addresses, borrowed, call_model, call_model4, call_model6, kept\n\n"
+    "from geomech.integrators._fptr import Addresses, borrowed, call_model, call_model4, call_model6, kept, shaped\n\n"
     "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n"
     "inlined = numba.njit(cache=True, nogil=True, error_model='numpy', inline='always')\n\n"
 )
@@ -197,7 +197,8 @@ ready = _ADDRESSES.ready
 """
 _HEADER_PYTHON = (
     "import math\nimport numpy as np\n\n\ndef kernel(f):\n    return f\n\n\ninlined = kernel\n\n\n"
-    "def borrowed(a):\n    return a\n\n\ndef kept(arrays):\n    return None\n\n"
+    "def borrowed(a):\n    return a\n\n\ndef kept(arrays):\n    return None\n\n\n"
+    "def shaped(buf, start, shape):\n    return buf[start : start + int(np.prod(shape))].reshape(shape)\n\n"
 )
 
 

@@ -22,6 +22,7 @@ from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
+from numba.np.arrayobj import populate_array
 
 from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
 
@@ -33,6 +34,7 @@ __all__ = [
     "call_model4",
     "call_model6",
     "kept",
+    "shaped",
 ]
 
 
@@ -155,3 +157,49 @@ def kept(typingctx: Any, arrays: Any) -> Any:
         return context.get_dummy_value()
 
     return types.void(arrays), codegen
+
+
+@intrinsic
+def shaped(typingctx: Any, buf: Any, start: Any, shape: Any) -> Any:
+    """The entries ``start``, ``start + 1``, ... of the C-contiguous vector ``buf`` as a C-contiguous array of
+    ``shape`` (a tuple of integers), borrowed (:func:`borrowed`: no owner, valid while ``buf`` lives). A loop
+    carves its work arrays out of one buffer its caller allocates, so that it allocates nothing itself (numba's
+    ``reshape`` would call a helper of numba's runtime; this is pointer arithmetic). The caller sizes ``buf``."""
+    given: Any = shape
+    if not (isinstance(buf, types.Array) and buf.ndim == 1 and buf.layout == "C"):
+        raise TypingError(f"shaped takes a C-contiguous vector, got {buf}")
+    if not isinstance(start, types.Integer):
+        raise TypingError(f"shaped takes an integer start, got {start}")
+    if isinstance(shape, types.Integer):
+        dims: tuple[Any, ...] = (shape,)
+    elif isinstance(shape, types.BaseTuple) and len(given) and all(isinstance(t, types.Integer) for t in given):
+        dims = tuple(given)
+    else:
+        raise TypingError(f"shaped takes a shape of integers, got {shape}")
+    out = types.Array(buf.dtype, len(dims), "C")
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        src = context.make_array(signature.args[0])(context, builder, args[0])
+        ary = context.make_array(out)(context, builder)
+        intp = context.get_value_type(types.intp)
+        if isinstance(signature.args[2], types.BaseTuple):
+            extents = cgutils.unpack_tuple(builder, args[2], len(dims))
+        else:
+            extents = [args[2]]
+        extents = [context.cast(builder, v, t, types.intp) for v, t in zip(extents, dims)]
+        itemsize = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(buf.dtype)))
+        strides = [itemsize]
+        for n in reversed(extents[1:]):
+            strides.insert(0, builder.mul(strides[0], n))
+        offset = context.cast(builder, args[1], signature.args[1], types.intp)
+        populate_array(
+            ary,
+            data=builder.gep(src.data, [offset]),
+            shape=cgutils.pack_array(builder, extents, ty=intp),
+            strides=cgutils.pack_array(builder, strides, ty=intp),
+            itemsize=itemsize,
+            meminfo=None,
+        )
+        return ary._getvalue()
+
+    return out(buf, start, shape), codegen

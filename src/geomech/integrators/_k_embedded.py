@@ -116,7 +116,7 @@ def erk_head(b, TS, OUT, INFO, max_evals, ns, S):
         direction = S[EK_DIR]
         if S[EK_NFEV] + ns > max_evals:
             S[EK_STATUS] = 8
-        elif not (S[EK_HABS] >= 10.0 * abs(np.nextafter(t, direction * np.inf) - t)):
+        elif not (S[EK_HABS] >= 10.0 * abs(math.nextafter(t, direction * math.inf) - t)):
             # steps that kept ending outside the chart, where f is not finite: the run reached its end
             S[EK_STATUS] = 6 if S[EK_LEFT] else (2 if S[EK_NONFINITE] else 4)
         else:

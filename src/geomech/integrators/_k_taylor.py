@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import borrowed, call_model, kept
+from ._fptr import borrowed, call_model, shaped
 from ._k_common import fail, inlined, kernel, param_row, store
 from ._k_embedded import erk_crossed
 from ._k_explicit import chart_margin
@@ -231,7 +231,7 @@ def tk_advance(
     last = h >= remaining
     if last:
         h = remaining
-    elif not (h >= 10.0 * abs(np.nextafter(t, direction * np.inf) - t)):
+    elif not (h >= 10.0 * abs(math.nextafter(t, direction * math.inf) - t)):
         return t, k, 4, 0, 0.0
     hs = direction * h
     t_new = t_end if last else t + hs
@@ -302,6 +302,24 @@ def tk_lane_start(
 
 
 @kernel
+def taylor_work(d, order, lanes, n_rows, n_k, n_prm, n_events):
+    """The entries of the float64 work buffer :func:`taylor_run` needs (its int64 buffer: 5 lanes)."""
+    stride = order + 1
+    n_k1 = max(n_k, 1)
+    return (
+        d * stride * lanes
+        + max(n_rows, 1) * stride
+        + n_k1 * (1 + lanes)
+        + max(n_prm, 1) * lanes
+        + 2 * lanes * d
+        + 3 * d
+        + max(n_events, 1)
+        + 3 * lanes
+        + d * lanes
+    )
+
+
+@kernel
 def taylor_run(
     Y0,
     t0,
@@ -324,6 +342,8 @@ def taylor_run(
     EVT,
     ECOUNT,
     PRM,
+    FW,
+    IW,
 ):
     """Integrate each row of Y0 from t0 by Taylor's method of order ``order`` (its coefficients the model's
     ``taylor_coeffs``, a work array of ``n_rows`` rows; or, where the address ``tfp`` is not 0, the same unrolled
@@ -338,43 +358,53 @@ def taylor_run(
     recorded in EVT[b] (event, t, state), counted in ECOUNT[b]; a terminal event ends the run there (status 9), the
     outputs after it NaN. INFO[b] as the embedded pairs' loop: status (0, 2 non-finite, 4 step size underflow, 6
     left the chart, 8 evaluation budget spent, 9 a terminal event), the index of the first time not reached, NaN, 0,
-    evaluations (``order`` per step: one pass over the equations per order), the time reached, steps, 0."""
+    evaluations (``order`` per step: one pass over the equations per order), the time reached, steps, 0. The work
+    arrays are carved out of FW (float64) and IW (int64), the caller's, of at least :func:`taylor_work` entries;
+    returns 0, or 1 (nothing done) where they are shorter."""
     nb, d = Y0.shape
     stride = order + 1
     # every array of the loop borrowed (borrowed: numba would count its references atomically at each call that
-    # passes it, a third of the loop's time): the arguments, which the caller holds, and the work arrays, kept to
-    # the end below
-    Y0, TS, OUT, INFO, CH, EDIR, ETERM, EVT, ECOUNT, PRM = borrowed(
-        (Y0, TS, OUT, INFO, CH, EDIR, ETERM, EVT, ECOUNT, PRM)
+    # passes it, a third of the loop's time): the arguments, which the caller holds
+    Y0, TS, OUT, INFO, CH, EDIR, ETERM, EVT, ECOUNT, PRM, FW, IW = borrowed(
+        (Y0, TS, OUT, INFO, CH, EDIR, ETERM, EVT, ECOUNT, PRM, FW, IW)
     )
+    # the work arrays, carved out of the caller's buffers FW and IW (the loop allocates nothing: it runs as machine
+    # code loaded without numba, geomech.integrators._native), every one borrowed
+    need = taylor_work(d, order, lanes, n_rows, n_k, PRM.shape[1], EDIR.shape[0])
+    if FW.shape[0] < need or IW.shape[0] < 5 * lanes:
+        return 1
+    for i in range(need):
+        FW[i] = 0.0
     # the coefficients of the lanes, entry (i, j) of lane l at (i stride + j) lanes + l; a lane's are read in place
-    XV_ = np.zeros(d * stride * lanes)
-    W_ = np.empty((max(n_rows, 1), stride))
-    K_ = np.zeros(max(n_k, 1))
-    KV_ = np.zeros(max(n_k, 1) * lanes)
-    PV_ = np.zeros(max(PRM.shape[1], 1) * lanes)
-    YS_ = np.empty((lanes, d))
-    GOLDS_ = np.zeros((lanes, d))
-    WORK_ = np.zeros((3, d))  # the event functions' values (new, at a midpoint), the state at a time
-    THETA_ = np.zeros(max(EDIR.shape[0], 1))
-    MEMBER_ = np.full(lanes, -2)  # the lane's member; -1: none left, -2: not yet given one
-    LANES_ = np.zeros((3, lanes))  # the lanes' times, evaluations and step sizes
-    FLAGS_ = np.zeros((2, lanes), dtype=np.bool_)  # whether the lane's member has ended, whether its state advances
-    COUNTS_ = np.zeros((2, lanes), dtype=np.int64)  # the lanes' first output not reached, steps
-    YV_ = np.zeros(d * lanes)  # the new states of the stepping lanes, entry i of lane l at i lanes + l
-    XV = borrowed(XV_)
-    X3 = XV.reshape((d, stride, lanes))
-    W, K, KV, PV, YS, GOLDS = borrowed((W_, K_, KV_, PV_, YS_, GOLDS_))
-    GNEW, GMID, YT = borrowed((WORK_[0], WORK_[1], WORK_[2]))
-    THETA, MEMBER = borrowed((THETA_, MEMBER_))
-    T = borrowed(LANES_[0])
-    NFEV = borrowed(LANES_[1])
-    HV = borrowed(LANES_[2])  # the steps of the lanes whose state advances
-    DONE = borrowed(FLAGS_[0])
-    PENDING = borrowed(FLAGS_[1])
-    KS = borrowed(COUNTS_[0])
-    STEPS = borrowed(COUNTS_[1])
-    YV = borrowed(YV_)
+    XV = shaped(FW, 0, d * stride * lanes)
+    X3 = shaped(FW, 0, (d, stride, lanes))
+    at = d * stride * lanes
+    W = shaped(FW, at, (max(n_rows, 1), stride))
+    at += max(n_rows, 1) * stride
+    K = shaped(FW, at, max(n_k, 1))
+    at += max(n_k, 1)
+    KV = shaped(FW, at, max(n_k, 1) * lanes)
+    at += max(n_k, 1) * lanes
+    PV = shaped(FW, at, max(PRM.shape[1], 1) * lanes)
+    at += max(PRM.shape[1], 1) * lanes
+    YS = shaped(FW, at, (lanes, d))
+    GOLDS = shaped(FW, at + lanes * d, (lanes, d))
+    at += 2 * lanes * d
+    # the event functions' values (new, at a midpoint), the state at a time
+    GNEW, GMID, YT = shaped(FW, at, d), shaped(FW, at + d, d), shaped(FW, at + 2 * d, d)
+    at += 3 * d
+    THETA = shaped(FW, at, max(EDIR.shape[0], 1))
+    at += max(EDIR.shape[0], 1)
+    # the lanes' times, evaluations and step sizes (those of the lanes whose state advances)
+    T, NFEV, HV = shaped(FW, at, lanes), shaped(FW, at + lanes, lanes), shaped(FW, at + 2 * lanes, lanes)
+    at += 3 * lanes
+    YV = shaped(FW, at, d * lanes)  # the new states of the stepping lanes, entry i of lane l at i lanes + l
+    # the lane's member (-1: none left, -2: not yet given one); whether it has ended, whether its state advances;
+    # its first output not reached, its steps
+    MEMBER, DONE, PENDING = shaped(IW, 0, lanes), shaped(IW, lanes, lanes), shaped(IW, 2 * lanes, lanes)
+    KS, STEPS = shaped(IW, 3 * lanes, lanes), shaped(IW, 4 * lanes, lanes)
+    for i in range(5 * lanes):
+        IW[i] = -2 if i < lanes else 0
     # the compact coefficients run with one lane
     X1 = X3[:, :, 0]
     prm = PRM[0]
@@ -387,7 +417,7 @@ def taylor_run(
             while MEMBER[lane] == -2 or (MEMBER[lane] >= 0 and (DONE[lane] or NFEV[lane] + order > max_evals)):
                 if MEMBER[lane] >= 0 and not DONE[lane]:
                     tk_end(OUT, INFO, MEMBER[lane], KS[lane], 8, NFEV[lane], T[lane], STEPS[lane])
-                DONE[lane] = False
+                DONE[lane] = 0
                 nxt = tk_lane_start(
                     lane, nxt, Y0, t0, TS, OUT, INFO, CH, efp, EDIR, PRM, tfp, K, KV, PV, YS, GOLDS, MEMBER, T, KS,
                     STEPS, NFEV
@@ -437,18 +467,18 @@ def taylor_run(
             KS[lane] = k
             STEPS[lane] += stepped
             if status == 0:
-                PENDING[lane] = True
+                PENDING[lane] = 1
                 HV[lane] = hs
             else:
                 tk_end(OUT, INFO, b, k, status, NFEV[lane], t, STEPS[lane])
-                DONE[lane] = True
+                DONE[lane] = 1
         # the stepping lanes' states advanced to their steps' ends, at once
         if hfp != 0:
             call_model(hfp, XV, HV, YV)
         for lane in range(lanes):
             if not PENDING[lane]:
                 continue
-            PENDING[lane] = False
+            PENDING[lane] = 0
             status = 0
             for i in range(d):
                 yi = YV[i * lanes + lane] if hfp != 0 else tk_poly(X3, lane, i, HV[lane])
@@ -457,5 +487,5 @@ def taylor_run(
                     status = 2
             if KS[lane] >= TS.shape[0] or status != 0:
                 tk_end(OUT, INFO, MEMBER[lane], KS[lane], status, NFEV[lane], T[lane], STEPS[lane])
-                DONE[lane] = True
-    kept((XV_, W_, K_, KV_, PV_, YS_, GOLDS_, WORK_, THETA_, MEMBER_, LANES_, FLAGS_, COUNTS_, YV_))
+                DONE[lane] = 1
+    return 0

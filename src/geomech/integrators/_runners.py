@@ -16,6 +16,7 @@ from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, loaded, rhs_address
 from ._events import CompiledEvents
+from ._native import build, kinds, native_loop
 from ._problem import Problem
 from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
@@ -350,6 +351,26 @@ def _adaptive_outcome(
             reasons[b] = f"the state or its error estimate is not finite past t = {INFO[b, 5]:.6g} (a blow-up)"
 
 
+def _taylor_loop(module: Any, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
+    """The Taylor loop of ``module`` to call with arguments like ``args``, and the seconds it took to get it: its
+    machine code loaded without numba where the cache has it (:mod:`._native`), else numba's loop (compiled, or
+    loaded from numba's cache, by ``warm_up()``) and its C entry built for the next process; the Python loop where
+    numba is off."""
+    function = module.taylor_run
+    if not hasattr(function, "py_func"):  # the Python twin
+        return function, 0.0
+    spec = kinds(args)
+    known, native = native_loop(module, "taylor_run", spec) if spec else (True, None)
+    if native is not None:
+        return native, 0.0
+    start = time.perf_counter()
+    if not loaded(function):
+        warm_up()
+    if spec and not known:
+        native = build(module, "taylor_run", spec)
+    return (function if native is None else native), time.perf_counter() - start
+
+
 def run_taylor(
     module: Any,
     PRM: np.ndarray,
@@ -412,57 +433,32 @@ def run_taylor(
             codes["horner", Y0.shape[1], order, lanes] = horner_address(Y0.shape[1], order, lanes)
             compile_time += time.perf_counter() - start
         hfp = codes["horner", Y0.shape[1], order, lanes]
-    if not loaded(module.taylor_run):
-        # the first call compiles the loop with the model's coefficients (or loads numba's disk cache): timed apart
-        start = time.perf_counter()
-        module.taylor_run(
-            Y0[:1].copy(),
-            t0,
-            np.array([t0, t0 + (times[-1] - t0) * 1e-9]),
-            np.empty((1, 2, Y0.shape[1])),
-            np.zeros((1, INFO.shape[1])),
-            rtol,
-            atol,
-            order,
-            rows_w,
-            tfp,
-            hfp,
-            n_k,
-            lanes,
-            1.0,
-            np.zeros((0, 3)),
-            0,
-            np.zeros(0),
-            np.zeros(0),
-            np.zeros((1, 0, 2 + Y0.shape[1])),
-            np.zeros(1),
-            PRM[:1],
-        )
-        compile_time += time.perf_counter() - start
+    d = Y0.shape[1]
+    taylor_work = getattr(module.taylor_work, "py_func", module.taylor_work)
+    n_work = int(taylor_work(d, order, lanes, rows_w, n_k, PRM.shape[1], ev.directions.shape[0]))
     event_args = (ev.address, ev.directions, ev.terminal)
 
-    def call(a: int, b: int) -> None:
+    def arguments(a: int, b: int) -> tuple[Any, ...]:
+        return (
+            Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, order, rows_w, tfp, hfp, n_k, lanes, budget, chart,
+            *event_args, EVT[a:b], ECOUNT[a:b], rows(PRM, a, b), np.empty(n_work), np.empty(5 * lanes, dtype=np.int64),
+        )  # fmt: skip
+
+    def warm_up() -> None:  # the first call compiles the loop (or loads numba's disk cache), on a small problem
         module.taylor_run(
-            Y0[a:b],
-            t0,
-            times,
-            OUT[a:b],
-            INFO[a:b],
-            rtol,
-            atol,
-            order,
-            rows_w,
-            tfp,
-            hfp,
-            n_k,
-            lanes,
-            budget,
-            chart,
-            *event_args,
-            EVT[a:b],
-            ECOUNT[a:b],
-            rows(PRM, a, b),
-        )
+            Y0[:1].copy(), t0, np.array([t0, t0 + (times[-1] - t0) * 1e-9]), np.empty((1, 2, d)),
+            np.zeros((1, INFO.shape[1])), rtol, atol, order, rows_w, tfp, hfp, n_k, lanes, 1.0, np.zeros((0, 3)), 0,
+            np.zeros(0), np.zeros(0), np.zeros((1, 0, 2 + d)), np.zeros(1), PRM[:1],
+            np.empty(int(taylor_work(d, order, lanes, rows_w, n_k, PRM.shape[1], 0))),
+            np.empty(5 * lanes, dtype=np.int64),
+        )  # fmt: skip
+
+    loop, more = _taylor_loop(module, arguments(0, 1), warm_up)
+    compile_time += more
+
+    def call(a: int, b: int) -> None:
+        if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffers are sized by taylor_work
+            raise RuntimeError("the Taylor loop's work buffers are too short")
 
     loop_time = _threaded(call, Y0.shape[0], threads)  # (compiled: numpy's floating-point state is not involved)
     _adaptive_outcome(INFO, times, tolerances, reasons, reached)

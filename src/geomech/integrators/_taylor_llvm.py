@@ -17,8 +17,6 @@ named by the hash of the tape, the order, this module's source, llvmlite's versi
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import functools
 import hashlib
 import threading
@@ -28,23 +26,19 @@ from typing import Any
 from .._storage import write_atomic
 from ..symbolic.taylor import TaylorTape
 from ._codegen import cache_dir
+from ._native import host_key, load_object, target
 
 __all__ = ["horner_address", "horner_ir", "taylor_ir", "unrolled_address", "simd_lanes", "UNROLL_LIMIT"]
 
 #: The largest pass (multiply-adds of :meth:`TaylorTape.multiply_adds`) compiled unrolled; larger ones run the
 #: loop over the orders (LLVM's time grows with the code, about 1 s for 10,000 multiply-adds).
 UNROLL_LIMIT = 60_000
-#: The C library's functions the code calls (the intrinsics lower to some of them too).
-_LIBM = ("exp", "log", "sin", "cos", "tan", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos")
-_LIBM_MORE = ("asinh", "acosh", "atanh")
 _INTRINSICS = {"exp", "log", "sin", "cos"}
 
 #: a multiply and an add may be one fused instruction (one rounding instead of two)
 FLAGS = ("contract",)
 _LOCK = threading.Lock()
 _ADDRESSES: dict[str, int] = {}
-_ENGINES: list[Any] = []  # kept alive: the code lives as long as its engine
-_TARGET: list[Any] = []
 
 
 def _function(name: str, lanes: int) -> tuple[Any, Any, tuple[Any, Any, Any], Any]:
@@ -231,59 +225,15 @@ def taylor_ir(tape: TaylorTape, name: str, order: int, lanes: int = 1) -> str:
     return str(mod)
 
 
-def _target() -> Any:
-    """LLVM's target machine for this host (created once)."""
-    import llvmlite.binding as llvm
-
-    if not _TARGET:
-        llvm.initialize_native_target()
-        llvm.initialize_native_asmprinter()
-        target = llvm.Target.from_triple(llvm.get_process_triple())
-        tm = target.create_target_machine(cpu=llvm.get_host_cpu_name(), features=_host_features(llvm), opt=3, jit=True)
-        _libm_symbols(llvm)
-        _TARGET.append(tm)
-    return _TARGET[0]
-
-
-def _host_features(llvm: Any) -> str:
-    """The host CPU's features for LLVM ("" where LLVM cannot tell: the generic CPU's code)."""
-    try:
-        return str(llvm.get_host_cpu_features().flatten())
-    except RuntimeError:  # pragma: no cover - some platforms do not report them
-        return ""
-
-
 @functools.cache
 def simd_lanes() -> int:
     """The members whose coefficients one pass computes at once on this host: the doubles of its widest vector
     registers (8 with AVX-512, 4 with AVX, 2 otherwise). On an AVX2 machine (the benchmarks') 4 lanes cost a pass
     3.6 times less per member than one, and 8 lanes no less than 4."""
-    import llvmlite.binding as llvm
-
-    with _LOCK:
-        _target()
-        features = set(_host_features(llvm).split(","))
+    features = set(host_key().split("\n")[-1].split(","))
     if "+avx512f" in features:
         return 8
     return 4 if "+avx" in features else 2
-
-
-def _libm_symbols(llvm: Any) -> None:
-    """The C library's functions, made known to LLVM's linker by their addresses in this process."""
-    handles = []
-    for name in (ctypes.util.find_library("m"), None):
-        try:
-            handles.append(ctypes.CDLL(name))
-        except (OSError, TypeError):  # pragma: no cover - no such library, or no process handle (Windows)
-            continue
-    for name in _LIBM + _LIBM_MORE:
-        for h in handles:
-            try:
-                fn = getattr(h, name)
-            except AttributeError:
-                continue
-            llvm.add_symbol(name, ctypes.cast(fn, ctypes.c_void_p).value)
-            break
 
 
 def _compile(tm: Any, ir_text: str) -> bytes:
@@ -338,27 +288,16 @@ def _machine_code(what: str, name: str, make_ir: Any) -> int:
     """The address of function ``name`` of the IR ``make_ir(name)`` describes (``what`` names it: the code cached
     on disk is named by it, this module's source, llvmlite and the host, and loads without printing its IR
     again), compiled once per process."""
-    import llvmlite
-    import llvmlite.binding as llvm
-
     with _LOCK:
-        tm = _target()
-        host = (llvm.get_process_triple(), llvm.get_host_cpu_name(), _host_features(llvm))
-        key = "\n".join((llvmlite.__version__, *host, _printer_fingerprint(), what))
+        key = "\n".join((host_key(), _printer_fingerprint(), what))
         digest = hashlib.sha256(key.encode()).hexdigest()[:24]
         if digest in _ADDRESSES:
             return _ADDRESSES[digest]
         path = cache_dir() / f"gm_taylor_{digest}.o"
         obj = path.read_bytes() if path.exists() else None
         if obj is None:
-            obj = _compile(tm, make_ir(name))
+            obj = _compile(target(), make_ir(name))
             write_atomic(path, obj)
-        engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
-        engine.add_object_file(llvm.ObjectFileRef.from_data(obj))
-        engine.finalize_object()
-        address = engine.get_function_address(name)
-        if not address:  # pragma: no cover - a corrupt cache entry
-            raise RuntimeError(f"the Taylor code {path} defines no function {name}: delete the file")
-        _ENGINES.append(engine)
+        (address,) = load_object(obj, (name,))
         _ADDRESSES[digest] = address
         return address

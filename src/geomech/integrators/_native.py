@@ -1,0 +1,387 @@
+"""Compiled loops as machine code of their own: loaded and called without numba.
+
+numba caches a loop's machine code on disk, but loading it back costs a process numba's import and the
+initialisation of its CPU target (about 0.3 s, most of a compiled model's load from a warm cache). This module
+keeps, beside numba's cache, an object file of the loop that needs neither: a C entry ``int64 entry(void **P,
+int64 *S, double *F)`` compiled by numba around the loop (each array argument ``P[i]`` with its shape in ``S``,
+each integer in ``S``, each float in ``F``; the loop's integer result returned), whose module LLVM emits as an
+object file once numba's few run-time helpers it declares are defined in it:
+
+- ``numba_gil_ensure`` and ``numba_gil_release`` (its error path takes the GIL), as numba defines them (by
+  ``PyGILState_Ensure`` and ``PyGILState_Release``);
+- ``NRT_MemInfo_call_dtor``, the release of an array whose last reference went: never reached, since a loop
+  built here allocates nothing (its arrays are the caller's, or carved out of them by
+  :func:`~geomech.integrators._fptr.shaped`; every array it receives has no owner), and an object that asks for
+  any allocation of numba's run time is refused.
+
+Every other symbol the object leaves undefined must resolve in this process (the C and math libraries, Python's C
+API), read from the object's symbol table (ELF: Linux) before it is written; where one does not, or the platform's
+objects are not ELF, the loop runs through numba as before. The object loads by llvmlite (LLVM's MCJIT), whose
+import and target take milliseconds, and is called by ctypes, which releases the GIL for the call. The file is
+named by the loop's generated module (its source and numba's version), the loop, the arguments' kinds, this
+module's source, llvmlite's version and the host CPU. :mod:`._taylor_llvm`'s coefficient code loads the same way.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import functools
+import hashlib
+import json
+import struct
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._storage import write_atomic
+
+__all__ = ["NativeLoop", "build", "host_key", "kinds", "load_object", "native_loop", "target"]
+
+_LOCK = threading.RLock()
+_TARGET: list[Any] = []
+_ENGINES: list[Any] = []  # kept alive: the code lives as long as its engine
+_LOOPS: dict[str, NativeLoop | None] = {}
+#: The C library's functions code may call (LLVM's intrinsics lower to some of them), registered by name.
+_LIBM = (
+    "exp", "log", "sin", "cos", "tan", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos", "asinh",
+    "acosh", "atanh", "nextafter", "atan2", "fmod", "log1p", "expm1", "hypot", "sincos",
+)  # fmt: skip
+_MAGIC = b"gm-native-1\n"
+#: numba's helpers a loop's module may declare, defined here (see the module's text)
+_FATAL = "geomech: a compiled loop loaded without numba released an array it does not own"
+_RUNTIME_IR = f"""
+declare i32 @PyGILState_Ensure()
+declare void @PyGILState_Release(i32)
+declare void @Py_FatalError(i8*)
+@.msg = private unnamed_addr constant [{len(_FATAL) + 1} x i8] c"{_FATAL}\\00"
+
+define void @numba_gil_ensure(i32* %state) {{
+  %s = call i32 @PyGILState_Ensure()
+  store i32 %s, i32* %state
+  ret void
+}}
+
+define void @numba_gil_release(i32* %state) {{
+  %s = load i32, i32* %state
+  call void @PyGILState_Release(i32 %s)
+  ret void
+}}
+
+define void @NRT_MemInfo_call_dtor(i8* %mi) {{
+  call void @Py_FatalError(i8* @.msg)
+  unreachable
+}}
+"""
+_RUNTIME = ("numba_gil_ensure", "numba_gil_release", "NRT_MemInfo_call_dtor")
+#: The entry's result where the loop raised (numba's status not 0): the exception is numba's to build, and the
+#: entry built here does not carry numba's wrapper that would.
+RAISED = -(2**62)
+#: The C entry: numba's compiled function (its calling convention: status, the result through a pointer, the
+#: exception's record through another) called, its status turned into the result RAISED.
+_ENTRY_IR = """
+declare i32 @"{inner}"(ptr, ptr, ptr, ptr, ptr)
+
+define i64 @geomech_entry(ptr %P, ptr %S, ptr %F) {{
+  %ret = alloca i64
+  store i64 0, ptr %ret
+  %exc = alloca ptr
+  store ptr null, ptr %exc
+  %status = call i32 @"{inner}"(ptr %ret, ptr %exc, ptr %P, ptr %S, ptr %F)
+  %ok = icmp eq i32 %status, 0
+  %value = load i64, ptr %ret
+  %out = select i1 %ok, i64 %value, i64 {raised}
+  ret i64 %out
+}}
+"""
+
+
+def target() -> Any:
+    """LLVM's target machine for this host (created once; the math library's functions registered with it)."""
+    import llvmlite.binding as llvm
+
+    with _LOCK:
+        if not _TARGET:
+            llvm.initialize_native_target()
+            llvm.initialize_native_asmprinter()
+            triple = llvm.get_process_triple()
+            tm = llvm.Target.from_triple(triple).create_target_machine(
+                cpu=llvm.get_host_cpu_name(), features=_host_features(llvm), opt=3, jit=True
+            )
+            for name in _LIBM:
+                address = _process_symbol(name)
+                if address:
+                    llvm.add_symbol(name, address)
+            _TARGET.append(tm)
+        return _TARGET[0]
+
+
+def _host_features(llvm: Any) -> str:
+    """The host CPU's features for LLVM ("" where LLVM cannot tell: the generic CPU's code)."""
+    try:
+        return str(llvm.get_host_cpu_features().flatten())
+    except RuntimeError:  # pragma: no cover - some platforms do not report them
+        return ""
+
+
+@functools.cache
+def host_key() -> str:
+    """What machine code depends on besides its source: llvmlite's version, the process's triple, the host CPU and
+    its features."""
+    import llvmlite
+    import llvmlite.binding as llvm
+
+    target()
+    return "\n".join((llvmlite.__version__, llvm.get_process_triple(), llvm.get_host_cpu_name(), _host_features(llvm)))
+
+
+@functools.cache
+def _handles() -> tuple[Any, ...]:
+    """The math library and the process (its executable and the libraries loaded globally: C, Python)."""
+    handles = []
+    for name in (ctypes.util.find_library("m"), None):
+        try:
+            handles.append(ctypes.CDLL(name))
+        except (OSError, TypeError):  # pragma: no cover - no such library, or no process handle (Windows)
+            continue
+    return tuple(handles)
+
+
+def _process_symbol(name: str) -> int:
+    """The address of the function or variable ``name`` in this process, 0 where there is none."""
+    for h in _handles():
+        try:
+            return ctypes.addressof(ctypes.c_char.in_dll(h, name))
+        except ValueError:
+            continue
+    return 0
+
+
+def load_object(obj: bytes, names: tuple[str, ...], undefined: tuple[str, ...] = ()) -> tuple[int, ...]:
+    """The addresses of the functions ``names`` of the object file ``obj``, loaded into an engine kept for the
+    process. ``undefined`` are the symbols it needs from this process (registered with LLVM by their addresses
+    here: each must resolve, as :func:`build` checked when it wrote the object)."""
+    import llvmlite.binding as llvm
+
+    with _LOCK:
+        tm = target()
+        for name in undefined:
+            address = _process_symbol(name)
+            if not address:
+                raise RuntimeError(f"the compiled loop needs {name}, which this process does not define")
+            llvm.add_symbol(name, address)
+        engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
+        engine.add_object_file(llvm.ObjectFileRef.from_data(obj))
+        engine.finalize_object()
+        addresses = tuple(engine.get_function_address(n) for n in names)
+        if not all(addresses):  # pragma: no cover - a corrupt cache entry
+            raise RuntimeError(f"a cached object defines none of {names}: delete the cache's kernels")
+        _ENGINES.append(engine)
+        return addresses
+
+
+def undefined_symbols(obj: bytes) -> tuple[str, ...] | None:
+    """The symbols an ELF64 little-endian object file leaves undefined (read from its symbol table); None for
+    any other format."""
+    if obj[:4] != b"\x7fELF" or obj[4] != 2 or obj[5] != 1:
+        return None
+    (shoff,) = struct.unpack_from("<Q", obj, 0x28)
+    shentsize, shnum = struct.unpack_from("<HH", obj, 0x3A)
+    sections = [struct.unpack_from("<IIQQQQIIQQ", obj, shoff + i * shentsize) for i in range(shnum)]
+    out = set()
+    for _, kind, _, _, offset, size, link, _, _, entsize in sections:
+        if kind != 2 or not entsize:  # SHT_SYMTAB
+            continue
+        str_offset = sections[link][4]
+        for at in range(offset + entsize, offset + size, entsize):  # entry 0 is the null symbol
+            name_at, _, _, shndx = struct.unpack_from("<IBBH", obj, at)
+            if shndx == 0 and name_at:
+                end = obj.index(b"\0", str_offset + name_at)
+                out.add(obj[str_offset + name_at : end].decode())
+    return tuple(sorted(out))
+
+
+def kinds(args: tuple[Any, ...]) -> str | None:
+    """The kinds of a loop's arguments, one token each (``f2``: a C-contiguous float64 array of 2 dimensions,
+    ``i1`` an int64 vector, ``d`` a float, ``n`` an integer); None where one has no C form here."""
+    out = []
+    for a in args:
+        if isinstance(a, np.ndarray):
+            if not a.flags.c_contiguous or a.dtype not in (np.float64, np.int64) or a.ndim == 0:
+                return None
+            out.append(("f" if a.dtype == np.float64 else "i") + str(a.ndim))
+        elif isinstance(a, (bool, np.bool_)):
+            return None
+        elif isinstance(a, (int, np.integer)):
+            out.append("n")
+        elif isinstance(a, (float, np.floating)):
+            out.append("d")
+        else:
+            return None
+    return " ".join(out)
+
+
+class NativeLoop:
+    """A loop's C entry (:func:`build`), called with the loop's own arguments, of the kinds it was built for."""
+
+    def __init__(self, address: int, spec: str):
+        self.spec = spec
+        self._tokens = tuple(spec.split())
+        proto = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+        self._fn = proto(address)
+        self._n_arrays = sum(t[0] in "fi" for t in self._tokens)
+
+    def __call__(self, *args: Any) -> int:
+        if len(args) != len(self._tokens):
+            raise TypeError(f"the compiled loop takes {len(self._tokens)} arguments, got {len(args)}")
+        pointers = (ctypes.c_void_p * max(self._n_arrays, 1))()
+        ints: list[int] = []
+        floats: list[float] = []
+        keep: list[np.ndarray] = []
+        k = 0
+        for token, a in zip(self._tokens, args):
+            if token == "d":
+                floats.append(float(a))
+            elif token == "n":
+                ints.append(int(a))
+            else:
+                dtype = np.float64 if token[0] == "f" else np.int64
+                if not (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == int(token[1:])):
+                    raise TypeError(f"argument {len(keep) + len(ints) + len(floats)} of the compiled loop: {token}")
+                if not a.flags.c_contiguous:
+                    raise TypeError("the compiled loop takes C-contiguous arrays")
+                pointers[k] = a.ctypes.data
+                ints.extend(a.shape)
+                keep.append(a)
+                k += 1
+        S = np.array(ints + [0], dtype=np.int64)
+        F = np.array(floats + [0.0])
+        out = int(self._fn(pointers, S.ctypes.data, F.ctypes.data))
+        if out == RAISED:
+            raise RuntimeError(
+                "the compiled loop raised an exception, which its code loaded without numba cannot report: delete "
+                "the gm_native_* files of the cache's kernels to run it through numba and see it"
+            )
+        return out
+
+
+def _entry_source(spec: str) -> str:
+    """The Python source of the C entry of a loop ``loop`` whose arguments are of the kinds ``spec``."""
+    args = []
+    p = s = f = 0
+    for token in spec.split():
+        if token == "d":
+            args.append(f"F[{f}]")
+            f += 1
+        elif token == "n":
+            args.append(f"S[{s}]")
+            s += 1
+        else:
+            ndim = int(token[1:])
+            shape = ", ".join(f"S[{s + j}]" for j in range(ndim))
+            dtype = "np.float64" if token[0] == "f" else "np.int64"
+            args.append(f"carray(P[{p}], ({shape},), {dtype})")
+            p += 1
+            s += ndim
+    return "def entry(P, S, F):\n    return loop(\n        " + ",\n        ".join(args) + ",\n    )\n"
+
+
+@functools.cache
+def _fingerprint() -> str:
+    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+
+
+def _path(module_name: str, loop_name: str, spec: str) -> Path:
+    from ._codegen import cache_dir
+
+    key = "\n".join((_fingerprint(), host_key(), module_name, loop_name, spec))
+    return cache_dir() / f"gm_native_{hashlib.sha256(key.encode()).hexdigest()[:24]}.bin"
+
+
+def native_loop(module: Any, loop_name: str, spec: str) -> tuple[bool, NativeLoop | None]:
+    """Whether the C entry of ``module``'s loop ``loop_name`` for arguments of the kinds ``spec`` has been built
+    (:func:`build`; in this process or in the cache), and the entry, loaded from the cache without numba (None
+    where it was refused)."""
+    path = _path(module.__name__, loop_name, spec)
+    key = str(path)
+    with _LOCK:
+        if key in _LOOPS:
+            return True, _LOOPS[key]
+        try:
+            data = path.read_bytes()
+        except OSError:
+            return False, None
+        loop = _read(data, spec)
+        _LOOPS[key] = loop
+        return True, loop
+
+
+def _read(data: bytes, spec: str) -> NativeLoop | None:
+    """The loop of a cache file's content (None for a refusal recorded there)."""
+    if not data.startswith(_MAGIC):
+        raise RuntimeError("a cached compiled loop is not one of this version's: delete the cache's kernels")
+    size = int.from_bytes(data[len(_MAGIC) : len(_MAGIC) + 8], "little")
+    start = len(_MAGIC) + 8
+    header = json.loads(data[start : start + size])
+    if header.get("refused"):
+        return None
+    (address,) = load_object(data[start + size :], (header["name"],), tuple(header["undefined"]))
+    return NativeLoop(address, spec)
+
+
+def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
+    """Compile (numba) the C entry of ``module``'s loop ``loop_name`` for arguments of the kinds ``spec``, emit its
+    module as an object file with numba's helpers defined in it, check every symbol it leaves undefined resolves
+    in this process, and cache it; the loop loaded from it, or None (recorded too, so that later runs do not try
+    again) where the loop needs numba's run time or the platform's objects cannot be read."""
+    import llvmlite.binding as llvm
+    import numba
+    from numba import types
+
+    path = _path(module.__name__, loop_name, spec)
+    namespace: dict[str, Any] = {"loop": getattr(module, loop_name), "carray": numba.carray, "np": np}
+    exec(compile(_entry_source(spec), f"<entry of {loop_name}>", "exec"), namespace)  # source printed here
+    signature = types.int64(types.CPointer(types.voidptr), types.CPointer(types.int64), types.CPointer(types.float64))
+    cfunc: Any = numba.cfunc(signature, error_model="numpy")(namespace["entry"])
+    with _LOCK:
+        tm = target()
+        mod = cfunc._library._final_module.clone()
+        inner = cfunc.native_name.removeprefix("cfunc.")  # numba's function, that its C wrapper calls
+        mod.link_in(llvm.parse_assembly(_ENTRY_IR.format(inner=inner, raised=RAISED)))
+        for f in mod.functions:
+            if not f.is_declaration and f.name != "geomech_entry":
+                f.linkage = "internal"
+        # what the entry does not reach goes (numba's wrappers for calls from Python, among them)
+        pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=0))
+        pm = llvm.create_new_module_pass_manager()
+        pm.add_global_dead_code_eliminate_pass()
+        pm.run(mod, pb)
+        reached = {f.name for f in mod.functions if f.is_declaration and not f.name.startswith("llvm.")}
+        if reached & set(_RUNTIME):
+            mod.link_in(llvm.parse_assembly(_RUNTIME_IR))
+            for name in _RUNTIME:
+                fn = mod.get_function(name) if name in reached else None
+                if fn is not None:
+                    fn.linkage = "internal"
+        extra = sorted(n for n in reached if n.startswith(("NRT_", "numba_")) and n not in _RUNTIME)
+        reason, undefined = "", None
+        if extra:
+            reason = "needs numba's run time: " + ", ".join(extra)
+        else:
+            obj = bytes(tm.emit_object(mod))
+            undefined = undefined_symbols(obj)
+            if undefined is None:
+                reason = "this platform's object files are not read here"
+            else:
+                missing = [n for n in undefined if not _process_symbol(n)]
+                if missing:
+                    reason = "needs symbols this process does not define: " + ", ".join(missing)
+        header = {"refused": reason} if reason else {"name": "geomech_entry", "undefined": list(undefined or ())}
+        text = json.dumps(header).encode()
+        data = _MAGIC + len(text).to_bytes(8, "little") + text + (b"" if reason else obj)
+        write_atomic(path, data)
+        loop = _read(data, spec)
+        _LOOPS[str(path)] = loop
+        return loop

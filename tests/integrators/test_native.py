@@ -1,0 +1,222 @@
+"""Compiled loops as machine code of their own (``geomech.integrators._native``): the C entry built around a numba
+loop computes what the loop computes, a fresh process loads and calls it without numba, a loop that needs numba's
+run time is refused (and the refusal kept), an exception raised inside is reported, and the work arrays carved out
+of a buffer (``_fptr.shaped``) are views of it with C strides, in numba and in the Python twins."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+import types
+import uuid
+
+import numba
+import numpy as np
+import pytest
+
+from geomech.integrators import _codegen, _native
+from geomech.integrators._fptr import shaped
+
+pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="the objects read here are ELF (Linux)")
+
+
+@numba.njit(error_model="numpy")
+def _damped_rows(Y, X, c, steps, W):
+    """Each row of Y advanced ``steps`` times by y <- y + c sin(x) y (x the row of X), through work rows carved
+    out of W; returns the steps taken."""
+    n, d = Y.shape
+    A = shaped(W, 0, (n, d))
+    for i in range(n):
+        for j in range(d):
+            A[i, j] = math.sin(X[i, j])
+    for _ in range(steps):
+        for i in range(n):
+            for j in range(d):
+                Y[i, j] += c * A[i, j] * Y[i, j]
+    return steps * n
+
+
+@numba.njit(error_model="numpy")
+def _allocating(Y, n):
+    Z = np.zeros(n)  # numba's run time allocates it
+    for i in range(n):
+        Z[i] = Y[i] * 2.0
+    Y[:n] = Z
+    return n
+
+
+@numba.njit(error_model="numpy")
+def _raising(Y, n):
+    if n > Y.shape[0]:
+        raise ValueError("past the end")
+    Y[:n] = 1.0
+    return n
+
+
+def _module(**loops):
+    """A stand-in for a generated kernel module: its name (unique: the cache is shared by the run) and loops."""
+    return types.SimpleNamespace(__name__=f"test_native_{uuid.uuid4().hex}", **loops)
+
+
+def _expected(Y, X, c, steps):
+    out = Y.copy()
+    for _ in range(steps):
+        out += c * np.sin(X) * out
+    return out
+
+
+def test_the_entry_computes_what_the_numba_loop_computes():
+    rng = np.random.default_rng(3)
+    Y, X = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
+    args = (Y.copy(), X, 0.01, 50, np.empty(12))
+    spec = _native.kinds(args)
+    assert spec == "f2 f2 d n f1"
+    module = _module(loop=_damped_rows)
+    assert _native.native_loop(module, "loop", spec) == (False, None)
+    entry = _native.build(module, "loop", spec)
+    assert entry is not None
+    out = Y.copy()
+    assert entry(out, X, 0.01, 50, np.empty(12)) == 200
+    ref = Y.copy()
+    _damped_rows(ref, X, 0.01, 50, np.empty(12))
+    # the same source compiled twice by LLVM: agreement to round-off of 50 steps, and to an independent numpy loop
+    np.testing.assert_allclose(out, ref, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(out, _expected(Y, X, 0.01, 50), rtol=1e-12, atol=0)
+    # known from now on, in this process and on disk
+    assert _native.native_loop(module, "loop", spec) == (True, entry)
+
+
+def test_a_fresh_process_calls_the_entry_without_numba(hermetic_cache):
+    module = _module(loop=_damped_rows)
+    spec = "f2 f2 d n f1"
+    assert _native.build(module, "loop", spec) is not None
+    rng = np.random.default_rng(5)
+    Y, X = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
+    child = textwrap.dedent(
+        f"""
+        import json, sys, types
+        import numpy as np
+        from geomech.integrators import _native
+        module = types.SimpleNamespace(__name__={module.__name__!r})
+        known, entry = _native.native_loop(module, "loop", {spec!r})
+        Y, X = np.array({Y.tolist()!r}), np.array({X.tolist()!r})
+        steps = entry(Y, X, 0.01, 50, np.empty(12))
+        print(json.dumps(dict(known=known, steps=steps, Y=Y.tolist(), numba="numba" in sys.modules)))
+        """
+    )
+    env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
+    done = subprocess.run([sys.executable, "-c", child], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["known"] and report["steps"] == 200
+    assert report["numba"] is False
+    np.testing.assert_allclose(np.array(report["Y"]), _expected(Y, X, 0.01, 50), rtol=1e-12, atol=0)
+
+
+def test_a_loop_that_needs_numbas_run_time_is_refused_once():
+    module = _module(loop=_allocating)
+    spec = _native.kinds((np.ones(5), 3))
+    assert _native.build(module, "loop", spec) is None
+    assert _native.native_loop(module, "loop", spec) == (True, None)
+    # a new process reads the refusal from the cache instead of trying again
+    _native._LOOPS.clear()
+    assert _native.native_loop(module, "loop", spec) == (True, None)
+
+
+def test_an_exception_inside_is_reported():
+    module = _module(loop=_raising)
+    entry = _native.build(module, "loop", "f1 n")
+    assert entry is not None
+    Y = np.zeros(4)
+    assert entry(Y, 3) == 3
+    np.testing.assert_array_equal(Y, [1.0, 1.0, 1.0, 0.0])
+    with pytest.raises(RuntimeError, match="raised an exception"):
+        entry(Y, 9)
+
+
+def test_arguments_are_checked_against_the_kinds():
+    entry = _native.build(_module(loop=_damped_rows), "loop", "f2 f2 d n f1")
+    assert entry is not None
+    Y, X = np.ones((2, 2)), np.ones((2, 2))
+    with pytest.raises(TypeError):
+        entry(Y, X.astype(np.int64), 0.1, 1, np.empty(4))
+    with pytest.raises(TypeError):
+        entry(Y, X.ravel(), 0.1, 1, np.empty(4))
+    with pytest.raises(TypeError):
+        entry(Y, X, 0.1, 1)
+    with pytest.raises(TypeError):
+        entry(Y, np.ones((2, 4))[:, ::2], 0.1, 1, np.empty(4))
+    # kinds without a C form here
+    assert _native.kinds((np.ones((3, 3))[:, 1],)) is None
+    assert _native.kinds((np.ones(3, dtype=np.float32),)) is None
+    assert _native.kinds((True,)) is None
+
+
+def test_the_object_leaves_the_math_library_undefined():
+    module = _module(loop=_damped_rows)
+    assert _native.build(module, "loop", "f2 f2 d n f1") is not None
+    data = _native._path(module.__name__, "loop", "f2 f2 d n f1").read_bytes()
+    size = int.from_bytes(data[len(_native._MAGIC) : len(_native._MAGIC) + 8], "little")
+    obj = data[len(_native._MAGIC) + 8 + size :]
+    undefined = _native.undefined_symbols(obj)
+    assert "sin" in undefined
+    assert not [n for n in undefined if n.startswith(("NRT_", "numba_"))]
+    assert _native.undefined_symbols(b"\xcf\xfa\xed\xfe" + obj[4:]) is None  # not ELF: not read
+
+
+@numba.njit
+def _carved(buf, n, m):
+    a = shaped(buf, 2, (n, m))
+    v = shaped(buf, 2 + n * m, m)
+    a[1, 0] = -1.0
+    v[m - 1] = -2.0
+    return a.strides[0], a.strides[1], a[n - 1, m - 1]
+
+
+def test_shaped_views_write_through_with_c_strides():
+    buf = np.arange(30.0)
+    s0, s1, last = _carved(buf, 3, 4)
+    assert (s0, s1) == (32, 8) and last == 13.0
+    assert buf[2 + 4] == -1.0 and buf[2 + 12 + 3] == -2.0
+    # the Python twin (the loops without numba) carves the same views
+    namespace: dict = {}
+    exec(_codegen.python_header(), namespace)
+    twin = namespace["shaped"](np.arange(30.0), 2, (3, 4))
+    assert twin.base is not None and twin.shape == (3, 4) and twin[2, 3] == 13.0
+
+
+TAYLOR_CHILD = """
+import json, sys
+import numpy as np
+from geomech.integrators import BKMM, solve
+from geomech.systems.nonholonomic_examples import chaplygin_sleigh
+s = chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6)
+sol = solve(s, BKMM(solver="taylor"), t_final=10.0, saveat=5, p0=[0.3, 0.5], rtol=1e-12, atol=1e-14)
+# numba's loops in this process: which have machine code (compiled, or loaded from numba's cache)
+loaded = sorted(name for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
+                and getattr(getattr(m, "taylor_run", None), "signatures", None))
+print(json.dumps(dict(q=sol.q.tolist(), p=sol.p.tolist(), loaded=loaded)))
+"""
+
+
+def test_a_taylor_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cache):
+    env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
+    runs = []
+    for _ in range(2):  # the first fills the caches (if no test did), the second loads
+        done = subprocess.run(
+            [sys.executable, "-c", TAYLOR_CHILD], env=env, capture_output=True, text=True, timeout=600
+        )
+        assert done.returncode == 0, done.stderr
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert runs[1]["loaded"] == []  # the loop ran from its own object: numba's loop never loaded
+    from geomech import solve
+    from geomech.integrators import BKMM
+    from geomech.systems.nonholonomic_examples import chaplygin_sleigh
+
+    ref = solve(chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6), BKMM(), t_final=10.0, saveat=5, p0=[0.3, 0.5], rtol=1e-13,
+                atol=1e-15)  # fmt: skip
+    for run in runs:
+        np.testing.assert_allclose(np.array(run["p"]), ref.p, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(np.array(run["q"]), ref.q, rtol=0, atol=1e-10 * max(1.0, float(np.abs(ref.q).max())))
