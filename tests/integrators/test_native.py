@@ -1,7 +1,9 @@
 """Compiled loops as machine code of their own (``geomech.integrators._native``): the C entry built around a numba
 loop computes what the loop computes, a fresh process loads and calls it without numba, a loop that needs numba's
 run time is refused (and the refusal kept), an exception raised inside is reported, and the work arrays carved out
-of a buffer (``_fptr.shaped``) are views of it with C strides, in numba and in the Python twins."""
+of a buffer (``_fptr.shaped``) are views of it with C strides, in numba and in the Python twins. A generated
+module binds numba's names at its first use of numba (``_deferred``): a Taylor solve from a warm cache, in a fresh
+process, never imports numba, and gives the result the compiled DOP853 gives."""
 
 import json
 import math
@@ -194,10 +196,12 @@ from geomech.integrators import BKMM, solve
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh
 s = chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6)
 sol = solve(s, BKMM(solver="taylor"), t_final=10.0, saveat=5, p0=[0.3, 0.5], rtol=1e-12, atol=1e-14)
+imported = "numba" in sys.modules
 # numba's loops in this process: which have machine code (compiled, or loaded from numba's cache)
-loaded = sorted(name for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
-                and getattr(getattr(m, "taylor_run", None), "signatures", None))
-print(json.dumps(dict(q=sol.q.tolist(), p=sol.p.tolist(), loaded=loaded)))
+from geomech.integrators._codegen import loaded
+compiled = sorted(name for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
+                  and hasattr(m, "taylor_run") and loaded(m.taylor_run))
+print(json.dumps(dict(q=sol.q.tolist(), p=sol.p.tolist(), loaded=compiled, numba=imported)))
 """
 
 
@@ -211,6 +215,7 @@ def test_a_taylor_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cach
         assert done.returncode == 0, done.stderr
         runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
     assert runs[1]["loaded"] == []  # the loop ran from its own object: numba's loop never loaded
+    assert runs[1]["numba"] is False  # nor was numba imported
     from geomech import solve
     from geomech.integrators import BKMM
     from geomech.systems.nonholonomic_examples import chaplygin_sleigh
@@ -220,3 +225,51 @@ def test_a_taylor_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cach
     for run in runs:
         np.testing.assert_allclose(np.array(run["p"]), ref.p, rtol=0, atol=1e-10)
         np.testing.assert_allclose(np.array(run["q"]), ref.q, rtol=0, atol=1e-10 * max(1.0, float(np.abs(ref.q).max())))
+
+
+DEFERRED_MODULE = """
+from geomech.integrators._deferred import Deferred
+_DEFERRED = Deferred(globals())
+numba = _DEFERRED.numba
+kernel = _DEFERRED.kernel(cache=False, error_model="numpy")
+
+
+@kernel
+def twice(x):
+    return 2.0 * x
+
+
+@kernel
+def total(a):
+    out = 0.0
+    for i in numba.prange(a.shape[0]):
+        out += a[i]
+    return out
+"""
+
+USER_MODULE = """
+from geomech.integrators._deferred import Deferred
+_DEFERRED = Deferred(globals())
+kernel = _DEFERRED.kernel(cache=False)
+
+
+@kernel
+def four_times(x):
+    return twice(twice(x))
+"""
+
+
+def test_a_module_binds_numba_at_its_first_use():
+    from geomech.integrators._deferred import Pending
+
+    shared: dict = {"np": np}
+    exec(DEFERRED_MODULE, shared)
+    user: dict = {"twice": shared["twice"]}  # a helper of the shared module, as the model modules import them
+    exec(USER_MODULE, user)
+    assert isinstance(user["four_times"], Pending) and isinstance(shared["twice"], Pending)
+    assert user["four_times"].py_func(1.5) == 6.0  # the Python function, numba not involved
+    assert user["four_times"](1.5) == 6.0  # the first call binds both modules
+    assert isinstance(user["four_times"], numba.core.dispatcher.Dispatcher)
+    assert user["twice"] is shared["twice"] and isinstance(shared["twice"], numba.core.dispatcher.Dispatcher)
+    assert shared["numba"] is numba
+    assert shared["total"](np.array([3.0, 4.0])) == 7.0  # numba's own names, read inside a kernel

@@ -42,6 +42,7 @@ import numpy as np
 
 from .._storage import cache_subdir, scratch_dir, write_atomic
 from ..symbolic.compile import FunctionSpec, kernel_source
+from ._deferred import Pending
 from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
 
 __all__ = [
@@ -77,19 +78,31 @@ _BY_MODEL: dict[tuple[str, str], Any] = {}
 
 
 def numba_available() -> bool:
-    """Whether numba can be imported (the compiled backend); without it the loops run as Python. Known once numba
-    is imported (numba reads NUMBA_DISABLE_JIT at its import): every run asks."""
+    """Whether numba is installed (the compiled backend), and not disabled by NUMBA_DISABLE_JIT; without it the
+    loops run as Python. Asked without importing numba (a model whose loops load as machine code of their own
+    never imports it, :mod:`._deferred`); known once asked, as numba reads NUMBA_DISABLE_JIT once, at its import."""
     global _NUMBA
     if _NUMBA is None:
-        try:
-            import numba  # noqa: F401
-        except ImportError:  # pragma: no cover - numba is a dependency, kept optional for odd platforms
+        if _numba_version() is None:  # pragma: no cover - numba is a dependency, kept optional for odd platforms
             return False
         _NUMBA = os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0")
     return _NUMBA
 
 
 _NUMBA: bool | None = None
+
+
+@functools.cache
+def _numba_version() -> str | None:
+    """numba's version, read from its installed metadata (None where it is not installed)."""
+    if "numba" in sys.modules:
+        return str(sys.modules["numba"].__version__)
+    import importlib.metadata
+
+    try:
+        return importlib.metadata.version("numba")
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover - see numba_available
+        return None
 
 
 def cache_dir() -> Path:
@@ -181,11 +194,14 @@ def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str,
     return "\n\n\n".join(shared) + "\n", "\n\n\n".join(model) + "\n", names
 
 
+# numba's names bound at the module's first use of numba (geomech.integrators._deferred): importing the module
+# imports no numba
 _HEADER_NUMBA = (
-    "import math\nimport numpy as np\nimport numba\n"
-    "from geomech.integrators._fptr import Addresses, borrowed, call_model, call_model4, call_model6, kept, shaped\n\n"
-    "kernel = numba.njit(cache=True, nogil=True, error_model='numpy')\n"
-    "inlined = numba.njit(cache=True, nogil=True, error_model='numpy', inline='always')\n\n"
+    "import math\nimport numpy as np\nfrom geomech.integrators._deferred import Addresses, Deferred\n\n"
+    "_DEFERRED = Deferred(globals())\nnumba = _DEFERRED.numba\n"
+    "borrowed, call_model, call_model4, call_model6, kept, shaped = _DEFERRED.intrinsics()\n"
+    "kernel = _DEFERRED.kernel(cache=True, nogil=True, error_model='numpy')\n"
+    "inlined = _DEFERRED.kernel(cache=True, nogil=True, error_model='numpy', inline='always')\n\n"
 )
 # The model functions' addresses for the loops shared by all models (geomech.integrators._fptr): each C twin is
 # compiled (or loaded from numba's cache) on first request only.
@@ -204,9 +220,7 @@ _HEADER_PYTHON = (
 
 def _load(source: str, tag: str) -> Any:
     """Import the generated ``source`` (written once into the cache, named by its hash); caller holds _LOCK."""
-    import numba
-
-    digest = hashlib.sha256((numba.__version__ + source).encode()).hexdigest()[:24]
+    digest = hashlib.sha256((str(_numba_version()) + source).encode()).hexdigest()[:24]
     if digest in _MODULES:
         return _MODULES[digest]
     path = cache_dir() / f"gm_{tag}_{digest}.py"
@@ -312,9 +326,11 @@ _LOADED: set = set()
 def loaded(function: Any) -> bool:
     """Whether the kernel ``function`` (a numba dispatcher) has machine code in this process: compiled, or loaded
     from the disk cache, by an earlier call. Remembered once true (numba's ``signatures`` builds a list at every
-    call of a run)."""
+    call of a run). A kernel of a module not bound to numba yet (:class:`._deferred.Pending`) has none."""
     if function in _LOADED:
         return True
+    if isinstance(function, Pending) and function.real is None:
+        return False
     if function.signatures:
         _LOADED.add(function)
         return True
@@ -324,7 +340,10 @@ def loaded(function: Any) -> bool:
 def on_disk(function: Any) -> bool:
     """Whether numba's disk cache holds machine code of the kernel ``function`` (a dispatcher with ``cache=True``):
     loading it costs milliseconds where compiling it costs seconds. False where it cannot tell (no cache, another
-    numba's internals)."""
+    numba's internals), or where its module has not been bound to numba (:mod:`._deferred`: asking would import
+    numba, which a model loaded as machine code of its own never needs)."""
+    if isinstance(function, Pending) and function.real is None:
+        return False
     try:
         return os.path.exists(function._cache._cache_file._index_path)
     except AttributeError:

@@ -8,15 +8,14 @@ templates: ``rhs``, ``fjac``, ``grad``, ...) as C functions and call them with :
 a model function ``f(a_1, ..., a_k, prm)`` is ``void f_c(double *a_1, ..., double *a_k, double *prm, int64 d,
 int64 n_prm)``, with ``d`` the length of ``a_1``: each array is a vector of length ``d`` or a ``d x d`` matrix
 (``MODEL_ARRAYS``). The twins are numba ``cfunc``\\ s defined lazily by the generated model module
-(:class:`Addresses`), cached on disk like the rest. An address is a run-time integer, so a loop is compiled and
-cached once. Arrays passed must be C-contiguous (checked when the loop is compiled).
+(:class:`~._deferred.Addresses`), cached on disk like the rest. An address is a run-time integer, so a loop is
+compiled and cached once. Arrays passed must be C-contiguous (checked when the loop is compiled).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
@@ -24,52 +23,14 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 from numba.np.arrayobj import populate_array
 
-from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
-
 __all__ = [
-    "Addresses",
     "borrowed",
-    "c_signature",
     "call_model",
     "call_model4",
     "call_model6",
     "kept",
     "shaped",
 ]
-
-
-def c_signature(name: str) -> str:
-    """The C signature of the twin of model function ``name``."""
-    return "void(" + "CPointer(float64), " * (len(MODEL_ARRAYS[name]) + 1) + "int64, int64)"
-
-
-#: The C signature of a model's right-hand side.
-RHS_SIGNATURE = c_signature("rhs")
-
-
-class Addresses:
-    """The addresses of a generated module's model functions (``namespace`` is the module's globals), each C twin
-    compiled (or loaded from numba's cache) on first request."""
-
-    def __init__(self, namespace: dict[str, Any]):
-        self._namespace = namespace
-        self._cfuncs: dict[str, Any] = {}
-
-    def ready(self, names: tuple[str, ...]) -> bool:
-        """Whether every twin of ``names`` is compiled in this process."""
-        return all(name in self._cfuncs for name in names)
-
-    def __call__(self, names: tuple[str, ...]) -> np.ndarray:
-        """The address array ``FP`` for a loop that calls ``names`` (zero for the functions it does not call)."""
-        import numba
-
-        out = np.zeros(len(MODEL_FUNCTIONS), dtype=np.int64)
-        for name in names:
-            if name not in self._cfuncs:
-                twin = self._namespace[f"_{name}_c"]
-                self._cfuncs[name] = numba.cfunc(c_signature(name), cache=True)(twin)
-            out[MODEL_FUNCTIONS.index(name)] = self._cfuncs[name].address
-        return out
 
 
 def _codegen_for(n_arrays: int) -> Any:

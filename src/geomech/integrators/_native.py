@@ -31,6 +31,7 @@ import hashlib
 import json
 import struct
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +39,7 @@ import numpy as np
 
 from .._storage import write_atomic
 
-__all__ = ["NativeLoop", "build", "host_key", "kinds", "load_object", "native_loop", "target"]
+__all__ = ["NativeLoop", "build", "compiled", "host_key", "kinds", "load_object", "native_loop", "target"]
 
 _LOCK = threading.RLock()
 _TARGET: list[Any] = []
@@ -265,6 +266,29 @@ class NativeLoop:
                 "the gm_native_* files of the cache's kernels to run it through numba and see it"
             )
         return out
+
+
+def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None) -> tuple[Any, float]:
+    """The kernel ``name`` of the generated ``module`` to call with arguments like ``args``, and the seconds it
+    took to get it: its C entry loaded without numba where the cache has it, else numba's kernel (compiled, or
+    loaded from numba's cache, by ``warm_up()`` where it has no machine code yet) and its C entry built for the
+    next process (or this one's next call); the Python function itself where numba is off. The kernel must
+    return an integer."""
+    from ._codegen import loaded
+
+    function = getattr(module, name)
+    if not hasattr(function, "py_func"):  # the Python twin
+        return function, 0.0
+    spec = kinds(args)
+    known, native = native_loop(module, name, spec) if spec else (True, None)
+    if native is not None:
+        return native, 0.0
+    start = time.perf_counter()
+    if warm_up is not None and not loaded(function):
+        warm_up()
+    if spec and not known:
+        native = build(module, name, spec)
+    return (function if native is None else native), time.perf_counter() - start
 
 
 def _entry_source(spec: str) -> str:

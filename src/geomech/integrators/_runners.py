@@ -16,7 +16,7 @@ from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, loaded, rhs_address
 from ._events import CompiledEvents
-from ._native import build, kinds, native_loop
+from ._native import compiled
 from ._problem import Problem
 from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
@@ -351,26 +351,6 @@ def _adaptive_outcome(
             reasons[b] = f"the state or its error estimate is not finite past t = {INFO[b, 5]:.6g} (a blow-up)"
 
 
-def _taylor_loop(module: Any, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
-    """The Taylor loop of ``module`` to call with arguments like ``args``, and the seconds it took to get it: its
-    machine code loaded without numba where the cache has it (:mod:`._native`), else numba's loop (compiled, or
-    loaded from numba's cache, by ``warm_up()``) and its C entry built for the next process; the Python loop where
-    numba is off."""
-    function = module.taylor_run
-    if not hasattr(function, "py_func"):  # the Python twin
-        return function, 0.0
-    spec = kinds(args)
-    known, native = native_loop(module, "taylor_run", spec) if spec else (True, None)
-    if native is not None:
-        return native, 0.0
-    start = time.perf_counter()
-    if not loaded(function):
-        warm_up()
-    if spec and not known:
-        native = build(module, "taylor_run", spec)
-    return (function if native is None else native), time.perf_counter() - start
-
-
 def run_taylor(
     module: Any,
     PRM: np.ndarray,
@@ -453,7 +433,7 @@ def run_taylor(
             np.empty(5 * lanes, dtype=np.int64),
         )  # fmt: skip
 
-    loop, more = _taylor_loop(module, arguments(0, 1), warm_up)
+    loop, more = compiled(module, "taylor_run", arguments(0, 1), warm_up)
     compile_time += more
 
     def call(a: int, b: int) -> None:
