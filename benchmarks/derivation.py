@@ -14,6 +14,7 @@ solve. Writes ``results/derivation.json`` and ``results/derivation.md``.
 
     PYTHONPATH=src python benchmarks/derivation.py [--repeats 3] [--limit 120] [--only snakeboard ...]
     PYTHONPATH=src python benchmarks/derivation.py --cache empty   # a user's first run: the cache empty, then filled
+    PYTHONPATH=src python benchmarks/derivation.py --load-only     # the warm load alone: results/derivation_load.*
 """
 
 from __future__ import annotations
@@ -105,8 +106,9 @@ sol = solve(s, BKMM(solver="taylor"), **kw)
 t3 = time.perf_counter()
 solve(s, BKMM(solver="taylor"), **kw)
 t4 = time.perf_counter()
+import sys
 print(json.dumps(dict(import_s=t1 - t0, system_s=t2 - t1, first_s=t3 - t2, compile_s=sol.stats["compile_time"],
-                      next_ms=(t4 - t3) * 1e3)))
+                      next_ms=(t4 - t3) * 1e3, numba="numba" in sys.modules)))
 """
 
 
@@ -139,12 +141,17 @@ def main(argv: list[str] | None = None) -> int:
         help="the derivation cache off, or an empty private directory for each run (a user's first run, which writes "
         "every derivation to it); 'empty' writes results/derivation_empty_cache.*",
     )
+    parser.add_argument(
+        "--load-only", action="store_true", help="only the compiled model's load from warm caches (derivation_load.*)"
+    )
     args = parser.parse_args(argv)
+    if args.load_only:
+        args.only, args.cache = [], "off"
     rows: list[dict[str, Any]] = []
     slow: list[tuple[str, str]] = []
     with tempfile.TemporaryDirectory() as pycache:
-        names = args.only or examples() + list(MODEL_CASES)
-        one(names[0], args.limit, pycache)  # compiles the bytecode of everything a derivation imports
+        names = examples() + list(MODEL_CASES) if args.only is None else args.only
+        one((names or examples())[0], args.limit, pycache)  # compiles the bytecode of everything a derivation imports
         for name in names:
             runs = [one(name, args.limit, pycache, args.cache)]
             if runs[0].get("code") is not None:  # a run past the limit is not repeated
@@ -165,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         load = load_rows(pycache, args.repeats) if args.cache == "off" else []
     results = HERE / "results"
     results.mkdir(exist_ok=True)
-    stem = "derivation" if args.cache == "off" else "derivation_empty_cache"
+    stem = "derivation_load" if args.load_only else "derivation" if args.cache == "off" else "derivation_empty_cache"
     meta = dict(python=platform.python_version(), machine=platform.machine(), processor=platform.processor())
     meta["cache"] = args.cache
     (results / f"{stem}.json").write_text(
@@ -185,12 +192,12 @@ def main(argv: list[str] | None = None) -> int:
     lines += [
         "",
         "| a compiled model in a fresh process, cache warm | import (s) | system (s) | first solve (s) "
-        "| of which loading the kernels (s) | next solve (ms) |",
-        "|---|---|---|---|---|---|",
+        "| of which loading the kernels (s) | next solve (ms) | numba imported |",
+        "|---|---|---|---|---|---|---|",
     ]
     lines += [
         f"| {r['case']} | {r['import_s']:.2f} | {r['system_s']:.2f} | {r['first_s']:.2f} | {r['compile_s']:.2f} | "
-        f"{r['next_ms']:.2f} |"
+        f"{r['next_ms']:.2f} | {'yes' if r.get('numba', True) else 'no'} |"
         for r in load
     ]
     (results / f"{stem}.md").write_text("\n".join(lines) + "\n")

@@ -90,6 +90,21 @@ def test_the_entry_computes_what_the_numba_loop_computes():
     assert _native.native_loop(module, "loop", spec) == (True, entry)
 
 
+def test_without_numpys_layout_the_entry_takes_pointers(monkeypatch):
+    # where the offsets of an array object's data and shape are not found, the entry is given numpy's pointers
+    assert _native._layout() is not None  # found on this platform: the objects' entry is the one used
+    module = _module(loop=_damped_rows)
+    assert _native.build(module, "loop", "f2 f2 d n f1") is not None
+    data = _native._path(module.__name__, "loop", "f2 f2 d n f1").read_bytes()
+    monkeypatch.setattr(_native, "_layout", lambda: None)
+    entry = _native._read(data, "f2 f2 d n f1")
+    rng = np.random.default_rng(7)
+    Y, X = rng.normal(size=(3, 5)), rng.normal(size=(3, 5))
+    out = Y.copy()
+    assert entry(out, X, 0.02, 30, np.empty(15)) == 90
+    np.testing.assert_allclose(out, _expected(Y, X, 0.02, 30), rtol=1e-12, atol=0)
+
+
 def test_a_fresh_process_calls_the_entry_without_numba(hermetic_cache):
     module = _module(loop=_damped_rows)
     spec = "f2 f2 d n f1"

@@ -24,6 +24,7 @@ module's source, llvmlite's version and the host CPU. :mod:`._taylor_llvm`'s coe
 
 from __future__ import annotations
 
+import array
 import ctypes
 import ctypes.util
 import functools
@@ -50,7 +51,7 @@ _LIBM = (
     "exp", "log", "sin", "cos", "tan", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos", "asinh",
     "acosh", "atanh", "nextafter", "atan2", "fmod", "log1p", "expm1", "hypot", "sincos",
 )  # fmt: skip
-_MAGIC = b"gm-native-1\n"
+_MAGIC = b"gm-native-2\n"
 #: numba's helpers a loop's module may declare, defined here (see the module's text)
 _FATAL = "geomech: a compiled loop loaded without numba released an array it does not own"
 _RUNTIME_IR = f"""
@@ -77,6 +78,8 @@ define void @NRT_MemInfo_call_dtor(i8* %mi) {{
 }}
 """
 _RUNTIME = ("numba_gil_ensure", "numba_gil_release", "NRT_MemInfo_call_dtor")
+#: the functions of an entry's object: the entry on pointers, and on numpy's array objects (:func:`_objects_ir`)
+_EXPORTED = ("geomech_entry", "geomech_objects")
 #: The entry's result where the loop raised (numba's status not 0): the exception is numba's to build, and the
 #: entry built here does not carry numba's wrapper that would.
 RAISED = -(2**62)
@@ -224,42 +227,53 @@ def kinds(args: tuple[Any, ...]) -> str | None:
     return " ".join(out)
 
 
+_DTYPES = {"f": np.dtype(np.float64), "i": np.dtype(np.int64)}
+
+
 class NativeLoop:
     """A loop's C entry (:func:`build`), called with the loop's own arguments, of the kinds it was built for."""
 
-    def __init__(self, address: int, spec: str):
+    def __init__(self, raw: int, objects: int, spec: str):
         self.spec = spec
-        self._tokens = tuple(spec.split())
+        tokens = spec.split()
+        #: per argument: None for a float, 0 for an integer, (dtype, ndim) for an array
+        self._plan = tuple(None if t == "d" else 0 if t == "n" else (_DTYPES[t[0]], int(t[1:])) for t in tokens)
         proto = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
-        self._fn = proto(address)
-        self._n_arrays = sum(t[0] in "fi" for t in self._tokens)
+        layout = _layout()
+        self._layout = None if layout is None else array.array("q", layout)
+        self._fn = proto(raw if layout is None else objects)
 
     def __call__(self, *args: Any) -> int:
-        if len(args) != len(self._tokens):
-            raise TypeError(f"the compiled loop takes {len(self._tokens)} arguments, got {len(args)}")
-        pointers = (ctypes.c_void_p * max(self._n_arrays, 1))()
-        ints: list[int] = []
-        floats: list[float] = []
-        keep: list[np.ndarray] = []
-        k = 0
-        for token, a in zip(self._tokens, args):
-            if token == "d":
-                floats.append(float(a))
-            elif token == "n":
-                ints.append(int(a))
+        if len(args) != len(self._plan):
+            raise TypeError(f"the compiled loop takes {len(self._plan)} arguments, got {len(args)}")
+        arrays = []
+        ints = array.array("q")
+        floats = array.array("d")
+        for i, (kind, a) in enumerate(zip(self._plan, args)):
+            if kind is None:
+                floats.append(a)
+            elif not isinstance(kind, tuple):
+                ints.append(a)
             else:
-                dtype = np.float64 if token[0] == "f" else np.int64
-                if not (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == int(token[1:])):
-                    raise TypeError(f"argument {len(keep) + len(ints) + len(floats)} of the compiled loop: {token}")
+                dtype, ndim = kind
+                if not (type(a) is np.ndarray and a.dtype is dtype and a.ndim == ndim):
+                    if not (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == ndim):
+                        raise TypeError(f"argument {i} of the compiled loop: an array of {dtype}, {ndim}-D")
                 if not a.flags.c_contiguous:
-                    raise TypeError("the compiled loop takes C-contiguous arrays")
-                pointers[k] = a.ctypes.data
-                ints.extend(a.shape)
-                keep.append(a)
-                k += 1
-        S = np.array(ints + [0], dtype=np.int64)
-        F = np.array(floats + [0.0])
-        out = int(self._fn(pointers, S.ctypes.data, F.ctypes.data))
+                    raise TypeError(f"argument {i} of the compiled loop: the loop takes C-contiguous arrays")
+                arrays.append(a)
+        floats.append(0.0)
+        if self._layout is not None:  # the array objects themselves (the arguments hold them through the call)
+            first = array.array("q", [id(a) for a in arrays] or [0])
+            ints = self._layout + ints
+        else:
+            first = array.array("q", [int(a.ctypes.data) for a in arrays] or [0])
+            shapes = array.array("q")
+            for a in arrays:
+                shapes.extend(a.shape)
+            ints = shapes + ints
+        ints.append(0)
+        out = int(self._fn(first.buffer_info()[0], ints.buffer_info()[0], floats.buffer_info()[0]))
         if out == RAISED:
             raise RuntimeError(
                 "the compiled loop raised an exception, which its code loaded without numba cannot report: delete "
@@ -292,10 +306,14 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
 
 
 def _entry_source(spec: str) -> str:
-    """The Python source of the C entry of a loop ``loop`` whose arguments are of the kinds ``spec``."""
+    """The Python source of the C entry of a loop ``loop`` whose arguments are of the kinds ``spec``: ``P`` the
+    arrays' data, ``S`` their shapes one after the other and then the integers, ``F`` the floats."""
+    tokens = spec.split()
     args = []
-    p = s = f = 0
-    for token in spec.split():
+    p = f = 0
+    s = sum(int(t[1:]) for t in tokens if t not in ("d", "n"))  # the integers after the shapes
+    at = 0
+    for token in tokens:
         if token == "d":
             args.append(f"F[{f}]")
             f += 1
@@ -304,12 +322,85 @@ def _entry_source(spec: str) -> str:
             s += 1
         else:
             ndim = int(token[1:])
-            shape = ", ".join(f"S[{s + j}]" for j in range(ndim))
+            shape = ", ".join(f"S[{at + j}]" for j in range(ndim))
             dtype = "np.float64" if token[0] == "f" else "np.int64"
             args.append(f"carray(P[{p}], ({shape},), {dtype})")
             p += 1
-            s += ndim
+            at += ndim
     return "def entry(P, S, F):\n    return loop(\n        " + ",\n        ".join(args) + ",\n    )\n"
+
+
+def _objects_ir(spec: str) -> str:
+    """The IR of ``geomech_objects(O, I, F)``: the entry called with numpy's array objects themselves (``O`` their
+    addresses; ``I`` the offsets of an array object's data pointer and shape pointer, :func:`_layout`, then the
+    integers), their data pointers and shapes read here, where numpy's attributes would cost a microsecond each."""
+    tokens = spec.split()
+    ndims = [int(t[1:]) for t in tokens if t not in ("d", "n")]
+    n_ints = tokens.count("n")
+    k, m = max(len(ndims), 1), max(sum(ndims) + n_ints, 1)
+    lines = [
+        "define i64 @geomech_objects(ptr %O, ptr %I, ptr %F) {",
+        f"  %P = alloca [{k} x ptr]",
+        f"  %S = alloca [{m} x i64]",
+        "  %offd = load i64, ptr %I",
+        "  %offs.at = getelementptr i64, ptr %I, i64 1",
+        "  %offs = load i64, ptr %offs.at",
+    ]
+    at = 0
+    for i, nd in enumerate(ndims):
+        lines += [
+            f"  %o{i}.at = getelementptr i64, ptr %O, i64 {i}",
+            f"  %o{i}.int = load i64, ptr %o{i}.at",
+            f"  %o{i} = inttoptr i64 %o{i}.int to ptr",
+            f"  %d{i}.at = getelementptr i8, ptr %o{i}, i64 %offd",
+            f"  %d{i} = load ptr, ptr %d{i}.at",
+            f"  %p{i} = getelementptr [{k} x ptr], ptr %P, i64 0, i64 {i}",
+            f"  store ptr %d{i}, ptr %p{i}",
+            f"  %s{i}.at = getelementptr i8, ptr %o{i}, i64 %offs",
+            f"  %s{i} = load ptr, ptr %s{i}.at",
+        ]
+        for j in range(nd):
+            lines += [
+                f"  %e{i}_{j}.at = getelementptr i64, ptr %s{i}, i64 {j}",
+                f"  %e{i}_{j} = load i64, ptr %e{i}_{j}.at",
+                f"  %t{i}_{j} = getelementptr [{m} x i64], ptr %S, i64 0, i64 {at}",
+                f"  store i64 %e{i}_{j}, ptr %t{i}_{j}",
+            ]
+            at += 1
+    for r in range(n_ints):
+        lines += [
+            f"  %n{r}.at = getelementptr i64, ptr %I, i64 {2 + r}",
+            f"  %n{r} = load i64, ptr %n{r}.at",
+            f"  %u{r} = getelementptr [{m} x i64], ptr %S, i64 0, i64 {at}",
+            f"  store i64 %n{r}, ptr %u{r}",
+        ]
+        at += 1
+    lines += ["  %out = call i64 @geomech_entry(ptr %P, ptr %S, ptr %F)", "  ret i64 %out", "}", ""]
+    return "declare i64 @geomech_entry(ptr, ptr, ptr)\n\n" + "\n".join(lines)
+
+
+@functools.cache
+def _layout() -> tuple[int, int] | None:
+    """The byte offsets, in a numpy array object, of its data pointer and of its shape's (numpy's
+    ``PyArrayObject_fields``, after Python's object header, whose size depends on the build), found on probe
+    arrays and checked on others; None where they are not found (the entries are then given the pointers and
+    shapes read by numpy's attributes)."""
+    probes = [np.zeros((4, 5))[1:], np.zeros((7, 2, 3), dtype=np.int64)[:, 1], np.zeros(9)[2:]]
+
+    def word(a: np.ndarray, at: int) -> int:
+        return int(ctypes.c_int64.from_address(id(a) + at).value)
+
+    offsets = range(8, 72, 8)
+    data = [k for k in offsets if all(word(a, k) == a.ctypes.data for a in probes)]
+    if len(data) != 1:
+        return None
+
+    def shape_at(a: np.ndarray, k: int) -> bool:
+        p = word(a, k)
+        return p > 4096 and all(ctypes.c_int64.from_address(p + 8 * j).value == n for j, n in enumerate(a.shape))
+
+    shapes = [k for k in offsets if k != data[0] and all(shape_at(a, k) for a in probes)]
+    return (data[0], shapes[0]) if len(shapes) == 1 else None
 
 
 @functools.cache
@@ -351,8 +442,8 @@ def _read(data: bytes, spec: str) -> NativeLoop | None:
     header = json.loads(data[start : start + size])
     if header.get("refused"):
         return None
-    (address,) = load_object(data[start + size :], (header["name"],), tuple(header["undefined"]))
-    return NativeLoop(address, spec)
+    raw, objects = load_object(data[start + size :], tuple(header["names"]), tuple(header["undefined"]))
+    return NativeLoop(raw, objects, spec)
 
 
 def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
@@ -374,8 +465,9 @@ def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
         mod = cfunc._library._final_module.clone()
         inner = cfunc.native_name.removeprefix("cfunc.")  # numba's function, that its C wrapper calls
         mod.link_in(llvm.parse_assembly(_ENTRY_IR.format(inner=inner, raised=RAISED)))
+        mod.link_in(llvm.parse_assembly(_objects_ir(spec)))
         for f in mod.functions:
-            if not f.is_declaration and f.name != "geomech_entry":
+            if not f.is_declaration and f.name not in _EXPORTED:
                 f.linkage = "internal"
         # what the entry does not reach goes (numba's wrappers for calls from Python, among them)
         pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=0))
@@ -402,7 +494,7 @@ def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
                 missing = [n for n in undefined if not _process_symbol(n)]
                 if missing:
                     reason = "needs symbols this process does not define: " + ", ".join(missing)
-        header = {"refused": reason} if reason else {"name": "geomech_entry", "undefined": list(undefined or ())}
+        header = {"refused": reason} if reason else {"names": list(_EXPORTED), "undefined": list(undefined or ())}
         text = json.dumps(header).encode()
         data = _MAGIC + len(text).to_bytes(8, "little") + text + (b"" if reason else obj)
         write_atomic(path, data)
