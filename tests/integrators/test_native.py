@@ -138,7 +138,7 @@ def test_a_loop_that_needs_numbas_run_time_is_refused_once():
     assert _native.build(module, "loop", spec) is None
     assert _native.native_loop(module, "loop", spec) == (True, None)
     # a new process reads the refusal from the cache instead of trying again
-    _native._LOOPS.clear()
+    del _native._LOOPS[module.__name__, "loop", spec]
     assert _native.native_loop(module, "loop", spec) == (True, None)
 
 

@@ -45,7 +45,8 @@ __all__ = ["NativeLoop", "build", "compiled", "host_key", "kinds", "load_object"
 _LOCK = threading.RLock()
 _TARGET: list[Any] = []
 _ENGINES: list[Any] = []  # kept alive: the code lives as long as its engine
-_LOOPS: dict[str, NativeLoop | None] = {}
+#: (module, loop, kinds) -> (built, the entry or None): what the cache holds, read once per process
+_LOOPS: dict[tuple[str, str, str], tuple[bool, NativeLoop | None]] = {}
 #: The C library's functions code may call (LLVM's intrinsics lower to some of them), registered by name.
 _LIBM = (
     "exp", "log", "sin", "cos", "tan", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos", "asinh",
@@ -418,19 +419,19 @@ def _path(module_name: str, loop_name: str, spec: str) -> Path:
 def native_loop(module: Any, loop_name: str, spec: str) -> tuple[bool, NativeLoop | None]:
     """Whether the C entry of ``module``'s loop ``loop_name`` for arguments of the kinds ``spec`` has been built
     (:func:`build`; in this process or in the cache), and the entry, loaded from the cache without numba (None
-    where it was refused)."""
-    path = _path(module.__name__, loop_name, spec)
-    key = str(path)
+    where it was refused). The cache is read once per process and loop (a run asks at every call)."""
+    key = (module.__name__, loop_name, spec)
+    known = _LOOPS.get(key)
+    if known is not None:
+        return known
     with _LOCK:
-        if key in _LOOPS:
-            return True, _LOOPS[key]
         try:
-            data = path.read_bytes()
+            data = _path(*key).read_bytes()
         except OSError:
-            return False, None
-        loop = _read(data, spec)
-        _LOOPS[key] = loop
-        return True, loop
+            _LOOPS[key] = (False, None)  # until this process builds it
+            return _LOOPS[key]
+        _LOOPS[key] = (True, _read(data, spec))
+        return _LOOPS[key]
 
 
 def _read(data: bytes, spec: str) -> NativeLoop | None:
@@ -499,5 +500,5 @@ def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
         data = _MAGIC + len(text).to_bytes(8, "little") + text + (b"" if reason else obj)
         write_atomic(path, data)
         loop = _read(data, spec)
-        _LOOPS[str(path)] = loop
+        _LOOPS[module.__name__, loop_name, spec] = (True, loop)
         return loop

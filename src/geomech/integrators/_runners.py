@@ -262,6 +262,7 @@ def run_embedded(
     steps, compile time, the compiled loop's seconds, the events recorded (B, max_events, 2 + d), their counts
     (B,))."""
     ev = CompiledEvents.none() if events is None else events
+    Y0, times, PRM = np.ascontiguousarray(Y0), np.ascontiguousarray(times, dtype=float), np.ascontiguousarray(PRM)
     EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
     ECOUNT = np.zeros(Y0.shape[0])
     pair = method.tableau()
@@ -376,6 +377,7 @@ def run_taylor(
     per order: its time is counted in the compile time), or with ``compact`` (default: where the unrolled code would
     pass ``UNROLL_LIMIT`` multiply-adds) the module's loop over the orders, ``taylor_coeffs``."""
     ev = CompiledEvents.none() if events is None else events
+    Y0, times, PRM = np.ascontiguousarray(Y0), np.ascontiguousarray(times, dtype=float), np.ascontiguousarray(PRM)
     EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
     ECOUNT = np.zeros(Y0.shape[0])
     rtol, atol = tolerances
@@ -433,8 +435,13 @@ def run_taylor(
             np.empty(5 * lanes, dtype=np.int64),
         )  # fmt: skip
 
-    loop, more = compiled(module, "taylor_run", arguments(0, 1), warm_up)
-    compile_time += more
+    # the loop found once per module and process (its arguments' kinds are the same at every call: the inputs are
+    # made C-contiguous above, the outputs are the run's own)
+    loop = module.__dict__.get("_TAYLOR_LOOP")
+    if loop is None:
+        loop, more = compiled(module, "taylor_run", arguments(0, 1), warm_up)
+        module.__dict__["_TAYLOR_LOOP"] = loop
+        compile_time += more
 
     def call(a: int, b: int) -> None:
         if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffers are sized by taylor_work
