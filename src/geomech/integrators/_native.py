@@ -360,24 +360,24 @@ def _objects_ir(spec: str) -> str:
             f"  %s{i}.at = getelementptr i8, ptr %o{i}, i64 %offs",
             f"  %s{i} = load ptr, ptr %s{i}.at",
         ]
-        for j in range(nd):
-            lines += [
-                f"  %e{i}_{j}.at = getelementptr i64, ptr %s{i}, i64 {j}",
-                f"  %e{i}_{j} = load i64, ptr %e{i}_{j}.at",
-                f"  %t{i}_{j} = getelementptr [{m} x i64], ptr %S, i64 0, i64 {at}",
-                f"  store i64 %e{i}_{j}, ptr %t{i}_{j}",
-            ]
+        for j in range(nd):  # the shape's extents
+            lines += _copied(f"e{i}_{j}", f"%s{i}", j, m, at)
             at += 1
-    for r in range(n_ints):
-        lines += [
-            f"  %n{r}.at = getelementptr i64, ptr %I, i64 {2 + r}",
-            f"  %n{r} = load i64, ptr %n{r}.at",
-            f"  %u{r} = getelementptr [{m} x i64], ptr %S, i64 0, i64 {at}",
-            f"  store i64 %n{r}, ptr %u{r}",
-        ]
+    for r in range(n_ints):  # the integers, after the offsets
+        lines += _copied(f"n{r}", "%I", 2 + r, m, at)
         at += 1
     lines += ["  %out = call i64 @geomech_entry(ptr %P, ptr %S, ptr %F)", "  ret i64 %out", "}", ""]
     return "declare i64 @geomech_entry(ptr, ptr, ptr)\n\n" + "\n".join(lines)
+
+
+def _copied(name: str, source: str, index: int, m: int, at: int) -> list[str]:
+    """IR lines storing the int64 entry ``index`` of ``source`` into entry ``at`` of the ``m`` of ``%S``."""
+    return [
+        f"  %{name}.at = getelementptr i64, ptr {source}, i64 {index}",
+        f"  %{name} = load i64, ptr %{name}.at",
+        f"  %{name}.to = getelementptr [{m} x i64], ptr %S, i64 0, i64 {at}",
+        f"  store i64 %{name}, ptr %{name}.to",
+    ]
 
 
 @functools.cache
