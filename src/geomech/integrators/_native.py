@@ -144,13 +144,16 @@ def host_key() -> str:
 
 @functools.cache
 def _handles() -> tuple[Any, ...]:
-    """The math library and the process (its executable and the libraries loaded globally: C, Python)."""
-    handles = []
+    """The math library, Python's C API (its shared library where it has one) and the process (its executable
+    and the libraries loaded globally)."""
+    handles: list[Any] = []
     for name in (ctypes.util.find_library("m"), None):
         try:
             handles.append(ctypes.CDLL(name))
         except (OSError, TypeError):  # pragma: no cover - no such library, or no process handle (Windows)
             continue
+        if name is None:
+            handles.insert(-1, ctypes.pythonapi)
     return tuple(handles)
 
 
