@@ -142,6 +142,18 @@ def test_a_loop_that_needs_numbas_run_time_is_refused_once():
     assert _native.native_loop(module, "loop", spec) == (True, None)
 
 
+def test_a_file_that_is_not_an_entry_is_built_again():
+    module = _module(loop=_damped_rows)
+    spec = "f2 f2 d n f1"
+    path = _native._path(module.__name__, "loop", spec)
+    path.write_bytes(b"gm-native-0\n not this version's")
+    assert _native.native_loop(module, "loop", spec) == (False, None)
+    assert _native.build(module, "loop", spec) is not None
+    del _native._LOOPS[module.__name__, "loop", spec]  # as a new process: the file is now an entry
+    known, entry = _native.native_loop(module, "loop", spec)
+    assert known and entry is not None
+
+
 def test_an_exception_inside_is_reported():
     module = _module(loop=_raising)
     entry = _native.build(module, "loop", "f1 n")

@@ -431,22 +431,38 @@ def native_loop(module: Any, loop_name: str, spec: str) -> tuple[bool, NativeLoo
         try:
             data = _path(*key).read_bytes()
         except OSError:
-            _LOOPS[key] = (False, None)  # until this process builds it
+            data = b""
+        if _parts(data) is None:  # not there (or not a file this module wrote): until this process builds it
+            _LOOPS[key] = (False, None)
             return _LOOPS[key]
         _LOOPS[key] = (True, _read(data, spec))
         return _LOOPS[key]
 
 
+def _parts(data: bytes) -> tuple[dict[str, Any], bytes] | None:
+    """A cache file's header and object (None where the content is not such a file)."""
+    if not data.startswith(_MAGIC):
+        return None
+    start = len(_MAGIC) + 8
+    size = int.from_bytes(data[len(_MAGIC) : start], "little")
+    try:
+        header = json.loads(data[start : start + size])
+    except ValueError:
+        return None
+    if not isinstance(header, dict) or not (header.get("refused") or ("names" in header and "undefined" in header)):
+        return None
+    return header, data[start + size :]
+
+
 def _read(data: bytes, spec: str) -> NativeLoop | None:
     """The loop of a cache file's content (None for a refusal recorded there)."""
-    if not data.startswith(_MAGIC):
+    parts = _parts(data)
+    if parts is None:  # pragma: no cover - checked by the callers
         raise RuntimeError("a cached compiled loop is not one of this version's: delete the cache's kernels")
-    size = int.from_bytes(data[len(_MAGIC) : len(_MAGIC) + 8], "little")
-    start = len(_MAGIC) + 8
-    header = json.loads(data[start : start + size])
+    header, obj = parts
     if header.get("refused"):
         return None
-    raw, objects = load_object(data[start + size :], tuple(header["names"]), tuple(header["undefined"]))
+    raw, objects = load_object(obj, tuple(header["names"]), tuple(header["undefined"]))
     return NativeLoop(raw, objects, spec)
 
 
