@@ -50,6 +50,26 @@ def test_tableau_and_continuous_extension_satisfy_the_order_conditions(name):
             assert w @ c**k == pytest.approx(theta ** (k + 1) / (k + 1), abs=1e-13), (theta, k)
 
 
+def test_coefficients_are_scipys_bit_for_bit():
+    # geomech keeps the published coefficients itself (a run does not import scipy's integrators): they must be the
+    # doubles scipy's solvers of these names use, another transcription of Hairer's and Shampine's decimals
+    from scipy.integrate import DOP853, RK45
+
+    p = embedded_pair("DOP853")
+    ns = DOP853.n_stages
+    assert p.n_stages == ns and p.A.shape == (ns + 1 + DOP853.A_EXTRA.shape[0],) * 2
+    assert np.array_equal(p.A[:ns, :ns], DOP853.A) and np.array_equal(p.A[ns, :ns], DOP853.B)
+    assert np.array_equal(p.A[ns + 1 :], DOP853.A_EXTRA) and np.array_equal(p.b, DOP853.B)
+    assert np.array_equal(p.e, DOP853.E5) and np.array_equal(p.e2, DOP853.E3)
+    assert np.array_equal(p.dense[3:], DOP853.D)
+    # the row sums are the nodes (entries up to 30 in size: round-off of their sums some 1e-14)
+    np.testing.assert_allclose(p.c[: ns + 1], np.r_[DOP853.C, 1.0], rtol=0, atol=1e-13)
+    q = embedded_pair("DOPRI5")
+    ns = RK45.n_stages
+    assert np.array_equal(q.A[:ns, : ns - 1], RK45.A) and np.array_equal(q.b, RK45.B) and np.array_equal(q.e, RK45.E)
+    assert np.array_equal(q.dense, np.asarray(RK45.P).T)
+
+
 @pytest.mark.parametrize("name", PAIRS)
 def test_the_exact_free_body_at_step_ends_and_between(name):
     body = gm.RigidBody([3.0, 2.0, 1.0])

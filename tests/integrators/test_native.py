@@ -2,8 +2,9 @@
 loop computes what the loop computes, a fresh process loads and calls it without numba, a loop that needs numba's
 run time is refused (and the refusal kept), an exception raised inside is reported, and the work arrays carved out
 of a buffer (``_fptr.shaped``) are views of it with C strides, in numba and in the Python twins. A generated
-module binds numba's names at its first use of numba (``_deferred``): a Taylor solve from a warm cache, in a fresh
-process, never imports numba, and gives the result the compiled DOP853 gives."""
+module binds numba's names at its first use of numba (``_deferred``): a solve from a warm cache by Taylor's method or
+DOP853, in a fresh process, never imports numba, and gives the result scipy's solver gives; a model function's C
+twin is code of its own too, its outputs NaN where it raised."""
 
 import json
 import math
@@ -13,6 +14,7 @@ import sys
 import textwrap
 import types
 import uuid
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -216,28 +218,31 @@ def test_shaped_views_write_through_with_c_strides():
     assert twin.base is not None and twin.shape == (3, 4) and twin[2, 3] == 13.0
 
 
-TAYLOR_CHILD = """
+SOLVE_CHILD = """
 import json, sys
 import numpy as np
 from geomech.integrators import BKMM, solve
 from geomech.systems.nonholonomic_examples import chaplygin_sleigh
 s = chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6)
-sol = solve(s, BKMM(solver="taylor"), t_final=10.0, saveat=5, p0=[0.3, 0.5], rtol=1e-12, atol=1e-14)
+sol = solve(s, BKMM(solver=sys.argv[1]), t_final=10.0, saveat=5, p0=[0.3, 0.5], rtol=1e-12, atol=1e-14)
 imported = "numba" in sys.modules
 # numba's loops in this process: which have machine code (compiled, or loaded from numba's cache)
 from geomech.integrators._codegen import loaded
-compiled = sorted(name for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
-                  and hasattr(m, "taylor_run") and loaded(m.taylor_run))
+compiled = sorted(f"{name}.{loop}" for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
+                  for loop in ("taylor_run", "erk_run") if hasattr(m, loop) and loaded(getattr(m, loop)))
 print(json.dumps(dict(q=sol.q.tolist(), p=sol.p.tolist(), loaded=compiled, numba=imported)))
 """
 
 
-def test_a_taylor_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cache):
+@pytest.mark.parametrize("solver", ["taylor", "DOP853"])
+def test_a_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cache, solver):
+    # the Taylor loop with its coefficients' code, or the DOP853 loop with the model's C right-hand side: each
+    # loaded as code of its own
     env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
     runs = []
     for _ in range(2):  # the first fills the caches (if no test did), the second loads
         done = subprocess.run(
-            [sys.executable, "-c", TAYLOR_CHILD], env=env, capture_output=True, text=True, timeout=600
+            [sys.executable, "-c", SOLVE_CHILD, solver], env=env, capture_output=True, text=True, timeout=600
         )
         assert done.returncode == 0, done.stderr
         runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
@@ -247,11 +252,69 @@ def test_a_taylor_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cach
     from geomech.integrators import BKMM
     from geomech.systems.nonholonomic_examples import chaplygin_sleigh
 
+    # another route: scipy's solver on the equations evaluated in Python
     ref = solve(chaplygin_sleigh(m=1.5, I_c=0.4, a=0.6), BKMM(), t_final=10.0, saveat=5, p0=[0.3, 0.5], rtol=1e-13,
-                atol=1e-15)  # fmt: skip
+                atol=1e-15, backend="python")  # fmt: skip
+    assert ref.stats["backend"] == "python"
     for run in runs:
-        np.testing.assert_allclose(np.array(run["p"]), ref.p, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(np.array(run["q"]), ref.q, rtol=0, atol=1e-10 * max(1.0, float(np.abs(ref.q).max())))
+        np.testing.assert_allclose(np.array(run["p"]), ref.p, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(np.array(run["q"]), ref.q, rtol=0, atol=1e-9 * max(1.0, float(np.abs(ref.q).max())))
+
+
+TWIN_MODULE = """
+from geomech.integrators._deferred import Deferred
+from geomech.integrators._native import Addresses
+
+_DEFERRED = Deferred(globals())
+numba = _DEFERRED.numba
+
+
+def _rhs_c(y_, out_, prm_, d, n_prm):
+    y = numba.carray(y_, (d,))
+    out = numba.carray(out_, (d,))
+    prm = numba.carray(prm_, (n_prm,))
+    for i in range(d):
+        out[i] = prm[0] / y[i]  # a ZeroDivisionError at y[i] = 0 (a cfunc's error model is Python's)
+
+
+addresses = Addresses(globals())
+"""
+
+TWIN_CALL = """
+import ctypes, importlib, json, sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from geomech.integrators._k_common import MODEL_FUNCTIONS
+module = importlib.import_module(sys.argv[2])
+address = int(module.addresses(("rhs",))[MODEL_FUNCTIONS.index("rhs")])
+p = ctypes.c_void_p
+twin = ctypes.CFUNCTYPE(None, p, p, p, ctypes.c_int64, ctypes.c_int64)(address)
+out = {}
+for case, y in (("finite", [2.0, -4.0, 0.5]), ("raised", [2.0, 0.0, 0.5])):
+    y, f, prm = np.array(y), np.zeros(3), np.array([3.0])
+    twin(y.ctypes.data, f.ctypes.data, prm.ctypes.data, 3, 1)
+    out[case] = [None if v != v else v for v in f.tolist()]
+print(json.dumps(dict(out, numba="numba" in sys.modules)))
+"""
+
+
+def test_a_model_functions_c_twin_is_code_of_its_own(hermetic_cache, tmp_path):
+    name = f"twin_{uuid.uuid4().hex}"
+    (tmp_path / f"{name}.py").write_text(TWIN_MODULE)
+    env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    runs = []
+    for _ in range(2):  # the first compiles the twin by numba and builds its own code, the second loads that
+        done = subprocess.run(
+            [sys.executable, "-c", TWIN_CALL, str(tmp_path), name], env=env, capture_output=True, text=True,
+            timeout=300,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert runs[0]["numba"] is True and runs[1]["numba"] is False
+    for run in runs:
+        assert run["finite"] == [1.5, -0.75, 6.0]
+        assert run["raised"] == [None, None, None]  # the outputs NaN where the function raised: the loop sees it
+    assert len(list(Path(hermetic_cache).glob("kernels/gm_native_*.bin"))) >= 1
 
 
 DEFERRED_MODULE = """

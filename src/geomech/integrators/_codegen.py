@@ -197,14 +197,15 @@ def _split_sources(sources: list[tuple[str, str]]) -> tuple[str, str, tuple[str,
 # numba's names bound at the module's first use of numba (geomech.integrators._deferred): importing the module
 # imports no numba
 _HEADER_NUMBA = (
-    "import math\nimport numpy as np\nfrom geomech.integrators._deferred import Addresses, Deferred\n\n"
+    "import math\nimport numpy as np\nfrom geomech.integrators._deferred import Deferred\n"
+    "from geomech.integrators._native import Addresses\n\n"
     "_DEFERRED = Deferred(globals())\nnumba = _DEFERRED.numba\n"
     "borrowed, call_model, call_model4, call_model6, kept, shaped = _DEFERRED.intrinsics()\n"
     "kernel = _DEFERRED.kernel(cache=True, nogil=True, error_model='numpy')\n"
     "inlined = _DEFERRED.kernel(cache=True, nogil=True, error_model='numpy', inline='always')\n\n"
 )
 # The model functions' addresses for the loops shared by all models (geomech.integrators._fptr): each C twin is
-# compiled (or loaded from numba's cache) on first request only.
+# loaded as code of its own (geomech.integrators._native) or compiled by numba, on first request only.
 _ADDRESSES = """
 
 _ADDRESSES = Addresses(globals())

@@ -18,11 +18,9 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-import numpy as np
+from ._k_common import MODEL_ARRAYS
 
-from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
-
-__all__ = ["Addresses", "Deferred", "Pending", "c_signature"]
+__all__ = ["Deferred", "Pending", "c_signature"]
 
 _LOCK = threading.RLock()
 #: the names of :mod:`._fptr` a generated module uses inside its kernels
@@ -122,31 +120,3 @@ class Deferred:
                 elif isinstance(value, _Name):
                     ns[name] = value.resolve()
             self.bound = True
-
-
-class Addresses:
-    """The addresses of a generated module's model functions (``namespace`` is the module's globals), each C twin
-    compiled (or loaded from numba's cache) on first request."""
-
-    def __init__(self, namespace: dict[str, Any]):
-        self._namespace = namespace
-        self._cfuncs: dict[str, Any] = {}
-
-    def ready(self, names: tuple[str, ...]) -> bool:
-        """Whether every twin of ``names`` is compiled in this process."""
-        return all(name in self._cfuncs for name in names)
-
-    def __call__(self, names: tuple[str, ...]) -> np.ndarray:
-        """The address array ``FP`` for a loop that calls ``names`` (zero for the functions it does not call)."""
-        import numba
-
-        deferred = self._namespace.get("_DEFERRED")
-        if isinstance(deferred, Deferred):
-            deferred.bind()
-        out = np.zeros(len(MODEL_FUNCTIONS), dtype=np.int64)
-        for name in names:
-            if name not in self._cfuncs:
-                twin = self._namespace[f"_{name}_c"]
-                self._cfuncs[name] = numba.cfunc(c_signature(name), cache=True)(twin)
-            out[MODEL_FUNCTIONS.index(name)] = self._cfuncs[name].address
-        return out

@@ -8,7 +8,7 @@ templates: ``rhs``, ``fjac``, ``grad``, ...) as C functions and call them with :
 a model function ``f(a_1, ..., a_k, prm)`` is ``void f_c(double *a_1, ..., double *a_k, double *prm, int64 d,
 int64 n_prm)``, with ``d`` the length of ``a_1``: each array is a vector of length ``d`` or a ``d x d`` matrix
 (``MODEL_ARRAYS``). The twins are numba ``cfunc``\\ s defined lazily by the generated model module
-(:class:`~._deferred.Addresses`), cached on disk like the rest. An address is a run-time integer, so a loop is
+(:class:`~._native.Addresses`), cached on disk like the rest. An address is a run-time integer, so a loop is
 compiled and cached once. Arrays passed must be C-contiguous (checked when the loop is compiled).
 """
 

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 # >>> template preamble (removed when compiled)
-from ._fptr import borrowed, call_model, kept
+from ._fptr import borrowed, call_model, shaped
 from ._k_common import (
     STAGE1,
     fail,
@@ -383,6 +383,7 @@ def erk_run(
     EVT,
     ECOUNT,
     PRM,
+    FW,
 ):
     """Integrate each row of Y0 from t0 by the embedded pair (A, B; error weights E, E2 on the stages and
     f(y1); continuous extension D, its extra stages the rows of A past ns), saving at the times TS (monotone,
@@ -397,19 +398,23 @@ def erk_run(
     INFO[b]: status (0, 2 non-finite, 4 step size underflow, 6 left the chart, 8 evaluation budget spent), the
     index of the first time of TS not reached, NaN, 0, evaluations of f, the time reached, accepted and
     rejected steps. Only the model's evaluations are here; the control logic is the shared ``erk_*`` helpers.
+    The work arrays are carved out of FW (:func:`erk_work` entries): the loop allocates nothing. Returns 0 (1 where
+    FW is too short, nothing run).
     """
     nb, d = Y0.shape
     # every array borrowed (:func:`~geomech.integrators._fptr.borrowed`: numba would count its references
-    # atomically at each call that passes it): the arguments, which the caller holds, and the work arrays, kept to
-    # the end
-    Y0, TS, OUT, INFO, A, B, E, E2, D, CH, EDIR, ETERM, EVT, ECOUNT, PRM = borrowed(
-        (Y0, TS, OUT, INFO, A, B, E, E2, D, CH, EDIR, ETERM, EVT, ECOUNT, PRM)
+    # atomically at each call that passes it): the arguments, which the caller holds
+    Y0, TS, OUT, INFO, A, B, E, E2, D, CH, EDIR, ETERM, EVT, ECOUNT, PRM, FW = borrowed(
+        (Y0, TS, OUT, INFO, A, B, E, E2, D, CH, EDIR, ETERM, EVT, ECOUNT, PRM, FW)
     )
-    K_ = np.empty((A.shape[0], d))
-    F_ = np.empty((D.shape[0], d))
-    W_ = np.empty((10, d))
-    S_ = np.empty(EK_SIZE)
-    K, F, W, S = borrowed((K_, F_, W_, S_))
+    if FW.shape[0] < erk_work(A.shape[0], D.shape[0], d):
+        return 1
+    K = shaped(FW, 0, (A.shape[0], d))
+    at = A.shape[0] * d
+    F = shaped(FW, at, (D.shape[0], d))
+    at += D.shape[0] * d
+    W = shaped(FW, at, (10, d))
+    S = shaped(FW, at + 10 * d, EK_SIZE)
     for b in range(nb):
         prm = param_row(PRM, b)
         action = erk_begin(b, Y0, t0, TS, OUT, INFO, W, S, CH)
@@ -446,4 +451,11 @@ def erk_run(
                 ECOUNT,
                 prm,
             )
-    kept((K_, F_, W_, S_))
+    return 0
+
+
+@kernel
+def erk_work(n_stages, n_dense, d):
+    """The entries of the float64 work buffer of :func:`erk_run` for a pair of ``n_stages`` stages (the rows of
+    its A, the extension's extra stages among them) and ``n_dense`` rows of its continuous extension."""
+    return (n_stages + n_dense + 10) * d + EK_SIZE

@@ -39,14 +39,28 @@ from typing import Any
 import numpy as np
 
 from .._storage import write_atomic
+from ._codegen import cache_dir, loaded
+from ._deferred import Deferred, c_signature
+from ._k_common import MODEL_ARRAYS, MODEL_FUNCTIONS
 
-__all__ = ["NativeLoop", "build", "compiled", "host_key", "kinds", "load_object", "native_loop", "target"]
+__all__ = [
+    "Addresses",
+    "NativeLoop",
+    "build",
+    "compiled",
+    "host_key",
+    "kinds",
+    "load_object",
+    "native_loop",
+    "target",
+]
 
 _LOCK = threading.RLock()
 _TARGET: list[Any] = []
 _ENGINES: list[Any] = []  # kept alive: the code lives as long as its engine
-#: (module, loop, kinds) -> (built, the entry or None): what the cache holds, read once per process
-_LOOPS: dict[tuple[str, str, str], tuple[bool, NativeLoop | None]] = {}
+#: (module, loop, kinds) -> (built, the entry or None): what the cache holds, read once per process; for a model
+#: function's C twin (kinds "twin"), its address or None
+_LOOPS: dict[tuple[str, str, str], tuple[bool, Any]] = {}
 #: The C library's functions code may call (LLVM's intrinsics lower to some of them), registered by name.
 _LIBM = (
     "exp", "log", "sin", "cos", "tan", "pow", "sqrt", "sinh", "cosh", "tanh", "atan", "asin", "acos", "asinh",
@@ -81,6 +95,9 @@ define void @NRT_MemInfo_call_dtor(i8* %mi) {{
 _RUNTIME = ("numba_gil_ensure", "numba_gil_release", "NRT_MemInfo_call_dtor")
 #: the functions of an entry's object: the entry on pointers, and on numpy's array objects (:func:`_objects_ir`)
 _EXPORTED = ("geomech_entry", "geomech_objects")
+#: the function of a model function's C twin's object (:func:`_twin_ir`)
+_TWIN = "geomech_twin"
+TWIN = "twin"  # the kinds of a twin's cache entry
 #: The entry's result where the loop raised (numba's status not 0): the exception is numba's to build, and the
 #: entry built here does not carry numba's wrapper that would.
 RAISED = -(2**62)
@@ -292,8 +309,6 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
     loaded from numba's cache, by ``warm_up()`` where it has no machine code yet) and its C entry built for the
     next process (or this one's next call); the Python function itself where numba is off. The kernel must
     return an integer."""
-    from ._codegen import loaded
-
     function = getattr(module, name)
     if not hasattr(function, "py_func"):  # the Python twin
         return function, 0.0
@@ -413,8 +428,6 @@ def _fingerprint() -> str:
 
 
 def _path(module_name: str, loop_name: str, spec: str) -> Path:
-    from ._codegen import cache_dir
-
     key = "\n".join((_fingerprint(), host_key(), module_name, loop_name, spec))
     return cache_dir() / f"gm_native_{hashlib.sha256(key.encode()).hexdigest()[:24]}.bin"
 
@@ -423,7 +436,12 @@ def native_loop(module: Any, loop_name: str, spec: str) -> tuple[bool, NativeLoo
     """Whether the C entry of ``module``'s loop ``loop_name`` for arguments of the kinds ``spec`` has been built
     (:func:`build`; in this process or in the cache), and the entry, loaded from the cache without numba (None
     where it was refused). The cache is read once per process and loop (a run asks at every call)."""
-    key = (module.__name__, loop_name, spec)
+    return _cached((module.__name__, loop_name, spec))
+
+
+def _cached(key: tuple[str, str, str]) -> tuple[bool, Any]:
+    """What the cache holds for ``key`` (module, function, kinds), read once per process: (built, the loaded entry
+    or twin's address, None where it was refused)."""
     known = _LOOPS.get(key)
     if known is not None:
         return known
@@ -435,7 +453,7 @@ def native_loop(module: Any, loop_name: str, spec: str) -> tuple[bool, NativeLoo
         if _parts(data) is None:  # not there (or not a file this module wrote): until this process builds it
             _LOOPS[key] = (False, None)
             return _LOOPS[key]
-        _LOOPS[key] = (True, _read(data, spec))
+        _LOOPS[key] = (True, _read(data, key[2]))
         return _LOOPS[key]
 
 
@@ -454,16 +472,19 @@ def _parts(data: bytes) -> tuple[dict[str, Any], bytes] | None:
     return header, data[start + size :]
 
 
-def _read(data: bytes, spec: str) -> NativeLoop | None:
-    """The loop of a cache file's content (None for a refusal recorded there)."""
+def _read(data: bytes, spec: str) -> Any:
+    """The loop of a cache file's content, or for a twin (``spec`` TWIN) its address (None for a refusal recorded
+    there)."""
     parts = _parts(data)
     if parts is None:  # pragma: no cover - checked by the callers
         raise RuntimeError("a cached compiled loop is not one of this version's: delete the cache's kernels")
     header, obj = parts
     if header.get("refused"):
         return None
-    raw, objects = load_object(obj, tuple(header["names"]), tuple(header["undefined"]))
-    return NativeLoop(raw, objects, spec)
+    addresses = load_object(obj, tuple(header["names"]), tuple(header["undefined"]))
+    if spec == TWIN:
+        return addresses[0]
+    return NativeLoop(addresses[0], addresses[1], spec)
 
 
 def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
@@ -475,49 +496,159 @@ def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
     import numba
     from numba import types
 
-    path = _path(module.__name__, loop_name, spec)
     namespace: dict[str, Any] = {"loop": getattr(module, loop_name), "carray": numba.carray, "np": np}
     exec(compile(_entry_source(spec), f"<entry of {loop_name}>", "exec"), namespace)  # source printed here
     signature = types.int64(types.CPointer(types.voidptr), types.CPointer(types.int64), types.CPointer(types.float64))
     cfunc: Any = numba.cfunc(signature, error_model="numpy")(namespace["entry"])
     with _LOCK:
-        tm = target()
         mod = cfunc._library._final_module.clone()
         inner = cfunc.native_name.removeprefix("cfunc.")  # numba's function, that its C wrapper calls
         mod.link_in(llvm.parse_assembly(_ENTRY_IR.format(inner=inner, raised=RAISED)))
         mod.link_in(llvm.parse_assembly(_objects_ir(spec)))
-        for f in mod.functions:
-            if not f.is_declaration and f.name not in _EXPORTED:
-                f.linkage = "internal"
-        # what the entry does not reach goes (numba's wrappers for calls from Python, among them)
-        pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=0))
-        pm = llvm.create_new_module_pass_manager()
-        pm.add_global_dead_code_eliminate_pass()
-        pm.run(mod, pb)
-        reached = {f.name for f in mod.functions if f.is_declaration and not f.name.startswith("llvm.")}
-        if reached & set(_RUNTIME):
-            mod.link_in(llvm.parse_assembly(_RUNTIME_IR))
-            for name in _RUNTIME:
-                fn = mod.get_function(name) if name in reached else None
-                if fn is not None:
-                    fn.linkage = "internal"
-        extra = sorted(n for n in reached if n.startswith(("NRT_", "numba_")) and n not in _RUNTIME)
-        reason, undefined = "", None
-        if extra:
-            reason = "needs numba's run time: " + ", ".join(extra)
+        return _emit(mod, _EXPORTED, (module.__name__, loop_name, spec))
+
+
+def _emit(mod: Any, exported: tuple[str, ...], key: tuple[str, str, str]) -> Any:
+    """Write the cache entry ``key`` of the LLVM module ``mod`` (numba's code, linked with the functions
+    ``exported`` that call it): everything else made internal and what they do not reach removed, numba's helpers
+    defined, the object's undefined symbols checked; the entry loaded from it (:func:`_read`), or None where it was
+    refused (the refusal recorded)."""
+    import llvmlite.binding as llvm
+
+    tm = target()
+    for f in mod.functions:
+        if not f.is_declaration and f.name not in exported:
+            f.linkage = "internal"
+    # what the entry does not reach goes (numba's wrappers for calls from Python, among them)
+    pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=0))
+    pm = llvm.create_new_module_pass_manager()
+    pm.add_global_dead_code_eliminate_pass()
+    pm.run(mod, pb)
+    reached = {f.name for f in mod.functions if f.is_declaration and not f.name.startswith("llvm.")}
+    if reached & set(_RUNTIME):
+        mod.link_in(llvm.parse_assembly(_RUNTIME_IR))
+        for name in _RUNTIME:
+            fn = mod.get_function(name) if name in reached else None
+            if fn is not None:
+                fn.linkage = "internal"
+    extra = sorted(n for n in reached if n.startswith(("NRT_", "numba_")) and n not in _RUNTIME)
+    reason, undefined = "", None
+    if extra:
+        reason = "needs numba's run time: " + ", ".join(extra)
+    else:
+        obj = bytes(tm.emit_object(mod))
+        undefined = undefined_symbols(obj)
+        if undefined is None:
+            reason = "this platform's object files are not read here"
         else:
-            obj = bytes(tm.emit_object(mod))
-            undefined = undefined_symbols(obj)
-            if undefined is None:
-                reason = "this platform's object files are not read here"
-            else:
-                missing = [n for n in undefined if not _process_symbol(n)]
-                if missing:
-                    reason = "needs symbols this process does not define: " + ", ".join(missing)
-        header = {"refused": reason} if reason else {"names": list(_EXPORTED), "undefined": list(undefined or ())}
-        text = json.dumps(header).encode()
-        data = _MAGIC + len(text).to_bytes(8, "little") + text + (b"" if reason else obj)
-        write_atomic(path, data)
-        loop = _read(data, spec)
-        _LOOPS[module.__name__, loop_name, spec] = (True, loop)
-        return loop
+            missing = [n for n in undefined if not _process_symbol(n)]
+            if missing:
+                reason = "needs symbols this process does not define: " + ", ".join(missing)
+    header = {"refused": reason} if reason else {"names": list(exported), "undefined": list(undefined or ())}
+    text = json.dumps(header).encode()
+    data = _MAGIC + len(text).to_bytes(8, "little") + text + (b"" if reason else obj)
+    write_atomic(_path(*key), data)
+    entry = _read(data, key[2])
+    _LOOPS[key] = (True, entry)
+    return entry
+
+
+def _twin_ir(inner: str, name: str) -> str:
+    """The IR of ``geomech_twin``, the C twin of model function ``name`` (:mod:`._fptr`'s signature): numba's compiled
+    function ``inner`` called directly, every output (every array but the first) filled with NaN where it raised,
+    so that the loop that called it reports a state that is not finite."""
+    ndims = MODEL_ARRAYS[name]
+    n = len(ndims) + 1  # the arrays and prm
+    params = ", ".join(f"ptr %a{i}" for i in range(n))
+    fills = []
+    for i, k in enumerate(ndims[1:], start=1):
+        size = "%dd" if k == 2 else "%d"
+        fills.append(f"  call void @geomech_nan(ptr %a{i}, i64 {size})")
+    return f"""
+declare i32 @"{inner}"(ptr, ptr, {", ".join(["ptr"] * n)}, i64, i64)
+
+define void @geomech_twin({params}, i64 %d, i64 %n) {{
+  %ret = alloca i64
+  %exc = alloca ptr
+  store ptr null, ptr %exc
+  %status = call i32 @"{inner}"(ptr %ret, ptr %exc, {params}, i64 %d, i64 %n)
+  %ok = icmp eq i32 %status, 0
+  br i1 %ok, label %done, label %failed
+failed:
+  %dd = mul i64 %d, %d
+{chr(10).join(fills)}
+  br label %done
+done:
+  ret void
+}}
+
+define internal void @geomech_nan(ptr %p, i64 %n) {{
+entry:
+  %empty = icmp sle i64 %n, 0
+  br i1 %empty, label %out, label %loop
+loop:
+  %i = phi i64 [0, %entry], [%next, %loop]
+  %at = getelementptr double, ptr %p, i64 %i
+  store double 0x7FF8000000000000, ptr %at
+  %next = add i64 %i, 1
+  %more = icmp slt i64 %next, %n
+  br i1 %more, label %loop, label %out
+out:
+  ret void
+}}
+"""
+
+
+def build_twin(module_name: str, name: str, cfunc: Any) -> int | None:
+    """The C twin of model function ``name`` of the generated module ``module_name`` as code of its own, from
+    numba's ``cfunc`` of it (compiled, or loaded from numba's cache: its library keeps the code's IR for linking):
+    cached, and its address, or None where it was refused (:func:`_emit`)."""
+    import llvmlite.binding as llvm
+
+    with _LOCK:
+        mod = cfunc._library._get_module_for_linking().clone()
+        inner = cfunc.native_name.removeprefix("cfunc.")
+        mod.link_in(llvm.parse_assembly(_twin_ir(inner, name)))
+        return _emit(mod, (_TWIN,), (module_name, f"_{name}_c", TWIN))
+
+
+class Addresses:
+    """The addresses of a generated module's model functions (``namespace`` is the module's globals): each C twin
+    loaded as code of its own where the cache has it (numba not imported), else compiled by numba (or loaded from
+    numba's cache) and its code of its own built for the next process, on first request."""
+
+    def __init__(self, namespace: dict[str, Any]):
+        self._namespace = namespace
+        self._known: dict[str, int] = {}
+        self._cfuncs: dict[str, Any] = {}  # numba's, kept alive where their code is called
+
+    def ready(self, names: tuple[str, ...]) -> bool:
+        """Whether the address of every twin of ``names`` is known in this process (no compilation to wait for)."""
+        return all(name in self._known for name in names)
+
+    def __call__(self, names: tuple[str, ...]) -> np.ndarray:
+        """The address array ``FP`` for a loop that calls ``names`` (zero for the functions it does not call)."""
+        out = np.zeros(len(MODEL_FUNCTIONS), dtype=np.int64)
+        for name in names:
+            if name not in self._known:
+                self._known[name] = self._address(name)
+            out[MODEL_FUNCTIONS.index(name)] = self._known[name]
+        return out
+
+    def _address(self, name: str) -> int:
+        module_name = str(self._namespace["__name__"])
+        built, address = _cached((module_name, f"_{name}_c", TWIN))
+        if address is not None:
+            return int(address)
+        import numba
+
+        deferred = self._namespace.get("_DEFERRED")
+        if isinstance(deferred, Deferred):
+            deferred.bind()
+        cfunc: Any = numba.cfunc(c_signature(name), cache=True)(self._namespace[f"_{name}_c"])
+        self._cfuncs[name] = cfunc
+        if not built:
+            own = build_twin(module_name, name, cfunc)
+            if own is not None:
+                return int(own)
+        return int(cfunc.address)

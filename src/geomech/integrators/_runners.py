@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
-from ._codegen import RHS, loaded, rhs_address
+from ._codegen import RHS, rhs_address
 from ._events import CompiledEvents
 from ._native import compiled
 from ._problem import Problem
@@ -54,6 +54,13 @@ def _threaded(call: Any, B: int, threads: int) -> float:
         for fut in [pool.submit(call, a, b) for a, b in _chunks(B, threads)]:
             fut.result()
         return time.perf_counter() - start
+
+
+def _home(module: Any, loop: str) -> Any:
+    """The generated module that defines ``module``'s ``loop``: the module of the loops shared by every model where
+    the loop is one of them (its entry is then built once for all models), else ``module``."""
+    shared = getattr(module, "_shared", None)
+    return shared if shared is not None and loop in vars(shared) else module
 
 
 def failed_rows(INFO: np.ndarray) -> list[int]:
@@ -269,53 +276,43 @@ def run_embedded(
     rtol, atol = tolerances
     budget = float(max_evaluations)
     chart = chart_bounds(problem_system)
-    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, pair.alternating, chart)
-    compile_time = 0.0
-    fp = rhs_address(module) if module.ready(RHS) else 0
-    if used == "numba" and not (module.ready(RHS) and loaded(module.erk_run)):
-        # the first call compiles (or loads numba's disk cache) the model's C right-hand side and, once for all
-        # models, the loop: timed apart on a one-step problem
-        start = time.perf_counter()
-        fp = rhs_address(module)
-        probe = np.array([t0, t0 + (times[-1] - t0) * 1e-9])
-        module.erk_run(
-            fp,
-            Y0[:1].copy(),
-            t0,
-            probe,
-            np.empty((1, 2, Y0.shape[1])),
-            np.zeros((1, INFO.shape[1])),
-            rtol,
-            atol,
-            1.0,
-            *args,
-            0,
-            np.zeros(0),
-            np.zeros(0),
-            np.zeros((1, 0, 2 + Y0.shape[1])),
-            np.zeros(1),
-            PRM[:1],
-        )
-        compile_time += time.perf_counter() - start
+    # the pair's flag an integer: the loop's arguments all have a C form (:func:`._native.kinds`)
+    args = (pair.A, pair.b, pair.e, pair.e2, pair.dense, pair.n_stages, pair.error_order, int(pair.alternating), chart)
+    d = Y0.shape[1]
+    erk_work = getattr(module.erk_work, "py_func", module.erk_work)
+    n_work = int(erk_work(pair.A.shape[0], pair.dense.shape[0], d))
+    # the model's C right-hand side: its own code loaded from the cache, or compiled (or loaded from numba's cache),
+    # the first time
+    compile_time, start = 0.0, time.perf_counter()
+    first = used == "numba" and not module.ready(RHS)
+    fp = rhs_address(module)
+    if first:
+        compile_time = time.perf_counter() - start
     event_args = (ev.address, ev.directions, ev.terminal)
 
-    def call(a: int, b: int) -> None:
+    def arguments(a: int, b: int) -> tuple[Any, ...]:
+        return (
+            fp, Y0[a:b], t0, times, OUT[a:b], INFO[a:b], rtol, atol, budget, *args, *event_args, EVT[a:b],
+            ECOUNT[a:b], rows(PRM, a, b), np.empty(n_work),
+        )  # fmt: skip
+
+    def warm_up() -> None:  # the first call compiles the loop (or loads numba's disk cache), on a one-step problem
         module.erk_run(
-            fp,
-            Y0[a:b],
-            t0,
-            times,
-            OUT[a:b],
-            INFO[a:b],
-            rtol,
-            atol,
-            budget,
-            *args,
-            *event_args,
-            EVT[a:b],
-            ECOUNT[a:b],
-            rows(PRM, a, b),
-        )
+            fp, Y0[:1].copy(), t0, np.array([t0, t0 + (times[-1] - t0) * 1e-9]), np.empty((1, 2, d)),
+            np.zeros((1, INFO.shape[1])), rtol, atol, 1.0, *args, 0, np.zeros(0), np.zeros(0), np.zeros((1, 0, 2 + d)),
+            np.zeros(1), PRM[:1], np.empty(n_work),
+        )  # fmt: skip
+
+    # the loop found once per module and process (its arguments' kinds are the same at every call)
+    loop = module.__dict__.get("_ERK_LOOP")
+    if loop is None:
+        loop, more = compiled(_home(module, "erk_run"), "erk_run", arguments(0, 1), warm_up)
+        module.__dict__["_ERK_LOOP"] = loop
+        compile_time += more
+
+    def call(a: int, b: int) -> None:
+        if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffer is sized by erk_work
+            raise RuntimeError("the Dormand-Prince loop's work buffer is too short")
 
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
         loop_time = _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
@@ -439,7 +436,7 @@ def run_taylor(
     # made C-contiguous above, the outputs are the run's own)
     loop = module.__dict__.get("_TAYLOR_LOOP")
     if loop is None:
-        loop, more = compiled(module, "taylor_run", arguments(0, 1), warm_up)
+        loop, more = compiled(_home(module, "taylor_run"), "taylor_run", arguments(0, 1), warm_up)
         module.__dict__["_TAYLOR_LOOP"] = loop
         compile_time += more
 

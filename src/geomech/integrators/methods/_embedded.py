@@ -62,33 +62,42 @@ class EmbeddedPair:
 def embedded_pair(name: str) -> EmbeddedPair:
     """The tableau ``"DOP853"`` (Dormand & Prince 8(5,3), [HNW] II.10) or ``"DOPRI5"`` (Dormand & Prince 5(4)
     with Shampine's dense output of order 4), with the coefficients scipy's solvers of the same names use."""
-    from scipy.integrate import DOP853, RK45
+    from . import _dormand_prince as dp
 
     if name == "DOP853":
-        ns = DOP853.n_stages
-        n_total = ns + 1 + len(DOP853.C_EXTRA)
+        ns = dp.DOP853_STAGES
+        n_total = ns + 1 + len(dp.DOP853_A_EXTRA)
         A = np.zeros((n_total, n_total))
-        A[:ns, :ns] = DOP853.A
-        A[ns, :ns] = DOP853.B
-        A[ns + 1 :, :] = DOP853.A_EXTRA
-        b = np.array(DOP853.B, dtype=float)
+        A[:ns, :ns] = _dense(dp.DOP853_A, ns)
+        b = _dense((dp.DOP853_B,), ns)[0]
+        A[ns, :ns] = b
+        A[ns + 1 :, :] = _dense(dp.DOP853_A_EXTRA, n_total)
         # F0 = y1 - y, F1 = h f(y) - (y1 - y), F2 = 2 (y1 - y) - h (f(y1) + f(y)), F3.. = h D . K
         bb, e0, e1 = np.zeros(n_total), np.eye(n_total)[0], np.eye(n_total)[ns]
         bb[:ns] = b
-        dense = np.vstack([bb, e0 - bb, 2 * bb - e1 - e0, np.asarray(DOP853.D, dtype=float)])
-        return EmbeddedPair(
-            "DOP853", A, b, np.array(DOP853.E5, float), np.array(DOP853.E3, float), dense, True, ns, 8, 7, 7
-        )
+        dense = np.vstack([bb, e0 - bb, 2 * bb - e1 - e0, _dense(dp.DOP853_D, n_total)])
+        e5, e3 = _dense((dp.DOP853_E5, dp.DOP853_E3), ns + 1)
+        return EmbeddedPair("DOP853", A, b, e5, e3, dense, True, ns, 8, 7, 7)
     if name == "DOPRI5":
-        ns = RK45.n_stages
+        ns = dp.DOPRI5_STAGES
         A = np.zeros((ns + 1, ns + 1))
-        A[:ns, : ns - 1] = RK45.A
-        A[ns, :ns] = RK45.B
-        dense = np.ascontiguousarray(np.asarray(RK45.P, dtype=float).T)
+        A[:ns, : ns - 1] = _dense(dp.DOPRI5_A, ns - 1)
+        b = _dense((dp.DOPRI5_B,), ns)[0]
+        A[ns, :ns] = b
+        dense = np.ascontiguousarray(_dense(dp.DOPRI5_P, 4).T)  # row k: theta^(k+1)
         return EmbeddedPair(
-            "DOPRI5", A, np.array(RK45.B, float), np.array(RK45.E, float), np.zeros(ns + 1), dense, False, ns, 5, 4, 4
+            "DOPRI5", A, b, _dense((dp.DOPRI5_E,), ns + 1)[0], np.zeros(ns + 1), dense, False, ns, 5, 4, 4
         )
     raise InputError(f"Expected an embedded pair 'DOP853' or 'DOPRI5', got {name!r}.")
+
+
+def _dense(rows: tuple[dict[int, float], ...], columns: int) -> np.ndarray:
+    """The matrix of ``rows`` of nonzero entries ``{column: value}``, ``columns`` wide."""
+    out = np.zeros((len(rows), columns))
+    for i, row in enumerate(rows):
+        for j, value in row.items():
+            out[i, j] = value
+    return out
 
 
 _PAIRS = {"DOP853": "dop853", "DOPRI5": "dopri5"}
