@@ -44,10 +44,19 @@ def _damped_rows(Y, X, c, steps, W):
 
 @numba.njit(error_model="numpy")
 def _allocating(Y, n):
-    Z = np.zeros(n)  # numba's run time allocates it
+    Z = np.zeros(n)  # numba's allocator makes them, and releases them at the end
+    W = np.empty((n, 2))
     for i in range(n):
         Z[i] = Y[i] * 2.0
-    Y[:n] = Z
+        W[i, 0] = Z[i] + 1.0
+    Y[:n] = W[:, 0] - Z  # a slice copied (another allocation where numba cannot tell the two apart)
+    return n
+
+
+@numba.njit(error_model="numpy")
+def _drawing(Y, n):
+    for i in range(n):
+        Y[i] = np.random.random()  # numba's random generator: its run time's state
     return n
 
 
@@ -134,10 +143,34 @@ def test_a_fresh_process_calls_the_entry_without_numba(hermetic_cache):
     np.testing.assert_allclose(np.array(report["Y"]), _expected(Y, X, 0.01, 50), rtol=1e-12, atol=0)
 
 
-def test_a_loop_that_needs_numbas_run_time_is_refused_once():
+def test_a_loop_that_allocates_runs_on_the_entrys_allocator():
     module = _module(loop=_allocating)
     spec = _native.kinds((np.ones(5), 3))
+    entry = _native.build(module, "loop", spec)
+    assert entry is not None
+    data = _native._path(module.__name__, "loop", spec).read_bytes()
+    assert {"malloc", "free"} <= set(_native._parts(data)[0]["undefined"])
+    Y = np.arange(6.0)
+    assert entry(Y, 4) == 4
+    np.testing.assert_array_equal(Y, [1.0, 1.0, 1.0, 1.0, 4.0, 5.0])
+    # every array released: 200 calls making 12 MB each would hold 2.4 GB if the memory were not given back
+    import resource
+
+    big = np.ones(500_000)
+    entry(big, big.shape[0])
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    for _ in range(200):
+        entry(big, big.shape[0])
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 300_000
+    assert np.all(big == 1.0)
+
+
+def test_a_loop_that_needs_numbas_run_time_is_refused_once():
+    module = _module(loop=_drawing)
+    spec = _native.kinds((np.ones(5), 3))
     assert _native.build(module, "loop", spec) is None
+    data = _native._path(module.__name__, "loop", spec).read_bytes()
+    assert "numba_" in _native._parts(data)[0]["refused"]
     assert _native.native_loop(module, "loop", spec) == (True, None)
     # a new process reads the refusal from the cache instead of trying again
     del _native._LOOPS[module.__name__, "loop", spec]
@@ -259,6 +292,58 @@ def test_a_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cache, solv
     for run in runs:
         np.testing.assert_allclose(np.array(run["p"]), ref.p, rtol=0, atol=1e-9)
         np.testing.assert_allclose(np.array(run["q"]), ref.q, rtol=0, atol=1e-9 * max(1.0, float(np.abs(ref.q).max())))
+
+
+FIXED_CHILD = """
+import json, sys
+import sympy as sp
+import geomech as gm
+from geomech.integrators import solve
+from geomech.integrators._codegen import loaded
+method = sys.argv[1]
+if method == "implicit_midpoint":  # a canonical system
+    q, p = sp.symbols("q p", real=True)
+    s = gm.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum")
+    sol = solve(s, method, y0=[1.0, 0.5], h=0.05, t_final=10.0)
+    y = sol.y
+else:  # Lie-Poisson
+    sol = solve(gm.RigidBody([3.0, 2.0, 1.0]), method, m0=[1.0, 0.3, 0.2], h=0.05, t_final=10.0)
+    y = sol.m
+compiled = sorted(f"{name}.{loop}" for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
+                  for loop in dir(m) if loop.endswith("_run") and hasattr(getattr(m, loop), "py_func")
+                  and loaded(getattr(m, loop)))
+print(json.dumps(dict(y=y.tolist(), backend=sol.stats["backend"], loaded=compiled, numba="numba" in sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("method", ["implicit_midpoint", "gauss_legendre_3", "splitting_4_yoshida"])
+def test_a_fixed_step_solve_from_a_warm_cache_runs_without_numba(hermetic_cache, method):
+    # a fixed-step loop (Newton's iterations on the model's C functions, or a splitting calling the model's flows)
+    # loaded as code of its own, with the model's functions
+    env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
+    runs = []
+    for _ in range(2):  # the first fills the caches (if no test did), the second loads
+        done = subprocess.run(
+            [sys.executable, "-c", FIXED_CHILD, method], env=env, capture_output=True, text=True, timeout=600
+        )
+        assert done.returncode == 0, done.stderr
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert runs[1]["backend"] == "numba" and runs[1]["loaded"] == [] and runs[1]["numba"] is False
+    import sympy as sp
+
+    import geomech as gm
+    from geomech import solve
+
+    # the same method's loop run as Python (the generated module's Python twin)
+    if method == "implicit_midpoint":
+        q, p = sp.symbols("q p", real=True)
+        s = gm.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum")
+        ref = solve(s, method, y0=[1.0, 0.5], h=0.05, t_final=10.0, backend="python").y
+    else:
+        ref = solve(gm.RigidBody([3.0, 2.0, 1.0]), method, m0=[1.0, 0.3, 0.2], h=0.05, t_final=10.0,
+                    backend="python").m  # fmt: skip
+    for run in runs:  # Newton's tolerance (1e-14 relative) and a few hundred steps' round-off
+        np.testing.assert_allclose(np.array(run["y"]), ref, rtol=0, atol=1e-11)
 
 
 TWIN_MODULE = """

@@ -9,10 +9,14 @@ object file once numba's few run-time helpers it declares are defined in it:
 
 - ``numba_gil_ensure`` and ``numba_gil_release`` (its error path takes the GIL), as numba defines them (by
   ``PyGILState_Ensure`` and ``PyGILState_Release``);
-- ``NRT_MemInfo_call_dtor``, the release of an array whose last reference went: never reached, since a loop
-  built here allocates nothing (its arrays are the caller's, or carved out of them by
-  :func:`~geomech.integrators._fptr.shaped`; every array it receives has no owner), and an object that asks for
-  any allocation of numba's run time is refused.
+- numba's allocator, for the arrays a loop makes (``np.empty`` and the like): ``NRT_MemInfo_alloc``,
+  ``NRT_MemInfo_alloc_aligned`` (one ``malloc`` for numba's ``MemInfo`` record, its reference count 1 and no
+  destructor, and the data after it, aligned as asked), ``NRT_MemInfo_call_dtor`` (the release of an array whose
+  last reference went: ``free``), ``NRT_Allocate`` and ``NRT_Free``; numba's compiled code counts the references
+  itself and reads the record's fields (count, data) at numba's offsets, which the record written here keeps. The
+  arrays a loop receives have no owner (the entry makes them on the caller's data), so every record a loop
+  releases is one of these. A loop that asks for any other part of numba's run time (its lists, its random
+  generator, its statistics) is refused.
 
 Every other symbol the object leaves undefined must resolve in this process (the C and math libraries, Python's C
 API), read from the object's symbol table (ELF: Linux) before it is written; where one does not, or the platform's
@@ -67,32 +71,98 @@ _LIBM = (
     "acosh", "atanh", "nextafter", "atan2", "fmod", "log1p", "expm1", "hypot", "sincos",
 )  # fmt: skip
 _MAGIC = b"gm-native-2\n"
-#: numba's helpers a loop's module may declare, defined here (see the module's text)
-_FATAL = "geomech: a compiled loop loaded without numba released an array it does not own"
+#: numba's helpers a loop's module may declare, defined here (see the module's text). numba's MemInfo record:
+#: reference count, destructor, its argument, data, size (and numba's external allocator, null), 8 bytes each.
+_RECORD = 48
 _RUNTIME_IR = f"""
 declare i32 @PyGILState_Ensure()
 declare void @PyGILState_Release(i32)
-declare void @Py_FatalError(i8*)
-@.msg = private unnamed_addr constant [{len(_FATAL) + 1} x i8] c"{_FATAL}\\00"
+declare ptr @malloc(i64)
+declare void @free(ptr)
 
-define void @numba_gil_ensure(i32* %state) {{
+define void @numba_gil_ensure(ptr %state) {{
   %s = call i32 @PyGILState_Ensure()
-  store i32 %s, i32* %state
+  store i32 %s, ptr %state
   ret void
 }}
 
-define void @numba_gil_release(i32* %state) {{
-  %s = load i32, i32* %state
+define void @numba_gil_release(ptr %state) {{
+  %s = load i32, ptr %state
   call void @PyGILState_Release(i32 %s)
   ret void
 }}
 
-define void @NRT_MemInfo_call_dtor(i8* %mi) {{
-  call void @Py_FatalError(i8* @.msg)
-  unreachable
+define ptr @NRT_Allocate(i64 %size) {{
+  %p = call ptr @malloc(i64 %size)
+  ret ptr %p
+}}
+
+define void @NRT_Free(ptr %p) {{
+  call void @free(ptr %p)
+  ret void
+}}
+
+define internal void @geomech_record(ptr %mi, ptr %data, i64 %size) {{
+  store i64 1, ptr %mi
+  %dtor = getelementptr i8, ptr %mi, i64 8
+  store ptr null, ptr %dtor
+  %info = getelementptr i8, ptr %mi, i64 16
+  store ptr null, ptr %info
+  %at = getelementptr i8, ptr %mi, i64 24
+  store ptr %data, ptr %at
+  %sz = getelementptr i8, ptr %mi, i64 32
+  store i64 %size, ptr %sz
+  %ext = getelementptr i8, ptr %mi, i64 40
+  store ptr null, ptr %ext
+  ret void
+}}
+
+define ptr @NRT_MemInfo_alloc(i64 %size) {{
+  %total = add i64 %size, {_RECORD}
+  %base = call ptr @malloc(i64 %total)
+  %none = icmp eq ptr %base, null
+  br i1 %none, label %failed, label %made
+failed:
+  ret ptr null
+made:
+  %data = getelementptr i8, ptr %base, i64 {_RECORD}
+  call void @geomech_record(ptr %base, ptr %data, i64 %size)
+  ret ptr %base
+}}
+
+define ptr @NRT_MemInfo_alloc_aligned(i64 %size, i32 %align) {{
+  %a32 = zext i32 %align to i64
+  %zero = icmp eq i64 %a32, 0
+  %a = select i1 %zero, i64 1, i64 %a32
+  %pad2 = shl i64 %a, 1
+  %s1 = add i64 %size, %pad2
+  %total = add i64 %s1, {_RECORD}
+  %base = call ptr @malloc(i64 %total)
+  %none = icmp eq ptr %base, null
+  br i1 %none, label %failed, label %made
+failed:
+  ret ptr null
+made:
+  %start = getelementptr i8, ptr %base, i64 {_RECORD}
+  %addr = ptrtoint ptr %start to i64
+  %rem = urem i64 %addr, %a
+  %aligned = icmp eq i64 %rem, 0
+  %gap = sub i64 %a, %rem
+  %off = select i1 %aligned, i64 0, i64 %gap
+  %data = getelementptr i8, ptr %start, i64 %off
+  call void @geomech_record(ptr %base, ptr %data, i64 %size)
+  ret ptr %base
+}}
+
+define void @NRT_MemInfo_call_dtor(ptr %mi) {{
+  call void @free(ptr %mi)
+  ret void
 }}
 """
-_RUNTIME = ("numba_gil_ensure", "numba_gil_release", "NRT_MemInfo_call_dtor")
+_RUNTIME = (
+    "numba_gil_ensure", "numba_gil_release", "NRT_Allocate", "NRT_Free", "NRT_MemInfo_alloc",
+    "NRT_MemInfo_alloc_aligned", "NRT_MemInfo_call_dtor",
+)  # fmt: skip
 #: the functions of an entry's object: the entry on pointers, and on numpy's array objects (:func:`_objects_ir`)
 _EXPORTED = ("geomech_entry", "geomech_objects")
 #: the function of a model function's C twin's object (:func:`_twin_ir`)
@@ -307,8 +377,8 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
     """The kernel ``name`` of the generated ``module`` to call with arguments like ``args``, and the seconds it
     took to get it: its C entry loaded without numba where the cache has it, else numba's kernel (compiled, or
     loaded from numba's cache, by ``warm_up()`` where it has no machine code yet) and its C entry built for the
-    next process (or this one's next call); the Python function itself where numba is off. The kernel must
-    return an integer."""
+    next process (or this one's next call); the Python function itself where numba is off. The kernel returns
+    an integer (its status) or nothing (the entry then returns 0)."""
     function = getattr(module, name)
     if not hasattr(function, "py_func"):  # the Python twin
         return function, 0.0
@@ -324,9 +394,10 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
     return (function if native is None else native), time.perf_counter() - start
 
 
-def _entry_source(spec: str) -> str:
+def _entry_source(spec: str, returns: bool = True) -> str:
     """The Python source of the C entry of a loop ``loop`` whose arguments are of the kinds ``spec``: ``P`` the
-    arrays' data, ``S`` their shapes one after the other and then the integers, ``F`` the floats."""
+    arrays' data, ``S`` their shapes one after the other and then the integers, ``F`` the floats; the entry returns
+    the loop's integer, or 0 where the loop ``returns`` nothing."""
     tokens = spec.split()
     args = []
     p = f = 0
@@ -346,7 +417,9 @@ def _entry_source(spec: str) -> str:
             args.append(f"carray(P[{p}], ({shape},), {dtype})")
             p += 1
             at += ndim
-    return "def entry(P, S, F):\n    return loop(\n        " + ",\n        ".join(args) + ",\n    )\n"
+    call = "loop(\n        " + ",\n        ".join(args) + ",\n    )"
+    body = f"return {call}" if returns else f"{call}\n    return 0"
+    return f"def entry(P, S, F):\n    {body}\n"
 
 
 def _objects_ir(spec: str) -> str:
@@ -496,8 +569,11 @@ def build(module: Any, loop_name: str, spec: str) -> NativeLoop | None:
     import numba
     from numba import types
 
-    namespace: dict[str, Any] = {"loop": getattr(module, loop_name), "carray": numba.carray, "np": np}
-    exec(compile(_entry_source(spec), f"<entry of {loop_name}>", "exec"), namespace)  # source printed here
+    loop = getattr(module, loop_name)
+    # a loop that returns nothing (the fixed-step methods') gets an entry that returns 0
+    returns = any(sig.return_type != types.none for sig in loop.nopython_signatures) or not loop.nopython_signatures
+    namespace: dict[str, Any] = {"loop": loop, "carray": numba.carray, "np": np}
+    exec(compile(_entry_source(spec, returns), f"<entry of {loop_name}>", "exec"), namespace)  # source printed here
     signature = types.int64(types.CPointer(types.voidptr), types.CPointer(types.int64), types.CPointer(types.float64))
     cfunc: Any = numba.cfunc(signature, error_model="numpy")(namespace["entry"])
     with _LOCK:
@@ -527,10 +603,10 @@ def _emit(mod: Any, exported: tuple[str, ...], key: tuple[str, str, str]) -> Any
     reached = {f.name for f in mod.functions if f.is_declaration and not f.name.startswith("llvm.")}
     if reached & set(_RUNTIME):
         mod.link_in(llvm.parse_assembly(_RUNTIME_IR))
-        for name in _RUNTIME:
-            fn = mod.get_function(name) if name in reached else None
-            if fn is not None:
-                fn.linkage = "internal"
+        for f in mod.functions:
+            if f.name in _RUNTIME or f.name == "geomech_record":
+                f.linkage = "internal"
+        pm.run(mod, pb)  # the helpers nothing calls go
     extra = sorted(n for n in reached if n.startswith(("NRT_", "numba_")) and n not in _RUNTIME)
     reason, undefined = "", None
     if extra:

@@ -21,6 +21,7 @@ from ._rotor import rotor_initial_states
 from ._runners import (
     INFO_COLUMNS,
     failed_rows,
+    loop_of,
     run_atlas,
     run_compiled,
     run_embedded,
@@ -300,59 +301,51 @@ max_evaluations, memory_limit, raise_on_failure :
         else:
             # a fixed-step method: prepare() has its kernel's name and constants
             assert method.kernel is not None and self.constants is not None
-            kern = getattr(module, method.kernel)
             calls = _codegen.model_functions(method.kernel)
-            P = self.constants
-            h_step, nsteps, every = float(times.h), times.n_steps, times.save_every  # type: ignore[arg-type]
+            P = np.ascontiguousarray(self.constants, dtype=float)
+            h_step, nsteps, every = float(times.h), int(times.n_steps), int(times.save_every)  # type: ignore[arg-type]
+            tol_, maxit = float(tol), int(max_newton)
+            # the loop's arrays of one kind at every call (its C entry takes C-contiguous float64 arrays)
+            Y0, PRM = np.ascontiguousarray(Y0, dtype=float), np.ascontiguousarray(PRM, dtype=float)
             FP = module.addresses(calls) if module.ready(calls) else None
-            if used == "numba" and not (FP is not None and _codegen.loaded(kern)):
-                # the first call compiles (or loads numba's disk cache) the model's C functions and, once for all
-                # models, the loop: timed apart on a one-step problem
-                from numba.core.errors import NumbaError
+            if used == "numba":
+                # the loop's C entry where it has one, else numba's kernel; the first call compiles (or loads from
+                # the caches) the model's C functions and, once for all models, the loop: timed apart on a
+                # one-step problem
+                first = FP is None or method.kernel not in module.__dict__.get("_LOOPS", ())
+                FP = module.addresses(calls) if FP is None else FP
+                kern = getattr(module, method.kernel)
 
-                try:
-                    FP = module.addresses(calls)
+                def warm_up() -> None:
                     kern(
-                        FP,
-                        Y0[:1].copy(),
-                        h_step,
-                        1,
-                        1,
-                        np.empty((1, 2, d)),
-                        np.zeros((1, 5)),
-                        tol,
-                        int(max_newton),
-                        P,
-                        PRM[:1],
+                        FP, Y0[:1].copy(), h_step, 1, 1, np.empty((1, 2, d)), np.zeros((1, 5)), tol_, maxit, P, PRM[:1]
                     )
-                except NumbaError:
+
+                probe = (FP, Y0[:1], h_step, nsteps, every, OUT[:1], INFO[:1], tol_, maxit, P, PRM[:1])
+                try:
+                    kern, _ = loop_of(module, method.kernel, probe, warm_up)
+                except Exception as exc:
+                    from numba.core.errors import NumbaError
+
                     # a function sympy prints but numba cannot compile: the same loop in Python, from now on
-                    if self.backend == "numba":
+                    if self.backend == "numba" or not isinstance(exc, NumbaError):
                         raise
                     module, used = problem.module(frozenset(method.features & {"gf", "split"}), "python")
                     self.module, self.used = module, used
                     kern = getattr(module, method.kernel)
                     FP = module.addresses(calls)
-                compile_time = time.perf_counter() - t_start
-                t_start = time.perf_counter()
+                if first:
+                    compile_time = time.perf_counter() - t_start
+                    t_start = time.perf_counter()
+            else:
+                kern = getattr(module, method.kernel)
+                FP = module.addresses(calls) if FP is None else FP
             n_threads = threads if threads is not None else CORES
             if used != "numba" or B < 2 or B * nsteps < 20_000:
                 n_threads = 1
             with np.errstate(all="ignore"):  # the Python backend's overflow is detected as a non-finite state
                 loop_time = run_compiled(
-                    kern,
-                    module.addresses(calls) if FP is None else FP,
-                    Y0,
-                    h_step,
-                    nsteps,
-                    every,
-                    OUT,
-                    INFO,
-                    tol,
-                    int(max_newton),
-                    P,
-                    PRM,
-                    int(n_threads),
+                    kern, FP, Y0, h_step, nsteps, every, OUT, INFO, tol_, maxit, P, PRM, int(n_threads)
                 )
             internal = B * nsteps
         run_time = time.perf_counter() - t_start

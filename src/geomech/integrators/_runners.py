@@ -25,6 +25,7 @@ from .solution import STATUS
 __all__ = [
     "CODES",
     "INFO_COLUMNS",
+    "loop_of",
     "run_compiled",
     "run_embedded",
     "run_ivp",
@@ -56,11 +57,20 @@ def _threaded(call: Any, B: int, threads: int) -> float:
         return time.perf_counter() - start
 
 
-def _home(module: Any, loop: str) -> Any:
-    """The generated module that defines ``module``'s ``loop``: the module of the loops shared by every model where
-    the loop is one of them (its entry is then built once for all models), else ``module``."""
+def loop_of(module: Any, loop: str, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
+    """``module``'s compiled ``loop`` to call with arguments like ``args`` (:func:`._native.compiled`: its C entry
+    where it has one, else numba's kernel, made ready by ``warm_up()``), and the seconds that took; found once per
+    module, loop and process (a runner gives a loop arguments of the same kinds at every call: the inputs
+    C-contiguous, the outputs its own). The entry of a loop shared by every model is the shared module's, built
+    once for all models."""
+    loops = module.__dict__.setdefault("_LOOPS", {})
+    if loop in loops:
+        return loops[loop], 0.0
     shared = getattr(module, "_shared", None)
-    return shared if shared is not None and loop in vars(shared) else module
+    home = shared if shared is not None and loop in vars(shared) else module
+    function, seconds = compiled(home, loop, args, warm_up)
+    loops[loop] = function
+    return function, seconds
 
 
 def failed_rows(INFO: np.ndarray) -> list[int]:
@@ -303,12 +313,8 @@ def run_embedded(
             np.zeros(1), PRM[:1], np.empty(n_work),
         )  # fmt: skip
 
-    # the loop found once per module and process (its arguments' kinds are the same at every call)
-    loop = module.__dict__.get("_ERK_LOOP")
-    if loop is None:
-        loop, more = compiled(_home(module, "erk_run"), "erk_run", arguments(0, 1), warm_up)
-        module.__dict__["_ERK_LOOP"] = loop
-        compile_time += more
+    loop, more = loop_of(module, "erk_run", arguments(0, 1), warm_up)
+    compile_time += more
 
     def call(a: int, b: int) -> None:
         if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffer is sized by erk_work
@@ -432,13 +438,8 @@ def run_taylor(
             np.empty(5 * lanes, dtype=np.int64),
         )  # fmt: skip
 
-    # the loop found once per module and process (its arguments' kinds are the same at every call: the inputs are
-    # made C-contiguous above, the outputs are the run's own)
-    loop = module.__dict__.get("_TAYLOR_LOOP")
-    if loop is None:
-        loop, more = compiled(_home(module, "taylor_run"), "taylor_run", arguments(0, 1), warm_up)
-        module.__dict__["_TAYLOR_LOOP"] = loop
-        compile_time += more
+    loop, more = loop_of(module, "taylor_run", arguments(0, 1), warm_up)
+    compile_time += more
 
     def call(a: int, b: int) -> None:
         if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffers are sized by taylor_work
