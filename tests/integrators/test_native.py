@@ -306,6 +306,11 @@ if method == "implicit_midpoint":  # a canonical system
     s = gm.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum")
     sol = solve(s, method, y0=[1.0, 0.5], h=0.05, t_final=10.0)
     y = sol.y
+elif method == "discrete_lagrange_dalembert":  # a nonholonomic system's discrete map, a gait prescribed
+    from geomech.systems.nonholonomic_examples import snakeboard
+    s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+    sol = solve(s, method, t_final=1.0, h=0.01, saveat=11, shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"})
+    y = sol.q
 else:  # Lie-Poisson
     sol = solve(gm.RigidBody([3.0, 2.0, 1.0]), method, m0=[1.0, 0.3, 0.2], h=0.05, t_final=10.0)
     y = sol.m
@@ -316,7 +321,9 @@ print(json.dumps(dict(y=y.tolist(), backend=sol.stats["backend"], loaded=compile
 """
 
 
-@pytest.mark.parametrize("method", ["implicit_midpoint", "gauss_legendre_3", "splitting_4_yoshida"])
+@pytest.mark.parametrize(
+    "method", ["implicit_midpoint", "gauss_legendre_3", "splitting_4_yoshida", "discrete_lagrange_dalembert"]
+)
 def test_a_fixed_step_solve_from_a_warm_cache_runs_without_numba(hermetic_cache, method):
     # a fixed-step loop (Newton's iterations on the model's C functions, or a splitting calling the model's flows)
     # loaded as code of its own, with the model's functions
@@ -339,11 +346,60 @@ def test_a_fixed_step_solve_from_a_warm_cache_runs_without_numba(hermetic_cache,
         q, p = sp.symbols("q p", real=True)
         s = gm.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum")
         ref = solve(s, method, y0=[1.0, 0.5], h=0.05, t_final=10.0, backend="python").y
+    elif method == "discrete_lagrange_dalembert":
+        from geomech.systems.nonholonomic_examples import snakeboard
+
+        gait = {"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}
+        s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+        ref = solve(s, method, t_final=1.0, h=0.01, saveat=11, shapes=gait, backend="python").q
     else:
         ref = solve(gm.RigidBody([3.0, 2.0, 1.0]), method, m0=[1.0, 0.3, 0.2], h=0.05, t_final=10.0,
                     backend="python").m  # fmt: skip
     for run in runs:  # Newton's tolerance (1e-14 relative) and a few hundred steps' round-off
         np.testing.assert_allclose(np.array(run["y"]), ref, rtol=0, atol=1e-11)
+
+
+FLOW_CHILD = """
+import json, sys
+import numpy as np
+from geomech import GroupFlow, solve
+from geomech.lie import SE2
+from geomech.integrators._codegen import loaded
+flow = GroupFlow(SE2(), ["v*cos(t)", "0.2 + 0.1*g13", "w"], "SE2", parameters={"v": 1.0, "w": 0.7})
+method = sys.argv[1]
+times = {"rtol": 1e-10, "atol": 1e-12} if method == "rkmk" else {"h": 0.01}
+sol = solve(flow, method, t_final=5.0, saveat=11, g0=flow.group.numeric.exp(np.array([0.1, 0.25, 0.4])), **times)
+compiled = sorted(f"{name}.{loop}" for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels_")
+                  for loop in ("rkmk_run", "rkmk4_run") if hasattr(m, loop) and loaded(getattr(m, loop)))
+print(json.dumps(dict(g=sol.states.tolist(), backend=sol.stats["backend"], loaded=compiled,
+                      numba="numba" in sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("method", ["rkmk4", "rkmk"])
+def test_a_group_flow_from_a_warm_cache_runs_without_numba(hermetic_cache, method):
+    # the RKMK loops on the group, with the field's C twin (its matrices carved by shaped, not numba's reshape)
+    env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
+    runs = []
+    for _ in range(2):  # the first fills the caches (if no test did), the second loads
+        done = subprocess.run(
+            [sys.executable, "-c", FLOW_CHILD, method], env=env, capture_output=True, text=True, timeout=600
+        )
+        assert done.returncode == 0, done.stderr
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert runs[1]["backend"] == "numba" and runs[1]["loaded"] == [] and runs[1]["numba"] is False
+    from geomech import GroupFlow, solve
+    from geomech.lie import SE2
+
+    # the Python engine
+    flow = GroupFlow(SE2(), ["v*cos(t)", "0.2 + 0.1*g13", "w"], "SE2", parameters={"v": 1.0, "w": 0.7})
+    times = {"rtol": 1e-10, "atol": 1e-12} if method == "rkmk" else {"h": 0.01}
+    g0 = flow.group.numeric.exp(np.array([0.1, 0.25, 0.4]))
+    ref = solve(flow, method, t_final=5.0, saveat=11, g0=g0, backend="python", **times)
+    # RKMK4 the same steps; RKMK the same pair, its steps apart by the tolerance (scipy's start of the step size)
+    atol = 1e-12 if method == "rkmk4" else 1e-8
+    for run in runs:
+        np.testing.assert_allclose(np.array(run["g"]), ref.states, rtol=0, atol=atol * (1.0 + np.abs(ref.states).max()))
 
 
 TWIN_MODULE = """

@@ -25,6 +25,7 @@ from ..symbolic.compile import StraightLine
 from ..systems.gait import T_SYMBOL
 from . import _codegen
 from ._group_code import exp_lines, group_kernels, jacobian_lines
+from ._runners import loop_of
 from .methods._embedded import compiled_pair
 
 __all__ = ["group_flow_module", "run_rkmk4", "run_rkmk"]
@@ -80,9 +81,10 @@ def gf_exp(u, E):
 @kernel
 def gf_field(t, u, Gc, out, prm, buf):
     # u' = J_r(u)^-1 xi(t, Gc exp(u)), in the scratch array buf (exp(u), the element, J_r^-1, xi), the caller's
-    E = buf[: NMAT * NMAT].reshape((NMAT, NMAT))
-    G = buf[NMAT * NMAT : 2 * NMAT * NMAT].reshape((NMAT, NMAT))
-    J = buf[2 * NMAT * NMAT : 2 * NMAT * NMAT + KDIM * KDIM].reshape((KDIM, KDIM))
+    # (carved by shaped: numba's reshape calls a helper of its run time, which a loop loaded without numba lacks)
+    E = shaped(buf, 0, (NMAT, NMAT))
+    G = shaped(buf, NMAT * NMAT, (NMAT, NMAT))
+    J = shaped(buf, 2 * NMAT * NMAT, (KDIM, KDIM))
     w = buf[2 * NMAT * NMAT + KDIM * KDIM :]
     gf_exp(u, E)
     gk_matmul(Gc, E, G)
@@ -103,7 +105,7 @@ def rhs(y, out, prm):
     # the state (u, t), the centre in prm's last NMAT^2 entries, the field's scratch array the entries before it
     # (the run's own copy: an array made at each evaluation cost a third of RKMK4's loop)
     base = prm.shape[0] - NMAT * NMAT
-    gf_field(y[KDIM], y, prm[base:].reshape((NMAT, NMAT)), out, prm, prm[base - GF_SCRATCH : base])
+    gf_field(y[KDIM], y, shaped(prm, base, (NMAT, NMAT)), out, prm, prm[base - GF_SCRATCH : base])
     out[KDIM] = 1.0
 """
 
@@ -249,7 +251,7 @@ def rkmk_run(fp, G0, A0, AC, t0, TS, OUTG, OUTA, INFO, rtol, atol, max_evals, A,
         INFO[6] += 1.0
         # outputs within a few units of round-off of the new centre's time are its element (the pair cannot step
         # there: its step would be below the resolution of t)
-        ulp = abs(np.nextafter(tc, np.inf) - tc)
+        ulp = abs(math.nextafter(tc, math.inf) - tc)
         while first < n and abs(TS[first] - tc) <= 16.0 * ulp:
             gf_move(Gc, Y0[0], ang, AC, OUTG, OUTA, first, Em, T)
             first += 1
@@ -272,13 +274,15 @@ def run_rkmk4(
     OUTG, OUTA = np.full((len(keep), N, N), np.nan), np.full((len(keep), n_ac), np.nan)
     INFO, prm = np.zeros(3), np.zeros(0)
     KEEP = np.ascontiguousarray(keep, dtype=np.int64)
-    compile_time = 0.0
-    if not _codegen.loaded(module.rkmk4_run):
-        start = time.perf_counter()
+    G0, A0, AC = np.ascontiguousarray(G0, dtype=float), np.ascontiguousarray(A0, dtype=float), np.ascontiguousarray(AC)
+
+    def warm_up() -> None:
         module.rkmk4_run(G0, A0, AC, 0.0, 1.0, 0, KEEP[:0], OUTG.copy(), OUTA.copy(), np.zeros(3), prm)
-        compile_time = time.perf_counter() - start
+
+    args = (G0, A0, AC, float(t0), float(h), int(nsteps), KEEP, OUTG, OUTA, INFO, prm)
+    loop, compile_time = loop_of(module, "rkmk4_run", args, warm_up)
     start = time.perf_counter()
-    done = module.rkmk4_run(G0, A0, AC, float(t0), float(h), int(nsteps), KEEP, OUTG, OUTA, INFO, prm)
+    done = loop(*args)
     return OUTG, OUTA, INFO, int(done), compile_time, time.perf_counter() - start
 
 
@@ -305,18 +309,21 @@ def run_rkmk(
     CH = np.array([(i, -radius, radius) for i in range(k)] if np.isfinite(radius) else [], dtype=float)
     CH = CH.reshape(-1, 3)
     prm = np.zeros(2 * N * N + k * k + k + N * N)  # the field's scratch array, the centre (``rhs``)
-    args = (tab.A, tab.b, tab.e, tab.e2, tab.dense, tab.n_stages, tab.error_order, tab.alternating, CH, prm)
+    A, b, e, e2, dense = (np.ascontiguousarray(a, dtype=float) for a in (tab.A, tab.b, tab.e, tab.e2, tab.dense))
+    args = (A, b, e, e2, dense, int(tab.n_stages), int(tab.error_order), int(tab.alternating), CH, prm)
     rtol, atol = tolerances
-    compile_time = 0.0
-    if not (module.ready(_codegen.RHS) and _codegen.loaded(module.rkmk_run)):
-        start = time.perf_counter()
-        fp = _codegen.rhs_address(module)
+    G0, A0, AC = np.ascontiguousarray(G0, dtype=float), np.ascontiguousarray(A0, dtype=float), np.ascontiguousarray(AC)
+    times = np.ascontiguousarray(times, dtype=float)
+    fp = _codegen.rhs_address(module)
+
+    def warm_up() -> None:
         probe = np.array([t0, t0 + (times[-1] - t0) * 1e-9])
         module.rkmk_run(
             fp, G0, A0, AC, t0, probe, OUTG[:2].copy(), OUTA[:2].copy(), np.zeros(8), rtol, atol, 1.0, *args
         )
-        compile_time = time.perf_counter() - start
-    fp = _codegen.rhs_address(module)
+
+    every = (fp, G0, A0, AC, float(t0), times, OUTG, OUTA, INFO, float(rtol), float(atol), float(max_evaluations))
+    loop, compile_time = loop_of(module, "rkmk_run", every + args, warm_up)
     start = time.perf_counter()
-    module.rkmk_run(fp, G0, A0, AC, float(t0), times, OUTG, OUTA, INFO, rtol, atol, float(max_evaluations), *args)
+    loop(*every, *args)
     return OUTG, OUTA, INFO, compile_time, time.perf_counter() - start

@@ -29,8 +29,8 @@ import sympy as sp
 from ...symbolic import derivative
 from ...symbolic.compile import StraightLine
 from ...systems.gait import T_SYMBOL
-from .. import _codegen
 from .._group_code import ABELIAN, group_kernels
+from .._runners import loop_of
 from ..solution import Failure, Status
 from ._compiled import _TIME, LagrangianSource, _generate_lda, _made, _module
 from ._trajectory import _Raw
@@ -562,15 +562,15 @@ def run_compiled_discrete(
     q0 = np.ascontiguousarray(q_init, dtype=float)
     qd0 = np.ascontiguousarray(qd_init, dtype=float)
     arrays = (out["q"], out["qd"], out["tau"], out["work"], out["residual"], INFO)
-    compile_time = 0.0
-    if not _codegen.loaded(module.dlda_run):  # compiled (or loaded from the disk cache) by a run of no step, timed
-        start = time.perf_counter()
+    prm = np.ascontiguousarray(prm, dtype=float)
+
+    def warm_up() -> None:  # numba's loop compiled (or loaded from the disk cache) by a run of no step
         module.dlda_run(q0, qd0, 0.0, 1.0, 0, 1.0, 1, FR, PR, prm, KEEP[:0], *[a.copy() for a in arrays])
-        compile_time = time.perf_counter() - start
+
+    args = (q0, qd0, float(t0), float(h), int(nsteps), float(newton_tol), int(max_newton), FR, PR, prm, KEEP, *arrays)
+    loop, compile_time = loop_of(module, "dlda_run", args, warm_up)
     start = time.perf_counter()
-    done = module.dlda_run(
-        q0, qd0, float(t0), float(h), int(nsteps), float(newton_tol), int(max_newton), FR, PR, prm, KEEP, *arrays
-    )
+    done = loop(*args)
     loop_time = time.perf_counter() - start
     failure = None
     if done < nsteps:
