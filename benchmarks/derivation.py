@@ -8,9 +8,11 @@ printed text (two runs whose digests agree printed the same formulas, so neither
 compiled once before the timed runs (into a temporary ``PYTHONPYCACHEPREFIX``), as an installed package has it.
 A user's model of the same size is timed the same way (``models/tilted_sleigh.py``, its BKMM section and every
 section, the tilt a number and a symbol). Best of ``--repeats`` runs; a run past ``--limit`` seconds is not
-repeated. Then a compiled model in a fresh process whose caches are warm (a private cache directory filled by a
-first run): the time to build the system and of the first solve, of which loading the kernels, and of the next
-solve. Writes ``results/derivation.json`` and ``results/derivation.md``.
+repeated. Then compiled models (``LOAD_CASES``: Taylor's, Runge-Kutta and fixed-step loops, RKMK on a group),
+each in a fresh process whose caches are warm (a private cache directory filled by a first run): the time to build
+the system and of the first solve, of which loading the kernels, and of the next solve, and whether numba was
+imported.
+Writes ``results/derivation.json`` and ``results/derivation.md``.
 
     PYTHONPATH=src python benchmarks/derivation.py [--repeats 3] [--limit 120] [--only snakeboard ...]
     PYTHONPATH=src python benchmarks/derivation.py --cache empty   # a user's first run: the cache empty, then filled
@@ -92,41 +94,77 @@ def one(name: str, limit: float, pycache: str, cache: str = "off") -> dict[str, 
 
 #: A compiled model in a fresh process whose caches (derivations, generated source, numba's kernels) are warm: the
 #: snakeboard's BKMM equations by Taylor's method, the benchmarks' case (nonholonomic.py).
+# the compiled models whose load is measured, each in a fresh process: the system built, then its first and second
+# solve (a case's name is the child's argument)
+LOAD_CASES = {
+    "taylor": "snakeboard, BKMM by Taylor's method, 5 periods",
+    "dop853": "snakeboard, BKMM by DOP853 (the default), 5 periods",
+    "gauss": "free rigid body I = (3, 2, 1), Gauss-Legendre s = 3, h = 0.05, t = 1000",
+    "midpoint": "pendulum (canonical), implicit midpoint, h = 0.05, t = 1000",
+    "dlda": "snakeboard, the discrete Lagrange-d'Alembert map, h = 0.01, 5 periods",
+    "rkmk": "a body velocity on SE(2) as formulas, adaptive RKMK (DOP853), t = 5",
+}
+
 LOAD_CHILD = r"""
-import json, time
+import json, sys, time
+case = sys.argv[1]
 t0 = time.perf_counter()
 import geomech
 from geomech.integrators import BKMM, solve
-from geomech.systems.nonholonomic_examples import snakeboard
 t1 = time.perf_counter()
-s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+if case in ("taylor", "dop853", "dlda"):
+    from geomech.systems.nonholonomic_examples import snakeboard
+    s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+    gait = dict(t_final=5.0, shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, saveat=2)
+    if case == "dlda":
+        run = lambda: solve(s, "discrete_lagrange_dalembert", h=0.01, **gait)
+    else:
+        method = BKMM(solver="taylor") if case == "taylor" else BKMM()
+        run = lambda: solve(s, method, rtol=1e-13, atol=1e-15, **gait)
+elif case == "rkmk":
+    from geomech import GroupFlow
+    from geomech.lie import SE2
+    s = GroupFlow(SE2(), ["v*cos(t)", "0.2 + 0.1*g13", "w"], "SE2", parameters={"v": 1.0, "w": 0.7})
+    run = lambda: solve(s, "rkmk", t_final=5.0, saveat=11, g0=s.group.numeric.exp([0.1, 0.25, 0.4]), rtol=1e-10,
+                        atol=1e-12)
+elif case == "gauss":
+    s = geomech.RigidBody([3.0, 2.0, 1.0])
+    run = lambda: solve(s, "gauss_legendre_3", m0=[1.0, 0.3, 0.2], h=0.05, t_final=1000.0)
+else:
+    import sympy as sp
+    q, p = sp.symbols("q p", real=True)
+    s = geomech.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum")
+    run = lambda: solve(s, "implicit_midpoint", y0=[1.0, 0.5], h=0.05, t_final=1000.0)
 t2 = time.perf_counter()
-kw = dict(t_final=5.0, shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, saveat=2, rtol=1e-13, atol=1e-15)
-sol = solve(s, BKMM(solver="taylor"), **kw)
+sol = run()
 t3 = time.perf_counter()
-solve(s, BKMM(solver="taylor"), **kw)
+run()
 t4 = time.perf_counter()
-import sys
 print(json.dumps(dict(import_s=t1 - t0, system_s=t2 - t1, first_s=t3 - t2, compile_s=sol.stats["compile_time"],
                       next_ms=(t4 - t3) * 1e3, numba="numba" in sys.modules)))
 """
 
 
 def load_rows(pycache: str, repeats: int) -> list[dict[str, Any]]:
-    """The load of a compiled model from warm caches (a private cache directory, filled by a first run)."""
+    """The load of each compiled model of LOAD_CASES from warm caches (a private cache directory, filled by a
+    first run), in a fresh process each."""
+    rows = []
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "GEOMECH_CACHE_DIR": cache, "PYTHONPYCACHEPREFIX": pycache}
         env.pop("PYTHONDONTWRITEBYTECODE", None)
-        runs = []
-        for i in range(repeats + 1):
-            done = subprocess.run(
-                [sys.executable, "-c", LOAD_CHILD], env=env, capture_output=True, text=True, timeout=600, check=True
-            )
-            if i:  # the first run fills the caches
-                runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
-    best = min(runs, key=lambda r: r["system_s"] + r["first_s"])
-    print(f"load: system {best['system_s']:.2f} s, first solve {best['first_s']:.2f} s", file=sys.stderr)
-    return [dict(case="snakeboard, BKMM by Taylor's method, 5 periods", **best)]
+        for case, label in LOAD_CASES.items():
+            runs = []
+            for i in range(repeats + 1):
+                done = subprocess.run(
+                    [sys.executable, "-c", LOAD_CHILD, case],
+                    env=env, capture_output=True, text=True, timeout=600, check=True,
+                )  # fmt: skip
+                if i:  # the first run fills the caches
+                    runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+            best = min(runs, key=lambda r: r["system_s"] + r["first_s"])
+            print(f"load, {label}: system {best['system_s']:.2f} s, first {best['first_s']:.2f} s", file=sys.stderr)
+            rows.append(dict(case=label, **best))
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
