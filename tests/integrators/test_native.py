@@ -251,6 +251,19 @@ def test_shaped_views_write_through_with_c_strides():
     assert twin.base is not None and twin.shape == (3, 4) and twin[2, 3] == 13.0
 
 
+def _two_runs(child: str, *argv: str, env: dict) -> list[dict]:
+    """``child`` run twice in fresh processes with ``env`` (the first fills the caches if no test did, the second
+    loads from them): the JSON each printed last."""
+    runs = []
+    for _ in range(2):
+        done = subprocess.run(
+            [sys.executable, "-c", child, *argv], env=env, capture_output=True, text=True, timeout=600
+        )
+        assert done.returncode == 0, done.stderr
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    return runs
+
+
 SOLVE_CHILD = """
 import json, sys
 import numpy as np
@@ -272,13 +285,7 @@ def test_a_solve_from_a_warm_cache_runs_without_numbas_loop(hermetic_cache, solv
     # the Taylor loop with its coefficients' code, or the DOP853 loop with the model's C right-hand side: each
     # loaded as code of its own
     env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
-    runs = []
-    for _ in range(2):  # the first fills the caches (if no test did), the second loads
-        done = subprocess.run(
-            [sys.executable, "-c", SOLVE_CHILD, solver], env=env, capture_output=True, text=True, timeout=600
-        )
-        assert done.returncode == 0, done.stderr
-        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    runs = _two_runs(SOLVE_CHILD, solver, env=env)
     assert runs[1]["loaded"] == []  # the loop ran from its own object: numba's loop never loaded
     assert runs[1]["numba"] is False  # nor was numba imported
     from geomech import solve
@@ -328,13 +335,7 @@ def test_a_fixed_step_solve_from_a_warm_cache_runs_without_numba(hermetic_cache,
     # a fixed-step loop (Newton's iterations on the model's C functions, or a splitting calling the model's flows)
     # loaded as code of its own, with the model's functions
     env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
-    runs = []
-    for _ in range(2):  # the first fills the caches (if no test did), the second loads
-        done = subprocess.run(
-            [sys.executable, "-c", FIXED_CHILD, method], env=env, capture_output=True, text=True, timeout=600
-        )
-        assert done.returncode == 0, done.stderr
-        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    runs = _two_runs(FIXED_CHILD, method, env=env)
     assert runs[1]["backend"] == "numba" and runs[1]["loaded"] == [] and runs[1]["numba"] is False
     import sympy as sp
 
@@ -380,13 +381,7 @@ print(json.dumps(dict(g=sol.states.tolist(), backend=sol.stats["backend"], loade
 def test_a_group_flow_from_a_warm_cache_runs_without_numba(hermetic_cache, method):
     # the RKMK loops on the group, with the field's C twin (its matrices carved by shaped, not numba's reshape)
     env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
-    runs = []
-    for _ in range(2):  # the first fills the caches (if no test did), the second loads
-        done = subprocess.run(
-            [sys.executable, "-c", FLOW_CHILD, method], env=env, capture_output=True, text=True, timeout=600
-        )
-        assert done.returncode == 0, done.stderr
-        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    runs = _two_runs(FLOW_CHILD, method, env=env)
     assert runs[1]["backend"] == "numba" and runs[1]["loaded"] == [] and runs[1]["numba"] is False
     from geomech import GroupFlow, solve
     from geomech.lie import SE2
@@ -443,14 +438,8 @@ def test_a_model_functions_c_twin_is_code_of_its_own(hermetic_cache, tmp_path):
     name = f"twin_{uuid.uuid4().hex}"
     (tmp_path / f"{name}.py").write_text(TWIN_MODULE)
     env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    runs = []
-    for _ in range(2):  # the first compiles the twin by numba and builds its own code, the second loads that
-        done = subprocess.run(
-            [sys.executable, "-c", TWIN_CALL, str(tmp_path), name], env=env, capture_output=True, text=True,
-            timeout=300,
-        )  # fmt: skip
-        assert done.returncode == 0, done.stderr
-        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    # the first compiles the twin by numba and builds its own code, the second loads that
+    runs = _two_runs(TWIN_CALL, str(tmp_path), name, env=env)
     assert runs[0]["numba"] is True and runs[1]["numba"] is False
     for run in runs:
         assert run["finite"] == [1.5, -0.75, 6.0]

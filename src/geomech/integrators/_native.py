@@ -118,15 +118,7 @@ define internal void @geomech_record(ptr %mi, ptr %data, i64 %size) {{
 }}
 
 define ptr @NRT_MemInfo_alloc(i64 %size) {{
-  %total = add i64 %size, {_RECORD}
-  %base = call ptr @malloc(i64 %total)
-  %none = icmp eq ptr %base, null
-  br i1 %none, label %failed, label %made
-failed:
-  ret ptr null
-made:
-  %data = getelementptr i8, ptr %base, i64 {_RECORD}
-  call void @geomech_record(ptr %base, ptr %data, i64 %size)
+  %base = call ptr @NRT_MemInfo_alloc_aligned(i64 %size, i32 1)
   ret ptr %base
 }}
 
