@@ -25,7 +25,7 @@ from ..symbolic.compile import StraightLine
 from ..systems.gait import T_SYMBOL
 from . import _codegen
 from ._group_code import exp_lines, group_kernels, jacobian_lines
-from ._runners import loop_of
+from ._native import loop_of
 from .methods._embedded import compiled_pair
 
 __all__ = ["group_flow_module", "run_rkmk4", "run_rkmk"]

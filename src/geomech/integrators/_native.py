@@ -55,6 +55,7 @@ __all__ = [
     "host_key",
     "kinds",
     "load_object",
+    "loop_of",
     "native_loop",
     "target",
 ]
@@ -384,6 +385,22 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
     if spec and not known:
         native = build(module, name, spec)
     return (function if native is None else native), time.perf_counter() - start
+
+
+def loop_of(module: Any, loop: str, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
+    """``module``'s compiled ``loop`` to call with arguments like ``args`` (:func:`._native.compiled`: its C entry
+    where it has one, else numba's kernel, made ready by ``warm_up()``), and the seconds that took; found once per
+    module, loop and process (a runner gives a loop arguments of the same kinds at every call: the inputs
+    C-contiguous, the outputs its own). The entry of a loop shared by every model is the shared module's, built
+    once for all models."""
+    loops = module.__dict__.setdefault("_LOOPS", {})
+    if loop in loops:
+        return loops[loop], 0.0
+    shared = getattr(module, "_shared", None)
+    home = shared if shared is not None and loop in vars(shared) else module
+    function, seconds = compiled(home, loop, args, warm_up)
+    loops[loop] = function
+    return function, seconds
 
 
 def _entry_source(spec: str, returns: bool = True) -> str:

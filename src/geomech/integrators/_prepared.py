@@ -16,12 +16,12 @@ from . import _codegen
 from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
 from ._batch import batch_index, initial_states, left_chart, parameter_batch
 from ._events import event_table
+from ._native import loop_of
 from ._problem import Problem
 from ._rotor import rotor_initial_states
 from ._runners import (
     INFO_COLUMNS,
     failed_rows,
-    loop_of,
     run_atlas,
     run_compiled,
     run_embedded,

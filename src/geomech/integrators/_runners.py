@@ -16,7 +16,7 @@ from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, rhs_address
 from ._events import CompiledEvents
-from ._native import compiled
+from ._native import loop_of
 from ._problem import Problem
 from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
@@ -25,7 +25,6 @@ from .solution import STATUS
 __all__ = [
     "CODES",
     "INFO_COLUMNS",
-    "loop_of",
     "run_compiled",
     "run_embedded",
     "run_ivp",
@@ -55,22 +54,6 @@ def _threaded(call: Any, B: int, threads: int) -> float:
         for fut in [pool.submit(call, a, b) for a, b in _chunks(B, threads)]:
             fut.result()
         return time.perf_counter() - start
-
-
-def loop_of(module: Any, loop: str, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
-    """``module``'s compiled ``loop`` to call with arguments like ``args`` (:func:`._native.compiled`: its C entry
-    where it has one, else numba's kernel, made ready by ``warm_up()``), and the seconds that took; found once per
-    module, loop and process (a runner gives a loop arguments of the same kinds at every call: the inputs
-    C-contiguous, the outputs its own). The entry of a loop shared by every model is the shared module's, built
-    once for all models."""
-    loops = module.__dict__.setdefault("_LOOPS", {})
-    if loop in loops:
-        return loops[loop], 0.0
-    shared = getattr(module, "_shared", None)
-    home = shared if shared is not None and loop in vars(shared) else module
-    function, seconds = compiled(home, loop, args, warm_up)
-    loops[loop] = function
-    return function, seconds
 
 
 def failed_rows(INFO: np.ndarray) -> list[int]:

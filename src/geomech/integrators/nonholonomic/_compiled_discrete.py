@@ -30,7 +30,7 @@ from ...symbolic import derivative
 from ...symbolic.compile import StraightLine
 from ...systems.gait import T_SYMBOL
 from .._group_code import ABELIAN, group_kernels
-from .._runners import loop_of
+from .._native import loop_of
 from ..solution import Failure, Status
 from ._compiled import _TIME, LagrangianSource, _generate_lda, _made, _module
 from ._trajectory import _Raw
