@@ -8,10 +8,10 @@ printed text (two runs whose digests agree printed the same formulas, so neither
 compiled once before the timed runs (into a temporary ``PYTHONPYCACHEPREFIX``), as an installed package has it.
 A user's model of the same size is timed the same way (``models/tilted_sleigh.py``, its BKMM section and every
 section, the tilt a number and a symbol). Best of ``--repeats`` runs; a run past ``--limit`` seconds is not
-repeated. Then compiled models (``LOAD_CASES``: Taylor's, Runge-Kutta and fixed-step loops, RKMK on a group),
-each in a fresh process whose caches are warm (a private cache directory filled by a first run): the time to build
-the system and of the first solve, of which loading the kernels, and of the next solve, and whether numba was
-imported.
+repeated. Then compiled models (``LOAD_CASES``: Taylor's, Runge-Kutta and fixed-step loops, RKMK on a group, the
+periodic-orbit propagator), each in a fresh process whose caches are warm (a private cache directory filled by a
+first run): the time to build the system and of the first solve, of which loading the kernels, and of the next
+solve, and whether numba was imported.
 Writes ``results/derivation.json`` and ``results/derivation.md``.
 
     PYTHONPATH=src python benchmarks/derivation.py [--repeats 3] [--limit 120] [--only snakeboard ...]
@@ -103,6 +103,7 @@ LOAD_CASES = {
     "midpoint": "pendulum (canonical), implicit midpoint, h = 0.05, t = 1000",
     "dlda": "snakeboard, the discrete Lagrange-d'Alembert map, h = 0.01, 5 periods",
     "rkmk": "a body velocity on SE(2) as formulas, adaptive RKMK (DOP853), t = 5",
+    "periodic": "pendulum (canonical), the periodic-orbit propagator, t = 1000",
 }
 
 LOAD_CHILD = r"""
@@ -134,7 +135,10 @@ else:
     import sympy as sp
     q, p = sp.symbols("q p", real=True)
     s = geomech.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum")
-    run = lambda: solve(s, "implicit_midpoint", y0=[1.0, 0.5], h=0.05, t_final=1000.0)
+    if case == "periodic":
+        run = lambda: solve(s, "periodic_orbit", y0=[1.0, 0.5], t_final=1000.0, saveat=11)
+    else:
+        run = lambda: solve(s, "implicit_midpoint", y0=[1.0, 0.5], h=0.05, t_final=1000.0)
 t2 = time.perf_counter()
 sol = run()
 t3 = time.perf_counter()

@@ -397,6 +397,43 @@ def test_a_group_flow_from_a_warm_cache_runs_without_numba(hermetic_cache, metho
         np.testing.assert_allclose(np.array(run["g"]), ref.states, rtol=0, atol=atol * (1.0 + np.abs(ref.states).max()))
 
 
+PERIODIC_CHILD = """
+import json, sys
+import sympy as sp
+import geomech as gm
+from geomech.integrators import solve
+from geomech.integrators._codegen import loaded
+q, p = sp.symbols("q p", real=True)
+s = gm.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum", angle_coordinates=(0,))
+sol = solve(s, "periodic_orbit", y0=[float(v) for v in sys.argv[1:]], t_final=1000.0, saveat=11)
+compiled = sorted(f"{name}.{loop}" for name, m in list(sys.modules.items()) if name.startswith("geomech_kernels")
+                  for loop in ("orbit_return", "orbit_states") if hasattr(m, loop)
+                  and hasattr(getattr(m, loop), "py_func") and loaded(getattr(m, loop)))
+print(json.dumps(dict(y=sol.y.tolist(), backend=sol.stats["backend"], loaded=compiled, numba="numba" in sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("y0", [(1.0, 0.5), (0.0, 2.5)], ids=["libration", "rotation"])
+def test_a_periodic_orbit_from_a_warm_cache_runs_without_numba(hermetic_cache, y0):
+    # the return to the section and the states from the mesh: both loops loaded as code of their own
+    env = {**os.environ, "GEOMECH_CACHE_DIR": hermetic_cache}
+    runs = _two_runs(PERIODIC_CHILD, *map(str, y0), env=env)
+    assert runs[1]["backend"] == "numba" and runs[1]["loaded"] == [] and runs[1]["numba"] is False
+    import sympy as sp
+
+    import geomech as gm
+    from geomech import solve
+
+    q, p = sp.symbols("q p", real=True)
+    s = gm.CanonicalSystem.from_expression(p**2 / 2 - sp.cos(q), (q,), (p,), name="pendulum", angle_coordinates=(0,))
+    # another route to the same motion: the period and the states by quadrature along the level curve
+    ref = solve(s, gm.integrators.Quadrature(tol=1e-13), y0=list(y0), t_final=1000.0, saveat=11).y
+    # the phase at t = 1000 carries the periods' errors, 1e-13 relative at most: tol x t x the largest speed
+    atol = 1e-13 * 1000.0 * (1.0 + float(np.abs(ref[:, 1]).max()))
+    for run in runs:
+        np.testing.assert_allclose(np.array(run["y"]), ref, rtol=0, atol=atol)
+
+
 TWIN_MODULE = """
 from geomech.integrators._deferred import Deferred
 from geomech.integrators._native import Addresses

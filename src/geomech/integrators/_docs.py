@@ -39,11 +39,11 @@ steps where DOP853 takes hundreds. Its coefficients' code is written out for the
 `Taylor(compact=True)`, a loop over the orders. A batch computes the coefficients of 4 members at once (the lanes
 of an AVX vector unit; 8 with AVX-512, 2 without AVX), each member stepping on its own and its lane taking the next
 member where it ends: 2.5 times less time a member than one at a time. The compiled loops of `solve` (the
-fixed-step methods, the Dormand-Prince pairs, Taylor's method, the discrete Lagrange-d'Alembert map, RKMK), the
-model's functions they call and the observation of the saved states also keep machine code of their own beside
-numba's cache (`geomech.integrators._native`, on Linux): a later process loads and runs them without importing
-numba, so that a compiled model from a warm cache gives its first result in 0.04-0.15 s instead of 0.4-0.5 s (the
-periodic-orbit propagator still loads through numba). Adaptive Adams wraps scipy's VODE/LSODA.
+fixed-step methods, the Dormand-Prince pairs, Taylor's method, the discrete Lagrange-d'Alembert map, RKMK, the
+periodic-orbit propagator), the model's functions they call and the observation of the saved states also keep
+machine code of their own beside numba's cache (`geomech.integrators._native`, on Linux): a later process loads
+and runs them without importing numba, so that a compiled model from a warm cache gives its first result in
+0.04-0.15 s instead of 0.4-1.2 s. Adaptive Adams wraps scipy's VODE/LSODA.
 Events (`events={"apex": Event("m1", direction=-1)}`) are located on the continuous extension of the step that
 crosses them by the Dormand-Prince pairs, Taylor's method and scipy's solvers (`SolveIVP("Radau")`, ...).
 The Lagrangian methods (BKMM, Lagrange-d'Alembert, the discrete Lagrange-d'Alembert map with either discrete

@@ -368,18 +368,18 @@ class NativeLoop:
 
 def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None) -> tuple[Any, float]:
     """The kernel ``name`` of the generated ``module`` to call with arguments like ``args``, and the seconds it
-    took to get it: its C entry loaded without numba where the cache has it, else numba's kernel (compiled, or
-    loaded from numba's cache, by ``warm_up()`` where it has no machine code yet) and its C entry built for the
-    next process (or this one's next call); the Python function itself where numba is off. The kernel returns
-    an integer (its status) or nothing (the entry then returns 0)."""
+    took to get it (0 for the Python function itself, where numba is off): its C entry loaded without numba where
+    the cache has it, else numba's kernel (compiled, or loaded from numba's cache, by ``warm_up()`` where it has no
+    machine code yet) and its C entry built for the next process (or this one's next call). The kernel returns an
+    integer (its status) or nothing (the entry then returns 0)."""
     function = getattr(module, name)
     if not hasattr(function, "py_func"):  # the Python twin
         return function, 0.0
+    start = time.perf_counter()
     spec = kinds(args)
     known, native = native_loop(module, name, spec) if spec else (True, None)
     if native is not None:
-        return native, 0.0
-    start = time.perf_counter()
+        return native, time.perf_counter() - start
     if warm_up is not None and not loaded(function):
         warm_up()
     if spec and not known:
@@ -389,10 +389,10 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
 
 def loop_of(module: Any, loop: str, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
     """``module``'s compiled ``loop`` to call with arguments like ``args`` (:func:`._native.compiled`: its C entry
-    where it has one, else numba's kernel, made ready by ``warm_up()``), and the seconds that took; found once per
-    module, loop and process (a runner gives a loop arguments of the same kinds at every call: the inputs
-    C-contiguous, the outputs its own). The entry of a loop shared by every model is the shared module's, built
-    once for all models."""
+    where it has one, else numba's kernel, made ready by ``warm_up()``), and the seconds that took: found once per
+    module, loop and process, the seconds 0 at every later call (a runner counts them as compile time where they
+    are not). A runner gives a loop arguments of the same kinds at every call (the inputs C-contiguous, the outputs
+    its own). The entry of a loop shared by every model is the shared module's, built once for all models."""
     loops = module.__dict__.setdefault("_LOOPS", {})
     if loop in loops:
         return loops[loop], 0.0

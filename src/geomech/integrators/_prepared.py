@@ -312,7 +312,7 @@ max_evaluations, memory_limit, raise_on_failure :
                 # the loop's C entry where it has one, else numba's kernel; the first call compiles (or loads from
                 # the caches) the model's C functions and, once for all models, the loop: timed apart on a
                 # one-step problem
-                first = FP is None or method.kernel not in module.__dict__.get("_LOOPS", ())
+                first = FP is None
                 FP = module.addresses(calls) if FP is None else FP
                 kern = getattr(module, method.kernel)
 
@@ -323,7 +323,8 @@ max_evaluations, memory_limit, raise_on_failure :
 
                 probe = (FP, Y0[:1], h_step, nsteps, every, OUT[:1], INFO[:1], tol_, maxit, P, PRM[:1])
                 try:
-                    kern, _ = loop_of(module, method.kernel, probe, warm_up)
+                    kern, seconds = loop_of(module, method.kernel, probe, warm_up)
+                    first = first or seconds > 0.0
                 except Exception as exc:
                     from numba.core.errors import NumbaError
 
@@ -334,6 +335,7 @@ max_evaluations, memory_limit, raise_on_failure :
                     self.module, self.used = module, used
                     kern = getattr(module, method.kernel)
                     FP = module.addresses(calls)
+                    first = True  # the failed compilation's time apart
                 if first:
                     compile_time = time.perf_counter() - t_start
                     t_start = time.perf_counter()

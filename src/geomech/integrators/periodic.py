@@ -38,6 +38,7 @@ from .. import _validate as V
 from ..errors import InputError, SingularityError
 from ..systems.canonical import CanonicalSystem
 from . import _codegen
+from ._native import loop_of
 from ._one_dof import one_dof_arguments
 from ._problem import make_problem
 from .methods import embedded_pair
@@ -69,6 +70,13 @@ def _kernels(system: CanonicalSystem) -> tuple[Any, str, np.ndarray]:
         entry = (*problem.module(frozenset(), "auto"), problem.prm)
         _KERNELS[system] = entry
     return entry
+
+
+def _states_args(fp: int, YM: Any, TM: Any, idx: Any, tau: Any, out: Any, prm: Any) -> tuple[Any, ...]:
+    """The arguments of the loop ``orbit_states``: the state one DOP853 step of size ``tau[j]`` from the mesh point
+    ``idx[j]``, into ``out[j]``."""
+    pair = embedded_pair("DOP853")
+    return (fp, YM, TM, idx, tau, pair.A, pair.b, out, prm)
 
 
 class PeriodicOrbitPropagator:
@@ -106,8 +114,9 @@ class PeriodicOrbitPropagator:
         the period, divided by :math:`|\\dot y_0|` (on the free body's orbits, 1.5 to 4 times the true error),
     n_mesh (accepted steps + 1), nfev (evaluations of the vector field),
     quadrature : the :class:`QuadraturePropagator` when it was needed to classify the orbit, else None,
-    stats : ``compile_time`` (the first call of the kernels in this process, numba compiling or loading
-        its disk cache) and ``run_time`` (the integration of the period), in seconds.
+    stats : ``compile_time`` (getting the kernels at their first use in this process: their machine code
+        loaded from the cache, or numba compiling them) and ``run_time`` (the integration of the period), in
+        seconds.
 
     Notes
     -----
@@ -147,33 +156,38 @@ class PeriodicOrbitPropagator:
         self._args = {"L_bounds": L_bounds, "angle_period": angle_period, "energy_tol": energy_tol}
 
         module, self.backend, prm = _kernels(system)
-        self._module, self._prm = module, prm
+        self._prm = prm
         pair = embedded_pair("DOP853")
         A, b, e5, e3 = pair.A, pair.b, pair.e, pair.e2
         shift = np.array([angle_period or 0.0, 0.0])
-        compile_time = 0.0
-        fp = _codegen.rhs_address(module) if module.ready(_codegen.RHS) else 0
-        if self.backend == "numba" and not (module.ready(_codegen.RHS) and _codegen.loaded(module.orbit_return)):
-            # the model's C right-hand side and, once for all models, the loops: compiled (or loaded) apart
-            start = time.perf_counter()
-            fp = _codegen.rhs_address(module)
-            module.orbit_return(
-                fp, y0, A, b, e5, e3, tol, shift, lo, hi, 1, np.empty(2), np.empty((2, 2)), np.zeros(9), prm
-            )
-            module.orbit_states(
-                fp, np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), A, b, np.empty((1, 2)), prm
-            )
-            compile_time = time.perf_counter() - start
-        self._fp = fp
+        # the model's C right-hand side, then the loops (their C entries loaded from the cache without numba, else
+        # numba's kernels, compiled or loaded from numba's cache, on a one-step problem): timed apart
         start = time.perf_counter()
+        first = self.backend == "numba" and not module.ready(_codegen.RHS)
+        self._fp = fp = _codegen.rhs_address(module)
+        compile_time = time.perf_counter() - start if first else 0.0
         TM, YM, info = np.empty(max_steps + 1), np.empty((max_steps + 1, 2)), np.zeros(9)
+
+        def run_args(n: int, tm: np.ndarray, ym: np.ndarray, out: np.ndarray) -> tuple[Any, ...]:
+            return (fp, y0, A, b, e5, e3, tol, shift, lo, hi, n, tm, ym, out, prm)
+
+        orbit_return, seconds = loop_of(
+            module, "orbit_return", run_args(int(max_steps), TM, YM, info),
+            lambda: module.orbit_return(*run_args(1, np.empty(2), np.empty((2, 2)), np.zeros(9))),
+        )  # fmt: skip
+        probe = _states_args(
+            fp, np.zeros((1, 2)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1), np.empty((1, 2)), prm
+        )
+        self._states, more = loop_of(module, "orbit_states", probe, lambda: module.orbit_states(*probe))
+        compile_time += seconds + more
+        start = time.perf_counter()
         with np.errstate(all="ignore"):
-            module.orbit_return(fp, y0, A, b, e5, e3, tol, shift, lo, hi, int(max_steps), TM, YM, info, prm)
+            orbit_return(*run_args(int(max_steps), TM, YM, info))
         self.stats = {"compile_time": compile_time, "run_time": time.perf_counter() - start}
         status, n_mesh = int(info[0]), int(info[1])
         self.nfev, self.n_mesh = int(info[5]), n_mesh
         self._TM, self._YM = TM[:n_mesh], YM[:n_mesh]
-        self.energy = float(module.ham(y0, prm)) if self.backend == "numba" else float(system.hamiltonian(y0))
+        self.energy = float(system.hamiltonian(y0))
         self.quadrature: QuadraturePropagator | None = None
         self._use_quadrature = False
         self.failure: str | None = None
@@ -234,9 +248,9 @@ class PeriodicOrbitPropagator:
         r = flat - n * T
         idx = np.clip(np.searchsorted(self._TM, r, side="right") - 1, 0, self.n_mesh - 2)
         out = np.empty((flat.size, 2))
-        pair = embedded_pair("DOP853")
-        A, b = pair.A, pair.b
-        self._module.orbit_states(self._fp, self._YM, self._TM, idx, r - self._TM[idx], A, b, out, self._prm)
+        self._states(
+            *_states_args(self._fp, self._YM, self._TM, idx.astype(np.int64), r - self._TM[idx], out, self._prm)
+        )
         if self.winding:
             out[:, 0] += n * (self.winding * self.angle_period)
         return out.reshape(t.shape + (2,))
