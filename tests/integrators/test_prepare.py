@@ -3,6 +3,8 @@ values. Each call is checked against something it could differ from: an exact so
 value, a batch of members in one compiled call, a gait's closed form, a fresh preparation after calls with other
 values (what a call keeps from an earlier one would show there)."""
 
+import importlib
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -150,3 +152,87 @@ def test_a_prepared_problem_locates_its_events_at_every_call_whatever_the_coeffi
         np.testing.assert_allclose(rows[:, 1], [1.0, 2.0, 3.0], rtol=0, atol=1e-9)
         np.testing.assert_allclose(rows[:, 2 + s.k], 0.0, rtol=0, atol=1e-9)  # psi there
         np.testing.assert_allclose(rows[:, 2 + s.n + s.k], 2 * np.pi * a, rtol=1e-9)  # its rate, a's
+
+
+def _counting(monkeypatch) -> list:
+    """``solve``'s preparations, counted: each call of ``prepare`` made inside ``solve`` appends its options."""
+    solve_module = importlib.import_module("geomech.integrators.solve")  # (the package's name is the function)
+    made: list = []
+    real = solve_module.prepare
+
+    def counted(system, method, **options):
+        made.append(options)
+        return real(system, method, **options)
+
+    monkeypatch.setattr(solve_module, "prepare", counted)
+    return made
+
+
+def test_solve_in_a_loop_prepares_once_and_each_call_is_the_run_a_fresh_preparation_makes(monkeypatch):
+    made = _counting(monkeypatch)
+    s = CanonicalSystem.from_expression(_p**2 / 2 + _w**2 * _q**2 / 2, [_q], [_p], substitutions={_w: 1.0})
+    runs = [gm.solve(s, "rk4", t_final=1.0, h=0.1, y0=[q0, 0.0], parameters={"w": w})
+            for q0, w in [(1.0, 1.0), (0.5, 2.0), (1.0, 1.0)]]  # fmt: skip
+    assert len(made) == 1  # one preparation for the three runs
+    for (q0, w), sol in zip([(1.0, 1.0), (0.5, 2.0), (1.0, 1.0)], runs):
+        fresh = gm.prepare(s, "rk4", t_final=1.0, h=0.1).solve(y0=[q0, 0.0], parameters={"w": w})
+        np.testing.assert_array_equal(sol.y, fresh.y)
+        # and RK4's error against the exact motion q0 cos(w t), O(h^4)
+        np.testing.assert_allclose(sol.y[:, 0], q0 * np.cos(w * sol.t), rtol=0, atol=1e-3 * q0 * w**4)
+    # another option, or the same value of another type, is another preparation
+    gm.solve(s, "rk4", t_final=1.0, h=0.05, y0=[1.0, 0.0], backend="python")
+    assert len(made) == 2
+    gm.solve(s, "rk4", t_final=1.0, h=0.1, y0=[1.0, 0.0], backend="python", threads=1)
+    with pytest.raises(InputError, match="threads"):
+        gm.solve(s, "rk4", t_final=1.0, h=0.1, y0=[1.0, 0.0], backend="python", threads=True)
+
+
+def test_solve_reads_an_array_of_times_again_where_it_changed_in_place(monkeypatch):
+    made = _counting(monkeypatch)
+    s = CanonicalSystem.from_expression(_p**2 / 2 + _q**2 / 2, [_q], [_p])
+    saveat = np.array([0.0, 0.5, 1.0])
+    first = gm.solve(s, "dop853", t_final=1.0, saveat=saveat, rtol=1e-10, atol=1e-12, y0=[1.0, 0.0])
+    saveat[1] = 0.25
+    second = gm.solve(s, "dop853", t_final=1.0, saveat=saveat, rtol=1e-10, atol=1e-12, y0=[1.0, 0.0])
+    assert len(made) == 2
+    np.testing.assert_array_equal(first.t, [0.0, 0.5, 1.0])
+    np.testing.assert_array_equal(second.t, [0.0, 0.25, 1.0])
+    np.testing.assert_allclose(second.y[:, 0], np.cos(second.t), rtol=0, atol=1e-8)
+
+
+def test_a_gait_given_anew_with_the_same_formulas_is_the_same_preparation(monkeypatch):
+    made = _counting(monkeypatch)
+    s = snakeboard(m=1.0, r=0.5, J=0.18, J0=0.05, J1=0.01)
+    options = dict(t_final=0.5, saveat=3, rtol=1e-9, atol=1e-11)
+    a = gm.solve(s, BKMM(), shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **options)
+    b = gm.solve(s, BKMM(), shapes={"psi": "sin(2*pi*t)", "phi": "0.5*sin(2*pi*t)"}, **options)
+    c = gm.solve(s, BKMM(), shapes={"psi": "sin(2*pi*t)", "phi": "0.4*sin(2*pi*t)"}, **options)
+    assert len(made) == 2
+    np.testing.assert_array_equal(a.states, b.states)
+    assert np.abs(c.states[-1] - a.states[-1]).max() > 1e-4  # the other gait was run, not the first one again
+
+
+def test_solves_preparations_are_bounded_and_go_with_their_system(monkeypatch):
+    import copy
+    import gc
+    import weakref
+
+    solve_module = importlib.import_module("geomech.integrators.solve")
+    made = _counting(monkeypatch)
+    s = CanonicalSystem.from_expression(_p**2 / 2 + _q**2 / 2, [_q], [_p])
+    for i in range(solve_module._KEPT + 3):
+        gm.solve(s, "rk4", t_final=1.0, h=0.1 / (i + 1), y0=[1.0, 0.0], backend="python")
+    assert len(vars(s)[solve_module._ATTRIBUTE]) == solve_module._KEPT
+    gm.solve(s, "rk4", t_final=1.0, h=0.1, y0=[1.0, 0.0], backend="python")  # the oldest went first
+    assert len(made) == solve_module._KEPT + 4
+    # a long output grid is not kept with it
+    monkeypatch.setattr(solve_module, "_KEPT_SIZE", 10)
+    gm.solve(s, "rk4", t_final=1.0, h=0.01, y0=[1.0, 0.0], backend="python", saveat=11)
+    gm.solve(s, "rk4", t_final=1.0, h=0.01, y0=[1.0, 0.0], backend="python", saveat=11)
+    assert len(made) == solve_module._KEPT + 6
+    # a copy of the system does not carry them (nor does a pickle: the same reduction)
+    assert vars(s)[solve_module._ATTRIBUTE] and not vars(copy.deepcopy(s)).get(solve_module._ATTRIBUTE)
+    held = weakref.ref(s)
+    del s
+    gc.collect()
+    assert held() is None  # the problems it prepared did not keep the system alive

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from .. import _validate as V
 from ..errors import InputError
@@ -112,7 +114,9 @@ def solve(
     output times ``saveat``, and the step ``h`` for a fixed-step method or the tolerances ``rtol``/``atol``
     for an adaptive one (an exact propagator takes neither). A method's kind is ``method.kind``. Runs of one
     problem from many starts or parameter values (an optimiser's, a Monte Carlo loop's) :func:`prepare` it once
-    and call :meth:`Prepared.solve` for each: ``solve`` is ``prepare(...).solve(...)``.
+    and call :meth:`Prepared.solve` for each: ``solve`` is ``prepare(...).solve(...)``, and keeps the last few
+    problems it prepared for a system (by their options' values: numbers, strings, arrays, formulas, methods; a
+    function by identity), so that ``solve`` called in a loop with the same options prepares once too.
 
     Parameters
     ----------
@@ -229,9 +233,7 @@ def solve(
     -------
     Solution
     """
-    return prepare(
-        system,
-        method,
+    options = dict(
         t_final=t_final,
         h=h,
         saveat=saveat,
@@ -252,7 +254,8 @@ def solve(
         sensitivities=sensitivities,
         events=events,
         max_events=max_events,
-    ).solve(
+    )
+    return _prepared(system, method, options).solve(
         y0=y0,
         m0=m0,
         R0=R0,
@@ -265,6 +268,88 @@ def solve(
         g0=g0,
         parameters=parameters,
     )
+
+
+#: The problems :func:`solve` prepared for a system, kept on it (``_Kept``, under this name): the last ``_KEPT`` by
+#: their arguments, so that ``solve`` called in a loop with the same options pays :func:`prepare` once, as a prepared
+#: problem's caller does.
+_ATTRIBUTE = "_solve_prepared"
+_KEPT = 8
+#: Arrays and outputs up to this many numbers are remembered with a problem (a longer one is prepared each time).
+_KEPT_SIZE = 100_000
+_NONE = object()
+_SCALARS = frozenset((bool, int, float, str, np.bool_, np.int64, np.float64))
+
+
+def _prepared(system: Any, method: Any, options: dict[str, Any]) -> Prepared:
+    """``prepare(system, method, **options)``, or the problem it made for the same arguments earlier: arguments
+    whose values are data (numbers, strings, small arrays, formulas, methods and other frozen values, mappings and
+    sequences of them) compared by value, functions and feedback laws by identity; anything else (a mapping of
+    another type, an array of objects) is prepared afresh at every call."""
+    key = [_plain(method)]  # (the options in solve's order: their values alone)
+    for value in options.values():
+        key.append(_plain(value))
+    if _NONE in key:
+        return prepare(system, method, **options)
+    try:
+        attributes = vars(system)
+    except TypeError:  # an object without attributes of its own: prepared each time
+        return prepare(system, method, **options)
+    kept = attributes.get(_ATTRIBUTE)
+    key = tuple(key)
+    found = kept.get(key) if kept is not None else None
+    if found is not None:
+        return found
+    made = prepare(system, method, **options)
+    if made.times.n_saved <= _KEPT_SIZE:  # (the count: the times themselves are made when first asked)
+        # on the system itself (a frozen value: its attributes' dictionary), where a dictionary of this module's
+        # would keep alive every system it met (a problem holds its system); gone with the system
+        kept = attributes.setdefault(_ATTRIBUTE, _Kept())
+        if len(kept) >= _KEPT:  # the oldest goes first
+            kept.pop(next(iter(kept)))
+        kept[key] = made
+    return made
+
+
+class _Kept(dict):
+    """The problems :func:`solve` prepared for one system: not copied or pickled with it (a copy starts empty)."""
+
+    def __reduce__(self) -> tuple:
+        return (_Kept, ())
+
+
+def _plain(value: Any) -> Any:
+    """A hashable stand-in for an argument of :func:`prepare`, equal only for arguments of the same types and
+    values; ``_NONE`` where the argument is not data whose value a later call can trust to be unchanged."""
+    kind = type(value)
+    if kind in _SCALARS:
+        return (kind, value)
+    if value is None:
+        return None
+    if kind is np.ndarray:
+        if value.size > _KEPT_SIZE or value.dtype.kind not in "biuf":
+            return _NONE
+        return (kind, value.dtype.str, value.shape, value.tobytes())
+    if kind is tuple or kind is list:
+        items = tuple([_plain(v) for v in value])
+        return _NONE if _NONE in items else (kind, items)
+    if kind is dict:
+        pairs = tuple([(_plain(k), _plain(v)) for k, v in value.items()])
+        return _NONE if any(k is _NONE or v is _NONE for k, v in pairs) else (kind, pairs)
+    if isinstance(value, sp.Basic):  # a formula: immutable
+        return (sp.Basic, value)
+    params = getattr(kind, "__dataclass_params__", None)
+    if params is not None and params.frozen:  # a method, a gait, an event, a control law: frozen values
+        fields = tuple(_plain(getattr(value, f.name)) for f in dataclasses.fields(value))
+        if any(f is _NONE for f in fields):
+            return _NONE
+        # compared by their fields; one compared by identity is held by the key too (its id never reused)
+        return (kind, None if params.eq else value, fields)
+    if callable(value) or hasattr(value, "feedback"):
+        # a function, a feedback law: the problem holds it and calls it at run time (as a prepared problem does),
+        # so it is the same object that matters; the key holds it (its id never reused)
+        return (object, value)
+    return _NONE
 
 
 def prepare(
