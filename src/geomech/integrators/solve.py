@@ -286,17 +286,17 @@ def _prepared(system: Any, method: Any, options: dict[str, Any]) -> Prepared:
     whose values are data (numbers, strings, small arrays, formulas, methods and other frozen values, mappings and
     sequences of them) compared by value, functions and feedback laws by identity; anything else (a mapping of
     another type, an array of objects) is prepared afresh at every call."""
-    key = [_plain(method)]  # (the options in solve's order: their values alone)
+    parts = [_plain(method)]  # (the options in solve's order: their values alone)
     for value in options.values():
-        key.append(_plain(value))
-    if _NONE in key:
+        parts.append(_plain(value))
+    if _NONE in parts:
         return prepare(system, method, **options)
     try:
         attributes = vars(system)
     except TypeError:  # an object without attributes of its own: prepared each time
         return prepare(system, method, **options)
     kept = attributes.get(_ATTRIBUTE)
-    key = tuple(key)
+    key = tuple(parts)
     found = kept.get(key) if kept is not None else None
     if found is not None:
         return found
