@@ -314,6 +314,15 @@ def kinds(args: tuple[Any, ...]) -> str | None:
 _DTYPES = {"f": np.dtype(np.float64), "i": np.dtype(np.int64)}
 
 
+def _check_array(i: int, a: Any, dtype: np.dtype, ndim: int) -> None:
+    """Argument ``i`` of a compiled loop, an array of ``dtype`` with ``ndim`` dimensions, C-contiguous: or a
+    TypeError that says which and why."""
+    if not (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == ndim):
+        raise TypeError(f"argument {i} of the compiled loop: an array of {dtype}, {ndim}-D")
+    if not a.flags.c_contiguous:
+        raise TypeError(f"argument {i} of the compiled loop: the loop takes C-contiguous arrays")
+
+
 class NativeLoop:
     """A loop's C entry (:func:`build`), called with the loop's own arguments, of the kinds it was built for."""
 
@@ -322,6 +331,11 @@ class NativeLoop:
         tokens = spec.split()
         #: per argument: None for a float, 0 for an integer, (dtype, ndim) for an array
         self._plan = tuple(None if t == "d" else 0 if t == "n" else (_DTYPES[t[0]], int(t[1:])) for t in tokens)
+        # where each kind of argument is (a call gathers them by position)
+        self._float_at = tuple(i for i, kind in enumerate(self._plan) if kind is None)
+        self._int_at = tuple(i for i, kind in enumerate(self._plan) if kind == 0)
+        self._array_at = tuple(i for i, kind in enumerate(self._plan) if isinstance(kind, tuple))
+        self._array_kinds = tuple(kind for kind in self._plan if isinstance(kind, tuple))
         proto = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
         layout = _layout()
         self._layout = None if layout is None else array.array("q", layout)
@@ -330,23 +344,13 @@ class NativeLoop:
     def __call__(self, *args: Any) -> int:
         if len(args) != len(self._plan):
             raise TypeError(f"the compiled loop takes {len(self._plan)} arguments, got {len(args)}")
-        arrays = []
-        ints = array.array("q")
-        floats = array.array("d")
-        for i, (kind, a) in enumerate(zip(self._plan, args)):
-            if kind is None:
-                floats.append(a)
-            elif not isinstance(kind, tuple):
-                ints.append(a)
-            else:
-                dtype, ndim = kind
-                if not (type(a) is np.ndarray and a.dtype is dtype and a.ndim == ndim):
-                    if not (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == ndim):
-                        raise TypeError(f"argument {i} of the compiled loop: an array of {dtype}, {ndim}-D")
-                if not a.flags.c_contiguous:
-                    raise TypeError(f"argument {i} of the compiled loop: the loop takes C-contiguous arrays")
-                arrays.append(a)
+        arrays = [args[i] for i in self._array_at]
+        for i, a, (dtype, ndim) in zip(self._array_at, arrays, self._array_kinds):
+            if type(a) is not np.ndarray or a.dtype is not dtype or a.ndim != ndim or not a.flags.c_contiguous:
+                _check_array(i, a, dtype, ndim)  # (an array of an equal dtype, or of a subclass, passes)
+        floats = array.array("d", [args[i] for i in self._float_at])
         floats.append(0.0)
+        ints = array.array("q", [args[i] for i in self._int_at])
         if self._layout is not None:  # the array objects themselves (the arguments hold them through the call)
             first = array.array("q", [id(a) for a in arrays] or [0])
             ints = self._layout + ints
