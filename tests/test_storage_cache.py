@@ -96,3 +96,30 @@ def test_json_refuses_nan_and_says_where():
     assert json.loads(_storage.dumps_json({"a": [1.0, 2.0]})) == {"a": [1.0, 2.0]}
     with pytest.raises(NumericalError, match=r"at b\.c\[1\]"):
         _storage.dumps_json({"a": 1.0, "b": {"c": [0.0, float("nan")]}})
+
+
+def test_a_memo_keeps_the_newest_entries_and_bears_threads_that_share_it():
+    store: dict = {}
+    for i in range(10):
+        assert _storage.remember(store, i, str(i), 4) == str(i)
+    assert list(store) == [6, 7, 8, 9]  # the oldest went first
+    _storage.remember(store, 7, "again", 4)  # an entry given again is the newest, and drops nothing
+    assert list(store) == [6, 8, 9, 7] and store[7] == "again"
+    # threads inserting into one small memo at once: no entry lost beyond the bound, no error
+    import threading
+
+    errors: list = []
+
+    def fill(offset: int) -> None:
+        try:
+            for i in range(5000):
+                _storage.remember(store, offset + i, i, 8)
+        except Exception as exc:  # pragma: no cover - the failure this test is for
+            errors.append(exc)
+
+    threads = [threading.Thread(target=fill, args=(k * 100_000,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors and len(store) == 8

@@ -1,4 +1,5 @@
-"""Where geomech writes: its one on-disk cache, a private scratch directory, and atomic output files.
+"""Where geomech keeps things: its one on-disk cache, a private scratch directory, atomic output files, and the
+bounded in-memory memos (:func:`remember`).
 
 The cache (derivations pickled by the symbolic layer, generated kernel modules and numba's machine code)
 lives under one root, read from one place:
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import IO, Any
 
 __all__ = [
+    "remember",
     "cache_root",
     "cache_subdir",
     "scratch_dir",
@@ -39,6 +41,21 @@ __all__ = [
 _OFF = {"", "0", "off", "none", "false", "no"}
 _LOCK = threading.Lock()
 _SCRATCH: Path | None = None
+
+
+_MEMO_LOCK = threading.Lock()
+
+
+def remember(store: Any, key: Any, value: Any, limit: int) -> Any:
+    """Keep ``value`` under ``key`` in the in-memory memo ``store`` (a dict, in the order of insertion), the oldest
+    entries dropped first so that it holds at most ``limit``; safe where threads share the store (a solve's prepared
+    problem, a study's tasks). Returns ``value``."""
+    with _MEMO_LOCK:
+        store.pop(key, None)
+        while len(store) >= limit:
+            store.pop(next(iter(store)))
+        store[key] = value
+    return value
 
 
 def cache_root() -> Path | None:

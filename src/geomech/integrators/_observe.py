@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .._storage import remember
 from . import _codegen
 from ._native import compiled, kinds, native_loop
 
@@ -90,9 +91,7 @@ def observe(module: Any, made: Any, Y: np.ndarray, PRM: np.ndarray, per: int) ->
         if namespace is None:  # the same source as plain Python
             namespace = dict(_codegen.python_helpers())
             exec(compile(_codegen.python_header() + made.source, "<geomech observation>", "exec"), namespace)
-            if len(_PYTHON) >= 32:
-                _PYTHON.pop(next(iter(_PYTHON)))
-            _PYTHON[made.source] = namespace
+            remember(_PYTHON, made.source, namespace, 32)
         namespace["observe_all"](Y, OUT, PRM, per)
         return OUT, seconds
     # compiled (or loaded) on a row, and its C entry built, timed apart

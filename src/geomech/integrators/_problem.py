@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .._storage import remember
 from ..errors import InputError
 from ..lie.so3 import hat
 from ..symbolic.compile import M_SYMBOLS, compile_scalar, compile_vector, runtime_parameters
@@ -140,10 +141,7 @@ class Problem:
         key = (self.prm[: len(self.parameter_symbols)].tobytes(), self.parameter_recipe)
         row = rows.get(key)
         if row is None:
-            row = self.parameter_rows({})[0]
-            if len(rows) >= 64:
-                rows.pop(next(iter(rows)))
-            rows[key] = row
+            row = remember(rows, key, self.parameter_rows({})[0], 64)
         self.prm = row.copy()
 
     @property

@@ -9,6 +9,7 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
+from .._storage import remember
 from ..errors import InputError
 from . import _codegen
 from ._events import compile_events
@@ -304,10 +305,7 @@ def _prepared(system: Any, method: Any, options: dict[str, Any]) -> Prepared:
     if made.times.n_saved <= _KEPT_SIZE:  # (the count: the times themselves are made when first asked)
         # on the system itself (a frozen value: its attributes' dictionary), where a dictionary of this module's
         # would keep alive every system it met (a problem holds its system); gone with the system
-        kept = attributes.setdefault(_ATTRIBUTE, _Kept())
-        if len(kept) >= _KEPT:  # the oldest goes first
-            kept.pop(next(iter(kept)))
-        kept[key] = made
+        remember(attributes.setdefault(_ATTRIBUTE, _Kept()), key, made, _KEPT)  # (the oldest goes first)
     return made
 
 

@@ -16,6 +16,7 @@ import numpy as np
 import sympy as sp
 
 from .. import _validate as V
+from .._storage import remember
 from ..errors import InputError, ShapeError
 from ..symbolic.compile import compile_vector
 from ..symbolic.formula import to_expression
@@ -71,9 +72,7 @@ class Gait:
             v = self._all(t)
             v.setflags(write=False)
             known = (v[0], v[1], v[2])
-            if len(self._memo) >= 16:
-                self._memo.pop(next(iter(self._memo), None), None)
-            self._memo[t] = known
+            remember(self._memo, t, known, 16)
         return known
 
     @property
@@ -111,10 +110,7 @@ class Gait:
             return cls._parse(expressions, period, names, parameters)
         gait = _GAITS.get((cls, key))
         if gait is None:
-            gait = cls._parse(expressions, period, names, parameters)
-            if len(_GAITS) >= 256:  # the oldest dropped first
-                _GAITS.pop(next(iter(_GAITS)))
-            _GAITS[(cls, key)] = gait
+            gait = remember(_GAITS, (cls, key), cls._parse(expressions, period, names, parameters), 256)
         return gait
 
     @classmethod

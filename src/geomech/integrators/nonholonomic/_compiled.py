@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ..._storage import remember
 from ...errors import SymbolicError
 from ...reduction.lagrange_dalembert import lagrange_dalembert
 from ...reduction.reduced_numeric import reduction_data
@@ -203,11 +204,9 @@ def _made(setup: Any, kind: tuple, numbers: tuple[float, ...], generate: Any) ->
         setup.coefficients,
     )
     made = _MADE.setdefault(setup.system, {})
-    if given not in made:
-        if len(made) >= 64:
-            made.pop(next(iter(made)))
-        made[given] = _source(setup, kind, numbers, generate)
-    return made[given]
+    if given in made:
+        return made[given]
+    return remember(made, given, _source(setup, kind, numbers, generate), 64)
 
 
 def _source(setup: Any, kind: tuple, numbers: tuple[float, ...], generate: Any) -> LagrangianSource:

@@ -14,6 +14,7 @@ import numpy as np
 import sympy as sp
 
 from ... import _validate as V
+from ..._storage import remember
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
 from ...symbolic.compile import compile_matrix, compile_scalar, compile_vector
@@ -168,10 +169,7 @@ def _gait_formulas(shapes: Any) -> tuple[list[str] | None, list[sp.Expr]]:
         return _parse_gait_formulas(shapes)
     known = _PARSED.get(key)
     if known is None:
-        known = _parse_gait_formulas(shapes)
-        if len(_PARSED) >= 256:  # the oldest dropped first
-            _PARSED.pop(next(iter(_PARSED)))
-        _PARSED[key] = known
+        known = remember(_PARSED, key, _parse_gait_formulas(shapes), 256)
     return list(known[0]) if known[0] is not None else None, list(known[1])
 
 
@@ -418,10 +416,7 @@ def _require_positive_kinetic_energy(
         low[rows] = np.where(smallest > 1e-12 * scale, np.inf, smallest)
     bad = np.flatnonzero(low != np.inf)
     if not bad.size:
-        passed = _CHECKED.setdefault(system, {})
-        if len(passed) >= 64:
-            passed.pop(next(iter(passed)))
-        passed[key] = True
+        remember(_CHECKED.setdefault(system, {}), key, True, 64)
     if bad.size:
         b = int(bad[0])
         shown = ", ".join(

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
+from ..._storage import remember
 from ...errors import InputError
 from ...reduction import bkmm_reduction
 from .._adaptive import MAX_EVALUATIONS
@@ -103,9 +104,7 @@ class PreparedLagrangian:
             setup = _setup(self.system, self.shapes, self.tau, parameters)
             check_parameter_names(setup, parameters)
             made = _Made(setup, _sensitivity_names(setup, self.method, self.backend, self.events, self.sensitivities))
-            if len(self._setups) >= 16:  # the oldest dropped first
-                self._setups.pop(next(iter(self._setups)))
-            self._setups[key] = made
+            remember(self._setups, key, made, 16)  # (the oldest dropped first)
         return made
 
     def solve(self, *, q0: Any, qdot0: Any, rdot0: Any, p0: Any, parameters: Mapping[str, Any] | None) -> Solution:
