@@ -37,6 +37,7 @@ import json
 import struct
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -391,15 +392,21 @@ def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None)
     return (function if native is None else native), time.perf_counter() - start
 
 
-def loop_of(module: Any, loop: str, args: tuple[Any, ...], warm_up: Any) -> tuple[Any, float]:
+def loop_of(
+    module: Any, loop: str, args: tuple[Any, ...] | Callable[[], tuple[Any, ...]], warm_up: Any
+) -> tuple[Any, float]:
     """``module``'s compiled ``loop`` to call with arguments like ``args`` (:func:`._native.compiled`: its C entry
     where it has one, else numba's kernel, made ready by ``warm_up()``), and the seconds that took: found once per
     module, loop and process, the seconds 0 at every later call (a runner counts them as compile time where they
     are not). A runner gives a loop arguments of the same kinds at every call (the inputs C-contiguous, the outputs
-    its own). The entry of a loop shared by every model is the shared module's, built once for all models."""
+    its own). The entry of a loop shared by every model is the shared module's, built once for all models. ``args``
+    may be a function that makes them, called only where the loop is not found yet (a run's arguments are made for
+    its call: a probe made at every call would be made twice)."""
     loops = module.__dict__.setdefault("_LOOPS", {})
     if loop in loops:
         return loops[loop], 0.0
+    if callable(args):
+        args = args()
     shared = getattr(module, "_shared", None)
     home = shared if shared is not None and loop in vars(shared) else module
     function, seconds = compiled(home, loop, args, warm_up)

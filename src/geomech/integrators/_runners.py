@@ -296,7 +296,7 @@ def run_embedded(
             np.zeros(1), PRM[:1], np.empty(n_work),
         )  # fmt: skip
 
-    loop, more = loop_of(module, "erk_run", arguments(0, 1), warm_up)
+    loop, more = loop_of(module, "erk_run", lambda: arguments(0, 1), warm_up)
     compile_time += more
 
     def call(a: int, b: int) -> None:
@@ -421,7 +421,7 @@ def run_taylor(
             np.empty(5 * lanes, dtype=np.int64),
         )  # fmt: skip
 
-    loop, more = loop_of(module, "taylor_run", arguments(0, 1), warm_up)
+    loop, more = loop_of(module, "taylor_run", lambda: arguments(0, 1), warm_up)
     compile_time += more
 
     def call(a: int, b: int) -> None:

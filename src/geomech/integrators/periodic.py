@@ -249,7 +249,9 @@ class PeriodicOrbitPropagator:
         idx = np.clip(np.searchsorted(self._TM, r, side="right") - 1, 0, self.n_mesh - 2)
         out = np.empty((flat.size, 2))
         self._states(
-            *_states_args(self._fp, self._YM, self._TM, idx.astype(np.int64), r - self._TM[idx], out, self._prm)
+            *_states_args(
+                self._fp, self._YM, self._TM, idx.astype(np.int64, copy=False), r - self._TM[idx], out, self._prm
+            )
         )
         if self.winding:
             out[:, 0] += n * (self.winding * self.angle_period)
