@@ -218,6 +218,34 @@ def test_arguments_are_checked_against_the_kinds():
     assert _native.kinds((True,)) is None
 
 
+@pytest.mark.parametrize("objects", [True, False], ids=["array objects", "pointers"])
+def test_a_bound_entry_runs_again_on_its_arrays_contents(monkeypatch, objects):
+    module = _module(loop=_damped_rows)
+    entry = _native.build(module, "loop", "f2 f2 d n f1")
+    assert entry is not None
+    if not objects:  # the entry that takes numpy's pointers, bound to them
+        data = _native._path(module.__name__, "loop", "f2 f2 d n f1").read_bytes()
+        monkeypatch.setattr(_native, "_layout", lambda: None)
+        entry = _native._read(data, "f2 f2 d n f1")
+    rng = np.random.default_rng(11)
+    Y, X = np.empty((3, 4)), rng.normal(size=(3, 4))
+    again = _native.bound(entry, (Y, X, 0.03, 20, np.empty(12)))
+    for _ in range(3):  # a new start written into the bound array each time, its result in place
+        start = rng.normal(size=(3, 4))
+        Y[:] = start
+        X[:] = rng.normal(size=(3, 4))  # an input's new contents are read too
+        assert again() == 60
+        np.testing.assert_allclose(Y, _expected(start, X, 0.03, 20), rtol=1e-12, atol=0)
+    # the arguments are checked once, when bound
+    with pytest.raises(TypeError):
+        entry.bind(Y, X.ravel(), 0.03, 20, np.empty(12))
+    # numba's kernel (or a Python function) bound alike
+    Z = Y.copy()
+    plain = _native.bound(_damped_rows, (Z, X, 0.03, 20, np.empty(12)))
+    assert plain() == 60
+    np.testing.assert_allclose(Z, _expected(Y, X, 0.03, 20), rtol=1e-12, atol=0)
+
+
 def test_the_object_leaves_the_math_library_undefined():
     module = _module(loop=_damped_rows)
     assert _native.build(module, "loop", "f2 f2 d n f1") is not None

@@ -343,6 +343,31 @@ class NativeLoop:
         self._fn = proto(raw if layout is None else objects)
 
     def __call__(self, *args: Any) -> int:
+        return self._run(*self._buffers(args))
+
+    def bind(self, *args: Any) -> Callable[[], int]:
+        """The call with ``args``, checked and gathered once: a function of no arguments that runs the loop on them
+        again (their arrays' contents read and written at each call, the arrays themselves and the numbers fixed)."""
+        buffers = self._buffers(args)
+
+        def again() -> int:
+            return self._run(*buffers, args)
+
+        return again
+
+    def _run(self, first: array.array, ints: array.array, floats: array.array, *held: Any) -> int:
+        """The C entry on gathered arguments (``held``: what must live through the call)."""
+        out = int(self._fn(first.buffer_info()[0], ints.buffer_info()[0], floats.buffer_info()[0]))
+        if out == RAISED:
+            raise RuntimeError(
+                "the compiled loop raised an exception, which its code loaded without numba cannot report: delete "
+                "the gm_native_* files of the cache's kernels to run it through numba and see it"
+            )
+        return out
+
+    def _buffers(self, args: tuple[Any, ...]) -> tuple[array.array, array.array, array.array]:
+        """The arguments checked and gathered as the C entry reads them: the arrays (their objects, or their data
+        and shapes), the integers, the floats."""
         if len(args) != len(self._plan):
             raise TypeError(f"the compiled loop takes {len(self._plan)} arguments, got {len(args)}")
         arrays = [args[i] for i in self._array_at]
@@ -362,13 +387,15 @@ class NativeLoop:
                 shapes.extend(a.shape)
             ints = shapes + ints
         ints.append(0)
-        out = int(self._fn(first.buffer_info()[0], ints.buffer_info()[0], floats.buffer_info()[0]))
-        if out == RAISED:
-            raise RuntimeError(
-                "the compiled loop raised an exception, which its code loaded without numba cannot report: delete "
-                "the gm_native_* files of the cache's kernels to run it through numba and see it"
-            )
-        return out
+        return first, ints, floats
+
+
+def bound(loop: Any, args: tuple[Any, ...]) -> Callable[[], Any]:
+    """``loop`` (a :class:`NativeLoop`, numba's kernel or the Python function) bound to ``args``: a function of no
+    arguments that runs it on them again, their arrays' contents the run's input and output."""
+    if isinstance(loop, NativeLoop):
+        return loop.bind(*args)
+    return functools.partial(loop, *args)
 
 
 def compiled(module: Any, name: str, args: tuple[Any, ...], warm_up: Any = None) -> tuple[Any, float]:

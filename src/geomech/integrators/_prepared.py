@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._storage import remember
 from ..errors import ConvergenceError, InputError, NumericalError
 from . import _codegen
 from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
@@ -96,6 +97,9 @@ max_evaluations, memory_limit, raise_on_failure :
     constants: np.ndarray | None = None
     module: Any = None
     used: str = "python"
+    #: the single runs' compiled loops bound to their buffers (:class:`~._runners.BoundRun`), by parameter values and
+    #: state width: the next single run of an adaptive compiled method starts there
+    bound: dict = dataclasses.field(default_factory=dict, init=False, repr=False)
 
     def __repr__(self) -> str:
         return (
@@ -264,33 +268,22 @@ max_evaluations, memory_limit, raise_on_failure :
                 event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
         elif isinstance(method, (DormandPrince, Taylor)):
             assert tolerances is not None
-            budget = MAX_EVALUATIONS_COMPILED if self.max_evaluations is None else self.max_evaluations
-            n_threads = threads if threads is not None else (CORES if B > 1 else 1)
-            common = (
-                Y0,
-                t0,
-                saved_t,
-                tolerances,
-                V.positive_scalar(budget, "max_evaluations"),
-                OUT,
-                INFO,
-                reasons,
-                reached,
-                int(n_threads) if B > 1 else 1,
-                compiled_events,
-                max_events,
-            )
-            if isinstance(method, Taylor):
-                internal, compile_time, loop_time, EVT, ECOUNT = run_taylor(
-                    module, PRM, *common, system, method.compact
-                )
+            # a single run without events: from its loop bound to its buffers, where an earlier run left it
+            bind: list | None = [] if B == 1 and compiled_events is None and self.used == "numba" else None
+            key = (PRM.tobytes(), d)
+            kept = None if bind is None else self.bound.get(key)
+            done = None if kept is None else kept.run(Y0[0])
+            if done is not None:
+                OUT, INFO, loop_time = done
+                internal = int(INFO[0, 6])
             else:
-                internal, compile_time, loop_time, EVT, ECOUNT = run_embedded(
-                    module, used, system, PRM, method, *common
+                internal, compile_time, loop_time, event_rows = self._adaptive(
+                    method, system, PRM, Y0, saved_t, OUT, INFO, reasons, reached, bind
                 )
-            t_start += compile_time
-            if compiled_events is not None:
-                event_rows = event_table(compiled_events, EVT, ECOUNT, problem.timed, max_events)
+                if bind and INFO[0, 0] == 0:  # done: the next single run starts from its bound loop
+                    remember(self.bound, key, bind[0], 4)
+                    OUT, INFO = OUT.copy(), INFO.copy()  # (the bound buffers are the next run's)
+                t_start += compile_time
         elif isinstance(method, AdaptiveAdams):
             assert tolerances is not None
             with np.errstate(all="ignore"):
@@ -450,6 +443,55 @@ max_evaluations, memory_limit, raise_on_failure :
             events={"chart_switch": switches} if isinstance(method, SerretAndoyerAtlas) else event_rows,
         )
         return finish(solution, self.raise_on_failure)
+
+    def _adaptive(
+        self,
+        method: DormandPrince | Taylor,
+        system: Any,
+        PRM: np.ndarray,
+        Y0: np.ndarray,
+        saved_t: np.ndarray,
+        OUT: np.ndarray,
+        INFO: np.ndarray,
+        reasons: dict[int, str],
+        reached: dict[int, float],
+        bind: list | None,
+    ) -> tuple[int, float, float, dict[str, np.ndarray]]:
+        """The run of ``Y0`` by a compiled adaptive method into ``OUT`` and ``INFO``: (accepted steps, compile time,
+        the loop's seconds, the events' rows); a single run given a list ``bind`` appends to it its loop bound to
+        its buffers (its own copies of the start and the parameters)."""
+        assert self.tolerances is not None
+        B = Y0.shape[0]
+        if bind is not None:
+            Y0, PRM = Y0.copy(), PRM.copy()  # (the bound run writes its start into its own row)
+        budget = MAX_EVALUATIONS_COMPILED if self.max_evaluations is None else self.max_evaluations
+        threads = self.threads if self.threads is not None else (CORES if B > 1 else 1)
+        common = (
+            Y0,
+            self.t0,
+            saved_t,
+            self.tolerances,
+            V.positive_scalar(budget, "max_evaluations"),
+            OUT,
+            INFO,
+            reasons,
+            reached,
+            int(threads) if B > 1 else 1,
+            self.compiled_events,
+            self.max_events,
+        )
+        if isinstance(method, Taylor):
+            internal, compile_time, loop_time, EVT, ECOUNT = run_taylor(
+                self.module, PRM, *common, system, method.compact, bind=bind
+            )
+        else:
+            internal, compile_time, loop_time, EVT, ECOUNT = run_embedded(
+                self.module, self.used, system, PRM, method, *common, bind=bind
+            )
+        rows = {}
+        if self.compiled_events is not None:
+            rows = event_table(self.compiled_events, EVT, ECOUNT, self.problem.timed, self.max_events)
+        return internal, compile_time, loop_time, rows
 
 
 def group_start(problem: Problem, system: Any, name: str) -> str:

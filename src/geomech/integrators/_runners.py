@@ -5,6 +5,7 @@ steps) the way the compiled loops do, so that one code turns them into a :class:
 
 from __future__ import annotations
 
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -16,13 +17,14 @@ from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
 from ._codegen import RHS, rhs_address
 from ._events import CompiledEvents
-from ._native import loop_of
+from ._native import bound, loop_of
 from ._problem import Problem
 from ._taylor_llvm import UNROLL_LIMIT, horner_address, simd_lanes, unrolled_address
 from .methods import DormandPrince, PeriodicOrbit, Quadrature, SerretAndoyerAtlas, SolveIVP, taylor_order
 from .solution import STATUS
 
 __all__ = [
+    "BoundRun",
     "CODES",
     "INFO_COLUMNS",
     "run_compiled",
@@ -81,6 +83,40 @@ def total(INFO: np.ndarray, column: int) -> int:
 def rows(PRM: np.ndarray, a: int, b: int) -> np.ndarray:
     """The parameter rows of trajectories a:b: all of ``PRM`` when it has one row (shared), else its rows a:b."""
     return PRM if PRM.shape[0] == 1 else PRM[a:b]
+
+
+class BoundRun:
+    """A single run's compiled loop bound to its buffers: the start ``Y0`` (1, d) and the outputs ``OUT`` and
+    ``INFO`` it was first run with (its other arguments, the times, tolerances, budget and parameters, fixed), which
+    :meth:`run` runs again from another start, the arguments neither checked nor gathered again. Made by the
+    adaptive runners (``bind``) for a prepared problem, which keeps it; used by one thread at a time."""
+
+    def __init__(self, again: Any, Y0: np.ndarray, OUT: np.ndarray, INFO: np.ndarray):
+        self.again, self.Y0, self.OUT, self.INFO = again, Y0, OUT, INFO
+        self._lock = threading.Lock()
+        #: a run stopped by its budget (a pilot's, the run then projected and run again): every run is then made the
+        #: general way, not started here first
+        self.spent = False
+
+    def run(self, y0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The run from ``y0`` (the start's first ``y0.size`` entries; the others, an appended time, as bound): its
+        outputs (copies) and the loop's seconds; None where it did not succeed (a failure, a spent budget) or another
+        thread runs it now, for the caller to run it the general way, which reports why."""
+        if self.spent or not self._lock.acquire(blocking=False):
+            return None
+        try:
+            self.Y0[0, : y0.size] = y0
+            self.INFO[:] = 0.0
+            start = time.perf_counter()
+            if self.again() != 0:  # pragma: no cover - the buffers are sized by the loop's own function
+                raise RuntimeError("the compiled loop's work buffers are too short")
+            seconds = time.perf_counter() - start
+            if self.INFO[0, 0] != 0:
+                self.spent = self.INFO[0, 0] == 8
+                return None
+            return self.OUT.copy(), self.INFO.copy(), seconds
+        finally:
+            self._lock.release()
 
 
 def run_compiled(
@@ -256,11 +292,12 @@ def run_embedded(
     threads: int,
     events: Any = None,
     max_events: int = 0,
+    bind: list | None = None,
 ) -> tuple[int, float, float, np.ndarray, np.ndarray]:
     """Each row of ``Y0`` by the compiled Dormand-Prince loop, stopped where it leaves the chart of
     ``problem_system`` (its ``chart``: component, lower and upper bound) or at a terminal event; returns (accepted
     steps, compile time, the compiled loop's seconds, the events recorded (B, max_events, 2 + d), their counts
-    (B,))."""
+    (B,)). A single run given a list ``bind`` appends to it its :class:`BoundRun`."""
     ev = CompiledEvents.none() if events is None else events
     Y0, times, PRM = np.ascontiguousarray(Y0), np.ascontiguousarray(times, dtype=float), np.ascontiguousarray(PRM)
     EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
@@ -300,13 +337,25 @@ def run_embedded(
     compile_time += more
 
     def call(a: int, b: int) -> None:
-        if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffer is sized by erk_work
+        if _call(loop, arguments(a, b), bind, Y0, OUT, INFO) != 0:  # pragma: no cover - the buffer is sized by erk_work
             raise RuntimeError("the Dormand-Prince loop's work buffer is too short")
 
     with np.errstate(all="ignore"):  # the Python backend's overflow is a rejected step, as in the loop
         loop_time = _threaded(call, Y0.shape[0], threads if used == "numba" else 1)
     _adaptive_outcome(INFO, times, tolerances, reasons, reached)
     return total(INFO, 6), compile_time, loop_time, EVT, ECOUNT
+
+
+def _call(
+    loop: Any, args: tuple[Any, ...], bind: list | None, Y0: np.ndarray, OUT: np.ndarray, INFO: np.ndarray
+) -> int:
+    """``loop`` on ``args``; for a single run given a list ``bind``, bound to them first (its :class:`BoundRun` on
+    the run's ``Y0``, ``OUT`` and ``INFO`` appended to the list)."""
+    if bind is None or Y0.shape[0] != 1:
+        return int(loop(*args))
+    again = bound(loop, args)
+    bind.append(BoundRun(again, Y0, OUT, INFO))
+    return int(again())
 
 
 def _adaptive_outcome(
@@ -355,13 +404,15 @@ def run_taylor(
     max_events: int = 0,
     problem_system: Any = None,
     compact: bool | None = None,
+    bind: list | None = None,
 ) -> tuple[int, float, float, np.ndarray, np.ndarray]:
     """Each row of ``Y0`` by the compiled Taylor loop of ``module`` at the order :func:`taylor_order` of
     ``tolerances``, stopped where it leaves the chart of ``problem_system`` or at a terminal event; returns (steps,
     compile time, the compiled loop's seconds, the events recorded (B, max_events, 2 + d), their counts (B,)). The
     coefficients are the module's tape (``TAYLOR_TAPE``) unrolled for the order (:mod:`._taylor_llvm`, compiled once
     per order: its time is counted in the compile time), or with ``compact`` (default: where the unrolled code would
-    pass ``UNROLL_LIMIT`` multiply-adds) the module's loop over the orders, ``taylor_coeffs``."""
+    pass ``UNROLL_LIMIT`` multiply-adds) the module's loop over the orders, ``taylor_coeffs``. A single run given a
+    list ``bind`` appends to it its :class:`BoundRun`."""
     ev = CompiledEvents.none() if events is None else events
     Y0, times, PRM = np.ascontiguousarray(Y0), np.ascontiguousarray(times, dtype=float), np.ascontiguousarray(PRM)
     EVT = np.zeros((Y0.shape[0], max_events if ev.names else 0, 2 + Y0.shape[1]))
@@ -425,7 +476,7 @@ def run_taylor(
     compile_time += more
 
     def call(a: int, b: int) -> None:
-        if loop(*arguments(a, b)) != 0:  # pragma: no cover - the buffers are sized by taylor_work
+        if _call(loop, arguments(a, b), bind, Y0, OUT, INFO) != 0:  # pragma: no cover - sized by taylor_work
             raise RuntimeError("the Taylor loop's work buffers are too short")
 
     loop_time = _threaded(call, Y0.shape[0], threads)  # (compiled: numpy's floating-point state is not involved)

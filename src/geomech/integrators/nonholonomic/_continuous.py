@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
+from ..._storage import remember
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
 from ...symbolic.taylor import TAYLOR_FUNCTIONS
@@ -92,6 +93,7 @@ def run_full(
             1,
             None if events is None else compile_lagrangian_events(setup, made, lda_slots(setup), events),
             max_events,
+            setup.compiled,
         )
         return run.raw(setup, None, 0, run.failures[0][1] if run.failures else None)
     funcs = lagrange_dalembert(system).numeric(parameters).funcs
@@ -185,6 +187,7 @@ def run_reduced(
             1,
             None if events is None else compile_lagrangian_events(setup, made, bkmm_slots(setup, m), events),
             max_events,
+            setup.compiled,
         )
         failure = run.failures[0][1] if run.failures else None
         return run.raw(setup, m, 0, failure)
@@ -366,24 +369,36 @@ def run_compiled(
     threads: int,
     events: Any = None,
     max_events: int = 0,
+    keep: dict | None = None,
 ) -> CompiledRun:
     """The states ``Y0`` of ``module``'s equations (rows ``(g, r_F, rdot_F, p, W)`` for BKMM, ``(q_F, qdot_F, W)``
     for Lagrange-d'Alembert, one per member; ``PRM`` one row for all or one per member) at ``times`` by the
     compiled pair of ``method.solver``, the time appended to the state (its rate 1), the members over ``threads``;
     each member's work bounded before it is done (a pilot of its first evaluations, its
     pace projected to the end, as in Python), its failure its own. ``events`` (compiled for this state) are located
-    and returned as rows ``(member, t, q, qdot)``."""
+    and returned as rows ``(member, t, q, qdot)``. A single run without events given ``keep`` (a prepared problem's
+    memo) keeps there its loop bound to its buffers (:class:`~._runners.BoundRun`), which runs the next single run
+    of the same options from its start (the general way where it fails, or its budget is spent, which reports it)."""
     limit = float(
         V.positive_scalar(MAX_EVALUATIONS_COMPILED if max_evaluations is None else max_evaluations, "max_evaluations")
     )
     pair = compiled_pair(method.solver)
     assert pair is not None or method.solver == TAYLOR
     B, d = Y0.shape[0], Y0.shape[1] + 1
+    reasons: dict[int, str] = {}
+    # a single run: its loop bound once for these options' values and these times (a prepared problem's, which
+    # never change: the key holds them, their id never reused) and width
+    bind: list | None = [] if keep is not None and B == 1 and events is None else None
+    key = (method, tolerances, float(t0), limit, PRM.tobytes(), d, id(times))
+    kept = None if bind is None else keep.setdefault("bound", {}).get(key)  # type: ignore[union-attr]
+    done = None if kept is None else kept[1].run(Y0[0])  # (the start; its time, t0, as bound)
+    if done is not None:
+        OUT, INFO, seconds = done
+        return _compiled_run(module, made, OUT, INFO, PRM, times, reasons, 0.0, int(INFO[0, 6]), seconds)
     Y0 = np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1)
     t_end = float(times[-1])
     OUT = np.empty((B, len(times), d))
     INFO = np.zeros((B, INFO_COLUMNS))
-    reasons: dict[int, str] = {}
     reached: dict[int, float] = {}
     looped: list[float] = []  # the seconds of each call into the compiled loop
 
@@ -414,6 +429,7 @@ def run_compiled(
             threads,
             events,
             max_events,
+            bind=bind if whole else None,
         )
         looped.append(loop)
         if not whole:
@@ -433,6 +449,9 @@ def run_compiled(
     EVT = np.zeros((B, max_events if events is not None else 0, 2 + d))
     ECOUNT = np.zeros(B)
     steps, compile_time = run(pilot, min(limit, PILOT))
+    if bind and INFO[0, 0] == 0:  # a single run done within the pilot's budget: the next runs from its bound loop
+        remember(keep["bound"], key, (times, bind[0]), 4)  # type: ignore[index]
+        OUT, INFO = OUT.copy(), INFO.copy()  # (the bound buffers are the next run's)
     codes = INFO[:, 0] if pilot.size == B else INFO[pilot, 0]  # (a small batch's pilot is the batch)
     spent = pilot[codes == 8] if limit > PILOT else pilot[:0]
     if spent.size:
@@ -455,8 +474,31 @@ def run_compiled(
     rest = np.array([b for b in range(B) if b not in finished], dtype=int) if len(finished) < B else pilot[:0]
     if rest.size:
         steps += run(rest, limit)[0]
-    loop_time = sum(looped)
-    n = len(times)
+    return _compiled_run(
+        module, made, OUT, INFO, PRM, times, reasons, compile_time, steps, sum(looped), events, max_events, EVT, ECOUNT
+    )
+
+
+def _compiled_run(
+    module: Any,
+    made: Any,
+    OUT: np.ndarray,
+    INFO: np.ndarray,
+    PRM: np.ndarray,
+    times: np.ndarray,
+    reasons: dict[int, str],
+    compile_time: float,
+    steps: int,
+    loop_time: float,
+    events: Any = None,
+    max_events: int = 0,
+    EVT: Any = None,
+    ECOUNT: Any = None,
+) -> CompiledRun:
+    """The :class:`CompiledRun` of a compiled run's outputs ``OUT`` and ``INFO``: its states observed, its failures
+    told, its events shown as the solution's states, its variational equations apart."""
+    B, n, d = OUT.shape
+    t_end = float(times[-1])
     OBS, seconds = observe(module, made, OUT.reshape(B * n, d), PRM, n)
     OBS = OBS.reshape(B, n, made.observed)
     compile_time += seconds
