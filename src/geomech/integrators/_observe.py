@@ -15,7 +15,7 @@ from .._storage import remember
 from . import _codegen
 from ._native import compiled, kinds, native_loop
 
-__all__ = ["OBSERVE_ALL", "Observation", "observe"]
+__all__ = ["OBSERVE_ALL", "Observation", "bound_observation", "observe"]
 
 #: The loop over the saved states of a module whose ``observe(y, out, prm)`` shows one: rows of Y (n_members x
 #: n_saved, flattened), member i // per's parameters; NaN for a state that is not finite.
@@ -98,3 +98,18 @@ def observe(module: Any, made: Any, Y: np.ndarray, PRM: np.ndarray, per: int) ->
     kernel, seconds = compiled(module, "observe_all", args, lambda: observe_all(Y[:1], OUT[:1], PRM[:1], 1))
     kernel(*args)
     return OUT, seconds
+
+
+def bound_observation(
+    module: Any, made: Any, Y: np.ndarray, PRM: np.ndarray, per: int
+) -> tuple[Any, np.ndarray] | None:
+    """:func:`observe` of the rows ``Y`` bound to them and to an output of its own: (a function of no arguments that
+    observes ``Y``'s contents into it, the output), where ``module``'s observation has its C entry here (loaded, or
+    on disk); else None (:func:`observe` at each call, which compiles it once that is worth it)."""
+    if not hasattr(module.observe_all, "py_func"):  # the Python twin
+        return None
+    OUT = np.empty((Y.shape[0], made.observed))
+    args = (Y, OUT, PRM, per)
+    spec = kinds(args)
+    native = native_loop(module, "observe_all", spec)[1] if spec else None
+    return None if native is None else (native.bind(*args), OUT)

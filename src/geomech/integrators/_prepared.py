@@ -255,6 +255,7 @@ max_evaluations, memory_limit, raise_on_failure :
         reached: dict[int, float] = {}
         along: dict[str, np.ndarray] = {}
         switches = np.zeros((0, 4))
+        shown = None  # the observation of the states, where a bound run made it
         if isinstance(method, SerretAndoyerAtlas):
             assert tolerances is not None
             switches, along = run_atlas(problem, method, Y0, t0, saved_t, tolerances, OUT, INFO, reasons, reached)
@@ -272,9 +273,12 @@ max_evaluations, memory_limit, raise_on_failure :
             bind: list | None = [] if B == 1 and compiled_events is None and self.used == "numba" else None
             key = (PRM.tobytes(), d)
             kept = None if bind is None else self.bound.get(key)
+            if kept is not None and kept.then is None and wrt is None and problem.kind == "rotor":
+                # a body with rotors' observation of the states (its energy and torques) bound too, where compiled
+                kept.then = problem.bound_observation(kept.OUT[0], np.ascontiguousarray(PRM[:1]).copy())
             done = None if kept is None else kept.run(Y0[0])
             if done is not None:
-                OUT, INFO, loop_time = done
+                OUT, INFO, loop_time, shown = done
                 internal = int(INFO[0, 6])
             else:
                 internal, compile_time, loop_time, event_rows = self._adaptive(
@@ -383,7 +387,7 @@ max_evaluations, memory_limit, raise_on_failure :
             rows = PRM.reshape(batch_shape + PRM.shape[1:])
         elif problem.kind == "rotor" and problem.energy_expression is not None and used == "numba":
             rows = np.broadcast_to(PRM[0], batch_shape + PRM.shape[1:]) if batch_shape else PRM[0]
-        inv = problem.invariants(states, times.t, rows)
+        inv = problem.invariants(states, times.t, rows, shown if rows is not None else None)
         inv.update({k: v.reshape(batch_shape + v.shape[1:]) for k, v in along.items()})
         inv.update(variational)
         status = failures[0].kind if failures else Status.SUCCESS

@@ -180,21 +180,41 @@ class Problem:
         return _lie_poisson_python(self.core, self.expression, features)
 
     # -- invariants -------------------------------------------------------------------------------
-    def invariants(self, states: np.ndarray, t: np.ndarray, rows: np.ndarray | None = None) -> dict[str, Any]:
-        """The quantities along saved ``states`` (``(..., n_save, d)`` at times ``t``): energy, Casimir, spatial
-        momentum, and the torques of a body with rotors; NaN where a state is not finite. ``rows``: the parameter
-        rows of a batch of parameter values (``(..., n_prm)``, the batch's shape), the energy then evaluated with
-        each trajectory's own."""
-        out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
-        # a body with rotors under a law of formulas not in time: the compiled observation (NaN where a state is not
-        # finite)
-        observed = (
+    def _observed(self, rows: np.ndarray | None) -> bool:
+        """Whether the quantities of a body with rotors under a law of formulas not in time are the compiled
+        observation's (its energy and torques; NaN where a state is not finite)."""
+        return (
             self.kind == "rotor"
             and rows is not None
             and self.observation is not None
             and not self.timed
             and _codegen.numba_available()
         )
+
+    def bound_observation(self, states: np.ndarray, rows: np.ndarray) -> tuple[Any, np.ndarray] | None:
+        """The compiled observation of the saved ``states`` ``(n_save, d)`` of one run with the parameter ``rows``
+        ``(1, n_prm)`` (:func:`~._observe.bound_observation`) bound to them: for :meth:`invariants`' ``shown``;
+        None where the quantities are not the observation's or it has no C entry here."""
+        if not self._observed(rows):
+            return None
+        from ._observe import bound_observation
+
+        assert self.observation is not None
+        module = _codegen.compiled_module(self.observation.source, "ro")
+        return bound_observation(module, self.observation, states, rows, states.shape[0])
+
+    def invariants(
+        self, states: np.ndarray, t: np.ndarray, rows: np.ndarray | None = None, shown: np.ndarray | None = None
+    ) -> dict[str, Any]:
+        """The quantities along saved ``states`` (``(..., n_save, d)`` at times ``t``): energy, Casimir, spatial
+        momentum, and the torques of a body with rotors; NaN where a state is not finite. ``rows``: the parameter
+        rows of a batch of parameter values (``(..., n_prm)``, the batch's shape), the energy then evaluated with
+        each trajectory's own. ``shown``: the compiled observation of the states of a body with rotors where it was
+        made already (:meth:`bound_observation`)."""
+        out: dict[str, np.ndarray | None] = {"energy": None, "casimir": None, "spatial_momentum": None}
+        # a body with rotors under a law of formulas not in time: the compiled observation (NaN where a state is not
+        # finite)
+        observed = self._observed(rows)
         if not observed:
             ok = np.all(np.isfinite(states), axis=-1)
         if rows is not None and self.kind != "rotor":
@@ -208,7 +228,7 @@ class Problem:
             m, Gam = states[..., :3], states[..., 12 : 12 + n]
             R = states[..., 3:12].reshape(states.shape[:-1] + (3, 3))
             out["spatial_momentum"] = np.matmul(R, m[..., None])[..., 0]
-            if observed:
+            if observed and shown is None:
                 from ._observe import observe
 
                 assert rows is not None and self.observation is not None
@@ -221,6 +241,8 @@ class Problem:
                     np.ascontiguousarray(rows.reshape(math.prod(rows.shape[:-1]), rows.shape[-1])),
                     states.shape[-2],
                 )
+            if observed:
+                assert shown is not None
                 shown = shown.reshape(states.shape[:-1] + (1 + n,))
                 out["energy"], out["tau"] = shown[..., 0], shown[..., 1:]
                 return out

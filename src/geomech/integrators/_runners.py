@@ -97,11 +97,14 @@ class BoundRun:
         #: a run stopped by its budget (a pilot's, the run then projected and run again): every run is then made the
         #: general way, not started here first
         self.spent = False
+        #: what is computed from the outputs after the loop, bound to them too (``(call, its output)``), or None
+        self.then: tuple[Any, np.ndarray] | None = None
 
-    def run(self, y0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
+    def run(self, y0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray | None] | None:
         """The run from ``y0`` (the start's first ``y0.size`` entries; the others, an appended time, as bound): its
-        outputs (copies) and the loop's seconds; None where it did not succeed (a failure, a spent budget) or another
-        thread runs it now, for the caller to run it the general way, which reports why."""
+        outputs (copies), the loop's seconds and what :attr:`then` computed from them (a copy, or None); None where it
+        did not succeed (a failure, a spent budget) or another thread runs it now, for the caller to run it the
+        general way, which reports why."""
         if self.spent or not self._lock.acquire(blocking=False):
             return None
         try:
@@ -114,7 +117,11 @@ class BoundRun:
             if self.INFO[0, 0] != 0:
                 self.spent = self.INFO[0, 0] == 8
                 return None
-            return self.OUT.copy(), self.INFO.copy(), seconds
+            shown = None
+            if self.then is not None:
+                self.then[0]()
+                shown = self.then[1].copy()
+            return self.OUT.copy(), self.INFO.copy(), seconds, shown
         finally:
             self._lock.release()
 

@@ -26,7 +26,7 @@ from .._adaptive import (
     projected_cost_error,
 )
 from .._events import compile_lagrangian_events, event_table, stepped_lagrangian_events
-from .._observe import observe
+from .._observe import bound_observation, observe
 from .._runners import INFO_COLUMNS, failed_rows, run_embedded, run_taylor, total
 from .._variational import augment
 from ..methods import TAYLOR
@@ -391,10 +391,12 @@ def run_compiled(
     bind: list | None = [] if keep is not None and B == 1 and events is None else None
     key = (method, tolerances, float(t0), limit, PRM.tobytes(), d, id(times))
     kept = None if bind is None else keep.setdefault("bound", {}).get(key)  # type: ignore[union-attr]
+    if kept is not None and kept[1].then is None:  # the observation bound too, once it has its C entry
+        kept[1].then = bound_observation(module, made, kept[1].OUT.reshape(len(times), d), PRM, len(times))
     done = None if kept is None else kept[1].run(Y0[0])  # (the start; its time, t0, as bound)
     if done is not None:
-        OUT, INFO, seconds = done
-        return _compiled_run(module, made, OUT, INFO, PRM, times, reasons, 0.0, int(INFO[0, 6]), seconds)
+        OUT, INFO, seconds, shown = done
+        return _compiled_run(module, made, OUT, INFO, PRM, times, reasons, 0.0, int(INFO[0, 6]), seconds, OBS=shown)
     Y0 = np.concatenate([Y0, np.full((B, 1), float(t0))], axis=1)
     t_end = float(times[-1])
     OUT = np.empty((B, len(times), d))
@@ -494,14 +496,16 @@ def _compiled_run(
     max_events: int = 0,
     EVT: Any = None,
     ECOUNT: Any = None,
+    OBS: np.ndarray | None = None,
 ) -> CompiledRun:
-    """The :class:`CompiledRun` of a compiled run's outputs ``OUT`` and ``INFO``: its states observed, its failures
-    told, its events shown as the solution's states, its variational equations apart."""
+    """The :class:`CompiledRun` of a compiled run's outputs ``OUT`` and ``INFO``: its states observed (``OBS``, where
+    they were), its failures told, its events shown as the solution's states, its variational equations apart."""
     B, n, d = OUT.shape
     t_end = float(times[-1])
-    OBS, seconds = observe(module, made, OUT.reshape(B * n, d), PRM, n)
+    if OBS is None:
+        OBS, seconds = observe(module, made, OUT.reshape(B * n, d), PRM, n)
+        compile_time += seconds
     OBS = OBS.reshape(B, n, made.observed)
-    compile_time += seconds
     failures = []
     for b in failed_rows(INFO):
         code = int(INFO[b, 0])
