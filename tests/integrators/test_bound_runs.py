@@ -154,3 +154,15 @@ def test_a_prepared_body_with_rotors_observes_its_bound_runs_energy_and_torques(
         np.testing.assert_allclose(sol.energy, body.hamiltonian(m, Gam), rtol=1e-12, atol=0)
         spatial = sol.quantities["spatial_momentum"]
         np.testing.assert_allclose(spatial, np.broadcast_to(spatial[0], spatial.shape), rtol=0, atol=1e-9)
+
+
+def test_a_long_output_is_not_kept_for_a_bound_run():
+    # a run saving more than BOUND_SIZE numbers is made the general way each time: its problem keeps no second copy
+    prepared = gm.prepare(OSCILLATOR, "dop853", t_final=3.0, saveat=60_001, rtol=1e-10, atol=1e-10)
+    for q0 in (1.0, 0.5):
+        sol = prepared.solve(y0=[q0, 0.0])
+        np.testing.assert_allclose(sol.states[:, 0], q0 * np.cos(sol.t), rtol=0, atol=1e-8)
+    assert not prepared.bound
+    small = gm.prepare(OSCILLATOR, "dop853", t_final=3.0, saveat=6, rtol=1e-10, atol=1e-10)
+    small.solve(y0=[1.0, 0.0])
+    assert len(small.bound) == 1

@@ -353,12 +353,17 @@ def run_embedded(
     return total(INFO, 6), compile_time, loop_time, EVT, ECOUNT
 
 
+#: The largest output (numbers) a bound run keeps buffers for: a longer run's Python is a small part of its time,
+#: and its problem would hold a second copy of its output.
+BOUND_SIZE = 100_000
+
+
 def _call(
     loop: Any, args: tuple[Any, ...], bind: list | None, Y0: np.ndarray, OUT: np.ndarray, INFO: np.ndarray
 ) -> int:
-    """``loop`` on ``args``; for a single run given a list ``bind``, bound to them first (its :class:`BoundRun` on
-    the run's ``Y0``, ``OUT`` and ``INFO`` appended to the list)."""
-    if bind is None or Y0.shape[0] != 1:
+    """``loop`` on ``args``; for a single run given a list ``bind`` (its output no larger than ``BOUND_SIZE``), bound
+    to them first (its :class:`BoundRun` on the run's ``Y0``, ``OUT`` and ``INFO`` appended to the list)."""
+    if bind is None or Y0.shape[0] != 1 or OUT.size > BOUND_SIZE:
         return int(loop(*args))
     again = bound(loop, args)
     bind.append(BoundRun(again, Y0, OUT, INFO))
