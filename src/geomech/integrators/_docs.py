@@ -66,7 +66,11 @@ model, once; `prepared.solve(m0=..., parameters=...)` then runs from each start 
 (`attitude=True` to give `R0` at each call). `solve(...)` is `prepare(...).solve(...)`: the same checks and the
 same run; it keeps the last few problems it prepared for a system (by their options' values; a function by
 identity), so that `solve` called in a loop with the same options prepares once and costs about a prepared call
-(10-20 microseconds more, the options compared).
+(10-20 microseconds more, the options compared). A prepared problem's single runs by a compiled adaptive method
+(`dop853`, `dopri5`, `taylor`, BKMM, Lagrange-d'Alembert) start from the compiled loop bound to the first run's
+buffers, its arguments checked and gathered once: each later run writes its start into the bound row, calls the
+loop and the observation of its saved states, and copies the output into its Solution (a run that fails, or
+outgrows its pilot's budget, is made again the general way, which reports it).
 
 Ensembles and sensitivities: the leading axes of the initial state are a batch, and so are those of
 `parameters={name: array}` (the named parameters of a system built from a formula: each trajectory reads its
