@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
-from .._storage import remember
 from ..errors import ConvergenceError, InputError, NumericalError
 from . import _codegen
 from ._adaptive import MAX_EVALUATIONS, MAX_EVALUATIONS_COMPILED, run_adaptive
@@ -23,6 +22,8 @@ from ._rotor import rotor_initial_states
 from ._runners import (
     INFO_COLUMNS,
     failed_rows,
+    from_bound,
+    keep_bound,
     run_atlas,
     run_compiled,
     run_embedded,
@@ -272,11 +273,13 @@ max_evaluations, memory_limit, raise_on_failure :
             # a single run without events: from its loop bound to its buffers, where an earlier run left it
             bind: list | None = [] if B == 1 and compiled_events is None and self.used == "numba" else None
             key = (PRM.tobytes(), d)
-            kept = None if bind is None else self.bound.get(key)
-            if kept is not None and kept.then is None and wrt is None and problem.kind == "rotor":
-                # a body with rotors' observation of the states (its energy and torques) bound too, where compiled
-                kept.then = problem.bound_observation(kept.OUT[0], np.ascontiguousarray(PRM[:1]).copy())
-            done = None if kept is None else kept.run(Y0[0])
+            # a body with rotors' observation of the states (its energy and torques) bound too, where compiled
+            observation = (
+                (lambda kept: problem.bound_observation(kept.OUT[0], np.ascontiguousarray(PRM[:1]).copy()))
+                if wrt is None and problem.kind == "rotor"
+                else None
+            )
+            done = None if bind is None else from_bound(self.bound, key, Y0[0], observation)
             if done is not None:
                 OUT, INFO, loop_time, shown = done
                 internal = int(INFO[0, 6])
@@ -284,9 +287,7 @@ max_evaluations, memory_limit, raise_on_failure :
                 internal, compile_time, loop_time, event_rows = self._adaptive(
                     method, system, PRM, Y0, saved_t, OUT, INFO, reasons, reached, bind
                 )
-                if bind and INFO[0, 0] == 0:  # done: the next single run starts from its bound loop
-                    remember(self.bound, key, bind[0], 4)
-                    OUT, INFO = OUT.copy(), INFO.copy()  # (the bound buffers are the next run's)
+                OUT, INFO = keep_bound(self.bound, key, bind, OUT, INFO)  # (the next single run starts there)
                 t_start += compile_time
         elif isinstance(method, AdaptiveAdams):
             assert tolerances is not None

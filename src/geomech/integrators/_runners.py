@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from .._storage import remember
 from ..errors import InputError
 from ..symbolic.taylor import TaylorTape
 from ._adaptive import integrate_ivp
@@ -27,6 +28,8 @@ __all__ = [
     "BoundRun",
     "CODES",
     "INFO_COLUMNS",
+    "from_bound",
+    "keep_bound",
     "run_compiled",
     "run_embedded",
     "run_ivp",
@@ -99,6 +102,8 @@ class BoundRun:
         self.spent = False
         #: what is computed from the outputs after the loop, bound to them too (``(call, its output)``), or None
         self.then: tuple[Any, np.ndarray] | None = None
+        #: what its key names by identity, held with it (an id is not reused while the object lives)
+        self.held: tuple[Any, ...] = ()
 
     def run(self, y0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray | None] | None:
         """The run from ``y0`` (the start's first ``y0.size`` entries; the others, an appended time, as bound): its
@@ -124,6 +129,31 @@ class BoundRun:
             return self.OUT.copy(), self.INFO.copy(), seconds, shown
         finally:
             self._lock.release()
+
+
+def from_bound(store: dict, key: Any, y0: np.ndarray, observation: Any = None) -> Any:
+    """The run from ``y0`` of the :class:`BoundRun` kept in ``store`` under ``key`` (:meth:`BoundRun.run`), the
+    observation of its outputs bound first where ``observation(bound)`` makes it (tried until it does: it can once
+    the observation has its C entry); None where none is kept or the run did not succeed."""
+    kept = store.get(key)
+    if kept is None:
+        return None
+    if kept.then is None and observation is not None:
+        kept.then = observation(kept)
+    return kept.run(y0)
+
+
+def keep_bound(
+    store: dict, key: Any, bind: list | None, OUT: np.ndarray, INFO: np.ndarray, *held: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """After a general run given ``bind``: the :class:`BoundRun` it made kept in ``store`` under ``key`` (the last
+    four; ``held``: what the key names by identity) where the run succeeded; returns the outputs to use, copies
+    where they are the bound run's buffers (the next run's)."""
+    if not bind or INFO[0, 0] != 0:
+        return OUT, INFO
+    bind[0].held = held
+    remember(store, key, bind[0], 4)
+    return OUT.copy(), INFO.copy()
 
 
 def run_compiled(

@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
-from ..._storage import remember
 from ...errors import InputError, NumericalError
 from ...reduction import bkmm_reduction, lagrange_dalembert
 from ...symbolic.taylor import TAYLOR_FUNCTIONS
@@ -27,7 +26,7 @@ from .._adaptive import (
 )
 from .._events import compile_lagrangian_events, event_table, stepped_lagrangian_events
 from .._observe import bound_observation, observe
-from .._runners import INFO_COLUMNS, failed_rows, run_embedded, run_taylor, total
+from .._runners import INFO_COLUMNS, failed_rows, from_bound, keep_bound, run_embedded, run_taylor, total
 from .._variational import augment
 from ..methods import TAYLOR
 from ..solution import Failure, Status
@@ -386,14 +385,16 @@ def run_compiled(
     assert pair is not None or method.solver == TAYLOR
     B, d = Y0.shape[0], Y0.shape[1] + 1
     reasons: dict[int, str] = {}
-    # a single run: its loop bound once for these options' values and these times (a prepared problem's, which
-    # never change: the key holds them, their id never reused) and width
+    # a single run: its loop bound once for these options' values, these times (a prepared problem's, which never
+    # change: held with it, their id never reused) and width; the observation of its states bound too
     bind: list | None = [] if keep is not None and B == 1 and events is None else None
     key = (method, tolerances, float(t0), limit, PRM.tobytes(), d, id(times))
-    kept = None if bind is None else keep.setdefault("bound", {}).get(key)  # type: ignore[union-attr]
-    if kept is not None and kept[1].then is None:  # the observation bound too, once it has its C entry
-        kept[1].then = bound_observation(module, made, kept[1].OUT.reshape(len(times), d), PRM, len(times))
-    done = None if kept is None else kept[1].run(Y0[0])  # (the start; its time, t0, as bound)
+    store: dict = {} if keep is None else keep.setdefault("bound", {})
+
+    def observation(kept: Any) -> Any:
+        return bound_observation(module, made, kept.OUT.reshape(len(times), d), PRM, len(times))
+
+    done = None if bind is None else from_bound(store, key, Y0[0], observation)  # (its time, t0, as bound)
     if done is not None:
         OUT, INFO, seconds, shown = done
         return _compiled_run(module, made, OUT, INFO, PRM, times, reasons, 0.0, int(INFO[0, 6]), seconds, OBS=shown)
@@ -451,9 +452,7 @@ def run_compiled(
     EVT = np.zeros((B, max_events if events is not None else 0, 2 + d))
     ECOUNT = np.zeros(B)
     steps, compile_time = run(pilot, min(limit, PILOT))
-    if bind and INFO[0, 0] == 0:  # a single run done within the pilot's budget: the next runs from its bound loop
-        remember(keep["bound"], key, (times, bind[0]), 4)  # type: ignore[index]
-        OUT, INFO = OUT.copy(), INFO.copy()  # (the bound buffers are the next run's)
+    OUT, INFO = keep_bound(store, key, bind, OUT, INFO, times)  # (done within the pilot: the next runs start there)
     codes = INFO[:, 0] if pilot.size == B else INFO[pilot, 0]  # (a small batch's pilot is the batch)
     spent = pilot[codes == 8] if limit > PILOT else pilot[:0]
     if spent.size:
